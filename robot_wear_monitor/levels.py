@@ -1,0 +1,71 @@
+"""Data types passed between segmentation, estimation and the service: friction levels.
+
+These are the contract between the friction experiment (eq. (3)) and the estimator (16)-(19):
+a :class:`FrictionLevel` is one constant-speed friction level from a forward/backward pair, and a
+:class:`FrictionExperiment` is the set of levels of one run of the experiment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FrictionLevel:
+    """One friction level tau_f = (tau+ - tau-)/2 of eq. (3) from a forward/backward pass pair.
+
+    Attributes:
+        speed_rad_s: motor-side speed level (positive), mean |speed| of the two passes.
+        friction: tau_f, normalised torque (effort / torque_scale).
+        friction_std_error: standard error of tau_f from the within-pass scatter, normalised.
+        tau_forward: mean normalised torque of the forward (positive-speed) pass.
+        tau_backward: mean normalised torque of the backward (negative-speed) pass.
+        n_forward: samples averaged in the forward pass.
+        n_backward: samples averaged in the backward pass.
+        position_min_rad: lower end of the joint-side position window both passes cover.
+        position_max_rad: upper end of that window.
+        start_time_s: time of the first sample used [s].
+        end_time_s: time of the last sample used [s].
+
+    """
+
+    speed_rad_s: float
+    friction: float
+    friction_std_error: float
+    tau_forward: float
+    tau_backward: float
+    n_forward: int
+    n_backward: int
+    position_min_rad: float
+    position_max_rad: float
+    start_time_s: float
+    end_time_s: float
+
+
+@dataclass(frozen=True)
+class FrictionExperiment:
+    """The friction levels of one completed experiment, in the order they were measured."""
+
+    levels: tuple[FrictionLevel, ...]
+
+    @property
+    def speeds_rad_s(self) -> np.ndarray:
+        """Motor-side speed levels [rad/s], shape (N,)."""
+        return np.array([level.speed_rad_s for level in self.levels], dtype=float)
+
+    @property
+    def frictions(self) -> np.ndarray:
+        """Friction levels (normalised), shape (N,)."""
+        return np.array([level.friction for level in self.levels], dtype=float)
+
+    @property
+    def start_time_s(self) -> float:
+        """Time of the first sample of the experiment [s]."""
+        return min(level.start_time_s for level in self.levels)
+
+    @property
+    def end_time_s(self) -> float:
+        """Time of the last sample of the experiment [s]."""
+        return max(level.end_time_s for level in self.levels)

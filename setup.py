@@ -1,0 +1,46 @@
+"""Build script of the robot_wear_monitor ament_python package (colcon and pip)."""
+
+from glob import glob
+import os
+
+from setuptools import find_packages, setup
+
+PACKAGE_NAME = 'robot_wear_monitor'
+
+setup(
+    name=PACKAGE_NAME,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*', 'bench']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
+        ('share/' + PACKAGE_NAME, ['package.xml']),
+        (os.path.join('share', PACKAGE_NAME, 'config'), glob('config/*.yaml')),
+        (os.path.join('share', PACKAGE_NAME, 'launch'), glob('launch/*_launch.py')),
+    ],
+    python_requires='>=3.10',
+    install_requires=[
+        'setuptools',
+        'numpy>=1.24',
+        'scipy>=1.10',
+        'PyYAML>=6.0',
+        'matplotlib>=3.6',
+        'tqdm>=4.60',
+        'rosbags>=0.10',
+    ],
+    extras_require={
+        'test': ['pytest>=7', 'mcap>=1.1', 'mcap-ros2-support>=0.5', 'flake8>=6',
+                 'flake8-docstrings>=1.7'],
+    },
+    zip_safe=True,
+    maintainer='robot_wear_monitor maintainers',
+    maintainer_email='maintainers@robot-wear-monitor.invalid',
+    description='Wear monitoring of a robot joint from constant-speed friction data (ROS 2).',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'robot-wear-monitor = robot_wear_monitor.cli:main',
+            'friction_experiment_node = robot_wear_monitor.nodes.friction_experiment_node:main',
+            'wear_estimator_node = robot_wear_monitor.nodes.wear_estimator_node:main',
+        ],
+    },
+)
