@@ -1,9 +1,9 @@
 """Parameter sets of the friction model and the wear monitor, read from YAML and validated.
 
 A parameter set holds the coefficients of the nominal friction model (5) and of the wear profile
-(7), the measurement model of eqs. (9)-(14) (noise sigma, load mean and std), the temperature bounds
-of the estimator (16), the design bounds of (24) and the alarm thresholds.  Units: torques are
-normalised (dimensionless), speeds are motor side in rad/s, temperatures in degrees C.
+(7), the measurement model of eqs. (9)-(14) (noise sigma, load mean and std), the temperature
+bounds of the estimator (16), the design bounds of (24) and the alarm thresholds.  Units: torques
+are normalised (dimensionless), speeds are motor side in rad/s, temperatures in degrees C.
 
 Every field is required.  Loading reports the first problem as a :class:`ParameterError` that names
 the file and the dotted field (``noise.sigma``), so that a maintenance engineer can fix the file.
