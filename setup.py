@@ -29,7 +29,8 @@ setup(
     ],
     extras_require={
         'test': ['pytest>=7', 'mcap>=1.1', 'mcap-ros2-support>=0.5', 'flake8>=6',
-                 'flake8-docstrings>=1.7', 'pydocstyle>=6.3'],
+                 'flake8-docstrings>=1.7', 'pydocstyle>=6.3',
+                 'colcon-common-extensions>=0.3'],
     },
     zip_safe=True,
     maintainer='robot_wear_monitor maintainers',

@@ -211,8 +211,8 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
 def default_parameter_file() -> Path:
     """Return the path of the packaged default parameter set (IRB 6620 joint 2).
 
-    Looks in the ament share directory (colcon install), in ``<prefix>/share`` (pip install)
-    and in the source tree, in that order.
+    Looks in the ament share directory (colcon install), in ``<prefix>/share`` (pip install),
+    in the ``share`` folder of the prefix this module is installed in, and in the source tree.
     """
     candidates = []
     try:  # pragma: no cover - only on a ROS 2 host
@@ -221,7 +221,10 @@ def default_parameter_file() -> Path:
     except Exception:  # noqa: BLE001 - ament may be absent or the package not indexed
         pass
     candidates.append(Path(sys.prefix) / 'share' / PACKAGE_NAME / 'config')
-    candidates.append(Path(__file__).resolve().parent.parent / 'config')
+    here = Path(__file__).resolve()
+    # <prefix>/lib/pythonX.Y/site-packages/robot_wear_monitor/params.py -> <prefix>/share/...
+    candidates.extend(parent / 'share' / PACKAGE_NAME / 'config' for parent in here.parents)
+    candidates.append(here.parent.parent / 'config')  # the source tree
     for folder in candidates:
         path = folder / DEFAULT_PARAMETER_FILE
         if path.is_file():

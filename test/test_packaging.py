@@ -1,0 +1,90 @@
+"""The package installs both ways: colcon (ament_python) and pip, with its scripts and data."""
+
+import json
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from conftest import REPO_ROOT
+
+SCRIPTS = ('robot-wear-monitor', 'friction_experiment_node', 'wear_estimator_node')
+
+
+def test_setup_cfg_puts_node_scripts_where_ros2_run_looks():
+    text = (REPO_ROOT / 'setup.cfg').read_text()
+    assert 'script_dir=$base/lib/robot_wear_monitor' in text
+    assert 'install_scripts=$base/lib/robot_wear_monitor' in text
+    assert (REPO_ROOT / 'resource' / 'robot_wear_monitor').is_file()
+
+
+def test_core_never_imports_rclpy():
+    """Only robot_wear_monitor/nodes may import rclpy (and ROS message packages)."""
+    ros_modules = ('rclpy', 'sensor_msgs', 'std_msgs', 'std_srvs', 'diagnostic_msgs',
+                   'launch', 'launch_ros', 'builtin_interfaces')
+    offenders = []
+    for path in (REPO_ROOT / 'robot_wear_monitor').rglob('*.py'):
+        if 'nodes' in path.relative_to(REPO_ROOT / 'robot_wear_monitor').parts:
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            stripped = line.strip()
+            for module in ros_modules:
+                if (stripped.startswith(f'import {module}')
+                        or stripped.startswith(f'from {module}')):
+                    offenders.append(f'{path.relative_to(REPO_ROOT)}:{number}: {stripped}')
+    assert not offenders, '\n'.join(offenders)
+
+
+@pytest.mark.skipif(shutil.which('colcon') is None,
+                    reason='colcon is not installed (pip install ".[test]" brings it)')
+def test_colcon_build_installs_nodes_config_and_launch(tmp_path):
+    workspace = tmp_path / 'ws'
+    source = workspace / 'src' / 'robot_wear_monitor'
+    shutil.copytree(REPO_ROOT, source, ignore=shutil.ignore_patterns(
+        '.git', 'build', 'install', 'log', '__pycache__', '*.egg-info', 'wear_demo'))
+    result = subprocess.run(['colcon', 'build'], cwd=workspace, capture_output=True, text=True,
+                            timeout=300, check=False)
+    assert result.returncode == 0, result.stdout + result.stderr
+    prefix = workspace / 'install' / 'robot_wear_monitor'
+    for script in SCRIPTS:
+        assert (prefix / 'lib' / 'robot_wear_monitor' / script).is_file(), script
+    share = prefix / 'share' / 'robot_wear_monitor'
+    assert (share / 'config' / 'irb6620_joint2.yaml').is_file()
+    assert (share / 'package.xml').is_file()
+    assert list((share / 'launch').glob('*_launch.py')), 'launch files not installed'
+    index = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    assert (index / 'robot_wear_monitor').is_file()
+    # The installed CLI runs from the install space and finds its packaged parameter set.
+    site = next(prefix.glob('lib/python3*/site-packages'))
+    env = dict(os.environ, PYTHONPATH=str(site))
+    run = subprocess.run([sys.executable, str(prefix / 'lib' / 'robot_wear_monitor'
+                                              / 'robot-wear-monitor'),
+                          'design', '--n', '2', '--json'],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+                         check=False)
+    assert run.returncode == 0, run.stderr
+    design = json.loads(run.stdout)
+    assert design['speeds'] == pytest.approx([35.84, 40.84], abs=0.4)
+
+
+def test_pip_installed_console_scripts_run_outside_the_source_tree(tmp_path):
+    """`pip install .` puts the scripts on PATH; they work from any folder."""
+    missing = [s for s in SCRIPTS if shutil.which(s) is None]
+    if missing:
+        pytest.skip(f'not installed with pip (no {", ".join(missing)} on PATH): '
+                    'run pip install ".[test]" first')
+    run = subprocess.run(['robot-wear-monitor', 'design', '--n', '3', '--json'],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=120, check=False)
+    assert run.returncode == 0, run.stderr
+    design = json.loads(run.stdout)
+    assert design['speeds'] == pytest.approx([33.68, 38.68, 43.68], abs=0.4)
+    assert design['cost'] == pytest.approx(19.65, rel=0.01)
+    help_run = subprocess.run(['robot-wear-monitor', '--help'], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=60, check=False)
+    assert help_run.returncode == 0
+    for command in ('design', 'estimate', 'study', 'simulate', 'replay', 'demo', 'audit'):
+        assert command in help_run.stdout
+    assert Path(shutil.which('friction_experiment_node')).is_file()
