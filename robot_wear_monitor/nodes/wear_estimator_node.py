@@ -1,0 +1,142 @@
+"""wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagnostics.
+
+A thin shell over :class:`robot_wear_monitor.service.WearEstimatorService`: every completed
+experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
+late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger); the SQLite
+history restores the trend and the alarm after a restart.
+"""
+
+import sys
+
+from diagnostic_msgs.msg import DiagnosticArray
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Bool, Float64
+from std_srvs.srv import Trigger
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import WearHistory
+from robot_wear_monitor.messages import alarm_to_msg
+from robot_wear_monitor.node_config import (expand_history_path, validate_parameters,
+                                            WEAR_ESTIMATOR_NODE, WEAR_ESTIMATOR_PARAMETERS)
+from robot_wear_monitor.nodes import declare_parameters, message_kit
+from robot_wear_monitor.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
+                                        FRICTION_LEVELS_TOPIC, RESET_SERVICE, TEMPERATURE_TOPIC,
+                                        WEAR_TOPIC, WearEstimatorService)
+
+FRICTION_LEVELS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                                 reliability=ReliabilityPolicy.RELIABLE,
+                                 durability=DurabilityPolicy.VOLATILE)
+ESTIMATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                          reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.VOLATILE)
+#: The alarm state is latched: a late subscriber gets the current state at once.
+ALARM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
+DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                             reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.VOLATILE)
+DIAGNOSTICS_PERIOD_S = 1.0
+
+_TYPES = {TEMPERATURE_TOPIC: Temperature, WEAR_TOPIC: Float64, ALARM_TOPIC: Bool,
+          DIAGNOSTICS_TOPIC: DiagnosticArray}
+_QOS = {TEMPERATURE_TOPIC: ESTIMATE_QOS, WEAR_TOPIC: ESTIMATE_QOS, ALARM_TOPIC: ALARM_QOS,
+        DIAGNOSTICS_TOPIC: DIAGNOSTICS_QOS}
+
+
+class WearEstimatorNode(Node):
+    """Estimate (T, w) per experiment, publish them, latch the alarm and keep the history."""
+
+    def __init__(self, **kwargs):
+        """Declare and validate the parameters, restore the history, advertise.
+
+        ``kwargs`` go to rclpy Node (e.g. ``parameter_overrides`` in tests).
+        """
+        super().__init__(WEAR_ESTIMATOR_NODE, **kwargs)
+        raw = declare_parameters(self, WEAR_ESTIMATOR_PARAMETERS)
+        self.parameters = validate_parameters(WEAR_ESTIMATOR_NODE, raw, source='ROS parameters')
+        config = EstimatorConfig.from_node_parameters(self.parameters)
+        self.history = WearHistory(expand_history_path(self.parameters['history_file']))
+        self.service = WearEstimatorService(config, history=self.history)
+        self.kit = message_kit()
+        self.publishers_by_topic = {topic: self.create_publisher(_TYPES[topic], topic,
+                                                                 _QOS[topic])
+                                    for topic in _TYPES}
+        self.subscription = self.create_subscription(JointState, FRICTION_LEVELS_TOPIC,
+                                                     self.on_friction_levels,
+                                                     FRICTION_LEVELS_QOS)
+        self.reset_service = self.create_service(Trigger, RESET_SERVICE, self.on_reset_alarm)
+        self.timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
+        self.publish_alarm()
+        self.get_logger().info(
+            f'joint {config.joint!r}, parameter set {config.params.name!r}, alarm at '
+            f'w >= {config.alarm.threshold}; history {self.history.path}: '
+            f'{self.service.restored_estimates} estimates restored, alarm '
+            f'{"LATCHED" if self.service.latch.active else "clear"}')
+
+    def _now_s(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def publish_alarm(self):
+        """Publish the latched alarm state."""
+        self.publishers_by_topic[ALARM_TOPIC].publish(
+            alarm_to_msg(self.kit, active=self.service.latch.active))
+
+    def publish_diagnostics(self):
+        """Publish the current diagnostics (periodic, like diagnostic_updater)."""
+        self.publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
+            self.service.diagnostics_message(self.kit, stamp_s=self._now_s()))
+
+    def on_friction_levels(self, msg):
+        """Estimate from one experiment and publish every output."""
+        before = sum(self.service.rejections.values())
+        update = self.service.handle_friction_levels(msg)
+        if update is None:
+            if sum(self.service.rejections.values()) > before:
+                self.get_logger().warn(f'friction_levels rejected: '
+                                       f'{self.service.last_rejection}')
+            return
+        for topic, out in self.service.output_messages(self.kit, update):
+            self.publishers_by_topic[topic].publish(out)
+        log = self.get_logger().error if update.alarm_raised else self.get_logger().info
+        log(f'experiment {update.index}: {update.status.message}')
+
+    def on_reset_alarm(self, request, response):
+        """Clear the latched alarm after maintenance (std_srvs/Trigger)."""
+        response.success, response.message = self.service.reset_alarm(stamp_s=self._now_s())
+        self.get_logger().warn(f'reset_alarm: {response.message}')
+        self.publish_alarm()
+        self.publish_diagnostics()
+        return response
+
+    def destroy_node(self):
+        """Close the history database, then destroy the node."""
+        self.history.close()
+        return super().destroy_node()
+
+
+def main(args=None):
+    """Run the node until shutdown (exit code 2 on invalid parameters or history)."""
+    rclpy.init(args=args)
+    try:
+        node = WearEstimatorNode()
+    except InputError as error:
+        rclpy.logging.get_logger(WEAR_ESTIMATOR_NODE).fatal(str(error))
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
