@@ -30,7 +30,7 @@ import os
 from pathlib import Path
 import shutil
 import struct
-from typing import Any, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -501,12 +501,13 @@ class _ChunkDecoder:
 
 
 def read_joint_samples(path: str | os.PathLike, *, joint: str,
-                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768
-                       ) -> JointSamples:
+                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
+                       progress: Callable[[int, int], None] | None = None) -> JointSamples:
     """Read one joint's samples from the JointState messages of a bag (fast path).
 
     Raw messages are taken from rosbags in chunks of ``chunk_messages`` and decoded with numpy
-    (see the module docstring).
+    (see the module docstring).  ``progress(read, total)`` is called after each chunk with the
+    number of messages read so far and the topic's message count (for a progress bar).
 
     Raises:
         BagError: the bag is missing, corrupt or truncated, the topic is absent or has another
@@ -520,6 +521,7 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
     gc.disable()  # the chunk holds many small objects; the collector would rescan them
     try:
         connections = _connections(reader, path, topic)
+        total = sum(int(getattr(c, 'msgcount', 0) or 0) for c in connections)
         chunk: list[bytes] = []
         try:
             for _, _, raw in reader.messages(connections=connections):
@@ -528,12 +530,16 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
                     decoder.decode(chunk)
                     count += len(chunk)
                     chunk = []
+                    if progress is not None:
+                        progress(count, total)
         except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
             message = str(error).splitlines()[0] if str(error) else type(error).__name__
             raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
         if chunk:
             decoder.decode(chunk)
             count += len(chunk)
+        if progress is not None:
+            progress(count, max(total, count))
     finally:
         if collecting:
             gc.enable()

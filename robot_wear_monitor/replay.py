@@ -118,7 +118,14 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     experiments_service = FrictionExperimentService.from_node_parameters(experiment_parameters)
     params = load_parameter_set(estimator_parameters.get('parameter_set_file') or None)
     config = EstimatorConfig.from_node_parameters(estimator_parameters, params=params)
-    samples = read_joint_samples(bag, joint=experiments_service.joint)
+    from tqdm import tqdm
+    with tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}',
+              disable=not progress, mininterval=0.5) as bar:
+        def advance(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        samples = read_joint_samples(bag, joint=experiments_service.joint, progress=advance)
     history = WearHistory(history_file if history_file is not None else ':memory:')
     estimator = WearEstimatorService(config, history=history)
     updates: list[WearUpdate] = []
@@ -140,19 +147,12 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                 for topic, out in estimator.output_messages(KIT, update):
                     writer.write(bag_topic(topic), out, stamp_ns)
 
-        from tqdm import tqdm
-        rows = zip(samples.time_s.tolist(), samples.position_rad.tolist(),
-                   samples.velocity_rad_s.tolist(), samples.effort.tolist())
-        with tqdm(total=samples.time_s.size, unit='msg', unit_scale=True,
-                  desc=f'replay {Path(bag).name}', disable=not progress,
-                  mininterval=0.5) as bar:
-            for i, (t, q, v, e) in enumerate(rows):
-                for experiment in experiments_service.add_sample(
-                        time_s=t, position_rad=q, velocity_rad_s=v, effort=e):
-                    publish(experiment)
-                if i % 4096 == 4095:
-                    bar.update(4096)
-            bar.update(samples.time_s.size - bar.n)
+        experiments = experiments_service.add_recording(
+            time_s=samples.time_s, position_rad=samples.position_rad,
+            velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)
+        for experiment in tqdm(experiments, unit='experiment', desc='estimate',
+                               disable=not progress, mininterval=0.5):
+            publish(experiment)
         for experiment in experiments_service.finish():
             publish(experiment)
 

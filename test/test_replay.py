@@ -201,3 +201,29 @@ def test_existing_output_is_not_replaced_without_overwrite(small_bag, tmp_path, 
     out.mkdir()
     assert cli.main(['replay', str(small_bag), '--out', str(out), '--no-progress']) == 2
     assert 'already exists' in capsys.readouterr().err
+
+
+def test_batch_replay_path_equals_the_streaming_node_path(tmp_path):
+    """Replay segments a recording in one batch; the node feeds samples one by one: same result."""
+    from robot_wear_monitor.service import FrictionExperimentService
+    experiment_params, _ = replay_parameters(joint='joint_2', gear_ratio=150.0,
+                                             torque_scale=10.0)
+    scenario = simulate_scenario(
+        config=accelerated_wear_scenario(n_experiments=6, seed=5), seed=5)
+    time_s, position_rad, velocity_rad_s, effort = scenario.joint_samples()
+    effort = effort.copy()
+    effort[len(effort) // 3] = np.nan  # a bad sample is rejected the same way on both paths
+    streaming = FrictionExperimentService.from_node_parameters(experiment_params)
+    streamed = []
+    for t, q, v, e in zip(time_s, position_rad, velocity_rad_s, effort):
+        streamed.extend(streaming.add_sample(time_s=float(t), position_rad=float(q),
+                                             velocity_rad_s=float(v), effort=float(e)))
+    streamed.extend(streaming.finish())
+    batch = FrictionExperimentService.from_node_parameters(experiment_params)
+    batched = batch.add_recording(time_s=time_s, position_rad=position_rad,
+                                  velocity_rad_s=velocity_rad_s, effort=effort)
+    batched.extend(batch.finish())
+    assert len(streamed) >= 5
+    assert batched == streamed
+    assert batch.all_rejections() == streaming.all_rejections()
+    assert batch.all_rejections()['non_finite'] == 1
