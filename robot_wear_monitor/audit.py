@@ -1443,7 +1443,8 @@ def _sample_field(samples, name: str) -> FloatArray:
 
 
 def load_audit_data(path: str | Path, *, model: str = 'speed', joint: str | None = None,
-                    topic: str = '/joint_states', flip_sign: bool = True) -> AuditTable:
+                    topic: str = '/joint_states', flip_sign: bool = True,
+                    gear_ratio: float = 1.0, torque_scale: float = 1.0) -> AuditTable:
     """Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
 
     * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
@@ -1459,7 +1460,9 @@ def load_audit_data(path: str | Path, *, model: str = 'speed', joint: str | None
     if is_bag:
         if not joint:
             raise InputError(f'{file}: a bag needs --joint NAME (the joint to segment)')
-        return table_from_bag(file, joint=joint, topic=topic, model=model)
+        from .segmentation import SegmenterConfig
+        config = SegmenterConfig(joint=joint, gear_ratio=gear_ratio, torque_scale=torque_scale)
+        return table_from_bag(file, joint=joint, topic=topic, model=model, config=config)
     if file.is_dir():
         from .recordings import list_kuka_runs
         runs = list_kuka_runs(file)
