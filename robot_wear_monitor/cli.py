@@ -82,7 +82,32 @@ def _add_design_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
-    raise InputError('design: not implemented yet')
+    import numpy as np
+
+    from .design import best_grid_design, optimal_design
+    params = _params_from(args)
+    if args.n < 1:
+        raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')
+    if args.grid is not None:
+        result = best_grid_design(n=args.n, grid_rad_s=args.grid, params=params,
+                                  temperature_degc=args.temperature, wear=args.wear)
+    else:
+        result = optimal_design(n=args.n, params=params, temperature_degc=args.temperature,
+                                wear=args.wear)
+    speeds = [round(float(v), 6) for v in result.speeds_rad_s]
+    if args.json:
+        _print_json({'n': result.n, 'speeds': speeds, 'cost': float(result.cost)})
+        return 0
+    t = params.design_temperature_degc if args.temperature is None else args.temperature
+    w = params.design_wear if args.wear is None else args.wear
+    where = 'grid' if args.grid is not None else 'continuous'
+    point = (f'w = {w:g} (T integrated out)' if result.n == 1
+             else f'T = {t:g} degC, w = {w:g}')
+    print(f'optimal {where} design, N = {result.n}, at {point}')
+    print(f'  {"speeds [rad/s]":<22}{", ".join(f"{v:.2f}" for v in speeds)}')
+    print(f'  {"cost [F^-1]_22 [w^2]":<22}{result.cost:.3f}')
+    print(f'  {"std of w-hat >= [w]":<22}{np.sqrt(result.cost):.3f}')
+    return 0
 
 
 def _add_estimate_arguments(parser: argparse.ArgumentParser) -> None:
@@ -95,7 +120,48 @@ def _add_estimate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_estimate(args: argparse.Namespace) -> int:
-    raise InputError('estimate: not implemented yet')
+    import numpy as np
+
+    from .estimation import estimate_wear
+    params = _params_from(args)
+    if len(args.speeds) != len(args.friction):
+        raise InputError(f'--speeds has {len(args.speeds)} values but --friction has '
+                         f'{len(args.friction)}: give one friction level per speed')
+    est = estimate_wear(args.speeds, args.friction, params=params)[0]
+    alarm = est.wear >= params.wear_threshold
+
+    def finite(value: float) -> float | None:
+        return float(value) if np.isfinite(value) else None
+
+    if args.json:
+        _print_json({
+            'temperature': float(est.temperature_degc), 'wear': float(est.wear),
+            'covariance': [[finite(x) for x in row] for row in est.covariance],
+            'wear_std': finite(est.wear_std),
+            'temperature_std': finite(est.temperature_std_degc),
+            'alarm': bool(alarm), 'warning': bool(est.wear >= params.wear_warning),
+            'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': finite(est.p_value),
+            'temperature_at_bound': est.temperature_at_bound,
+            'wear_at_bound': est.wear_at_bound, 'n_levels': est.n_levels,
+            'speeds': [float(v) for v in est.speeds_rad_s],
+            'wear_threshold': params.wear_threshold})
+        return 0
+    t_note = ' (on a bound)' if est.temperature_at_bound else ''
+    w_note = ' (on w = 0)' if est.wear_at_bound else ''
+    if est.n_levels == 1:
+        t_note = ' (posterior mean, N = 1)'
+    p_text = 'n/a (dof = 0)' if not np.isfinite(est.p_value) else f'{est.p_value:.3f}'
+    rows = [('temperature [degC]', f'{est.temperature_degc:8.2f} +- '
+             f'{est.temperature_std_degc:.2f}{t_note}'),
+            ('wear w [-]', f'{est.wear:8.2f} +- {est.wear_std:.2f}{w_note}'),
+            ('alarm', f'{"YES" if alarm else "no"} (threshold w >= {params.wear_threshold:g})'),
+            ('chi2 / dof', f'{est.chi2:8.3f} / {est.dof}'),
+            ('p-value', p_text)]
+    print(f'wear estimate from N = {est.n_levels} level(s) at '
+          f'{", ".join(f"{v:g}" for v in est.speeds_rad_s)} rad/s')
+    for name, value in rows:
+        print(f'  {name:<20}{value}')
+    return 0
 
 
 def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
@@ -103,7 +169,8 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
                         help='speed levels [rad/s] (default: the optimal design for N)')
     parser.add_argument('--temperatures', type=parse_range, default=parse_range('30:50:1'),
-                        metavar='START:STOP:STEP', help='true temperatures [degC] (default 30:50:1)')
+                        metavar='START:STOP:STEP',
+                        help='true temperatures [degC] (default 30:50:1)')
     parser.add_argument('--wear', type=float, default=35.0, help='true wear level (default 35)')
     parser.add_argument('--runs', type=int, default=1000, help='Monte Carlo runs per temperature')
     parser.add_argument('--seed', type=int, default=0, help='random seed')
@@ -113,7 +180,33 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    raise InputError('study: not implemented yet')
+    from .design import optimal_design
+    from .study import plot_study, run_study
+    params = _params_from(args)
+    if args.n < 1:
+        raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')
+    if args.speeds is not None and len(args.speeds) != args.n:
+        raise InputError(f'--speeds has {len(args.speeds)} values but --n is {args.n}')
+    speeds = (args.speeds if args.speeds is not None
+              else optimal_design(n=args.n, params=params).speeds_rad_s)
+    result = run_study(speeds_rad_s=speeds, temperatures_degc=args.temperatures,
+                       wear=args.wear, runs=args.runs, seed=args.seed, params=params)
+    if args.plot:
+        plot_study([result], path=args.plot)
+    if args.json:
+        _print_json(result.to_dict())
+        return 0
+    print(f'Monte Carlo study, N = {result.n} at {", ".join(f"{v:.2f}" for v in speeds)} rad/s, '
+          f'true w = {result.wear:g}, {result.runs} runs per temperature, seed {result.seed}')
+    print(f'  {"T [degC]":>8} {"mean w":>8} {"bias":>8} {"variance":>9} {"MSE":>9} '
+          f'{"CRB":>9} {"T at bound":>10}')
+    for i, t in enumerate(result.temperatures_degc):
+        print(f'  {t:8.2f} {result.mean[i]:8.3f} {result.bias[i]:8.3f} '
+              f'{result.variance[i]:9.3f} {result.mse[i]:9.3f} {result.crb[i]:9.3f} '
+              f'{result.temperature_at_bound[i]:10.2f}')
+    if args.plot:
+        print(f'figure written to {args.plot}')
+    return 0
 
 
 # --------------------------------------------------------------------------- simulate
@@ -121,10 +214,118 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 def _add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, metavar='BAG', help='output bag directory')
+    parser.add_argument('--experiments', type=int, default=100,
+                        help='number of experiments k of the accelerated wear test (100)')
+    parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
+                        default=[2.1, 28.5, 35.1, 41.7],
+                        help='motor-side speeds [rad/s] (default: Table V, N = 4)')
+    parser.add_argument('--wear-final', type=float, default=60.0,
+                        help='wear at the last experiment (default 60)')
+    parser.add_argument('--sample-rate', type=float, default=250.0, metavar='HZ',
+                        help='JointState rate [Hz] (default 250)')
+    parser.add_argument('--interval', type=float, default=3600.0, metavar='S',
+                        help='time between experiments [s] (default 3600)')
+    parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
+                        help='bag storage (default mcap)')
+    parser.add_argument('--overwrite', action='store_true', help='replace an existing bag')
+    parser.add_argument('--seed', type=int, default=0, help='random seed')
+    _add_params_argument(parser)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    raise InputError('simulate: not implemented yet')
+    from .bags import write_joint_state_bag
+    from .simulation import (accelerated_wear_scenario, JointSimConfig, simulate_scenario,
+                             truth_path_for, write_truth_json)
+    params = _params_from(args)
+    config = accelerated_wear_scenario(
+        n_experiments=args.experiments, speeds_rad_s=args.speeds, params=params,
+        seed=args.seed, wear_final=args.wear_final, experiment_interval_s=args.interval,
+        joint=JointSimConfig(sample_rate_hz=args.sample_rate))
+    scenario = simulate_scenario(config=config, model=params.model, seed=args.seed)
+    bag = write_joint_state_bag(args.out, stamps_s=scenario.time_s, names=scenario.joint_names,
+                                position=scenario.position_rad,
+                                velocity=scenario.velocity_rad_s, effort=scenario.effort,
+                                storage=args.storage, overwrite=args.overwrite)
+    truth = write_truth_json(truth_path_for(bag), scenario)
+    print(f'{bag}: {scenario.n_samples} JointState messages on /joint_states '
+          f'({len(scenario.truth)} experiments, joint {scenario.joint}, gear ratio '
+          f'{scenario.config.gear_ratio:g}, torque scale {scenario.config.torque_scale:g}); '
+          f'truth: {truth}')
+    return 0
+
+
+def _add_segment_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('data', metavar='DATA',
+                        help='ROS 2 bag folder, or a raw CSV(.gz) with t_s,q_rad,dq_rad_s,'
+                             'tau_measured_Nm columns (KUKA runs)')
+    parser.add_argument('--joint', default='joint_2', help='joint name in the bag (joint_2)')
+    parser.add_argument('--topic', default='/joint_states', help='JointState topic')
+    parser.add_argument('--gear-ratio', type=float, default=None,
+                        help='motor speed / joint speed (bag default 150, CSV default 1)')
+    parser.add_argument('--torque-scale', type=float, default=None,
+                        help='effort per normalised torque (bag default 10, CSV default 1)')
+    parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
+                        help='group levels into experiments at these motor speeds [rad/s]')
+    parser.add_argument('--out', metavar='CSV', help='write the levels here (default stdout)')
+
+
+def _cmd_segment(args: argparse.Namespace) -> int:
+    import csv
+    from pathlib import Path
+    from .bags import read_joint_samples
+    from .recordings import kuka_segmenter_config, read_raw_csv
+    from .segmentation import ExperimentAssembler, segment_batch, SegmenterConfig
+    from .simulation import JointSimConfig, segmenter_config_for
+    path = Path(args.data)
+    if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
+        t, q, v, e = read_raw_csv(path)
+        overrides = {k: val for k, val in (('gear_ratio', args.gear_ratio),
+                                           ('torque_scale', args.torque_scale))
+                     if val is not None}
+        config: SegmenterConfig = kuka_segmenter_config(**overrides)
+        read_rejections: dict = {}
+    else:
+        samples = read_joint_samples(path, joint=args.joint, topic=args.topic)
+        t, q, v, e = (samples.time_s, samples.position_rad, samples.velocity_rad_s,
+                      samples.effort)
+        sim = JointSimConfig(joint=args.joint if args.joint in JointSimConfig().joint_names
+                             else 'joint_2')
+        config = segmenter_config_for(sim, joint=args.joint,
+                                      gear_ratio=args.gear_ratio or sim.gear_ratio,
+                                      torque_scale=args.torque_scale or sim.torque_scale)
+        read_rejections = dict(samples.rejections)
+    result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    experiment_of: dict[int, int] = {}
+    if args.speeds:
+        assembler = ExperimentAssembler(speeds_rad_s=args.speeds)
+        done = [x for level in result.levels for x in assembler.add(level)] + assembler.flush()
+        for k, experiment in enumerate(done):
+            for level in experiment.levels:
+                experiment_of[id(level)] = k
+        rows = [(level, experiment_of[id(level)]) for x in done for level in x.levels]
+    else:
+        rows = [(level, '') for level in result.levels]
+    columns = ['speed', 'friction', 'friction_std_error', 'tau_forward', 'tau_backward',
+               'n_forward', 'n_backward', 'position_min_rad', 'position_max_rad',
+               'start_time_s', 'end_time_s', 'experiment']
+    stream = open(args.out, 'w', newline='', encoding='utf-8') if args.out else sys.stdout
+    try:
+        writer = csv.writer(stream)
+        writer.writerow(columns)
+        for level, k in rows:
+            writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
+                             f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
+                             f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
+                             f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
+                             f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k])
+    finally:
+        if args.out:
+            stream.close()
+    rejected = {**read_rejections, **dict(result.rejections)}
+    print(f'{len(result.levels)} friction levels; rejected: '
+          + (', '.join(f'{k} {n}' for k, n in sorted(rejected.items())) or 'none'),
+          file=sys.stderr)
+    return 0
 
 
 # --------------------------------------------------------------------------- replay / demo
@@ -133,29 +334,195 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('bag', metavar='BAG', help='recorded ROS 2 bag (MCAP or sqlite3)')
     parser.add_argument('--out', required=True, metavar='OUT_BAG', help='output bag directory')
+    parser.add_argument('--json', metavar='SUMMARY', help='write the JSON summary here')
+    parser.add_argument('--plot', metavar='PNG', help='draw the wear trend (like Fig. 11)')
+    parser.add_argument('--joint', help='joint to monitor (default: from the node config)')
+    parser.add_argument('--gear-ratio', type=float, metavar='R',
+                        help='motor speed / joint speed (default: from the node config)')
+    parser.add_argument('--torque-scale', type=float, metavar='S',
+                        help='effort per normalised torque (default: from the node config)')
+    _add_params_argument(parser)
+    parser.add_argument('--config', metavar='YAML',
+                        help='node parameter file (default: the packaged wear_monitor.yaml)')
+    parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
+                        help='storage of OUT_BAG (default mcap)')
+    parser.add_argument('--history', metavar='FILE', help='also keep the SQLite wear history')
+    parser.add_argument('--overwrite', action='store_true', help='replace an existing OUT_BAG')
+    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    raise InputError('replay: not implemented yet')
+    from pathlib import Path
+
+    from .replay import read_truth_beside, replay_bag, replay_parameters, write_json_atomic
+    if Path(args.out).exists() and not args.overwrite:
+        raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
+    experiment, estimator = replay_parameters(
+        config_file=args.config, joint=args.joint, gear_ratio=args.gear_ratio,
+        torque_scale=args.torque_scale, params_file=args.params)
+    result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
+                        estimator_parameters=estimator, storage=args.storage,
+                        history_file=args.history, overwrite=args.overwrite,
+                        progress=not args.no_progress, truth=read_truth_beside(args.bag))
+    summary = result.summary()
+    if args.json:
+        write_json_atomic(args.json, summary)
+    if args.plot:
+        from .report import plot_wear_trend
+        plot_wear_trend(result, args.plot, threshold=estimator['wear_threshold'],
+                        title=f'Wear estimate, {Path(args.bag).name}, joint {result.joint}')
+    first = summary['first_alarm']
+    print(f'{len(result.updates)} experiments from {result.message_count} messages; '
+          + ('no alarm' if first is None else
+             f'alarm at experiment {first["index"]} (w-hat {first["wear"]:.1f})')
+          + f'; wrote {args.out}')
+    return 0
 
 
 def _add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', metavar='DIR', default='wear_demo',
                         help='report folder (default ./wear_demo)')
+    parser.add_argument('--experiments', type=int, default=100,
+                        help='number of simulated experiments (default 100)')
+    parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
+    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    raise InputError('demo: not implemented yet')
+    from .demo import describe, run_demo
+    if args.experiments < 1:
+        raise InputError(f'--experiments must be >= 1, got {args.experiments}')
+    summary = run_demo(out_dir=args.out, n_experiments=args.experiments, seed=args.seed,
+                       progress=not args.no_progress,
+                       log=lambda text: print(text, file=sys.stderr))
+    print(describe(summary, args.out))
+    return 0
 
 
 # --------------------------------------------------------------------------- audit (audit.py)
 
 def _add_audit_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('data', metavar='DATA', help='friction-level CSV, bag or raw runs')
+    parser.add_argument('data', metavar='DATA',
+                        help='friction-level CSV (speed, friction, ...), a raw run or a folder '
+                             'of raw runs (t_s, q_rad, dq_rad_s, tau_measured_Nm), or a bag')
+    parser.add_argument('--model', default='speed', metavar='speed|nominal|complete',
+                        help='model to audit: speed (4), nominal (5) or complete (8) '
+                             '(default speed)')
+    _add_params_argument(parser)
+    parser.add_argument('--group', metavar='COLUMN',
+                        help='identify the speed model separately per value of this column '
+                             '(default for raw runs of several joints: joint)')
+    parser.add_argument('--json', metavar='REPORT', dest='json_report',
+                        help="write the JSON report to this file ('-' for stdout)")
+    parser.add_argument('--plots', metavar='DIR', help='write the residual figures here')
+    parser.add_argument('--fdr', type=float, default=0.01,
+                        help='false-discovery rate of each step (default 0.01)')
+    parser.add_argument('--max-effects', type=int, default=4,
+                        help='add at most this many effects (default 4)')
+    parser.add_argument('--folds', type=int, default=5, help='cross-validation folds (default 5)')
+    parser.add_argument('--joint', help='joint name to segment (bag input)')
+    parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
+    parser.add_argument('--raw-sign', action='store_true',
+                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    parser.add_argument('--gear-ratio', type=float, default=1.0,
+                        help='bag input: motor speed = gear ratio x joint speed (default 1)')
+    parser.add_argument('--torque-scale', type=float, default=1.0,
+                        help='bag input: normalised torque = effort / scale (default 1)')
 
 
 def _cmd_audit(args: argparse.Namespace) -> int:
-    raise InputError('audit: not implemented yet')
+    from .audit import load_audit_data, MODELS, run_audit
+
+    if args.model not in MODELS:
+        raise InputError(f'unknown --model {args.model!r} (expected {", ".join(MODELS)})')
+    if not 0 < args.fdr < 1:
+        raise InputError(f'--fdr must be between 0 and 1, got {args.fdr}')
+    if args.max_effects < 0 or args.folds < 2:
+        raise InputError('--max-effects must be >= 0 and --folds >= 2')
+    params = _params_from(args) if args.model != 'speed' or args.params else None
+    table = load_audit_data(args.data, model=args.model, joint=args.joint, topic=args.topic,
+                            flip_sign=not args.raw_sign, gear_ratio=args.gear_ratio,
+                            torque_scale=args.torque_scale)
+    group = args.group
+    if group is None and args.model == 'speed' and 'joint' in table.text:
+        group = 'joint'
+    result = run_audit(table=table, model=args.model, params=params, group=group,
+                       fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds)
+    report = result.to_dict()
+    if args.plots:
+        from .audit_report import plot_audit
+        report['figures'] = [str(p) for p in plot_audit(result=result, table=table,
+                                                        out_dir=args.plots)]
+    if args.json_report == '-':
+        _print_json(report)
+        return 0
+    print(result.summary())
+    if args.json_report:
+        try:
+            with open(args.json_report, 'w', encoding='utf-8') as stream:
+                json.dump(report, stream, indent=2, allow_nan=False)
+                stream.write('\n')
+        except OSError as error:
+            raise InputError(f'{args.json_report}: cannot write: {error.strerror}') from None
+    return 0
+
+
+# --------------------------------------------------------------------------- history (history.py)
+
+def _add_history_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('database', metavar='DB', help='wear history SQLite file of the estimator')
+    parser.add_argument('--joint', help='joint to show (default: the only joint stored)')
+    parser.add_argument('--last', type=int, metavar='K', help='show only the last K estimates')
+    parser.add_argument('--csv', metavar='LEVELS', help='export the friction levels as a CSV '
+                        'table for `robot-wear-monitor audit`')
+    parser.add_argument('--json', action='store_true', help='print one JSON object')
+
+
+def _cmd_history(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .history import WearHistory, write_levels_csv
+    from .service import json_number
+
+    if not Path(args.database).is_file():
+        raise InputError(f'{args.database}: no such wear history database')
+    if args.last is not None and args.last < 1:
+        raise InputError(f'--last must be >= 1, got {args.last}')
+    with WearHistory(args.database) as history:
+        joints = history.joints()
+        joint = args.joint
+        if joint is None:
+            if len(joints) != 1:
+                raise InputError(f'{args.database}: holds joints {", ".join(joints) or "none"}; '
+                                 'choose one with --joint')
+            joint = joints[0]
+        elif joint not in joints:
+            raise InputError(f'{args.database}: no estimates for joint {joint!r} '
+                             f'(stored: {", ".join(joints) or "none"})')
+        state = history.restore(joint=joint)
+        records = history.records(joint=joint, limit=args.last)
+    if args.csv:
+        write_levels_csv(args.csv, records=records)
+    if args.json:
+        _print_json({
+            'joint': joint, 'alarm_active': state.alarm_active, 'csv': args.csv,
+            'estimates': [{'id': r.id, 'stamp_s': r.stamp_s, 'speeds': list(r.speeds_rad_s),
+                           'frictions': list(r.frictions), 'wear': json_number(r.wear),
+                           'wear_std': json_number(r.wear_std),
+                           'temperature_degc': json_number(r.temperature_degc),
+                           'p_value': json_number(r.p_value), 'alarm': r.alarm_active}
+                          for r in records]})
+        return 0
+    print(f'joint {joint}: {len(records)} estimate(s) shown; alarm '
+          f'{"LATCHED" if state.alarm_active else "clear"}')
+    header = ('id', 'stamp [s]', 'w', 'std w', 'T [degC]', 'p-value')
+    print('{:>5} {:>14} {:>7} {:>7} {:>9} {:>8}  alarm'.format(*header))
+    for r in records:
+        print(f'{r.id:>5} {r.stamp_s:>14.1f} {r.wear:>7.2f} {r.wear_std:>7.2f} '
+              f'{r.temperature_degc:>9.2f} {r.p_value:>8.3g}  {"yes" if r.alarm_active else ""}')
+    if args.csv:
+        print(f'levels written to {args.csv} (run: {PROG} audit {args.csv})')
+    return 0
 
 
 # --------------------------------------------------------------------------- entry point
@@ -169,12 +536,16 @@ _COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
               _add_study_arguments, _cmd_study),
     'simulate': ('simulate friction experiments of a wearing joint into a ROS 2 bag',
                  _add_simulate_arguments, _cmd_simulate),
+    'segment': ('segment a bag or raw CSV into friction levels of eq. (3) (CSV out)',
+                _add_segment_arguments, _cmd_segment),
     'replay': ('replay a recorded bag through the monitoring service',
                _add_replay_arguments, _cmd_replay),
     'demo': ('simulate an accelerated wear test, replay it and write a report',
              _add_demo_arguments, _cmd_demo),
     'audit': ('find and model what the friction model misses in measured friction levels',
               _add_audit_arguments, _cmd_audit),
+    'history': ('show the stored wear history and export its friction levels for audit',
+                _add_history_arguments, _cmd_history),
 }
 
 

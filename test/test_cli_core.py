@@ -1,0 +1,87 @@
+"""Tests of the design / estimate / study subcommands of the command line."""
+
+import json
+
+import pytest
+
+from robot_wear_monitor.cli import main
+
+GRID_27 = '2.1,8.7,15.3,21.9,28.5,35.1,41.7,82.2,133.5,184.7,236.2,287.1'
+
+
+def _json(capsys, argv):
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    return json.loads(out)
+
+
+def test_design_json_is_exactly_n_speeds_cost(capsys):
+    payload = _json(capsys, ['design', '--n', '3', '--grid', GRID_27, '--json'])
+    assert set(payload) == {'n', 'speeds', 'cost'}
+    assert payload['n'] == 3 and payload['speeds'] == [28.5, 41.7, 82.2]
+    assert payload['cost'] == pytest.approx(22.60, rel=0.01)
+
+
+def test_design_human_output_has_units(capsys):
+    assert main(['design', '--n', '2']) == 0
+    out = capsys.readouterr().out
+    assert '[rad/s]' in out and '35.84, 40.84' in out and '26.0' in out
+
+
+def test_estimate_json_fields_and_null_p_value(capsys):
+    payload = _json(capsys, ['estimate', '--speeds', '35.84,40.84', '--friction',
+                             '0.0622,0.0598', '--json'])
+    for key in ('temperature', 'wear', 'covariance', 'alarm', 'chi2', 'p_value', 'wear_std',
+                'dof', 'temperature_at_bound', 'wear_at_bound'):
+        assert key in payload
+    assert len(payload['covariance']) == 2 and len(payload['covariance'][0]) == 2
+    assert isinstance(payload['alarm'], bool)
+    assert payload['alarm'] == (payload['wear'] >= 35.0)
+    if payload['dof'] == 0:
+        assert payload['p_value'] is None
+
+
+def test_estimate_with_redundancy_has_a_p_value_and_human_output(capsys):
+    payload = _json(capsys, ['estimate', '--speeds', '31.65,36.65,41.65,46.65', '--friction',
+                             '0.0641,0.0628,0.0612,0.0597', '--json'])
+    assert payload['dof'] >= 1 and 0.0 <= payload['p_value'] <= 1.0
+    assert main(['estimate', '--speeds', '38.6', '--friction', '0.06']) == 0
+    out = capsys.readouterr().out
+    assert 'temperature [degC]' in out and 'wear w' in out and 'alarm' in out
+
+
+@pytest.mark.parametrize('argv, fragment', [
+    (['estimate', '--speeds', '35,40', '--friction', '0.06'], 'friction'),
+    (['estimate', '--speeds', '35,-40', '--friction', '0.06,0.05'], '> 0'),
+    (['design', '--n', '0'], '>= 1'),
+    (['design', '--n', '13', '--grid', GRID_27], 'larger than'),
+    (['design', '--n', '2', '--params', '/nonexistent/params.yaml'], 'params.yaml'),
+    (['study', '--n', '2', '--speeds', '35', '--runs', '10'], '--speeds'),
+    (['study', '--n', '0', '--runs', '10'], '>= 1'),
+])
+def test_bad_input_exits_2_with_one_line(capsys, argv, fragment):
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0] and 'Traceback' not in captured.err
+    assert captured.out == ''
+
+
+def test_bad_params_file_exits_2(capsys, tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('name: x\n', encoding='utf-8')
+    assert main(['estimate', '--speeds', '35,40', '--friction', '0.06,0.05', '--params',
+                 str(bad)]) == 2
+    assert 'bad.yaml' in capsys.readouterr().err
+
+
+def test_study_json_and_plot(capsys, tmp_path):
+    png = tmp_path / 'study.png'
+    payload = _json(capsys, ['study', '--n', '2', '--speeds', '35.84,40.84', '--temperatures',
+                             '35:45:5', '--runs', '40', '--seed', '2', '--json', '--plot',
+                             str(png)])
+    assert payload['temperatures'] == [35.0, 40.0, 45.0] and len(payload['variance']) == 3
+    assert png.stat().st_size > 0
+    assert main(['study', '--n', '1', '--speeds', '38.6', '--temperatures', '40:40:1',
+                 '--runs', '20']) == 0
+    assert 'CRB' in capsys.readouterr().out
