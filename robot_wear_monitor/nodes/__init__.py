@@ -6,7 +6,7 @@ package itself imports nothing from ROS, so the core stays usable without it.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from ..messages import MessageKit, rclpy_kit
 from ..node_config import ParameterSpec
@@ -47,3 +47,31 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
         value = parameter.value
         values[spec.name] = list(value) if spec.type == 'double_array' else value
     return values
+
+
+def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -> int:
+    """Init rclpy, build the node and spin it until shutdown (the Jazzy try/finally pattern).
+
+    Returns 0 after a normal shutdown and 2 when the node refuses its parameters
+    (an :class:`~robot_wear_monitor.errors.InputError`, logged as fatal).
+    """
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+
+    from ..errors import InputError
+
+    rclpy.init(args=args)
+    try:
+        node = node_factory()
+    except InputError as error:
+        rclpy.logging.get_logger(logger_name).fatal(str(error))
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

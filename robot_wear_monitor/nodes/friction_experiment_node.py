@@ -8,17 +8,14 @@ experiment on ``friction_levels`` (sensor_msgs/JointState: ``velocity`` = speed 
 
 import sys
 
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.messages import stamp_to_seconds
 from robot_wear_monitor.node_config import (FRICTION_EXPERIMENT_NODE,
                                             FRICTION_EXPERIMENT_PARAMETERS, validate_parameters)
-from robot_wear_monitor.nodes import declare_parameters, message_kit
+from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
 from robot_wear_monitor.service import FRICTION_LEVELS_TOPIC, FrictionExperimentService
 
 #: /joint_states: reliable like joint_state_broadcaster, deep enough for a 1 kHz burst.
@@ -78,21 +75,7 @@ class FrictionExperimentNode(Node):
 
 def main(args=None):
     """Run the node until shutdown (exit code 2 on invalid parameters)."""
-    rclpy.init(args=args)
-    try:
-        node = FrictionExperimentNode()
-    except InputError as error:
-        rclpy.logging.get_logger(FRICTION_EXPERIMENT_NODE).fatal(str(error))
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return spin_node(FrictionExperimentNode, logger_name=FRICTION_EXPERIMENT_NODE, args=args)
 
 
 if __name__ == '__main__':

@@ -9,20 +9,17 @@ history restores the trend and the alarm after a restart.
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import Trigger
 
-from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.messages import alarm_to_msg
 from robot_wear_monitor.node_config import (expand_history_path, validate_parameters,
                                             WEAR_ESTIMATOR_NODE, WEAR_ESTIMATOR_PARAMETERS)
-from robot_wear_monitor.nodes import declare_parameters, message_kit
+from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
 from robot_wear_monitor.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
                                         FRICTION_LEVELS_TOPIC, RESET_SERVICE, TEMPERATURE_TOPIC,
                                         WEAR_TOPIC, WearEstimatorService)
@@ -121,21 +118,7 @@ class WearEstimatorNode(Node):
 
 def main(args=None):
     """Run the node until shutdown (exit code 2 on invalid parameters or history)."""
-    rclpy.init(args=args)
-    try:
-        node = WearEstimatorNode()
-    except InputError as error:
-        rclpy.logging.get_logger(WEAR_ESTIMATOR_NODE).fatal(str(error))
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return spin_node(WearEstimatorNode, logger_name=WEAR_ESTIMATOR_NODE, args=args)
 
 
 if __name__ == '__main__':
