@@ -354,7 +354,8 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_replay(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .replay import read_truth_beside, replay_bag, replay_parameters, write_json_atomic
+    from .atomic_files import write_json_atomic
+    from .replay import read_truth_beside, replay_bag, replay_parameters
     if Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     experiment, estimator = replay_parameters(

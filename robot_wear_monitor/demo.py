@@ -18,7 +18,8 @@ from typing import Any, Callable, Optional
 
 from .bags import write_joint_state_bag
 from .errors import InputError
-from .replay import replay_bag, replay_parameters, write_json_atomic
+from .atomic_files import write_json_atomic
+from .replay import replay_bag, replay_parameters
 from .report import plot_friction_curves, plot_wear_trend, write_report
 from .simulation import (accelerated_wear_scenario, simulate_scenario, truth_path_for,
                          write_truth_json)

@@ -17,7 +17,7 @@ from typing import Any, Callable, Mapping, Optional
 
 import yaml
 
-from .params import PACKAGE_NAME, ParameterError
+from .params import packaged_config_file, ParameterError
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
 WEAR_ESTIMATOR_NODE = 'wear_estimator_node'
@@ -249,21 +249,8 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
 
 
 def default_node_config_file() -> Path:
-    """Return the packaged ``config/wear_monitor.yaml`` (ament share, prefix share, source)."""
-    candidates = []
-    try:  # pragma: no cover - only on a ROS 2 host
-        from ament_index_python.packages import get_package_share_directory
-        candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / 'config')
-    except Exception:  # noqa: BLE001 - ament may be absent or the package not indexed
-        pass
-    import sys
-    candidates.append(Path(sys.prefix) / 'share' / PACKAGE_NAME / 'config')
-    candidates.append(Path(__file__).resolve().parent.parent / 'config')
-    for folder in candidates:
-        if (folder / NODE_CONFIG_FILE).is_file():
-            return folder / NODE_CONFIG_FILE
-    raise ParameterError(f'the packaged {NODE_CONFIG_FILE} was not found in '
-                         + ', '.join(str(c) for c in candidates))
+    """Return the packaged ``config/wear_monitor.yaml`` (see :func:`packaged_config_file`)."""
+    return packaged_config_file(NODE_CONFIG_FILE)
 
 
 def read_ros_parameters_file(path: str | os.PathLike, node_name: str) -> dict[str, Any]:

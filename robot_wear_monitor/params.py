@@ -208,11 +208,12 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
     return params
 
 
-def default_parameter_file() -> Path:
-    """Return the path of the packaged default parameter set (IRB 6620 joint 2).
+def packaged_config_file(file_name: str) -> Path:
+    """Return the path of a packaged ``config/`` file, wherever the package is installed.
 
-    Looks in the ament share directory (colcon install), in ``<prefix>/share`` (pip install),
-    in the ``share`` folder of the prefix this module is installed in, and in the source tree.
+    Looks in the ament share directory (colcon install on a ROS host), in ``<prefix>/share``
+    (pip install), in the ``share`` folder of the prefix this module is installed in (colcon
+    install without ament_index_python), and in the source tree, in that order.
     """
     candidates = []
     try:  # pragma: no cover - only on a ROS 2 host
@@ -226,12 +227,16 @@ def default_parameter_file() -> Path:
     candidates.extend(parent / 'share' / PACKAGE_NAME / 'config' for parent in here.parents)
     candidates.append(here.parent.parent / 'config')  # the source tree
     for folder in candidates:
-        path = folder / DEFAULT_PARAMETER_FILE
+        path = folder / file_name
         if path.is_file():
             return path
     raise ParameterError(
-        f'the packaged parameter set {DEFAULT_PARAMETER_FILE} was not found in '
-        + ', '.join(str(c) for c in candidates))
+        f'the packaged {file_name} was not found in ' + ', '.join(str(c) for c in candidates))
+
+
+def default_parameter_file() -> Path:
+    """Return the path of the packaged default parameter set (IRB 6620 joint 2)."""
+    return packaged_config_file(DEFAULT_PARAMETER_FILE)
 
 
 def load_parameter_set(path: str | os.PathLike | None = None) -> ParameterSet:

@@ -14,7 +14,6 @@ OUT_BAG is written atomically (``bags.atomic_bag_writer``); a bad input bag rais
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-import json
 import os
 from pathlib import Path
 from typing import Any, Mapping, Optional
@@ -174,20 +173,6 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
         rejections[f'friction_levels_{reason}'] = count
     result.rejections = rejections
     return result
-
-
-def write_json_atomic(path: str | os.PathLike, payload: Any) -> Path:
-    """Write valid JSON (no NaN) to ``path`` via a temporary file and a rename."""
-    target = Path(path)
-    temporary = target.with_name(f'.{target.name}.tmp-{os.getpid()}')
-    try:
-        temporary.write_text(json.dumps(payload, indent=1, allow_nan=False) + '\n',
-                             encoding='utf-8')
-        os.replace(temporary, target)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
-    return target
 
 
 def read_truth_beside(bag: str | os.PathLike) -> Optional[list]:

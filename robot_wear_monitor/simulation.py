@@ -36,6 +36,7 @@ from typing import Iterator, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from .atomic_files import write_json_atomic
 from .errors import InputError
 from .model import friction as friction_model
 from .params import FrictionModel, load_parameter_set, ParameterSet
@@ -522,16 +523,7 @@ def truth_to_dict(scenario: Scenario) -> dict:
 
 def write_truth_json(path: str | os.PathLike, scenario: Scenario) -> Path:
     """Write the truth of a scenario to ``path`` atomically (temporary file + rename)."""
-    target = Path(path)
-    temporary = target.with_name(f'.{target.name}.tmp-{os.getpid()}')
-    try:
-        temporary.write_text(json.dumps(truth_to_dict(scenario), indent=1, allow_nan=False)
-                             + '\n', encoding='utf-8')
-        os.replace(temporary, target)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
-    return target
+    return write_json_atomic(path, truth_to_dict(scenario))
 
 
 def read_truth_json(path: str | os.PathLike) -> list[ExperimentTruth]:
