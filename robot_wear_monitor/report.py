@@ -86,11 +86,7 @@ def plot_wear_trend(result: Any, path: str | os.PathLike, *, threshold: float,
     ax_t.set_xlabel('experiment')
     ax_t.legend(loc='upper left', fontsize=8)
     ax_t.grid(alpha=0.3)
-    fig.tight_layout()
-    target = Path(path)
-    fig.savefig(target, dpi=110)
-    plt.close(fig)
-    return target
+    return _save(plt, fig, path)
 
 
 def plot_friction_curves(result: Any, path: str | os.PathLike, *, params: ParameterSet,
@@ -120,6 +116,11 @@ def plot_friction_curves(result: Any, path: str | os.PathLike, *, params: Parame
     ax.set_title('Friction levels of every experiment')
     ax.legend(loc='upper right', fontsize=8)
     ax.grid(alpha=0.3)
+    return _save(plt, fig, path)
+
+
+def _save(plt: Any, fig: Any, path: str | os.PathLike) -> Path:
+    """Lay out ``fig``, save it as a PNG at ``path`` and close it."""
     fig.tight_layout()
     target = Path(path)
     fig.savefig(target, dpi=110)

@@ -503,6 +503,11 @@ class FrictionExperimentService:
         total.update(self.rejections)
         return total
 
+    @property
+    def rejected_total(self) -> int:
+        """Return the number of rejections so far (cheap: for a per-message check)."""
+        return self._segmenter.rejections.total() + self.rejections.total()
+
     def add_joint_state(self, *, stamp_s: float, name: Sequence[str], position: Sequence[float],
                         velocity: Sequence[float], effort: Sequence[float]
                         ) -> list[FrictionExperiment]:

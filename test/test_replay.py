@@ -227,3 +227,4 @@ def test_batch_replay_path_equals_the_streaming_node_path(tmp_path):
     assert batched == streamed
     assert batch.all_rejections() == streaming.all_rejections()
     assert batch.all_rejections()['non_finite'] == 1
+    assert streaming.rejected_total == sum(streaming.all_rejections().values()) >= 1

@@ -9,23 +9,14 @@ experiment on ``friction_levels`` (sensor_msgs/JointState: ``velocity`` = speed 
 import sys
 
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from robot_wear_monitor.messages import stamp_to_seconds
 from robot_wear_monitor.node_config import (FRICTION_EXPERIMENT_NODE,
                                             FRICTION_EXPERIMENT_PARAMETERS, validate_parameters)
 from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
+from robot_wear_monitor.nodes.qos import FRICTION_LEVELS_QOS, JOINT_STATES_QOS
 from robot_wear_monitor.service import FRICTION_LEVELS_TOPIC, FrictionExperimentService
-
-#: /joint_states: reliable like joint_state_broadcaster, deep enough for a 1 kHz burst.
-JOINT_STATES_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=200,
-                              reliability=ReliabilityPolicy.RELIABLE,
-                              durability=DurabilityPolicy.VOLATILE)
-#: friction_levels: every experiment matters and they are rare.
-FRICTION_LEVELS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                                 reliability=ReliabilityPolicy.RELIABLE,
-                                 durability=DurabilityPolicy.VOLATILE)
 
 
 class FrictionExperimentNode(Node):
@@ -65,11 +56,10 @@ class FrictionExperimentNode(Node):
             self.get_logger().info(
                 f'experiment: speeds {[round(v, 2) for v in experiment.speeds_rad_s]} rad/s, '
                 f'friction {[round(f, 5) for f in experiment.frictions]}')
-        rejections = self.service.all_rejections()
-        total = sum(rejections.values())
+        total = self.service.rejected_total
         if total > self._reported:
             self._reported = total
-            self.get_logger().warn(f'rejected so far: {dict(rejections)}',
+            self.get_logger().warn(f'rejected so far: {dict(self.service.all_rejections())}',
                                    throttle_duration_sec=10.0)
 
 

@@ -10,7 +10,6 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import Trigger
@@ -20,23 +19,12 @@ from robot_wear_monitor.messages import alarm_to_msg
 from robot_wear_monitor.node_config import (expand_history_path, validate_parameters,
                                             WEAR_ESTIMATOR_NODE, WEAR_ESTIMATOR_PARAMETERS)
 from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
+from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
+                                          FRICTION_LEVELS_QOS)
 from robot_wear_monitor.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
                                         FRICTION_LEVELS_TOPIC, RESET_SERVICE, TEMPERATURE_TOPIC,
                                         WEAR_TOPIC, WearEstimatorService)
 
-FRICTION_LEVELS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                                 reliability=ReliabilityPolicy.RELIABLE,
-                                 durability=DurabilityPolicy.VOLATILE)
-ESTIMATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                          reliability=ReliabilityPolicy.RELIABLE,
-                          durability=DurabilityPolicy.VOLATILE)
-#: The alarm state is latched: a late subscriber gets the current state at once.
-ALARM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                       reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
-DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                             reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.VOLATILE)
 DIAGNOSTICS_PERIOD_S = 1.0
 
 _TYPES = {TEMPERATURE_TOPIC: Temperature, WEAR_TOPIC: Float64, ALARM_TOPIC: Bool,
