@@ -128,7 +128,11 @@ class WearHistory:
         """Open (and create) the database; raise :class:`HistoryError` if it is unusable."""
         self.path = str(path)
         if self.path != ':memory:':
-            Path(self.path).parent.mkdir(parents=True, exist_ok=True)
+            try:
+                Path(self.path).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as error:
+                raise HistoryError(f'{self.path}: cannot create its folder: '
+                                   f'{error.strerror}') from None
         try:
             self._conn = sqlite3.connect(self.path, isolation_level=None,
                                          check_same_thread=False)
@@ -137,6 +141,8 @@ class WearHistory:
             self._conn.execute('PRAGMA foreign_keys=ON')
             self._conn.executescript(_SCHEMA)
             self._check_version()
+        except sqlite3.OperationalError as error:
+            raise HistoryError(f'{self.path}: cannot open the wear history: {error}') from None
         except sqlite3.DatabaseError as error:
             raise HistoryError(f'{self.path}: not a usable wear history database: '
                                f'{error}') from None

@@ -49,6 +49,7 @@ class MessageError(InputError):
         """Keep the counter key ``reason`` and the one-line ``detail``."""
         super().__init__(f'{reason}: {detail}')
         self.reason = reason
+        self.detail = detail
 
 
 @dataclass(frozen=True)

@@ -218,6 +218,51 @@ def _fmt(value: float, digits: int = 4) -> str:
     return f'{value:.{digits}g}' if math.isfinite(value) else 'nan'
 
 
+#: Rejections that the friction experiment itself produces (ramps too short to be a pass, a
+#: pass without its partner, a pause in the stream): logged as info, not as input defects.
+ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_common_window',
+                                'time_gap'})
+
+
+class RejectionLog:
+    """Rate-limited log text of the inputs rejected since the last report, by reason.
+
+    A node calls :meth:`report` whenever its rejection count grows and from its periodic
+    diagnostics timer; the text says how many inputs of each reason were rejected since the
+    last report, at most once per ``period_s``, so a flood of bad messages gives one line per
+    period and none is left unreported.
+    """
+
+    def __init__(self, *, what: str, period_s: float = 10.0) -> None:
+        """Name the rejected inputs ``what`` (e.g. ``joint_states``) in the text."""
+        self.what = what
+        self.period_s = float(period_s)
+        self._reported: Counter[str] = Counter()
+        self._last_s = -math.inf
+
+    def report(self, counts: Mapping[str, int], *, now_s: float, detail: str = ''
+               ) -> Optional[tuple[str, bool]]:
+        """Return (text, defective) of the rejections not yet reported, or None.
+
+        None when nothing is new or the last report is less than ``period_s`` old;
+        ``defective`` is True when a reason other than :data:`ROUTINE_REJECTIONS` is new.
+        """
+        if now_s - self._last_s < self.period_s:
+            return None
+        new = Counter(counts)
+        new.subtract(self._reported)
+        new = +new
+        if not new:
+            return None
+        self._last_s = now_s
+        self._reported = Counter(counts)
+        by_reason = ', '.join(f'{reason} {count}' for reason, count in sorted(new.items()))
+        text = (f'rejected {sum(new.values())} {self.what} ({by_reason}); '
+                f'{sum(counts.values())} since start')
+        defective = any(reason not in ROUTINE_REJECTIONS for reason in new)
+        return (f'{text}; last: {detail}' if detail and defective else text), defective
+
+
 EstimateFunction = Callable[..., Any]
 
 
@@ -257,6 +302,18 @@ class WearEstimatorService:
         self.last_update: Optional[WearUpdate] = None
         self.last_rejection = ''
 
+    def warm_up(self) -> None:
+        """Run the estimator once on model friction levels (nothing is stored or published).
+
+        The first estimate of a process pays for imports and caches (about 0.5 s here); a node
+        pays it at start, not at its first experiment while /joint_states keeps arriving.
+        """
+        from .model import friction
+        speeds = np.asarray(self.config.experiment_speeds_rad_s or (30.0, 40.0), dtype=float)
+        levels = np.asarray(friction(speeds, 0.5, 40.0, 10.0, self.config.params.model),
+                            dtype=float)
+        self._estimate(speeds, levels, params=self.config.params)
+
     # ----------------------------------------------------------------- inputs
 
     def reject(self, reason: str, detail: str = '') -> None:
@@ -269,7 +326,7 @@ class WearEstimatorService:
         try:
             levels = messages.friction_levels_from_msg(msg)
         except MessageError as error:
-            self.reject(error.reason, str(error))
+            self.reject(error.reason, error.detail)
             return None
         return self.process_levels(levels)
 
@@ -282,6 +339,10 @@ class WearEstimatorService:
 
     def process_levels(self, levels: FrictionLevelsMessage) -> Optional[WearUpdate]:
         """Estimate, update the alarm, store the history; None if the estimate fails."""
+        if levels.joint and levels.joint != self.config.joint:
+            self.reject('other_joint', f'levels of joint {levels.joint!r}, this estimator '
+                                       f'monitors {self.config.joint!r}')
+            return None
         speeds = np.asarray(levels.speeds_rad_s, dtype=float)
         frictions = np.asarray(levels.frictions, dtype=float)
         if speeds.size < 1 or speeds.shape != frictions.shape:
@@ -476,6 +537,11 @@ class FrictionExperimentService:
     def __post_init__(self) -> None:
         """Build the segmenter and the assembler."""
         from .segmentation import ExperimentAssembler, StreamingSegmenter
+        self.messages = 0
+        self.experiments = 0
+        self.last_experiment: Optional[FrictionExperiment] = None
+        self.last_error = ''
+        self._status_total = 0
         self._segmenter = StreamingSegmenter(self.segmenter_config)
         self._assembler = ExperimentAssembler(
             speeds_rad_s=list(self.experiment_speeds_rad_s) or None,
@@ -512,6 +578,7 @@ class FrictionExperimentService:
                         velocity: Sequence[float], effort: Sequence[float]
                         ) -> list[FrictionExperiment]:
         """Add one JointState; return the experiments it completes (usually none)."""
+        self.messages += 1
         try:
             new_levels = self._segmenter.add_joint_state(stamp_s=stamp_s, name=name,
                                                          position=position, velocity=velocity,
@@ -551,7 +618,57 @@ class FrictionExperimentService:
         for level in new_levels:
             self.levels.append(level)
             experiments.extend(self._assembler.add(level))
+        if experiments:
+            self.experiments += len(experiments)
+            self.last_experiment = experiments[-1]
         return experiments
+
+    def diagnostic_name(self) -> str:
+        """Return the DiagnosticStatus name: ``friction_experiment: <joint>``."""
+        return f'friction_experiment: {self.joint}'
+
+    def current_status(self) -> DiagnosticReport:
+        """Return the segmentation status: counts, last experiment, rejections by reason.
+
+        WARN while malformed inputs (reasons outside :data:`ROUTINE_REJECTIONS`) were rejected
+        since the previous call (the node calls it once per diagnostics period), OK otherwise;
+        the counts are totals since start.
+        """
+        rejections = self.all_rejections()
+        total = sum(rejections.values())
+        defects = sum(n for r, n in rejections.items() if r not in ROUTINE_REJECTIONS)
+        new = defects - self._status_total
+        self._status_total = defects
+        summary = (f'{self.messages} joint_states, {len(self.levels)} friction levels, '
+                   f'{self.experiments} experiments')
+        values = [('joint', self.joint), ('joint_states', str(self.messages)),
+                  ('friction_levels', str(len(self.levels))),
+                  ('experiments', str(self.experiments)),
+                  ('levels_at_other_speeds', str(self._assembler.ignored)),
+                  ('experiments_abandoned', str(self._assembler.abandoned))]
+        if self.last_experiment is not None:
+            values += [('last_experiment_end_s', _fmt(self.last_experiment.end_time_s, 15)),
+                       ('last_speeds_rad_s', ','.join(
+                           _fmt(v, 6) for v in self.last_experiment.speeds_rad_s)),
+                       ('last_frictions', ','.join(
+                           _fmt(f, 6) for f in self.last_experiment.frictions))]
+        values.append(('rejected_total', str(total)))
+        values += [(f'rejected_{reason}', str(count))
+                   for reason, count in sorted(rejections.items())]
+        if self.last_error:
+            values.append(('last_rejection', self.last_error))
+        if new > 0:
+            reasons = ', '.join(sorted(set(rejections) - ROUTINE_REJECTIONS))
+            return DiagnosticReport(DIAGNOSTIC_WARN, f'{summary}; {new} malformed inputs '
+                                    f'rejected in the last period ({reasons})', tuple(values))
+        return DiagnosticReport(DIAGNOSTIC_OK, summary, tuple(values))
+
+    def diagnostics_message(self, kit: MessageKit, *, stamp_s: float) -> Any:
+        """Return the DiagnosticArray of :meth:`current_status`."""
+        status = self.current_status()
+        return messages.diagnostics_to_msg(
+            kit, stamp_s=stamp_s, name=self.diagnostic_name(), hardware_id=self.joint,
+            level=status.level, message=status.message, values=status.values)
 
     def finish(self) -> list[FrictionExperiment]:
         """Flush the segmenter and the assembler at the end of a stream (bag end, shutdown)."""

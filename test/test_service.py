@@ -11,7 +11,8 @@ from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.levels import FrictionExperiment, FrictionLevel
 from robot_wear_monitor.params import load_parameter_set, ParameterError
 from robot_wear_monitor.service import (AlarmLatch, AlarmPolicy, EstimatorConfig,
-                                        FrictionExperimentService, WearEstimatorService)
+                                        FrictionExperimentService, RejectionLog,
+                                        WearEstimatorService)
 
 KIT = messages.rosbags_kit(get_typestore(Stores.ROS2_JAZZY))
 PARAMS = load_parameter_set()
@@ -144,6 +145,44 @@ def test_experiment_service_segments_a_simulated_joint():
     assert svc.add_joint_state(stamp_s=1e10, name=['joint_2'], position=[0.0],
                                velocity=[], effort=[0.0]) == []
     assert svc.all_rejections()['missing_velocity'] == 1
+
+
+def test_rejection_log_reports_each_rejection_once_and_at_most_once_per_period():
+    log = RejectionLog(what='joint_states inputs', period_s=10.0)
+    assert log.report({}, now_s=0.0) is None
+    text, defective = log.report({'non_finite': 2, 'time_gap': 1}, now_s=1.0, detail='nan')
+    assert text == ('rejected 3 joint_states inputs (non_finite 2, time_gap 1); 3 since start; '
+                    'last: nan')
+    assert defective
+    assert log.report({'non_finite': 5, 'time_gap': 1}, now_s=5.0) is None  # too soon
+    text, defective = log.report({'non_finite': 5, 'time_gap': 1}, now_s=11.5)
+    assert text.startswith('rejected 3 joint_states inputs (non_finite 3); 6 since start')
+    assert log.report({'non_finite': 5, 'time_gap': 1}, now_s=30.0) is None  # nothing new
+    text, defective = log.report({'non_finite': 5, 'time_gap': 2, 'pass_too_short': 4},
+                                 now_s=40.0, detail='ignored for routine reasons')
+    assert not defective and 'last:' not in text and '(pass_too_short 4, time_gap 1)' in text
+
+
+def test_experiment_service_status_warns_only_in_a_period_with_malformed_input():
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    svc = FrictionExperimentService.from_node_parameters(values)
+    status = svc.current_status()
+    assert status.level == messages.DIAGNOSTIC_OK and status.value('joint_states') == '0'
+    svc.add_joint_state(stamp_s=1.0, name=['joint_2'], position=[0.0], velocity=[0.0, 1.0],
+                        effort=[0.0])
+    svc.add_joint_state(stamp_s=2.0, name=['joint_2'], position=[0.0], velocity=[0.0],
+                        effort=[0.0])
+    svc.add_joint_state(stamp_s=9.0, name=['joint_2'], position=[0.0], velocity=[0.0],
+                        effort=[0.0])  # a pause: routine
+    status = svc.current_status()
+    assert status.level == messages.DIAGNOSTIC_WARN and 'length_mismatch' in status.message
+    assert status.value('rejected_length_mismatch') == '1'
+    assert status.value('rejected_time_gap') == '1'
+    assert status.value('joint_states') == '3'
+    assert svc.current_status().level == messages.DIAGNOSTIC_OK  # nothing new since
+    svc.add_joint_state(stamp_s=30.0, name=['joint_2'], position=[0.0], velocity=[0.0],
+                        effort=[0.0])
+    assert svc.current_status().level == messages.DIAGNOSTIC_OK  # another pause only
 
 
 # --------------------------------------------------------------------------- node parameters

@@ -34,44 +34,82 @@ def message_kit() -> MessageKit:
 
 
 def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
-    """Declare ``specs`` on an rclpy node (with descriptions) and return their raw values."""
+    """Declare ``specs`` on an rclpy node (with descriptions) and return their raw values.
+
+    The parameters are declared read-only with dynamic typing, so that a value of the wrong
+    type (``150`` for a double) reaches :func:`~robot_wear_monitor.node_config.validate_parameters`
+    and is refused there with the same one-line error as in the replay, instead of an rclpy
+    exception with a traceback.
+    """
     from rcl_interfaces.msg import ParameterDescriptor
+    from rclpy.exceptions import ParameterException
+
+    from ..params import ParameterError
 
     values = {}
     for spec in specs:
         default = spec.default
         if spec.type == 'double_array':
             default = [float(v) for v in default]
-        descriptor = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
-        parameter = node.declare_parameter(spec.name, default, descriptor)
+        descriptor = ParameterDescriptor(description=spec.description, read_only=spec.read_only,
+                                         dynamic_typing=True)
+        try:
+            parameter = node.declare_parameter(spec.name, default, descriptor)
+        except ParameterException as error:
+            raise ParameterError(f'{node.get_name()}: {spec.name}: {error}') from None
         value = parameter.value
-        values[spec.name] = list(value) if spec.type == 'double_array' else value
+        values[spec.name] = list(value) if isinstance(value, (list, tuple)) or (
+            hasattr(value, 'tolist')) else value
     return values
 
 
 def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -> int:
     """Init rclpy, build the node and spin it until shutdown (the Jazzy try/finally pattern).
 
-    Returns 0 after a normal shutdown and 2 when the node refuses its parameters
-    (an :class:`~robot_wear_monitor.errors.InputError`, logged as fatal).
+    Returns 0 after a normal shutdown (SIGINT, SIGTERM) and 2 when the node refuses its
+    parameters (an :class:`~robot_wear_monitor.errors.InputError`, logged as one fatal line).
+    """
+    return spin_nodes([node_factory], logger_name=logger_name, args=args)
+
+
+def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
+               args=None) -> int:
+    """Init rclpy, build the nodes and spin them in one executor until shutdown.
+
+    One node spins in a SingleThreadedExecutor; several spin in a MultiThreadedExecutor with a
+    thread per node (each node's callbacks stay mutually exclusive), so that an estimate in
+    one node does not hold up the 1 kHz /joint_states callbacks of the other.
+    ``args`` are the process arguments (``--ros-args ...`` included) as for ``rclpy.init``.
+    Returns 0 after a normal shutdown and 2 when a node refuses its parameters (nothing is
+    spun then; the nodes already built are destroyed).
     """
     import rclpy
-    from rclpy.executors import ExternalShutdownException
+    from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
+                                 SingleThreadedExecutor)
 
     from ..errors import InputError
 
     rclpy.init(args=args)
+    nodes: list[Any] = []
     try:
-        node = node_factory()
-    except InputError as error:
-        rclpy.logging.get_logger(logger_name).fatal(str(error))
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        try:
+            for factory in node_factories:
+                nodes.append(factory())
+        except InputError as error:
+            rclpy.logging.get_logger(logger_name).fatal(str(error))
+            return 2
+        executor = (SingleThreadedExecutor() if len(nodes) == 1
+                    else MultiThreadedExecutor(num_threads=len(nodes)))
+        for node in nodes:
+            executor.add_node(node)
+        try:
+            executor.spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        finally:
+            executor.shutdown()
+        return 0
     finally:
-        node.destroy_node()
+        for node in nodes:
+            node.destroy_node()
         rclpy.try_shutdown()
-    return 0

@@ -3,11 +3,14 @@
 Segments the configured joint into constant-speed friction levels (eq. (3)) and experiments
 with :class:`robot_wear_monitor.service.FrictionExperimentService`, and publishes each completed
 experiment on ``friction_levels`` (sensor_msgs/JointState: ``velocity`` = speed levels [rad/s],
-``effort`` = friction levels, ``header.frame_id`` = joint).
+``effort`` = friction levels, ``header.frame_id`` = joint).  Every second it publishes its
+counts and the rejected inputs by reason on ``/diagnostics`` (``friction_experiment: <joint>``);
+rejected inputs are also logged, at most once per 10 s.
 """
 
 import sys
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -15,8 +18,18 @@ from robot_wear_monitor.messages import stamp_to_seconds
 from robot_wear_monitor.node_config import (FRICTION_EXPERIMENT_NODE,
                                             FRICTION_EXPERIMENT_PARAMETERS, validate_parameters)
 from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
-from robot_wear_monitor.nodes.qos import FRICTION_LEVELS_QOS, JOINT_STATES_QOS
-from robot_wear_monitor.service import FRICTION_LEVELS_TOPIC, FrictionExperimentService
+from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS,
+                                          JOINT_STATES_QOS)
+from robot_wear_monitor.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
+                                        FrictionExperimentService, RejectionLog)
+
+DIAGNOSTICS_PERIOD_S = 1.0
+REJECTION_LOG_PERIOD_S = 10.0
+
+
+def _rounded(values, digits: int) -> list:
+    """Return plain Python floats rounded for a log line (no ``np.float64(...)`` reprs)."""
+    return [round(float(v), digits) for v in values]
 
 
 class FrictionExperimentNode(Node):
@@ -30,37 +43,72 @@ class FrictionExperimentNode(Node):
         super().__init__(FRICTION_EXPERIMENT_NODE, **kwargs)
         raw = declare_parameters(self, FRICTION_EXPERIMENT_PARAMETERS)
         self.parameters = validate_parameters(FRICTION_EXPERIMENT_NODE, raw,
-                                              source='ROS parameters')
+                                              source=f'{self.get_name()} parameters')
         self.service = FrictionExperimentService.from_node_parameters(self.parameters)
         self.kit = message_kit()
+        self.rejection_log = RejectionLog(what='joint_states inputs',
+                                          period_s=REJECTION_LOG_PERIOD_S)
         self.publisher = self.create_publisher(JointState, FRICTION_LEVELS_TOPIC,
                                                FRICTION_LEVELS_QOS)
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC,
+                                                           DIAGNOSTICS_QOS)
         self.subscription = self.create_subscription(JointState, 'joint_states',
                                                      self.on_joint_state, JOINT_STATES_QOS)
-        self._reported = 0
+        self.timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
+        self._rejected = 0
+        speeds = _rounded(self.parameters['experiment_speeds_rad_s'], 3)
         self.get_logger().info(
-            f'segmenting joint {self.service.joint!r} (gear ratio '
-            f'{self.parameters["gear_ratio"]}, torque scale {self.parameters["torque_scale"]}), '
-            f'experiment speeds {list(self.parameters["experiment_speeds_rad_s"])} rad/s')
+            f'segmenting joint {self.service.joint!r} of '
+            f'{self.subscription.topic_name} (gear ratio {self.parameters["gear_ratio"]}, '
+            f'torque scale {self.parameters["torque_scale"]}), experiment speeds '
+            f'{speeds or "any"} rad/s; publishing on {self.publisher.topic_name}')
+
+    def _now_s(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
 
     def on_joint_state(self, msg):
         """Feed one JointState to the segmentation; publish the experiments it completes."""
         stamp_s = stamp_to_seconds(msg.header.stamp)
         if stamp_s == 0.0:  # unstamped publisher: use the reception time
-            stamp_s = self.get_clock().now().nanoseconds * 1e-9
-        experiments = self.service.add_joint_state(
-            stamp_s=stamp_s, name=list(msg.name), position=list(msg.position),
-            velocity=list(msg.velocity), effort=list(msg.effort))
+            stamp_s = self._now_s()
+        try:
+            experiments = self.service.add_joint_state(
+                stamp_s=stamp_s, name=msg.name, position=msg.position,
+                velocity=msg.velocity, effort=msg.effort)
+        except Exception as error:  # noqa: BLE001 - the node must outlive any one input
+            self.service.rejections['internal_error'] += 1
+            self.service.last_error = f'{type(error).__name__}: {error}'
+            experiments = []
         for experiment in experiments:
-            self.publisher.publish(self.service.friction_levels_message(self.kit, experiment))
-            self.get_logger().info(
-                f'experiment: speeds {[round(v, 2) for v in experiment.speeds_rad_s]} rad/s, '
-                f'friction {[round(f, 5) for f in experiment.frictions]}')
-        total = self.service.rejected_total
-        if total > self._reported:
-            self._reported = total
-            self.get_logger().warn(f'rejected so far: {dict(self.service.all_rejections())}',
-                                   throttle_duration_sec=10.0)
+            self.publish_experiment(experiment)
+        if self.service.rejected_total > self._rejected:
+            self._rejected = self.service.rejected_total
+            self.log_rejections()
+
+    def publish_experiment(self, experiment):
+        """Publish one completed experiment on ``friction_levels`` and log it."""
+        self.publisher.publish(self.service.friction_levels_message(self.kit, experiment))
+        self.get_logger().info(
+            f'experiment {self.service.experiments}: speeds '
+            f'{_rounded(experiment.speeds_rad_s, 2)} rad/s, friction '
+            f'{_rounded(experiment.frictions, 5)}')
+
+    def log_rejections(self):
+        """Log the inputs rejected since the last report (at most once per 10 s)."""
+        text = self.rejection_log.report(self.service.all_rejections(), now_s=self._now_s(),
+                                         detail=self.service.last_error)
+        if text is None:
+            return
+        if text[1]:
+            self.get_logger().warning(text[0])
+        else:
+            self.get_logger().info(text[0])
+
+    def publish_diagnostics(self):
+        """Publish the counts and rejections on /diagnostics (periodic)."""
+        self.diagnostics_publisher.publish(
+            self.service.diagnostics_message(self.kit, stamp_s=self._now_s()))
+        self.log_rejections()
 
 
 def main(args=None):

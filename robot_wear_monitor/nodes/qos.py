@@ -9,8 +9,9 @@ def _reliable(depth: int, durability: DurabilityPolicy = DurabilityPolicy.VOLATI
                       reliability=ReliabilityPolicy.RELIABLE, durability=durability)
 
 
-#: /joint_states: reliable like joint_state_broadcaster, deep enough for a 1 kHz burst.
-JOINT_STATES_QOS = _reliable(200)
+#: /joint_states: reliable like joint_state_broadcaster, deep enough for one second at 1 kHz
+#: (a slow callback elsewhere in the process must not drop samples of a friction pass).
+JOINT_STATES_QOS = _reliable(1000)
 #: friction_levels: every experiment matters and they are rare.
 FRICTION_LEVELS_QOS = _reliable(10)
 #: temperature, wear: one message per estimate.

@@ -22,10 +22,11 @@ from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
 from robot_wear_monitor.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
-                                        FRICTION_LEVELS_TOPIC, RESET_SERVICE, TEMPERATURE_TOPIC,
-                                        WEAR_TOPIC, WearEstimatorService)
+                                        FRICTION_LEVELS_TOPIC, RejectionLog, RESET_SERVICE,
+                                        TEMPERATURE_TOPIC, WEAR_TOPIC, WearEstimatorService)
 
 DIAGNOSTICS_PERIOD_S = 1.0
+REJECTION_LOG_PERIOD_S = 10.0
 
 _TYPES = {TEMPERATURE_TOPIC: Temperature, WEAR_TOPIC: Float64, ALARM_TOPIC: Bool,
           DIAGNOSTICS_TOPIC: DiagnosticArray}
@@ -43,11 +44,15 @@ class WearEstimatorNode(Node):
         """
         super().__init__(WEAR_ESTIMATOR_NODE, **kwargs)
         raw = declare_parameters(self, WEAR_ESTIMATOR_PARAMETERS)
-        self.parameters = validate_parameters(WEAR_ESTIMATOR_NODE, raw, source='ROS parameters')
+        self.parameters = validate_parameters(WEAR_ESTIMATOR_NODE, raw,
+                                              source=f'{self.get_name()} parameters')
         config = EstimatorConfig.from_node_parameters(self.parameters)
         self.history = WearHistory(expand_history_path(self.parameters['history_file']))
         self.service = WearEstimatorService(config, history=self.history)
+        self.service.warm_up()
         self.kit = message_kit()
+        self.rejection_log = RejectionLog(what='friction_levels inputs',
+                                          period_s=REJECTION_LOG_PERIOD_S)
         self.publishers_by_topic = {topic: self.create_publisher(_TYPES[topic], topic,
                                                                  _QOS[topic])
                                     for topic in _TYPES}
@@ -75,25 +80,44 @@ class WearEstimatorNode(Node):
         """Publish the current diagnostics (periodic, like diagnostic_updater)."""
         self.publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
             self.service.diagnostics_message(self.kit, stamp_s=self._now_s()))
+        self.log_rejections()
+
+    def log_rejections(self):
+        """Log the inputs rejected since the last report (at most once per 10 s)."""
+        text = self.rejection_log.report(self.service.rejections, now_s=self._now_s(),
+                                         detail=self.service.last_rejection)
+        if text is None:
+            return
+        if text[1]:
+            self.get_logger().warning(text[0])
+        else:
+            self.get_logger().info(text[0])
 
     def on_friction_levels(self, msg):
         """Estimate from one experiment and publish every output."""
-        before = sum(self.service.rejections.values())
-        update = self.service.handle_friction_levels(msg)
+        try:
+            update = self.service.handle_friction_levels(msg)
+        except Exception as error:  # noqa: BLE001 - the node must outlive any one input
+            self.service.reject('internal_error', f'{type(error).__name__}: {error}')
+            self.get_logger().error(f'friction_levels not processed: {type(error).__name__}: '
+                                    f'{error}')
+            return
         if update is None:
-            if sum(self.service.rejections.values()) > before:
-                self.get_logger().warn(f'friction_levels rejected: '
-                                       f'{self.service.last_rejection}')
+            self.log_rejections()
             return
         for topic, out in self.service.output_messages(self.kit, update):
             self.publishers_by_topic[topic].publish(out)
-        log = self.get_logger().error if update.alarm_raised else self.get_logger().info
-        log(f'experiment {update.index}: {update.status.message}')
+        # One call site per severity: rclpy refuses a call site that changes its severity.
+        if update.alarm_raised:
+            self.get_logger().error(f'WEAR ALARM raised by experiment {update.index}: '
+                                    f'{update.status.message}')
+        else:
+            self.get_logger().info(f'experiment {update.index}: {update.status.message}')
 
     def on_reset_alarm(self, request, response):
         """Clear the latched alarm after maintenance (std_srvs/Trigger)."""
         response.success, response.message = self.service.reset_alarm(stamp_s=self._now_s())
-        self.get_logger().warn(f'reset_alarm: {response.message}')
+        self.get_logger().warning(f'reset_alarm: {response.message}')
         self.publish_alarm()
         self.publish_diagnostics()
         return response
