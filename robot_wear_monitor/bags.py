@@ -405,6 +405,35 @@ def iter_raw_messages(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPI
         reader.close()
 
 
+def recorded_topics(path: str | os.PathLike) -> dict[str, str]:
+    """Return topic -> ROS type of every topic recorded in a bag (BagError if unreadable)."""
+    reader = _open_reader(path)
+    try:
+        return {c.topic: c.msgtype for c in reader.connections}
+    finally:
+        reader.close()
+
+
+def iter_recorded_messages(path: str | os.PathLike, *, topics: Sequence[str]
+                           ) -> Iterator[tuple[str, int, bytes]]:
+    """Yield (topic, bag time [ns], CDR bytes) of ``topics`` in bag-time order.
+
+    The bytes are the serialized messages as recorded (CDR with its encapsulation header),
+    which is what an rclpy publisher sends as a raw message.
+    """
+    reader = _open_reader(path)
+    try:
+        connections = [c for c in reader.connections if c.topic in set(topics)]
+        try:
+            for connection, timestamp, raw in reader.messages(connections=connections):
+                yield connection.topic, timestamp, raw
+        except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
+            message = str(error).splitlines()[0] if str(error) else type(error).__name__
+            raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+    finally:
+        reader.close()
+
+
 def _layout_reason(layout: _Layout, joint: str) -> str | int:
     """Return the joint's index in a layout, or the reason the layout's messages are unusable."""
     if joint not in layout.names:

@@ -400,6 +400,78 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- live graph
+# (nodes/monitoring_graph.py: the only rclpy imports stay under nodes/)
+
+def _add_live_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('--params-file', metavar='YAML',
+                        help='ROS 2 parameter file of both nodes (default: the packaged '
+                             'config/wear_monitor.yaml)')
+    parser.add_argument('--joint', help='joint to monitor (overrides the params file)')
+    parser.add_argument('--history', metavar='FILE',
+                        help='SQLite wear history (overrides the params file)')
+    parser.add_argument('--parameter-set', metavar='FILE',
+                        help='friction-model parameter-set YAML (overrides the params file)')
+
+
+def _ros_args(args: argparse.Namespace) -> list[str]:
+    return list(getattr(args, 'ros_args', None) or [])
+
+
+def _cmd_live(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .node_config import (default_node_config_file, FRICTION_EXPERIMENT_NODE,
+                              load_node_parameters, WEAR_ESTIMATOR_NODE)
+    params_file = Path(args.params_file) if args.params_file else default_node_config_file()
+    overrides = []
+    if args.joint:
+        overrides.append(('joint', args.joint))
+    if args.history:
+        overrides.append(('history_file', args.history))
+    if args.parameter_set:
+        overrides.append(('parameter_set_file', args.parameter_set))
+    # Refuse a bad file here with one line, before any node starts.
+    load_node_parameters(FRICTION_EXPERIMENT_NODE, params_file,
+                         overrides={k: v for k, v in overrides if k == 'joint'})
+    load_node_parameters(WEAR_ESTIMATOR_NODE, params_file, overrides=dict(overrides))
+    try:
+        from .nodes.monitoring_graph import ros_arguments, run_monitoring_graph
+    except ImportError as error:
+        raise InputError(f'rclpy is not installed ({error}); pip install '
+                         f'"robot_wear_monitor[ros]" or source a ROS 2 Jazzy setup') from None
+    print(f'{PROG} live: friction_experiment_node + wear_estimator_node, parameters from '
+          f'{params_file}; Ctrl-C stops', file=sys.stderr, flush=True)
+    return run_monitoring_graph(args=ros_arguments(params_file=params_file, overrides=overrides,
+                                                   extra=_ros_args(args)))
+
+
+def _add_play_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('bag', metavar='BAG', help='recorded ROS 2 bag (MCAP or sqlite3)')
+    parser.add_argument('--rate', type=float, default=1.0,
+                        help='multiple of the recorded pace (default 1.0)')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC',
+                        help='topics to play (default: every recorded topic)')
+    parser.add_argument('--wait-for-subscribers', type=int, default=1, metavar='N',
+                        help='subscribers each topic waits for before playing (default 1)')
+    parser.add_argument('--wait-timeout', type=float, default=10.0, metavar='S',
+                        help='seconds to wait for them, then play anyway (default 10)')
+
+
+def _cmd_play(args: argparse.Namespace) -> int:
+    if not args.rate > 0:
+        raise InputError(f'--rate must be > 0, got {args.rate}')
+    try:
+        from .nodes.monitoring_graph import run_player
+    except ImportError as error:
+        raise InputError(f'rclpy is not installed ({error}); pip install '
+                         f'"robot_wear_monitor[ros]" or source a ROS 2 Jazzy setup') from None
+    return run_player(args.bag, rate=args.rate, topics=args.topics,
+                      wait_for_subscribers=args.wait_for_subscribers,
+                      wait_timeout_s=args.wait_timeout, args=_ros_args(args),
+                      say=lambda text: print(text, flush=True))
+
+
 # --------------------------------------------------------------------------- audit (audit.py)
 
 def _add_audit_arguments(parser: argparse.ArgumentParser) -> None:
@@ -547,6 +619,10 @@ _COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
               _add_audit_arguments, _cmd_audit),
     'history': ('show the stored wear history and export its friction levels for audit',
                 _add_history_arguments, _cmd_history),
+    'live': ('run both monitoring nodes on the live ROS 2 graph in one process (needs rclpy)',
+             _add_live_arguments, _cmd_live),
+    'play': ('play a recorded bag on the live ROS 2 graph, like ros2 bag play (needs rclpy)',
+             _add_play_arguments, _cmd_play),
 }
 
 
@@ -567,7 +643,15 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code (0 success, 2 bad input)."""
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ros_args: list[str] = []
+    if '--ros-args' in argv:  # ROS arguments go to rclpy untouched (live, play)
+        cut = argv.index('--ros-args')
+        argv, ros_args = argv[:cut], argv[cut:]
     args = parser.parse_args(argv)  # argparse exits with 2 and a usage line on bad syntax
+    if ros_args and args.command not in ('live', 'play'):
+        parser.error(f'--ros-args is only for live and play, not {args.command}')
+    args.ros_args = ros_args
     try:
         return int(args.handler(args) or 0)
     except InputError as error:
