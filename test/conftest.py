@@ -1,8 +1,23 @@
-"""Shared fixtures: the measured data in ../shared (skipped with a reason when absent)."""
+"""Shared fixtures: measured data in ../shared (skipped when absent) and the ROS 2 graph.
 
+ROS 2 isolation: this test session uses its own ``ROS_DOMAIN_ID`` (from the process id) and
+localhost-only discovery, set before any rclpy context starts; process-level tests get further
+domain ids of their own from :func:`ros_domain_ids`.  Node tests need rclpy: they skip where it
+is missing, except under CI (``CI`` set), where a missing rclpy fails them: a node test never
+skips in CI.
+"""
+
+import itertools
+import os
 from pathlib import Path
 
 import pytest
+
+_DOMAIN_BASE = 1 + (os.getpid() % 20) * 5
+os.environ['ROS_DOMAIN_ID'] = str(_DOMAIN_BASE)
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.pop('ROS_LOCALHOST_ONLY', None)
+_NEXT_DOMAIN = itertools.count(_DOMAIN_BASE + 1)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DIR = REPO_ROOT.parent / 'shared'
@@ -33,3 +48,19 @@ def kuka_dir(external_data_dir: Path) -> Path:
 def repo_root() -> Path:
     """Return the repository root."""
     return REPO_ROOT
+
+
+def require_rclpy():
+    """Return the rclpy module; skip without it, but fail under CI (node tests never skip)."""
+    try:
+        import rclpy
+    except ImportError as error:
+        if os.environ.get('CI'):
+            pytest.fail(f'rclpy is required in CI (pip install ".[ros]"): {error}')
+        pytest.skip(f'rclpy is not installed ({error}); pip install ".[ros]"')
+    return rclpy
+
+
+def next_ros_domain_id() -> int:
+    """Return a ROS_DOMAIN_ID no other test of this session uses (for process-level tests)."""
+    return next(_NEXT_DOMAIN)
