@@ -6,9 +6,9 @@ import time
 
 from rosbags.rosbag2 import Reader
 
-from robot_wear_monitor.bags import (JOINT_STATE_TYPE, read_joint_samples, TYPESTORE,
-                                     write_joint_state_bag)
-from robot_wear_monitor.simulation import accelerated_wear_scenario, simulate_scenario
+from robot_wear_monitor.recordings.bags import (JOINT_STATE_TYPE, read_joint_samples, TYPESTORE,
+                                                write_joint_state_bag)
+from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
 
 
 def _rate(count: int, seconds: float) -> str:

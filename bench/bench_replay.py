@@ -16,9 +16,9 @@ import time
 
 from rosbags.rosbag2 import Reader
 
-from robot_wear_monitor.bags import TYPESTORE, write_joint_state_bag
-from robot_wear_monitor.replay import replay_bag, replay_parameters
-from robot_wear_monitor.simulation import accelerated_wear_scenario, simulate_scenario
+from robot_wear_monitor.recordings.bags import TYPESTORE, write_joint_state_bag
+from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
 
 
 def _time(function):

@@ -2,9 +2,9 @@
 
 import time
 
-from robot_wear_monitor.segmentation import segment_batch, StreamingSegmenter
-from robot_wear_monitor.simulation import (accelerated_wear_scenario, segmenter_config_for,
-                                           simulate_scenario)
+from robot_wear_monitor.experiment.segmentation import segment_batch, StreamingSegmenter
+from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
+                                                      segmenter_config_for, simulate_scenario)
 
 
 def main() -> None:

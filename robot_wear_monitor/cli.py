@@ -13,9 +13,9 @@ import json
 import sys
 from typing import Callable, Sequence
 
-from . import __version__
-from .errors import InputError
-from .params import load_parameter_set, ParameterSet
+from robot_wear_monitor import __version__
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 
 PROG = 'robot-wear-monitor'
 
@@ -84,7 +84,7 @@ def _add_design_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_design(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .design import best_grid_design, optimal_design
+    from robot_wear_monitor.estimation.design import best_grid_design, optimal_design
     params = _params_from(args)
     if args.n < 1:
         raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')
@@ -122,7 +122,7 @@ def _add_estimate_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .estimation import estimate_wear
+    from robot_wear_monitor.estimation.estimator import estimate_wear
     params = _params_from(args)
     if len(args.speeds) != len(args.friction):
         raise InputError(f'--speeds has {len(args.speeds)} values but --friction has '
@@ -180,8 +180,8 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .design import optimal_design
-    from .study import plot_study, run_study
+    from robot_wear_monitor.estimation.design import optimal_design
+    from robot_wear_monitor.estimation.study import plot_study, run_study
     params = _params_from(args)
     if args.n < 1:
         raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')
@@ -233,9 +233,10 @@ def _add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from .bags import write_joint_state_bag
-    from .simulation import (accelerated_wear_scenario, JointSimConfig, simulate_scenario,
-                             truth_path_for, write_truth_json)
+    from robot_wear_monitor.recordings.bags import write_joint_state_bag
+    from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
+                                                          JointSimConfig, simulate_scenario,
+                                                          truth_path_for, write_truth_json)
     params = _params_from(args)
     config = accelerated_wear_scenario(
         n_experiments=args.experiments, speeds_rad_s=args.speeds, params=params,
@@ -272,10 +273,11 @@ def _add_segment_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_segment(args: argparse.Namespace) -> int:
     import csv
     from pathlib import Path
-    from .bags import read_joint_samples
-    from .recordings import kuka_segmenter_config, read_raw_csv
-    from .segmentation import ExperimentAssembler, segment_batch, SegmenterConfig
-    from .simulation import JointSimConfig, segmenter_config_for
+    from robot_wear_monitor.recordings.bags import read_joint_samples
+    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_raw_csv
+    from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, segment_batch,
+                                                            SegmenterConfig)
+    from robot_wear_monitor.experiment.simulation import JointSimConfig, segmenter_config_for
     path = Path(args.data)
     if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
         t, q, v, e = read_raw_csv(path)
@@ -354,8 +356,9 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_replay(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .atomic_files import write_json_atomic
-    from .replay import read_truth_beside, replay_bag, replay_parameters
+    from robot_wear_monitor.atomic_files import write_json_atomic
+    from robot_wear_monitor.monitoring.replay import (read_truth_beside, replay_bag,
+                                                      replay_parameters)
     if Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     experiment, estimator = replay_parameters(
@@ -369,7 +372,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     if args.json:
         write_json_atomic(args.json, summary)
     if args.plot:
-        from .report import plot_wear_trend
+        from robot_wear_monitor.reporting.report import plot_wear_trend
         plot_wear_trend(result, args.plot, threshold=estimator['wear_threshold'],
                         title=f'Wear estimate, {Path(args.bag).name}, joint {result.joint}')
     first = summary['first_alarm']
@@ -390,7 +393,7 @@ def _add_demo_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from .demo import describe, run_demo
+    from robot_wear_monitor.reporting.demo import describe, run_demo
     if args.experiments < 1:
         raise InputError(f'--experiments must be >= 1, got {args.experiments}')
     summary = run_demo(out_dir=args.out, n_experiments=args.experiments, seed=args.seed,
@@ -421,8 +424,10 @@ def _ros_args(args: argparse.Namespace) -> list[str]:
 def _cmd_live(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .node_config import (default_node_config_file, FRICTION_EXPERIMENT_NODE,
-                              load_node_parameters, WEAR_ESTIMATOR_NODE)
+    from robot_wear_monitor.monitoring.node_config import (default_node_config_file,
+                                                           FRICTION_EXPERIMENT_NODE,
+                                                           load_node_parameters,
+                                                           WEAR_ESTIMATOR_NODE)
     params_file = Path(args.params_file) if args.params_file else default_node_config_file()
     overrides = []
     if args.joint:
@@ -504,7 +509,7 @@ def _add_audit_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_audit(args: argparse.Namespace) -> int:
-    from .audit import load_audit_data, MODELS, run_audit
+    from robot_wear_monitor.audit.model_audit import load_audit_data, MODELS, run_audit
 
     if args.model not in MODELS:
         raise InputError(f'unknown --model {args.model!r} (expected {", ".join(MODELS)})')
@@ -523,7 +528,7 @@ def _cmd_audit(args: argparse.Namespace) -> int:
                        fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds)
     report = result.to_dict()
     if args.plots:
-        from .audit_report import plot_audit
+        from robot_wear_monitor.audit.report import plot_audit
         report['figures'] = [str(p) for p in plot_audit(result=result, table=table,
                                                         out_dir=args.plots)]
     if args.json_report == '-':
@@ -554,8 +559,8 @@ def _add_history_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_history(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .history import WearHistory, write_levels_csv
-    from .service import json_number
+    from robot_wear_monitor.monitoring.history import WearHistory, write_levels_csv
+    from robot_wear_monitor.monitoring.service import json_number
 
     if not Path(args.database).is_file():
         raise InputError(f'{args.database}: no such wear history database')

@@ -17,7 +17,8 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
 import independent_robot as robot
-from robot_wear_monitor.segmentation import SegmenterConfig, segment_batch, StreamingSegmenter
+from robot_wear_monitor.experiment.segmentation import (SegmenterConfig, segment_batch,
+                                                        StreamingSegmenter)
 
 SEED = 0
 N_EXPERIMENTS = 8

@@ -1,4 +1,4 @@
-"""The rclpy nodes of the wear monitor: thin shells over ``robot_wear_monitor.service``.
+"""The rclpy nodes of the wear monitor: thin shells over ``robot_wear_monitor.monitoring.service``.
 
 Only the modules of this package import rclpy and the ROS message packages.  Importing the
 package itself imports nothing from ROS, so the core stays usable without it.
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Sequence
 
-from ..messages import MessageKit, rclpy_kit
-from ..node_config import ParameterSpec
+from robot_wear_monitor.recordings.messages import MessageKit, rclpy_kit
+from robot_wear_monitor.monitoring.node_config import ParameterSpec
 
 
 def message_kit() -> MessageKit:
@@ -37,14 +37,15 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
     """Declare ``specs`` on an rclpy node (with descriptions) and return their raw values.
 
     The parameters are declared read-only with dynamic typing, so that a value of the wrong
-    type (``150`` for a double) reaches :func:`~robot_wear_monitor.node_config.validate_parameters`
-    and is refused there with the same one-line error as in the replay, instead of an rclpy
+    type (``150`` for a double) reaches
+    :func:`~robot_wear_monitor.monitoring.node_config.validate_parameters` and is refused there
+    with the same one-line error as in the replay, instead of an rclpy
     exception with a traceback.
     """
     from rcl_interfaces.msg import ParameterDescriptor
     from rclpy.exceptions import ParameterException
 
-    from ..params import ParameterError
+    from robot_wear_monitor.model.params import ParameterError
 
     values = {}
     for spec in specs:
@@ -87,7 +88,7 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
                                  SingleThreadedExecutor)
 
-    from ..errors import InputError
+    from robot_wear_monitor.errors import InputError
 
     rclpy.init(args=args)
     nodes: list[Any] = []

@@ -1,8 +1,9 @@
 """friction_experiment_node: /joint_states -> friction_levels, one message per experiment.
 
 Segments the configured joint into constant-speed friction levels (eq. (3)) and experiments
-with :class:`robot_wear_monitor.service.FrictionExperimentService`, and publishes each completed
-experiment on ``friction_levels`` (sensor_msgs/JointState: ``velocity`` = speed levels [rad/s],
+with :class:`robot_wear_monitor.monitoring.service.FrictionExperimentService`, and publishes
+each completed experiment on ``friction_levels`` (sensor_msgs/JointState: ``velocity`` =
+speed levels [rad/s],
 ``effort`` = friction levels, ``header.frame_id`` = joint).  Every second it publishes its
 counts and the rejected inputs by reason on ``/diagnostics`` (``friction_experiment: <joint>``);
 rejected inputs are also logged, at most once per 10 s.
@@ -14,14 +15,14 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from robot_wear_monitor.messages import stamp_to_seconds
-from robot_wear_monitor.node_config import (FRICTION_EXPERIMENT_NODE,
-                                            FRICTION_EXPERIMENT_PARAMETERS, validate_parameters)
+from robot_wear_monitor.recordings.messages import stamp_to_seconds
+from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
+                                                       FRICTION_EXPERIMENT_PARAMETERS,
+                                                       validate_parameters)
 from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
-from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS,
-                                          JOINT_STATES_QOS)
-from robot_wear_monitor.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
-                                        FrictionExperimentService, RejectionLog)
+from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS, JOINT_STATES_QOS
+from robot_wear_monitor.monitoring.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
+                                                   FrictionExperimentService, RejectionLog)
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0

@@ -1,7 +1,8 @@
 """wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagnostics.
 
-A thin shell over :class:`robot_wear_monitor.service.WearEstimatorService`: every completed
-experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
+A thin shell over :class:`robot_wear_monitor.monitoring.service.WearEstimatorService`: every
+completed experiment gives an estimate of (T, w); the alarm is latched (reliable +
+transient-local, so a
 late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger); the SQLite
 history restores the trend and the alarm after a restart.
 """
@@ -14,16 +15,18 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import Trigger
 
-from robot_wear_monitor.history import WearHistory
-from robot_wear_monitor.messages import alarm_to_msg
-from robot_wear_monitor.node_config import (expand_history_path, validate_parameters,
-                                            WEAR_ESTIMATOR_NODE, WEAR_ESTIMATOR_PARAMETERS)
+from robot_wear_monitor.monitoring.history import WearHistory
+from robot_wear_monitor.recordings.messages import alarm_to_msg
+from robot_wear_monitor.monitoring.node_config import (expand_history_path, validate_parameters,
+                                                       WEAR_ESTIMATOR_NODE,
+                                                       WEAR_ESTIMATOR_PARAMETERS)
 from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
-from robot_wear_monitor.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
-                                        FRICTION_LEVELS_TOPIC, RejectionLog, RESET_SERVICE,
-                                        TEMPERATURE_TOPIC, WEAR_TOPIC, WearEstimatorService)
+from robot_wear_monitor.monitoring.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
+                                                   FRICTION_LEVELS_TOPIC, RejectionLog,
+                                                   RESET_SERVICE, TEMPERATURE_TOPIC, WEAR_TOPIC,
+                                                   WearEstimatorService)
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0

@@ -1,0 +1,1 @@
+"""Closing the loop: residual structure, traced effects, before/after errors."""

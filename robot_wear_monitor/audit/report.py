@@ -1,0 +1,116 @@
+"""Figures of an audit: residuals against every variable before and after, and the errors.
+
+Matplotlib with the Agg backend (no display needed); small PNGs for documentation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from robot_wear_monitor.audit.model_audit import AuditResult, AuditTable
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
+               prefix: str = 'audit_', dpi: int = 80) -> list[Path]:
+    """Write ``<prefix>residuals.png`` and ``<prefix>errors.png`` into ``out_dir``.
+
+    Args:
+        result: the audit of ``table``.
+        table: the audited table (after any groups were left out: ``result.n_levels`` rows).
+        out_dir: folder, created when missing.
+        prefix: file-name prefix.
+        dpi: resolution of the PNGs.
+
+    Returns:
+        The paths written.
+
+    """
+    plt = _pyplot()
+    folder = Path(out_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    if table.n_rows != result.n_levels:
+        table = _matching_rows(table, result)
+    names = ['speed'] + [c for c in (*result.candidates, 'temperature', 'load', 'wear')
+                         if c in table.columns and c not in ('speed',)]
+    names = list(dict.fromkeys(names))
+    if result.group and result.group not in names:
+        names.append(result.group)
+    columns = min(4, len(names))
+    rows = int(np.ceil(len(names) / columns))
+    figure, axes = plt.subplots(rows, columns, figsize=(3.0 * columns, 2.4 * rows),
+                                squeeze=False)
+    traced = {v for effect in result.effects for v in effect.variables}
+    for axis, name in zip(axes.ravel(), names):
+        x, ticks = _axis_values(table, name)
+        axis.plot(x, result.residual_before, '.', color='0.65', markersize=3,
+                  label='before')
+        axis.plot(x, result.residual_after, '.', color='tab:blue', markersize=3,
+                  label='after')
+        axis.axhline(0.0, color='k', linewidth=0.6)
+        axis.set_xlabel(name + (' (traced)' if name in traced else ''),
+                        color='tab:red' if name in traced else 'k')
+        if name == 'speed' and np.ptp(np.log(table.numeric['speed'])) > 2:
+            axis.set_xscale('log')
+        if ticks is not None:
+            axis.set_xticks(range(len(ticks)))
+            axis.set_xticklabels(ticks, rotation=45, fontsize=7)
+        axis.tick_params(labelsize=7)
+    for axis in axes.ravel()[len(names):]:
+        axis.set_visible(False)
+    axes[0, 0].set_ylabel('residual')
+    axes[0, 0].legend(fontsize=7, markerscale=2)
+    figure.suptitle(f'{result.model} model residuals before / after the audit '
+                    f'({len(result.effects)} effect(s))', fontsize=9)
+    figure.tight_layout()
+    residual_path = folder / f'{prefix}residuals.png'
+    figure.savefig(residual_path, dpi=dpi)
+    plt.close(figure)
+
+    figure, axis = plt.subplots(figsize=(5.5, 2.8))
+    labels = ['model alone'] + [f'+ {i}: ' + ', '.join(e.variables)
+                                for i, e in enumerate(result.effects, start=1)]
+    values = [result.rms_before] + [e.rms_cv_after for e in result.effects]
+    axis.bar(range(len(values)), values, color=['0.6'] + ['tab:blue'] * len(result.effects))
+    axis.axhline(result.noise_floor, color='tab:red', linestyle='--',
+                 label=f'noise floor ({result.noise_floor_method.split(" (")[0]})')
+    axis.set_xticks(range(len(values)))
+    axis.set_xticklabels(labels, rotation=20, fontsize=7, ha='right')
+    axis.set_ylabel('held-out RMS error', fontsize=8)
+    axis.tick_params(labelsize=7)
+    axis.legend(fontsize=7)
+    figure.tight_layout()
+    error_path = folder / f'{prefix}errors.png'
+    figure.savefig(error_path, dpi=dpi)
+    plt.close(figure)
+    return [residual_path, error_path]
+
+
+def _axis_values(table: AuditTable, name: str) -> tuple[np.ndarray, list | None]:
+    """Numeric x values of a column; categories as jittered indices with their labels."""
+    if name in table.numeric and len(np.unique(table.numeric[name])) > 8:
+        return table.numeric[name], None
+    values = table.text[name] if name in table.text else np.array(
+        [f'{v:g}' for v in table.numeric[name]])
+    labels = sorted(set(values.tolist()))
+    index = np.array([labels.index(v) for v in values], dtype=float)
+    jitter = np.random.default_rng(0).uniform(-0.2, 0.2, len(index))
+    return index + jitter, labels
+
+
+def _matching_rows(table: AuditTable, result: AuditResult) -> AuditTable:
+    """Drop the rows of the groups the audit left out."""
+    if not result.group:
+        return table
+    left_out = {text.split(':')[0].split(' ', 1)[1] for text in result.excluded}
+    values = table.text[result.group] if result.group in table.text else np.array(
+        [f'{v:g}' for v in table.numeric[result.group]])
+    return table.subset(~np.isin(values, list(left_out)))

@@ -1,0 +1,703 @@
+"""Maximum-likelihood estimation of temperature T and wear w from friction levels.
+
+N >= 2 levels: the weighted nonlinear least squares (16), the load marginalised into the
+covariance (11)-(14), T bounded, w >= 0, started from a grid.  N = 1: the marginal
+likelihood (17) with T integrated out by deterministic quadrature, maximised in w (19).
+Vectorised: one call estimates a batch of friction vectors measured at the same speeds.
+
+Numerical method, N >= 2.  Sigma(Phi) of (14) does not depend on theta = (T, w), so the
+residuals are whitened once per speed set (Cholesky factor of Sigma).  The cost (16) is first
+evaluated for the whole batch on a (T, w) grid with one matrix product (the model on the grid does
+not depend on the data), and each fit is then refined from its best grid point by a batched
+projected Gauss-Newton iteration with the analytic gradients of :mod:`.model`: a variable on its
+bound whose descent direction points out of the box is held at the bound and the step is a 1-D
+Gauss-Newton step in the other, and every step is accepted by a backtracking line search on the
+cost.
+
+Numerical method, N = 1.  The complete model (8) is additive, tau_f = tau_f0(v, mu, T) + tilde
+tau_f(v, w), so the marginal likelihood (17) is p(y | w) = g(y - tilde tau_f(v, w)) with
+g(z) = 1/(T_max - T_min) int N(z; tau_f0(v, mu, T), s^2) dT and s^2 = sigma^2 + sigma_tl^2 m(v)^2.
+g is computed by composite Gauss-Legendre quadrature in T (exact to rounding for this model, see
+the tests), its logarithm tabulated for a coarse search in w, and the maximiser refined by a
+batched golden-section search on the exact quadrature.  The Fisher information of w is then exact:
+F(w) = (d tilde tau_f / dw)^2 * J(v) with J(v) = int g'(z)^2 / g(z) dz, the location information of
+g, computed by a second Gauss-Legendre quadrature over z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import special, stats
+from scipy.linalg import solve_triangular
+
+from robot_wear_monitor.model import friction as fm
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.params import ParameterSet
+
+FloatArray = NDArray[np.float64]
+
+# Starting grids: equidistant in the whitened model (steps of at most _GRID_SPACING_SIGMA noise
+# standard deviations) and at most the given steps of T [degC] and w [-].
+_GRID_SPACING_SIGMA = 0.5
+_GRID_MAX_STEP_DEGC = 2.0
+_GRID_MAX_STEP_WEAR = 2.0
+_GRID_MAX_POINTS = 400  # per axis (a very small sigma would ask for more)
+_GAUSS_NEWTON_ITERATIONS = 100
+_LINE_SEARCH_HALVINGS = 8
+_BATCH_CHUNK = 64  # rows of the grid search at a time (cache-sized)
+_GRID_CHUNK_CELLS = 1 << 21  # at most this many (row, grid point) costs at a time
+_STARTS = 3
+_TRACE = []
+# Composite Gauss-Legendre rules of the N = 1 marginal likelihood (T) and information (z).
+_T_PANELS, _T_NODES = 8, 8
+_Z_PANELS, _Z_NODES = 96, 8
+_Z_TAIL_SIGMAS = 12.0
+_GOLDEN_ITERATIONS = 36
+
+
+@dataclass(frozen=True)
+class WearEstimate:
+    """One estimate of (T, w) with its uncertainty and goodness of fit.
+
+    Attributes:
+        temperature_degc: estimated joint temperature [degC] (N = 1: posterior mean of T under
+            the uniform prior at the estimated w).
+        wear: estimated wear level w [-].
+        covariance: 2x2 covariance of (T, w), inverse Fisher information at the estimate
+            (N = 1: w from the marginal Fisher information, T from the posterior).
+        temperature_at_bound: the estimate of T lies on a temperature bound.
+        wear_at_bound: the estimate of w lies on w = 0.
+        chi2: weighted residual sum of squares r^T Sigma^-1 r at the estimate.
+        dof: degrees of freedom of chi2 (N minus the parameters estimated in the interior).
+        p_value: P(chi2_dof >= chi2); NaN when dof = 0 (no redundancy to test the fit).
+        n_levels: number N of friction levels used.
+        speeds_rad_s: the motor-side speeds [rad/s] of the levels, shape (N,).
+
+    """
+
+    temperature_degc: float
+    wear: float
+    covariance: np.ndarray
+    temperature_at_bound: bool
+    wear_at_bound: bool
+    chi2: float
+    dof: int
+    p_value: float
+    n_levels: int
+    speeds_rad_s: np.ndarray
+
+    @property
+    def wear_std(self) -> float:
+        """Standard deviation of the wear estimate [-]."""
+        return float(np.sqrt(self.covariance[1, 1]))
+
+    @property
+    def temperature_std_degc(self) -> float:
+        """Standard deviation of the temperature estimate [degC]."""
+        return float(np.sqrt(self.covariance[0, 0]))
+
+
+@dataclass(frozen=True)
+class WearEstimates:
+    """A batch of B estimates at the same N speeds; ``estimates[i]`` is a :class:`WearEstimate`.
+
+    Attributes:
+        temperature_degc: shape (B,) [degC].
+        wear: shape (B,) [-].
+        covariance: shape (B, 2, 2), covariance of (T, w).
+        temperature_at_bound: shape (B,), bool.
+        wear_at_bound: shape (B,), bool.
+        chi2: shape (B,).
+        dof: shape (B,), int.
+        p_value: shape (B,), NaN where dof = 0.
+        n_levels: N.
+        speeds_rad_s: shape (N,) [rad/s].
+
+    """
+
+    temperature_degc: FloatArray
+    wear: FloatArray
+    covariance: FloatArray
+    temperature_at_bound: NDArray[np.bool_]
+    wear_at_bound: NDArray[np.bool_]
+    chi2: FloatArray
+    dof: NDArray[np.int64]
+    p_value: FloatArray
+    n_levels: int
+    speeds_rad_s: FloatArray
+
+    def __len__(self) -> int:
+        """Return the batch size B."""
+        return int(self.wear.shape[0])
+
+    def __getitem__(self, index: int) -> WearEstimate:
+        """Return estimate ``index`` (negative indices count from the end)."""
+        i = range(len(self))[index]
+        return WearEstimate(
+            temperature_degc=float(self.temperature_degc[i]), wear=float(self.wear[i]),
+            covariance=self.covariance[i].copy(),
+            temperature_at_bound=bool(self.temperature_at_bound[i]),
+            wear_at_bound=bool(self.wear_at_bound[i]), chi2=float(self.chi2[i]),
+            dof=int(self.dof[i]), p_value=float(self.p_value[i]), n_levels=self.n_levels,
+            speeds_rad_s=self.speeds_rad_s.copy())
+
+    def __iter__(self) -> Iterator[WearEstimate]:
+        """Iterate over the estimates of the batch."""
+        return (self[i] for i in range(len(self)))
+
+    @property
+    def wear_std(self) -> FloatArray:
+        """Standard deviations of the wear estimates, shape (B,)."""
+        return np.sqrt(self.covariance[:, 1, 1])
+
+    @property
+    def temperature_std_degc(self) -> FloatArray:
+        """Standard deviations of the temperature estimates [degC], shape (B,)."""
+        return np.sqrt(self.covariance[:, 0, 0])
+
+
+# --------------------------------------------------------------------------- input validation
+
+def validate_speeds(speeds_rad_s: ArrayLike) -> FloatArray:
+    """Return the speeds as a 1-D float array; raise InputError unless finite, > 0, N >= 1."""
+    try:
+        speeds = np.asarray(speeds_rad_s, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f'speeds: not numbers: {speeds_rad_s!r}') from None
+    if speeds.ndim != 1:
+        raise InputError(f'speeds: expected a 1-D list of speeds, got shape {speeds.shape}')
+    if speeds.size == 0:
+        raise InputError('speeds: no speed levels given (N = 0)')
+    if not np.all(np.isfinite(speeds)):
+        raise InputError(f'speeds: must be finite, got {speeds.tolist()}')
+    if np.any(speeds <= 0):
+        raise InputError(f'speeds: must be > 0 rad/s (motor side), got {speeds.tolist()}')
+    return speeds
+
+
+def _validate_friction(friction: ArrayLike, n_levels: int) -> FloatArray:
+    try:
+        values = np.asarray(friction, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError('friction: not numbers') from None
+    if values.ndim == 1:
+        values = values[None, :]
+    if values.ndim != 2 or values.shape[1] != n_levels:
+        raise InputError(f'friction: expected shape ({n_levels},) or (B, {n_levels}) to match '
+                         f'{n_levels} speed(s), got shape {np.shape(friction)}')
+    if not np.all(np.isfinite(values)):
+        raise InputError('friction: contains NaN or infinite values')
+    return values
+
+
+# --------------------------------------------------------------------------- public entry point
+
+def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
+                  params: ParameterSet) -> WearEstimates:
+    """Estimate (T, w) for a batch of friction vectors measured at the same speeds.
+
+    N >= 2: the ML estimate (16) (global optimum over T in the temperature bounds, w >= 0).
+    N = 1: the marginal ML estimate (17)-(19) of w, T from its posterior at the estimate.
+
+    Args:
+        speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
+        friction: friction levels (normalised), shape (N,) or (B, N).
+        params: the parameter set (model, sigma, load mean/std, temperature bounds).
+
+    Returns:
+        A :class:`WearEstimates` batch (arrays of length B); ``estimates[i]`` is a
+        :class:`WearEstimate`.
+
+    Raises:
+        InputError: non-finite or non-positive speeds, N = 0, non-finite friction or a friction
+            shape that does not match the speeds.
+
+    """
+    speeds = validate_speeds(speeds_rad_s)
+    values = _validate_friction(friction, speeds.size)
+    if speeds.size == 1:
+        return _estimate_single_level(speeds, values[:, 0], params)
+    return _estimate_multi_level(speeds, values, params)
+
+
+# --------------------------------------------------------------------------- N >= 2
+
+def _arc_length_grid(curve, lower: float, upper: float, *, spacing: float,
+                     max_step: float) -> FloatArray:
+    """Return a grid on [lower, upper] whose image under ``curve`` has steps <= ``spacing``.
+
+    ``curve(x)`` (shape (K,) -> (K, N)) is the whitened model along one parameter; the grid is
+    equidistant in the arc length of the curve, so that every model point is within about
+    spacing/2 noise standard deviations of a grid point however steep the model is.  Steps in
+    the parameter are also at most ``max_step``.
+    """
+    fine = np.linspace(lower, upper, 4001)
+    points = curve(fine)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    arc = arc + (fine - lower) * (spacing / max_step)  # the parameter step bound
+    count = min(int(np.ceil(arc[-1] / spacing)) + 1, _GRID_MAX_POINTS)
+    return np.interp(np.linspace(0.0, arc[-1], max(count, 2)), arc, fine)
+
+
+class _WhitenedProblem:
+    """The weighted least squares (16) at fixed speeds, whitened by the Cholesky factor of (14)."""
+
+    def __init__(self, speeds: FloatArray, params: ParameterSet) -> None:
+        self.speeds = speeds
+        self.params = params
+        covariance = fm.marginal_covariance(speeds, sigma=params.sigma,
+                                            load_std=params.load_std, model=params.model)
+        factor = np.linalg.cholesky(covariance)
+        # whitening matrix W with W Sigma W^T = I: rows of r @ W.T are whitened residuals
+        self.whiten = solve_triangular(factor, np.eye(speeds.size), lower=True)
+        self.t_min = params.temperature_min_degc
+        self.t_max = params.temperature_max_degc
+
+    def model_w(self, t: ArrayLike, w: ArrayLike) -> FloatArray:
+        """Return the whitened model prediction at load_mean, (..., N)."""
+        return self.apply(fm.friction(self.speeds, self.params.load_mean, t, w,
+                                      self.params.model))
+
+    def apply(self, values: FloatArray) -> FloatArray:
+        """Return whitened values (..., N).
+
+        einsum, not BLAS: many small products, which a threaded BLAS makes erratic on a busy
+        machine.
+        """
+        return np.einsum('...n,mn->...m', values, self.whiten)
+
+    def evaluate(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> tuple:
+        """Return whitened residuals (B, N), Jacobian of the model (B, N, 2) and cost (B,)."""
+        g = fm.friction_with_gradients(self.speeds[None, :], self.params.load_mean,
+                                       t[:, None], w[:, None], self.params.model)
+        residual = data_w - self.apply(g.friction)
+        jacobian = np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
+        return residual, jacobian, np.einsum('bn,bn->b', residual, residual)
+
+    def hessian(self, data_w: FloatArray, t: FloatArray, w: FloatArray, residual: FloatArray,
+                jacobian: FloatArray) -> FloatArray:
+        """Return the Hessian of cost/2, (B, 2, 2), J^T J - sum_n r_n d2f_n.
+
+        The model curvature is a central difference of the analytic gradients.  It matters: with
+        N = 2 levels and a residual left at the optimum, the optimum lies where J is nearly
+        singular and Gauss-Newton alone converges very slowly.
+        """
+        h_t, h_w = 1e-3, 1e-4 * np.maximum(1.0, np.abs(w))
+        columns = []
+        for dt, dw in ((h_t, 0.0), (0.0, h_w)):
+            plus = self._jacobian(t + dt, w + dw)
+            minus = self._jacobian(t - dt, w - dw)
+            columns.append((plus - minus) / (2.0 * (dt + dw))[..., None, None]
+                           if np.ndim(dw) else (plus - minus) / (2.0 * dt))
+        curvature = np.stack(columns, axis=-1)  # (B, N, 2, 2): d/d theta_j of column i
+        curvature = 0.5 * (curvature + np.swapaxes(curvature, -1, -2))
+        return (np.einsum('bni,bnj->bij', jacobian, jacobian)
+                - np.einsum('bn,bnij->bij', residual, curvature))
+
+    def _jacobian(self, t: FloatArray, w: FloatArray) -> FloatArray:
+        g = fm.friction_with_gradients(self.speeds[None, :], self.params.load_mean,
+                                       t[:, None], w[:, None], self.params.model)
+        return np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
+
+    def cost(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> FloatArray:
+        """Return the cost of (16), shape (B,), at the points (t, w)."""
+        f = fm.friction(self.speeds[None, :], self.params.load_mean, t[:, None], w[:, None],
+                        self.params.model)
+        residual = data_w - self.apply(f)
+        return np.einsum('bn,bn->b', residual, residual)
+
+    def grid_starts(self, data_w: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Return K starting points (T, w) for every fit, each of shape (B, K).
+
+        The cost is evaluated on the (T, w) grid, minimised over T at every grid w (the profile
+        in w), and the K = _STARTS best local minima of the profile (best grid points fill in
+        when there are fewer) are the starts of the local refinement.  Several starts guard
+        against a narrow valley of the global optimum that the grid resolves only at its rim.
+        """
+        mid_t = 0.5 * (self.t_min + self.t_max)
+
+        def along_t(t: FloatArray) -> FloatArray:
+            return self.model_w(t[:, None], 0.0)
+
+        def along_w(w: FloatArray) -> FloatArray:
+            return self.model_w(mid_t, w[:, None])
+
+        grid_t = _arc_length_grid(along_t, self.t_min, self.t_max,
+                                  spacing=_GRID_SPACING_SIGMA, max_step=_GRID_MAX_STEP_DEGC)
+        grid_w = _arc_length_grid(along_w, 0.0, self.params.wear_max,
+                                  spacing=_GRID_SPACING_SIGMA, max_step=_GRID_MAX_STEP_WEAR)
+        n_t, n_w = grid_t.size, grid_w.size
+        # w-major order, so that the minimum over T runs along contiguous memory
+        ww, tt = (a.ravel() for a in np.meshgrid(grid_w, grid_t, indexing='ij'))
+        model_w = self.model_w(tt[:, None], ww[:, None])
+        # |d - g|^2 = |d|^2 - 2 d.g + |g|^2; the first term does not change the argmin
+        norm2 = np.einsum('kn,kn->k', model_w, model_w)
+        minus_2g = -2.0 * model_w.T
+        starts = np.empty((data_w.shape[0], _STARTS), dtype=int)
+        chunk = max(1, min(_BATCH_CHUNK, _GRID_CHUNK_CELLS // norm2.size))
+        for start in range(0, data_w.shape[0], chunk):
+            score = np.einsum('bn,nk->bk', data_w[start:start + chunk], minus_2g)
+            score += norm2
+            score = score.reshape(-1, n_w, n_t)
+            best_t = np.argmin(score, axis=2)  # (b, n_w): best T at every grid w
+            profile = np.min(score, axis=2)
+            padded = np.pad(profile, ((0, 0), (1, 1)), constant_values=np.inf)
+            local = (profile <= padded[:, :-2]) & (profile <= padded[:, 2:])
+            ranked = np.where(local, profile, profile + 1e300)
+            pick = np.argpartition(ranked, _STARTS - 1, axis=1)[:, :_STARTS]
+            starts[start:start + chunk] = (
+                pick * n_t + np.take_along_axis(best_t, pick, axis=1))
+        return tt[starts], ww[starts]
+
+    def project(self, t: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Project onto the box T_min <= T <= T_max, w >= 0."""
+        return np.clip(t, self.t_min, self.t_max), np.maximum(w, 0.0)
+
+
+def _newton_step(jacobian: FloatArray, hessian: FloatArray, residual: FloatArray,
+                 fixed: NDArray[np.bool_], damping: FloatArray) -> FloatArray:
+    """Return the damped Newton step (B, 2) of the cost with the variables in ``fixed`` held.
+
+    The Hessian of cost/2 is ``hessian`` (J^T J minus the residual-weighted model curvature);
+    in variables scaled by sqrt(diag(J^T J)) it is shifted by max(damping, -lambda_min + eps)
+    times the identity (Levenberg-Marquardt on the full Hessian), so the step is a descent step.
+    """
+    b = np.einsum('bni,bn->bi', jacobian, residual)
+    gn = np.einsum('bni,bnj->bij', jacobian, jacobian)
+    scale = np.sqrt(np.maximum(np.einsum('bii->bi', gn), 1e-300))
+    hs = hessian / (scale[:, :, None] * scale[:, None, :])
+    bs = b / scale
+    free = ~fixed
+    hs = np.where(free[:, :, None] & free[:, None, :], hs, 0.0)
+    bs = np.where(free, bs, 0.0)
+    half_trace = 0.5 * (hs[:, 0, 0] + hs[:, 1, 1])
+    radius = np.sqrt(0.25 * (hs[:, 0, 0] - hs[:, 1, 1]) ** 2 + hs[:, 0, 1] ** 2)
+    # eigenvalues of the free block only (a held variable contributes a zero row/column)
+    lam_min = np.where(free[:, 0] & free[:, 1], half_trace - radius,
+                       np.where(free[:, 0], hs[:, 0, 0], hs[:, 1, 1]))
+    shift = np.maximum(damping, -lam_min + 1e-9 + 1e-3 * np.maximum(-lam_min, 0.0))
+    m = hs + shift[:, None, None] * np.eye(2)
+    det = m[:, 0, 0] * m[:, 1, 1] - m[:, 0, 1] ** 2
+    step_s = np.stack([m[:, 1, 1] * bs[:, 0] - m[:, 0, 1] * bs[:, 1],
+                       m[:, 0, 0] * bs[:, 1] - m[:, 0, 1] * bs[:, 0]], axis=1) / det[:, None]
+    step = np.where(free, step_s, 0.0) / scale
+    return np.nan_to_num(step, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: FloatArray
+            ) -> tuple[FloatArray, FloatArray]:
+    """Batched projected Levenberg-Marquardt with active bounds and a backtracking line search."""
+    t, w = t.astype(float).copy(), w.astype(float).copy()
+    damping = np.full(t.shape, 1e-9)
+    active = np.ones(t.shape, dtype=bool)
+    span_t = problem.t_max - problem.t_min
+    for _ in range(_GAUSS_NEWTON_ITERATIONS):
+        idx = np.flatnonzero(active)
+
+        if idx.size == 0:
+            break
+        d, ti, wi, lam = data_w[idx], t[idx], w[idx], damping[idx]
+        residual, jacobian, cost = problem.evaluate(d, ti, wi)
+        hessian = problem.hessian(d, ti, wi, residual, jacobian)
+        descent = np.einsum('bni,bn->bi', jacobian, residual)  # = -grad(cost)/2
+        at_low_t = ti <= problem.t_min + 1e-12 * span_t
+        at_high_t = ti >= problem.t_max - 1e-12 * span_t
+        at_zero_w = wi <= 0.0
+        fixed = np.stack([(at_low_t & (descent[:, 0] <= 0)) | (at_high_t & (descent[:, 0] >= 0)),
+                          at_zero_w & (descent[:, 1] <= 0)], axis=1)
+        step = _newton_step(jacobian, hessian, residual, fixed, lam)
+        # a free variable on its bound that the step pushes out: hold it, 1-D step in the other
+        out = np.stack([(at_low_t & (step[:, 0] < 0)) | (at_high_t & (step[:, 0] > 0)),
+                        at_zero_w & (step[:, 1] < 0)], axis=1)
+        redo = np.any(out & ~fixed, axis=1)
+        if np.any(redo):
+            fixed = fixed | out
+            step[redo] = _newton_step(jacobian[redo], hessian[redo], residual[redo],
+                                      fixed[redo], lam[redo])
+        # backtracking line search along the projected path
+        alpha = np.ones(idx.size)
+        accepted = np.zeros(idx.size, dtype=bool)
+        new_t, new_w, new_cost = ti.copy(), wi.copy(), cost.copy()
+        pending = np.flatnonzero(np.any(step != 0, axis=1))
+        for _ in range(_LINE_SEARCH_HALVINGS):
+            if pending.size == 0:
+                break
+            cand_t, cand_w = problem.project(ti[pending] + alpha[pending] * step[pending, 0],
+                                             wi[pending] + alpha[pending] * step[pending, 1])
+            cand_cost = problem.cost(d[pending], cand_t, cand_w)
+            ok = cand_cost < cost[pending]
+            good = pending[ok]
+            new_t[good], new_w[good], new_cost[good] = cand_t[ok], cand_w[ok], cand_cost[ok]
+            accepted[good] = True
+            pending = pending[~ok]
+            alpha[pending] *= 0.25
+        small = ((np.abs(new_t - ti) <= 1e-10 * (1.0 + np.abs(ti)))
+                 & (np.abs(new_w - wi) <= 1e-10 * (1.0 + np.abs(wi))))
+        flat = cost - new_cost <= 1e-13 * (1.0 + cost)
+        t[idx], w[idx] = new_t, new_w
+        damping[idx] = np.where(accepted & (alpha == 1.0), np.maximum(lam / 10.0, 1e-9),
+                                np.where(accepted, lam, lam * 100.0))
+        gave_up = ~accepted & (lam * 100.0 > 1e8)
+        converged = gave_up | (accepted & (small | flat)) | ~np.any(step != 0, axis=1)
+        active[idx[converged]] = False
+    return t, w
+
+
+def _global_refine(problem: _WhitenedProblem, data_w: FloatArray) -> tuple:
+    """Refine from the K best grid minima of every fit and keep the best end point."""
+    t0, w0 = problem.grid_starts(data_w)
+    count, k = t0.shape
+    repeated = np.repeat(data_w, k, axis=0)
+    t, w = _refine(problem, repeated, t0.ravel(), w0.ravel())
+    cost = problem.cost(repeated, t, w).reshape(count, k)
+    pick = np.argmin(cost, axis=1)
+    rows = np.arange(count)
+    return t.reshape(count, k)[rows, pick], w.reshape(count, k)[rows, pick]
+
+
+def _inverse_2x2(matrix: FloatArray) -> FloatArray:
+    """Inverse of a batch of symmetric 2x2 matrices; pseudo-inverse where singular."""
+    det = matrix[:, 0, 0] * matrix[:, 1, 1] - matrix[:, 0, 1] * matrix[:, 1, 0]
+    scale = np.abs(matrix[:, 0, 0] * matrix[:, 1, 1]) + matrix[:, 0, 1] ** 2
+    regular = np.abs(det) > 1e-10 * np.maximum(scale, 1e-300)
+    result = np.empty_like(matrix)
+    if np.any(regular):
+        m, dr = matrix[regular], det[regular]
+        adjugate = np.stack([np.stack([m[:, 1, 1], -m[:, 0, 1]], -1),
+                             np.stack([-m[:, 1, 0], m[:, 0, 0]], -1)], 1)
+        result[regular] = adjugate / dr[:, None, None]
+    if np.any(~regular):
+        result[~regular] = np.linalg.pinv(matrix[~regular], hermitian=True)
+    return result
+
+
+def _p_value(chi2: FloatArray, dof: NDArray[np.int64]) -> FloatArray:
+    with np.errstate(invalid='ignore'):
+        return np.where(dof > 0, stats.chi2.sf(chi2, np.maximum(dof, 1)), np.nan)
+
+
+def _estimate_multi_level(speeds: FloatArray, values: FloatArray,
+                          params: ParameterSet) -> WearEstimates:
+    problem = _WhitenedProblem(speeds, params)
+    data_w = problem.apply(values)
+    t, w = _global_refine(problem, data_w)
+    residual, jacobian, chi2 = problem.evaluate(data_w, t, w)
+    covariance = _inverse_2x2(np.einsum('bni,bnj->bij', jacobian, jacobian))
+    t_at_bound = (t <= problem.t_min) | (t >= problem.t_max)
+    w_at_bound = w <= 0.0
+    dof = (speeds.size - (~t_at_bound).astype(np.int64) - (~w_at_bound).astype(np.int64))
+    return WearEstimates(temperature_degc=t, wear=w, covariance=covariance,
+                         temperature_at_bound=t_at_bound, wear_at_bound=w_at_bound, chi2=chi2,
+                         dof=dof, p_value=_p_value(chi2, dof), n_levels=speeds.size,
+                         speeds_rad_s=speeds.copy())
+
+
+# --------------------------------------------------------------------------- N = 1
+
+def _composite_gauss_legendre(lower: ArrayLike, upper: ArrayLike, panels: int, nodes: int
+                              ) -> tuple[FloatArray, FloatArray]:
+    """Return nodes and weights (..., panels*nodes) of a composite Gauss-Legendre rule."""
+    x, wts = special.roots_legendre(nodes)
+    lo = np.asarray(lower, dtype=float)[..., None]
+    hi = np.asarray(upper, dtype=float)[..., None]
+    edges = np.linspace(0.0, 1.0, panels + 1)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    unit = (centres[:, None] + 0.5 * x[None, :] / panels).ravel()
+    unit_w = np.tile(wts, panels) * 0.5 / panels
+    return lo + (hi - lo) * unit, (hi - lo) * unit_w
+
+
+@dataclass(frozen=True)
+class MarginalModel:
+    """The marginal density g(z) of z = y - tilde tau_f(v, w) at one or more speeds, eq. (17).
+
+    g(z) = 1/(T_max - T_min) int_T N(z; tau_f0(v, mu_tl, T), s^2) dT, with the load marginalised
+    (s^2 = sigma^2 + sigma_tl^2 m(v)^2).  Arrays have a leading speed shape S (from the speeds).
+
+    Attributes:
+        speeds_rad_s: shape S [rad/s].
+        nodes_degc: quadrature nodes in T, shape S + (K,).
+        log_weights: log of the normalised quadrature weights (sum to 1), shape S + (K,).
+        nominal: tau_f0 at the nodes, shape S + (K,).
+        std: s, shape S.
+
+    """
+
+    speeds_rad_s: FloatArray
+    nodes_degc: FloatArray
+    log_weights: FloatArray
+    nominal: FloatArray
+    std: FloatArray
+
+    @classmethod
+    def build(cls, *, speeds_rad_s: ArrayLike, params: ParameterSet,
+              panels: int = _T_PANELS, nodes: int = _T_NODES) -> 'MarginalModel':
+        """Tabulate the quadrature of g at the given speeds (any shape S) [rad/s]."""
+        speeds = np.asarray(speeds_rad_s, dtype=float)
+        t, wt = _composite_gauss_legendre(params.temperature_min_degc,
+                                          params.temperature_max_degc, panels, nodes)
+        span = params.temperature_max_degc - params.temperature_min_degc
+        nominal = fm.nominal_friction(speeds[..., None], params.load_mean, t, params.model)
+        m = fm.load_sensitivity(speeds, params.model)
+        std = np.sqrt(params.sigma ** 2 + params.load_std ** 2 * m ** 2)
+        log_w = np.broadcast_to(np.log(wt / span), nominal.shape)
+        return cls(speeds_rad_s=speeds, nodes_degc=np.broadcast_to(t, nominal.shape),
+                   log_weights=np.array(log_w), nominal=nominal, std=np.asarray(std))
+
+    def _log_terms(self, z: FloatArray) -> FloatArray:
+        s = self.std[..., None]
+        u = (z[..., None] - self.nominal) / s
+        return self.log_weights - 0.5 * u * u - np.log(np.sqrt(2.0 * np.pi) * s)
+
+    def log_density(self, z: ArrayLike) -> FloatArray:
+        """Return log g(z); z broadcasts against the speed shape S."""
+        return special.logsumexp(self._log_terms(np.asarray(z, dtype=float)), axis=-1)
+
+    def score_and_log_density(self, z: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Return g'(z)/g(z) and log g(z) (stable in the tails)."""
+        z = np.asarray(z, dtype=float)
+        terms = self._log_terms(z)
+        log_g = special.logsumexp(terms, axis=-1)
+        post = np.exp(terms - log_g[..., None])
+        mean_nominal = np.sum(post * self.nominal, axis=-1)
+        return -(z - mean_nominal) / self.std ** 2, log_g
+
+    def posterior_temperature(self, z: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Return the posterior mean [degC] and variance [degC^2] of T given z."""
+        z = np.asarray(z, dtype=float)
+        terms = self._log_terms(z)
+        post = np.exp(terms - special.logsumexp(terms, axis=-1)[..., None])
+        mean = np.sum(post * self.nodes_degc, axis=-1)
+        var = np.sum(post * (self.nodes_degc - mean[..., None]) ** 2, axis=-1)
+        return mean, var
+
+    def location_information(self) -> FloatArray:
+        """Return J = int g'(z)^2 / g(z) dz (shape S), the Fisher information of a z shift."""
+        lo = self.nominal.min(axis=-1) - _Z_TAIL_SIGMAS * self.std
+        hi = self.nominal.max(axis=-1) + _Z_TAIL_SIGMAS * self.std
+        z, wz = _composite_gauss_legendre(lo, hi, _Z_PANELS, _Z_NODES)  # S + (Kz,)
+        terms = self._log_terms_grid(z)
+        log_g = special.logsumexp(terms, axis=-1)
+        post = np.exp(terms - log_g[..., None])
+        mean_nominal = np.sum(post * self.nominal[..., None, :], axis=-1)
+        score = -(z - mean_nominal) / self.std[..., None] ** 2
+        return np.sum(wz * np.exp(log_g) * score ** 2, axis=-1)
+
+    def _log_terms_grid(self, z: FloatArray) -> FloatArray:
+        s = self.std[..., None, None]
+        u = (z[..., :, None] - self.nominal[..., None, :]) / s
+        return self.log_weights[..., None, :] - 0.5 * u * u - np.log(np.sqrt(2.0 * np.pi) * s)
+
+
+def marginal_fisher_information(*, speeds_rad_s: ArrayLike, wear: ArrayLike,
+                                params: ParameterSet) -> FloatArray:
+    """Return the exact Fisher information of w from one friction level, eqs. (17) and (25).
+
+    F(v, w) = (d tilde tau_f(v, w) / dw)^2 * J(v), J(v) = int g'(z)^2 / g(z) dz; T is
+    integrated out under its uniform prior (no dependence on a true T).
+
+    Args:
+        speeds_rad_s: speed [rad/s], any shape S, > 0.
+        wear: wear level(s) w, broadcast against S.
+        params: the parameter set.
+
+    Returns:
+        F, the broadcast shape of speeds and wear [1/w^2].
+
+    """
+    speeds = np.asarray(speeds_rad_s, dtype=float)
+    marginal = MarginalModel.build(speeds_rad_s=speeds, params=params)
+    info = marginal.location_information()
+    d_wear = fm.friction_with_gradients(speeds, params.load_mean, params.design_temperature_degc,
+                                        wear, params.model).d_wear
+    return d_wear ** 2 * info
+
+
+def _golden_maximise(objective, lower: FloatArray, upper: FloatArray) -> FloatArray:
+    """Batched golden-section search of the maximiser of objective(x) (B,) on [lower, upper]."""
+    ratio = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = lower.copy(), upper.copy()
+    c = b - ratio * (b - a)
+    d = a + ratio * (b - a)
+    fc, fd = objective(c), objective(d)
+    for _ in range(_GOLDEN_ITERATIONS):
+        left = fc >= fd  # the maximiser is in [a, d]
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+        new_c = np.where(left, b - ratio * (b - a), d)
+        new_d = np.where(left, c, a + ratio * (b - a))
+        x_new = np.where(left, new_c, new_d)
+        f_new = objective(x_new)
+        fc, fd = np.where(left, f_new, fd), np.where(left, fc, f_new)
+        c, d = new_c, new_d
+    return 0.5 * (a + b)
+
+
+def _estimate_single_level(speeds: FloatArray, values: FloatArray,
+                           params: ParameterSet) -> WearEstimates:
+    speed = float(speeds[0])
+    marginal = MarginalModel.build(speeds_rad_s=speed, params=params)
+    s = float(marginal.std)
+    model = params.model
+
+    # coarse search in w on a table of log g (exact quadrature at table points, linear
+    # interpolation between them, a Gaussian tail beyond them)
+    grid_w = _arc_length_grid(lambda w: fm.wear_friction(speed, w, model)[:, None] / s, 0.0,
+                              params.wear_max, spacing=_GRID_SPACING_SIGMA,
+                              max_step=_GRID_MAX_STEP_WEAR)
+    f_lo, f_hi = float(marginal.nominal.min()), float(marginal.nominal.max())
+    z_lo, z_hi = f_lo - 30.0 * s, f_hi + 30.0 * s
+    table_z = np.arange(z_lo, z_hi + s / 8.0, s / 8.0)
+    table = marginal.log_density(table_z)
+
+    def surrogate(z: FloatArray) -> FloatArray:
+        zc = np.clip(z, z_lo, table_z[-1])
+        return np.interp(zc, table_z, table) - 0.5 * ((z - zc) / s) ** 2
+
+    best_w = np.empty(values.shape[0])
+    lower = np.empty(values.shape[0])
+    upper = np.empty(values.shape[0])
+    pending = np.arange(values.shape[0])
+    grid = grid_w
+    while pending.size:
+        wear_part = fm.wear_friction(speed, grid, model)
+        scores = surrogate(values[pending, None] - wear_part[None, :])
+        j = np.argmax(scores, axis=1)
+        best_w[pending] = grid[j]
+        lower[pending] = grid[np.maximum(j - 1, 0)]
+        upper[pending] = grid[np.minimum(j + 1, grid.size - 1)]
+        at_end = j == grid.size - 1
+        if not np.any(at_end) or grid[-1] > 1e6:
+            break
+        pending = pending[at_end]
+        grid = np.linspace(grid[-1], 4.0 * grid[-1], grid.size)
+
+    def objective(w: FloatArray) -> FloatArray:
+        return marginal.log_density(values - fm.wear_friction(speed, w, model))
+
+    w_hat = _golden_maximise(objective, lower, upper)
+    # w = 0 exactly when the left end of the bracket at 0 is at least as good
+    at_zero = (lower == 0.0) & (objective(np.zeros_like(w_hat)) >= objective(w_hat))
+    w_hat = np.where(at_zero, 0.0, w_hat)
+
+    z_hat = values - fm.wear_friction(speed, w_hat, model)
+    t_mean, t_var = marginal.posterior_temperature(z_hat)
+    info = float(marginal.location_information())
+    d_wear = fm.friction_with_gradients(speed, params.load_mean, t_mean, w_hat, model).d_wear
+    fisher = d_wear ** 2 * info
+    with np.errstate(divide='ignore'):
+        var_w = np.where(fisher > 0, 1.0 / fisher, np.inf)
+    covariance = np.zeros((values.shape[0], 2, 2))
+    covariance[:, 0, 0] = t_var
+    covariance[:, 1, 1] = var_w
+    residual = values - fm.friction(speed, params.load_mean, t_mean, w_hat, model)
+    chi2 = (residual / s) ** 2
+    dof = np.where(at_zero, 1, 0).astype(np.int64)
+    return WearEstimates(temperature_degc=t_mean, wear=w_hat, covariance=covariance,
+                         temperature_at_bound=np.zeros(values.shape[0], dtype=bool),
+                         wear_at_bound=at_zero, chi2=chi2, dof=dof, p_value=_p_value(chi2, dof),
+                         n_levels=1, speeds_rad_s=speeds.copy())

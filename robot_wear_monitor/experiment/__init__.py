@@ -1,0 +1,1 @@
+"""The friction experiment: segmentation (3), friction-level types, simulation."""

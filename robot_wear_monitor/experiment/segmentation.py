@@ -1,0 +1,633 @@
+"""Segmentation of one joint's stream into constant-speed friction levels, eq. (3) of the paper.
+
+The friction experiment moves one joint back and forth around a position phi_bar at a constant
+speed.  For every forward/backward pair of constant-speed passes at the same speed level, over the
+same position window, gravity is the same in both directions and cancels in
+
+    tau_f = (tau+ - tau-) / 2                                                   (3)
+
+where tau+ and tau- are the mean torques of the forward (positive velocity) and the backward pass.
+
+Pipeline, shared by the streaming and the batch path so that both give identical levels:
+
+1. **Samples.**  A sample is (time [s], joint position [rad], joint velocity [rad/s], effort).  A
+   sample with a NaN/inf field is rejected (``non_finite``); one whose time does not increase
+   past the last accepted sample is rejected (``time_not_increasing``); a time step longer than
+   ``max_gap_s`` is counted (``time_gap``) and splits the stream.  From ``JointState`` messages,
+   a message without the joint (``joint_missing``), with an empty effort/position/velocity array
+   (``missing_effort``/``missing_position``/``missing_velocity``) or with an array whose length
+   differs from ``name`` (``length_mismatch``) is rejected as a whole.
+2. **Moves.**  Motor speed = ``gear_ratio`` x joint velocity; normalised torque = effort /
+   ``torque_scale``.  A move is a maximal run of accepted samples with the same direction and
+   motor speed above ``standstill_speed_rad_s``; a rejected sample or a gap cuts it.
+3. **Passes.**  In each move the constant-speed plateau is found: the speed level is the
+   densest speed of the move (the speed with the most samples within the tolerance band of it,
+   refined by a median), the plateau is the longest run of samples within
+   ``speed_tolerance_fraction`` x level (at least ``speed_tolerance_rad_s``) of it, so the
+   acceleration and deceleration phases are dropped; ``trim_s`` more is dropped at each end
+   (the last and first samples of the ramps that fall inside the band).  A plateau shorter
+   than ``min_duration_s`` is dropped (``pass_too_short``).
+   If ``window_center_rad`` and ``window_half_width_rad`` are set, only the samples in that
+   position window are kept.
+4. **Pairs.**  A pass is paired with the next pass if that goes the other way at the same speed
+   level; both are cut to the position window they have in common, which must be at least
+   ``min_window_rad`` wide and hold at least ``min_samples`` samples per pass.  Otherwise the
+   older pass is counted as ``pass_unpaired`` (or ``pass_no_common_window``).  Each pair gives
+   one :class:`~robot_wear_monitor.experiment.levels.FrictionLevel`.  tau+ and tau- are the
+   mean torques of the passes in the window, each corrected to the window centre along a
+   straight line
+   fitted in position (so a gravity slope cancels exactly even when the samples of the two
+   passes do not fall at the same positions); the standard error comes from the scatter about
+   those lines: ``0.5 sqrt(s+^2/n+ + s-^2/n-)``.
+
+Rejection counters count samples or messages for the sample reasons and passes for the
+``pass_*`` reasons; ``time_gap`` counts gaps.
+
+The streaming path buffers only the samples of the current move (constant work per message; the
+move is analysed with numpy when it ends, so each sample is touched a bounded number of times)
+and holds at most one unpaired pass.  The batch path finds the moves of a whole recording with
+numpy and runs the same per-move analysis and the same pairing.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+import math
+from typing import Any, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
+
+FloatArray = NDArray[np.float64]
+
+#: Sample and message rejection reasons, in the order they are checked.
+SAMPLE_REASONS = ('joint_missing', 'missing_position', 'missing_velocity', 'missing_effort',
+                  'length_mismatch', 'non_finite', 'time_not_increasing', 'time_gap')
+#: Pass rejection reasons.
+PASS_REASONS = ('pass_too_short', 'pass_unpaired', 'pass_no_common_window')
+
+
+@dataclass(frozen=True)
+class SegmenterConfig:
+    """Settings of the segmentation of one joint; units are in the field names.
+
+    Attributes:
+        joint: name of the joint in the ``JointState`` messages.
+        gear_ratio: motor speed = gear_ratio x joint speed (1 for link-side sensors).
+        torque_scale: normalised torque = effort / torque_scale (same unit as effort).
+        standstill_speed_rad_s: motor-side speed at or below which the joint counts as
+            standing still [rad/s].
+        speed_tolerance_fraction: a sample is at constant speed if its speed is within this
+            fraction of the pass's speed level [-].
+        speed_tolerance_rad_s: lower bound of that tolerance band, motor side [rad/s].
+        min_duration_s: shortest constant-speed plateau kept as a pass [s].
+        trim_s: time dropped at each end of each plateau (ends of the ramps) [s].
+        min_samples: fewest samples per pass inside the common position window.
+        min_window_rad: narrowest common position window of a pair, joint side [rad].
+        window_center_rad: phi_bar, the centre of a fixed position window, joint side [rad];
+            None uses the whole common window of each pair.
+        window_half_width_rad: half width of that fixed window [rad] (set with the centre).
+        max_gap_s: a time step longer than this splits the stream [s].
+
+    """
+
+    joint: str
+    gear_ratio: float = 1.0
+    torque_scale: float = 1.0
+    standstill_speed_rad_s: float = 0.05
+    speed_tolerance_fraction: float = 0.05
+    speed_tolerance_rad_s: float = 0.0
+    min_duration_s: float = 0.2
+    trim_s: float = 0.02
+    min_samples: int = 10
+    min_window_rad: float = 0.0
+    window_center_rad: float | None = None
+    window_half_width_rad: float | None = None
+    max_gap_s: float = 0.1
+
+    def __post_init__(self) -> None:
+        """Validate every field; raise InputError naming the first bad one."""
+        if not isinstance(self.joint, str) or not self.joint:
+            raise InputError(f'SegmenterConfig.joint: expected a non-empty string, '
+                             f'got {self.joint!r}')
+        positive = ('gear_ratio', 'torque_scale', 'max_gap_s')
+        non_negative = ('standstill_speed_rad_s', 'speed_tolerance_fraction',
+                        'speed_tolerance_rad_s', 'min_duration_s', 'trim_s', 'min_window_rad')
+        for name in positive + non_negative:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise InputError(f'SegmenterConfig.{name}: expected a finite number, '
+                                 f'got {value!r}')
+            if name in positive and value <= 0:
+                raise InputError(f'SegmenterConfig.{name}: must be > 0, got {value}')
+            if value < 0:
+                raise InputError(f'SegmenterConfig.{name}: must be >= 0, got {value}')
+        if self.speed_tolerance_fraction >= 1:
+            raise InputError('SegmenterConfig.speed_tolerance_fraction: must be < 1, '
+                             f'got {self.speed_tolerance_fraction}')
+        if isinstance(self.min_samples, bool) or not isinstance(self.min_samples, int) \
+                or self.min_samples < 3:
+            raise InputError(f'SegmenterConfig.min_samples: expected an integer >= 3, '
+                             f'got {self.min_samples!r}')
+        center, half = self.window_center_rad, self.window_half_width_rad
+        if (center is None) != (half is None):
+            raise InputError('SegmenterConfig.window_half_width_rad: window_center_rad and '
+                             'window_half_width_rad must be given together')
+        if center is not None:
+            for name, value in (('window_center_rad', center), ('window_half_width_rad', half)):
+                if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                        or not math.isfinite(value):
+                    raise InputError(f'SegmenterConfig.{name}: expected a finite number, '
+                                     f'got {value!r}')
+            if half <= 0:
+                raise InputError(f'SegmenterConfig.window_half_width_rad: must be > 0, '
+                                 f'got {half}')
+
+
+@dataclass
+class SegmentationResult:
+    """Friction levels of a recording and the rejection counters (reason -> count)."""
+
+    levels: list[FrictionLevel]
+    rejections: Counter = field(default_factory=Counter)
+
+
+# --------------------------------------------------------------------------- message handling
+
+def pick_joint(*, name: Sequence[str], position: Sequence[float], velocity: Sequence[float],
+               effort: Sequence[float], joint: str) -> tuple[float, float, float] | str:
+    """Return (position, velocity, effort) of ``joint`` from one JointState, or a reason.
+
+    The reason (a key of :data:`SAMPLE_REASONS`) says why the message cannot be used: the joint
+    is absent, an array is empty, or an array's length differs from ``name``.  Values are not
+    checked for finiteness here (the segmenter does that).
+    """
+    names = list(name)
+    try:
+        index = names.index(joint)
+    except ValueError:
+        return 'joint_missing'
+    n = len(names)
+    for reason, values in (('missing_position', position), ('missing_velocity', velocity),
+                           ('missing_effort', effort)):
+        if len(values) == 0:
+            return reason
+    if len(position) != n or len(velocity) != n or len(effort) != n:
+        return 'length_mismatch'
+    return float(position[index]), float(velocity[index]), float(effort[index])
+
+
+# --------------------------------------------------------------------------- passes and pairs
+
+@dataclass(frozen=True)
+class _Pass:
+    """Constant-speed samples of one move: time [s], position [rad], motor speed, torque."""
+
+    direction: int
+    time_s: FloatArray
+    position_rad: FloatArray
+    speed_rad_s: FloatArray
+    torque: FloatArray
+    level_rad_s: float
+
+
+def _tolerance(level: float, config: SegmenterConfig) -> float:
+    return max(config.speed_tolerance_fraction * level, config.speed_tolerance_rad_s)
+
+
+def _longest_run(mask: NDArray[np.bool_]) -> tuple[int, int]:
+    """Return [start, stop) of the longest run of True in ``mask`` (0, 0 if none)."""
+    if not mask.any():
+        return 0, 0
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    starts, stops = edges[0::2], edges[1::2]
+    best = int(np.argmax(stops - starts))
+    return int(starts[best]), int(stops[best])
+
+
+def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: FloatArray,
+                  torque: FloatArray, direction: int, config: SegmenterConfig,
+                  rejections: Counter) -> _Pass | None:
+    """Find the constant-speed plateau of one move; None (counted) when it is unusable.
+
+    ``speed_rad_s`` is the signed motor speed; moves shorter than ``min_duration_s`` in total
+    are standstill jitter and are ignored without being counted.
+    """
+    if time_s.size < 3 or time_s[-1] - time_s[0] < config.min_duration_s:
+        return None
+    speed = np.abs(speed_rad_s)
+    # The speed level is where the speeds are densest: the value with the most samples within
+    # its tolerance band (the plateau of a trapezoid, not an overshoot or a ramp).
+    ordered = np.sort(speed)
+    band = np.maximum(config.speed_tolerance_fraction * ordered, config.speed_tolerance_rad_s)
+    counts = (np.searchsorted(ordered, ordered + band, side='right')
+              - np.searchsorted(ordered, ordered - band, side='left'))
+    level = float(ordered[int(np.argmax(counts))])
+    for _ in range(2):
+        inside = np.abs(speed - level) <= _tolerance(level, config)
+        if not inside.any():
+            rejections['pass_too_short'] += 1
+            return None
+        level = float(np.median(speed[inside]))
+    start, stop = _longest_run(np.abs(speed - level) <= _tolerance(level, config))
+    if config.trim_s > 0 and stop > start:
+        run = time_s[start:stop]
+        stop = start + int(np.searchsorted(run, run[-1] - config.trim_s, side='right'))
+        start += int(np.searchsorted(run, run[0] + config.trim_s, side='left'))
+    keep = slice(start, stop)
+    if stop - start < 3 or time_s[stop - 1] - time_s[start] < config.min_duration_s:
+        rejections['pass_too_short'] += 1
+        return None
+    t, q, v, e = time_s[keep], position_rad[keep], speed_rad_s[keep], torque[keep]
+    if config.window_center_rad is not None:
+        in_window = np.abs(q - config.window_center_rad) <= config.window_half_width_rad
+        if np.count_nonzero(in_window) < config.min_samples:
+            rejections['pass_no_common_window'] += 1
+            return None
+        t, q, v, e = t[in_window], q[in_window], v[in_window], e[in_window]
+    return _Pass(direction=direction, time_s=t, position_rad=q, speed_rad_s=v, torque=e,
+                 level_rad_s=level)
+
+
+def _torque_at(position: FloatArray, torque: FloatArray, centre: float) -> tuple[float, float]:
+    """Return the torque of a pass at ``centre`` and the residual variance, by a line fit.
+
+    The line tau = a + b (q - mean q) is fitted in position; its value at the window centre is
+    the mean torque corrected for the pass's samples not being centred in the window (so a
+    gravity slope cancels exactly between the two directions).
+    """
+    mean_q = float(np.mean(position))
+    mean = float(np.mean(torque))
+    x = position - mean_q
+    y = torque - mean
+    sxx = float(np.dot(x, x))
+    slope = float(np.dot(x, y)) / sxx if sxx > 0 else 0.0
+    residual = y - slope * x
+    dof = max(torque.size - 2, 1)
+    return mean + slope * (centre - mean_q), float(np.dot(residual, residual)) / dof
+
+
+class _Pairer:
+    """Pair consecutive opposite passes at the same speed level into friction levels."""
+
+    def __init__(self, config: SegmenterConfig, rejections: Counter) -> None:
+        self._config = config
+        self._rejections = rejections
+        self._pending: _Pass | None = None
+
+    def add(self, new: _Pass) -> list[FrictionLevel]:
+        old, self._pending = self._pending, new
+        if old is None:
+            return []
+        if old.direction == new.direction or abs(old.level_rad_s - new.level_rad_s) > \
+                2.0 * _tolerance(max(old.level_rad_s, new.level_rad_s), self._config):
+            self._rejections['pass_unpaired'] += 1
+            return []
+        level = self._pair(old, new)
+        if level is None:
+            self._rejections['pass_no_common_window'] += 1
+            return []
+        self._pending = None
+        return [level]
+
+    def finish(self) -> None:
+        if self._pending is not None:
+            self._rejections['pass_unpaired'] += 1
+            self._pending = None
+
+    def _pair(self, first: _Pass, second: _Pass) -> FrictionLevel | None:
+        forward, backward = (first, second) if first.direction > 0 else (second, first)
+        low = max(forward.position_rad.min(), backward.position_rad.min())
+        high = min(forward.position_rad.max(), backward.position_rad.max())
+        if high <= low or high - low < self._config.min_window_rad:
+            return None
+        parts = []
+        for p in (forward, backward):
+            inside = (p.position_rad >= low) & (p.position_rad <= high)
+            if np.count_nonzero(inside) < self._config.min_samples:
+                return None
+            parts.append((p.time_s[inside], p.position_rad[inside], p.speed_rad_s[inside],
+                          p.torque[inside]))
+        (tf, qf, vf, ef), (tb, qb, vb, eb) = parts
+        centre = 0.5 * (low + high)
+        mean_f, var_f = _torque_at(qf, ef, centre)
+        mean_b, var_b = _torque_at(qb, eb, centre)
+        speed = 0.5 * (float(np.mean(np.abs(vf))) + float(np.mean(np.abs(vb))))
+        return FrictionLevel(
+            speed_rad_s=speed, friction=0.5 * (mean_f - mean_b),
+            friction_std_error=0.5 * math.sqrt(var_f / ef.size + var_b / eb.size),
+            tau_forward=mean_f, tau_backward=mean_b, n_forward=int(ef.size),
+            n_backward=int(eb.size), position_min_rad=float(low), position_max_rad=float(high),
+            start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1])))
+
+
+# --------------------------------------------------------------------------- streaming
+
+class StreamingSegmenter:
+    """Segment one joint's samples as they arrive (the live node); see the module docstring.
+
+    Attributes:
+        config: the settings.
+        rejections: counter reason -> count of rejected messages, samples and passes.
+
+    """
+
+    def __init__(self, config: SegmenterConfig) -> None:
+        """Start with no samples; ``config`` selects the joint and the conversions."""
+        if not isinstance(config, SegmenterConfig):
+            raise InputError(f'StreamingSegmenter: expected a SegmenterConfig, '
+                             f'got {type(config).__name__}')
+        self.config = config
+        self.rejections: Counter = Counter()
+        self._pairer = _Pairer(config, self.rejections)
+        self._last_time = -math.inf
+        self._sign = 0
+        self._buffer: tuple[list, list, list, list] = ([], [], [], [])
+
+    def add_joint_state(self, *, stamp_s: float, name: Sequence[str], position: Any,
+                        velocity: Any, effort: Any) -> list[FrictionLevel]:
+        """Add one ``sensor_msgs/JointState`` message; return the levels it completes.
+
+        Args:
+            stamp_s: header stamp [s].
+            name: joint names of the message (any order, any number of joints).
+            position: joint positions [rad], same length as ``name``.
+            velocity: joint velocities [rad/s], same length as ``name``.
+            effort: efforts (unit of ``torque_scale``), same length as ``name``.
+
+        """
+        picked = pick_joint(name=name, position=position, velocity=velocity, effort=effort,
+                            joint=self.config.joint)
+        if isinstance(picked, str):
+            self.rejections[picked] += 1
+            return []
+        return self.add_sample(time_s=stamp_s, position_rad=picked[0],
+                               velocity_rad_s=picked[1], effort=picked[2])
+
+    def add_sample(self, *, time_s: float, position_rad: float, velocity_rad_s: float,
+                   effort: float) -> list[FrictionLevel]:
+        """Add one sample of the joint (joint-side units); return the levels it completes."""
+        t, q, v, e = float(time_s), float(position_rad), float(velocity_rad_s), float(effort)
+        config = self.config
+        if not (math.isfinite(t) and math.isfinite(q) and math.isfinite(v)
+                and math.isfinite(e)):
+            self.rejections['non_finite'] += 1
+            return self._close_move()
+        if t <= self._last_time:
+            self.rejections['time_not_increasing'] += 1
+            return self._close_move()
+        levels: list[FrictionLevel] = []
+        if t - self._last_time > config.max_gap_s and self._last_time > -math.inf:
+            self.rejections['time_gap'] += 1
+            levels = self._close_move()
+        self._last_time = t
+        speed = config.gear_ratio * v
+        sign = 1 if speed > config.standstill_speed_rad_s else (
+            -1 if speed < -config.standstill_speed_rad_s else 0)
+        if sign != self._sign:
+            levels += self._close_move()
+            self._sign = sign
+        if sign != 0:
+            times, positions, speeds, torques = self._buffer
+            times.append(t)
+            positions.append(q)
+            speeds.append(speed)
+            torques.append(e / config.torque_scale)
+        return levels
+
+    def finish(self) -> list[FrictionLevel]:
+        """End of the stream: analyse the move in progress; return the levels it completes."""
+        levels = self._close_move()
+        self._pairer.finish()
+        return levels
+
+    def _close_move(self) -> list[FrictionLevel]:
+        times, positions, speeds, torques = self._buffer
+        sign, self._sign = self._sign, 0
+        if not times:
+            return []
+        arrays = [np.array(values, dtype=np.float64) for values in self._buffer]
+        self._buffer = ([], [], [], [])
+        found = _analyse_move(*arrays, sign, self.config, self.rejections)
+        return self._pairer.add(found) if found is not None else []
+
+
+# --------------------------------------------------------------------------- batch
+
+def _as_1d(values: ArrayLike, label: str) -> FloatArray:
+    array = np.asarray(values, dtype=np.float64)
+    if array.ndim != 1:
+        raise InputError(f'segment_batch: {label} must be one-dimensional, '
+                         f'got shape {array.shape}')
+    return array
+
+
+def segment_batch(*, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
+                  effort: ArrayLike, config: SegmenterConfig) -> SegmentationResult:
+    """Segment a whole recording of one joint at once (the replay path).
+
+    Args:
+        time_s: sample times [s], shape (n,).
+        position_rad: joint positions [rad], shape (n,).
+        velocity_rad_s: joint velocities [rad/s], shape (n,).
+        effort: efforts (unit of ``config.torque_scale``), shape (n,).
+        config: the settings.
+
+    Returns:
+        The same levels and sample/pass rejection counts as feeding the samples one by one to a
+        :class:`StreamingSegmenter` and calling ``finish``.
+
+    Raises:
+        InputError: the arrays are not one-dimensional or differ in length.
+
+    """
+    if not isinstance(config, SegmenterConfig):
+        raise InputError(f'segment_batch: expected a SegmenterConfig, '
+                         f'got {type(config).__name__}')
+    t = _as_1d(time_s, 'time_s')
+    q = _as_1d(position_rad, 'position_rad')
+    v = _as_1d(velocity_rad_s, 'velocity_rad_s')
+    e = _as_1d(effort, 'effort')
+    if not t.size == q.size == v.size == e.size:
+        raise InputError(f'segment_batch: arrays differ in length: time_s {t.size}, '
+                         f'position_rad {q.size}, velocity_rad_s {v.size}, effort {e.size}')
+    rejections: Counter = Counter()
+    pairer = _Pairer(config, rejections)
+    levels: list[FrictionLevel] = []
+    if t.size == 0:
+        return SegmentationResult(levels=levels, rejections=rejections)
+
+    finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
+    finite_time = np.where(finite, t, -np.inf)
+    previous_max = np.concatenate(([-np.inf], np.maximum.accumulate(finite_time)[:-1]))
+    accepted = finite & (t > previous_max)
+    _count(rejections, 'non_finite', np.count_nonzero(~finite))
+    _count(rejections, 'time_not_increasing', np.count_nonzero(finite & ~accepted))
+
+    index = np.flatnonzero(accepted)
+    ta = t[index]
+    gap = np.diff(ta) > config.max_gap_s
+    _count(rejections, 'time_gap', np.count_nonzero(gap))
+    speed = config.gear_ratio * v[index]
+    sign = np.where(speed > config.standstill_speed_rad_s, 1,
+                    np.where(speed < -config.standstill_speed_rad_s, -1, 0)).astype(np.int8)
+    # A new move starts where the sign changes, after a gap or after rejected samples.
+    breaks = np.flatnonzero(gap | (np.diff(index) > 1) | (np.diff(sign) != 0)) + 1
+    starts = np.concatenate(([0], breaks))
+    stops = np.concatenate((breaks, [index.size]))
+    moving = sign[starts] != 0
+    qa, ea = q[index], e[index] / config.torque_scale
+    for start, stop in zip(starts[moving], stops[moving]):
+        part = slice(start, stop)
+        found = _analyse_move(ta[part], qa[part], speed[part], ea[part], int(sign[start]),
+                              config, rejections)
+        if found is not None:
+            levels += pairer.add(found)
+    pairer.finish()
+    return SegmentationResult(levels=levels, rejections=rejections)
+
+
+def _count(counter: Counter, reason: str, count: int) -> None:
+    if count:
+        counter[reason] += int(count)
+
+
+# --------------------------------------------------------------------------- experiments
+
+def merge_levels(levels: Sequence[FrictionLevel]) -> FrictionLevel:
+    """Combine repeated levels at one speed into one, weighting by inverse variance.
+
+    The friction, forward and backward torques and the speed are inverse-variance weighted
+    means; the standard error is 1/sqrt(sum 1/se^2); counts add; windows and times span all.
+    """
+    if not levels:
+        raise InputError('merge_levels: no levels to merge')
+    if len(levels) == 1:
+        return levels[0]
+    se = np.array([lv.friction_std_error for lv in levels], dtype=float)
+    if np.all(se > 0):
+        weights = 1.0 / se ** 2
+        merged_se = float(1.0 / math.sqrt(weights.sum()))
+    else:
+        weights = np.ones(se.size)
+        merged_se = float(math.sqrt(np.sum(se ** 2)) / se.size)
+    weights = weights / weights.sum()
+
+    def mean(attribute: str) -> float:
+        return float(np.dot(weights, [getattr(lv, attribute) for lv in levels]))
+
+    return FrictionLevel(
+        speed_rad_s=mean('speed_rad_s'), friction=mean('friction'),
+        friction_std_error=merged_se, tau_forward=mean('tau_forward'),
+        tau_backward=mean('tau_backward'), n_forward=sum(lv.n_forward for lv in levels),
+        n_backward=sum(lv.n_backward for lv in levels),
+        position_min_rad=min(lv.position_min_rad for lv in levels),
+        position_max_rad=max(lv.position_max_rad for lv in levels),
+        start_time_s=min(lv.start_time_s for lv in levels),
+        end_time_s=max(lv.end_time_s for lv in levels))
+
+
+class ExperimentAssembler:
+    """Group consecutive friction levels into experiments (one run of the friction experiment).
+
+    With ``speeds_rad_s`` (motor side) every level is matched to the nearest configured speed
+    within ``speed_tolerance_rad_s`` (levels at other speeds are ignored and counted in
+    ``ignored``); repeated levels at a speed within one experiment are merged with
+    :func:`merge_levels`; the experiment is complete when every configured speed has a level
+    and is returned with one level per speed, in the configured order.  A pause longer than
+    ``idle_gap_s`` between levels abandons an incomplete experiment (counted in ``abandoned``).
+
+    Without speeds, an experiment ends when the joint idles for more than ``idle_gap_s``
+    between levels or when a speed already in the experiment comes again; its levels are
+    returned in the order they were measured.
+
+    Attributes:
+        ignored: levels at no configured speed.
+        abandoned: incomplete experiments dropped.
+
+    """
+
+    def __init__(self, *, speeds_rad_s: Sequence[float] | None = None,
+                 speed_tolerance_rad_s: float = 1.0, idle_gap_s: float = 30.0) -> None:
+        """Configure the grouping; see the class docstring."""
+        if not math.isfinite(speed_tolerance_rad_s) or speed_tolerance_rad_s <= 0:
+            raise InputError(f'ExperimentAssembler.speed_tolerance_rad_s: must be > 0, '
+                             f'got {speed_tolerance_rad_s}')
+        if not math.isfinite(idle_gap_s) or idle_gap_s <= 0:
+            raise InputError(f'ExperimentAssembler.idle_gap_s: must be > 0, got {idle_gap_s}')
+        self._speeds = None
+        if speeds_rad_s is not None:
+            speeds = np.asarray(list(speeds_rad_s), dtype=float)
+            if speeds.ndim != 1 or speeds.size == 0 or not np.all(np.isfinite(speeds)) \
+                    or np.any(speeds <= 0):
+                raise InputError('ExperimentAssembler.speeds_rad_s: expected positive finite '
+                                 f'speeds, got {list(speeds_rad_s)!r}')
+            if speeds.size > 1 and np.min(np.diff(np.sort(speeds))) <= 2 * speed_tolerance_rad_s:
+                raise InputError('ExperimentAssembler.speeds_rad_s: speeds closer than twice '
+                                 'speed_tolerance_rad_s cannot be told apart')
+            self._speeds = speeds
+        self._tolerance = float(speed_tolerance_rad_s)
+        self._idle_gap = float(idle_gap_s)
+        self._current: list[list[FrictionLevel]] = []
+        self._slots: list[int] = []
+        self._last_end = -math.inf
+        self.ignored = 0
+        self.abandoned = 0
+
+    def add(self, level: FrictionLevel) -> list[FrictionExperiment]:
+        """Add one level; return the experiments it completes (zero or one)."""
+        done: list[FrictionExperiment] = []
+        if self._current and level.start_time_s - self._last_end > self._idle_gap:
+            done += self._close(idle=True)
+        if self._speeds is not None:
+            distance = np.abs(self._speeds - level.speed_rad_s)
+            slot = int(np.argmin(distance))
+            if distance[slot] > self._tolerance:
+                self.ignored += 1
+                return done
+        else:
+            speeds = [group[0].speed_rad_s for group in self._current]
+            repeat = [i for i, s in enumerate(speeds)
+                      if abs(s - level.speed_rad_s) <= self._tolerance]
+            if repeat:
+                done += self._close(idle=False)
+            slot = len(self._current)
+        self._last_end = max(self._last_end, level.end_time_s)
+        if slot in self._slots:
+            self._current[self._slots.index(slot)].append(level)
+        else:
+            self._slots.append(slot)
+            self._current.append([level])
+        if self._speeds is not None and len(self._slots) == self._speeds.size:
+            done += self._close(idle=False)
+        return done
+
+    def idle(self, *, now_s: float) -> list[FrictionExperiment]:
+        """Close the experiment in progress if nothing came for ``idle_gap_s`` before now_s."""
+        if self._current and now_s - self._last_end > self._idle_gap:
+            return self._close(idle=True)
+        return []
+
+    def flush(self) -> list[FrictionExperiment]:
+        """End of data: return the experiment in progress if it is complete (or speeds unset)."""
+        return self._close(idle=True) if self._current else []
+
+    def _close(self, *, idle: bool) -> list[FrictionExperiment]:
+        groups, slots = self._current, self._slots
+        self._current, self._slots = [], []
+        self._last_end = -math.inf
+        if not groups:
+            return []
+        if self._speeds is not None:
+            if len(slots) < self._speeds.size:
+                self.abandoned += 1
+                return []
+            order = np.argsort(slots)
+            groups = [groups[i] for i in order]
+        return [FrictionExperiment(levels=tuple(merge_levels(g) for g in groups))]

@@ -1,0 +1,538 @@
+"""Simulated friction experiments of one joint of a 6-axis arm, and accelerated wear scenarios.
+
+One experiment (Sec. II-A of the paper) moves the tested joint back and forth around phi_bar at
+each speed of a list: for every speed a forward and a backward pass with a trapezoidal velocity
+profile (constant joint acceleration, a constant-speed cruise of about ``cruise_s``, at most
+``max_stroke_rad`` of travel), with a short standstill at each turn and a triangular reposition
+move between speeds.  The normalised motor torque of the tested joint is
+
+    tau = sign(v) tau_f(|v_m|, load, T, w) + g(q) + J a_m + e,                             (*)
+
+with tau_f the complete friction model (8) plus a per-level model error ``level_error_std``
+(the epsilon of eq. (9b)), g(q) = ``gravity_amplitude`` sin(q + ``gravity_phase_rad``), J the
+``inertia`` times the motor acceleration a_m, and e white sensor noise; v_m = ``gear_ratio`` x
+joint speed.  Effort = tau x ``torque_scale`` is quantised to ``effort_resolution``, the joint
+position to ``position_resolution_rad``, and the joint velocity carries noise.  The other joints
+of the arm stand still (with sensor noise) in the same ``JointState`` samples.
+
+A scenario repeats the experiment for k = 0..K-1, ``experiment_interval_s`` apart, with wear,
+temperature and load changing from one experiment to the next (Sec. V); the truth of each
+experiment is kept in :class:`ExperimentTruth` and written as JSON by :func:`write_truth_json`
+(``<bag>.truth.json`` beside a bag, see :func:`truth_path_for`).
+
+Units: motor-side speeds [rad/s]; joint-side positions [rad] and velocities [rad/s]; torques
+normalised (effort / torque_scale); temperatures [degC].
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+import json
+import math
+import os
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.atomic_files import write_json_atomic
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.friction import friction as friction_model
+from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
+from robot_wear_monitor.experiment.segmentation import SegmenterConfig
+
+FloatArray = NDArray[np.float64]
+
+#: Speed grid of the real data, eq. (27) of the paper [rad/s, motor side].
+PAPER_SPEEDS_RAD_S = (2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1)
+#: Optimal N = 4 design of Table V [rad/s, motor side].
+TABLE_V_SPEEDS_RAD_S = (2.1, 28.5, 35.1, 41.7)
+DEFAULT_JOINT_NAMES = ('joint_1', 'joint_2', 'joint_3', 'joint_4', 'joint_5', 'joint_6')
+TRUTH_SUFFIX = '.truth.json'
+
+
+@dataclass(frozen=True)
+class JointSimConfig:
+    """The simulated arm, joint, trajectory and sensors; units are in the field names.
+
+    Attributes:
+        joint: name of the tested joint (one of ``joint_names``).
+        joint_names: names of all joints in the JointState samples.
+        gear_ratio: motor speed / joint speed.
+        torque_scale: effort per unit of normalised torque (e.g. N m at the motor).
+        sample_rate_hz: JointState rate [Hz].
+        phi_bar_rad: centre of the back-and-forth moves, joint side [rad].
+        cruise_s: wanted constant-speed time per pass [s].
+        max_stroke_rad: longest travel per pass, joint side [rad].
+        acceleration_rad_s2: joint acceleration of the trapezoids [rad/s^2].
+        dwell_s: standstill at every turn [s].
+        gravity_amplitude: amplitude of g(q), normalised.
+        gravity_phase_rad: phase of g(q) = amplitude sin(q + phase) [rad].
+        inertia: normalised torque per motor acceleration [1/(rad/s^2)].
+        effort_noise_std: white noise on the tested joint's torque, normalised.
+        velocity_noise_std_rad_s: white noise on the measured speed, motor side [rad/s].
+        effort_resolution: quantisation step of effort (effort units).
+        position_resolution_rad: quantisation step of joint positions [rad].
+        other_positions_rad: positions of the other joints, in ``joint_names`` order without
+            the tested joint [rad].
+        other_efforts: efforts of the other joints (effort units).
+        shuffle_joint_order: give every sample a random order of the joint names.
+
+    """
+
+    joint: str = 'joint_2'
+    joint_names: tuple[str, ...] = DEFAULT_JOINT_NAMES
+    gear_ratio: float = 150.0
+    torque_scale: float = 10.0
+    sample_rate_hz: float = 250.0
+    phi_bar_rad: float = 0.2
+    cruise_s: float = 1.2
+    max_stroke_rad: float = 1.2
+    acceleration_rad_s2: float = 10.0
+    dwell_s: float = 0.2
+    gravity_amplitude: float = 0.3
+    gravity_phase_rad: float = 0.4
+    inertia: float = 1.0e-4
+    effort_noise_std: float = 0.01
+    velocity_noise_std_rad_s: float = 0.01
+    effort_resolution: float = 1.0e-3
+    position_resolution_rad: float = 1.0e-6
+    other_positions_rad: tuple[float, ...] = (0.1, -0.5, 0.3, 0.0, 0.7)
+    other_efforts: tuple[float, ...] = (0.5, 4.0, 0.8, 0.2, 0.05)
+    shuffle_joint_order: bool = False
+
+    def __post_init__(self) -> None:
+        """Validate; raise InputError naming the field."""
+        if self.joint not in self.joint_names:
+            raise InputError(f'JointSimConfig.joint: {self.joint!r} is not in joint_names')
+        if len(set(self.joint_names)) != len(self.joint_names):
+            raise InputError('JointSimConfig.joint_names: names must be unique')
+        for name in ('gear_ratio', 'torque_scale', 'sample_rate_hz', 'cruise_s',
+                     'max_stroke_rad', 'acceleration_rad_s2', 'effort_resolution',
+                     'position_resolution_rad'):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value <= 0:
+                raise InputError(f'JointSimConfig.{name}: must be > 0, got {value}')
+        for name in ('dwell_s', 'gravity_amplitude', 'inertia', 'effort_noise_std',
+                     'velocity_noise_std_rad_s'):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value < 0:
+                raise InputError(f'JointSimConfig.{name}: must be >= 0, got {value}')
+        others = len(self.joint_names) - 1
+        for name in ('other_positions_rad', 'other_efforts'):
+            if len(getattr(self, name)) != others:
+                raise InputError(f'JointSimConfig.{name}: expected {others} values '
+                                 f'(one per other joint), got {len(getattr(self, name))}')
+
+    @property
+    def joint_index(self) -> int:
+        """Index of the tested joint in ``joint_names``."""
+        return self.joint_names.index(self.joint)
+
+
+def segmenter_config_for(config: JointSimConfig, **overrides) -> SegmenterConfig:
+    """Return segmenter settings matching a simulated joint (conversions and tolerances)."""
+    settings = dict(joint=config.joint, gear_ratio=config.gear_ratio,
+                    torque_scale=config.torque_scale, standstill_speed_rad_s=0.1,
+                    speed_tolerance_fraction=0.05, speed_tolerance_rad_s=0.05,
+                    min_duration_s=0.2, trim_s=0.02, min_samples=20,
+                    max_gap_s=5.0 / config.sample_rate_hz)
+    settings.update(overrides)
+    return SegmenterConfig(**settings)
+
+
+@dataclass(frozen=True)
+class ExperimentTruth:
+    """What the simulator used for experiment k (the answer the monitor should find).
+
+    Attributes:
+        k: experiment index.
+        wear: wear level w.
+        temperature_degc: joint temperature T [degC].
+        load: load torque tau_l, normalised.
+        speeds_rad_s: motor-side speed levels, in the order run.
+        friction_model: tau_f of the complete model (8) at each speed, normalised.
+        friction_true: friction the joint actually had (model + level error), normalised.
+        start_time_s: time of the first sample of the experiment [s].
+        end_time_s: time of the last sample [s].
+
+    """
+
+    k: int
+    wear: float
+    temperature_degc: float
+    load: float
+    speeds_rad_s: tuple[float, ...]
+    friction_model: tuple[float, ...]
+    friction_true: tuple[float, ...]
+    start_time_s: float
+    end_time_s: float
+
+
+@dataclass
+class Scenario:
+    """JointState samples of all joints plus the truth of every experiment.
+
+    Attributes:
+        joint_names: joint names, column order of the arrays.
+        joint: the tested joint.
+        time_s: sample stamps [s], shape (n,).
+        position_rad: joint positions [rad], shape (n, J).
+        velocity_rad_s: joint velocities [rad/s], shape (n, J).
+        effort: efforts (effort units), shape (n, J).
+        truth: one :class:`ExperimentTruth` per experiment.
+        config: the simulated joint.
+        name_order: per-sample permutation of the columns, shape (n, J), or None (column order).
+
+    """
+
+    joint_names: tuple[str, ...]
+    joint: str
+    time_s: FloatArray
+    position_rad: FloatArray
+    velocity_rad_s: FloatArray
+    effort: FloatArray
+    truth: list[ExperimentTruth]
+    config: JointSimConfig
+    name_order: NDArray[np.int64] | None = None
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of JointState samples."""
+        return int(self.time_s.size)
+
+    def joint_samples(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Return (time_s, position_rad, velocity_rad_s, effort) of the tested joint, (n,)."""
+        j = self.config.joint_index
+        return self.time_s, self.position_rad[:, j], self.velocity_rad_s[:, j], self.effort[:, j]
+
+    def messages(self) -> Iterator[tuple[float, list[str], FloatArray, FloatArray, FloatArray]]:
+        """Yield (stamp_s, name, position, velocity, effort) per JointState message."""
+        names = np.array(self.joint_names, dtype=object)
+        for i in range(self.time_s.size):
+            order = self.name_order[i] if self.name_order is not None else slice(None)
+            yield (float(self.time_s[i]), list(names[order]), self.position_rad[i, order],
+                   self.velocity_rad_s[i, order], self.effort[i, order])
+
+
+# --------------------------------------------------------------------------- trajectories
+
+def _trapezoid(distance: float, speed: float, acceleration: float,
+               dt: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Sample a move of ``distance`` >= 0 at cruise ``speed``: (position, velocity, accel)."""
+    if distance <= 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    ramp = speed / acceleration
+    if speed * ramp >= distance:  # triangular: the cruise speed is not reached
+        ramp = math.sqrt(distance / acceleration)
+        speed = acceleration * ramp
+        cruise = 0.0
+    else:
+        cruise = (distance - speed * ramp) / speed
+    total = 2 * ramp + cruise
+    t = np.arange(0.0, total, dt)
+    a1, a2 = ramp, ramp + cruise
+    velocity = np.where(t < a1, acceleration * t,
+                        np.where(t < a2, speed, np.maximum(speed - acceleration * (t - a2), 0)))
+    position = np.where(
+        t < a1, 0.5 * acceleration * t ** 2,
+        np.where(t < a2, 0.5 * speed * ramp + speed * (t - a1),
+                 distance - 0.5 * acceleration * np.maximum(total - t, 0) ** 2))
+    accel = np.where(t < a1, acceleration, np.where(t < a2, 0.0, -acceleration))
+    return position, velocity, accel
+
+
+def _stroke(joint_speed: float, config: JointSimConfig) -> float:
+    """Travel per pass: cruise_s at speed plus the ramps, at most max_stroke_rad."""
+    return min(joint_speed * config.cruise_s + joint_speed ** 2 / config.acceleration_rad_s2,
+               config.max_stroke_rad)
+
+
+def experiment_trajectory(*, speeds_rad_s: Sequence[float], config: JointSimConfig
+                          ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64]]:
+    """Return the tested joint's trajectory for one experiment, sampled at the sample rate.
+
+    Returns:
+        (position [rad], velocity [rad/s], acceleration [rad/s^2], speed index) of shape (n,),
+        joint side; the speed index says which speed of ``speeds_rad_s`` a sample belongs to.
+
+    """
+    dt = 1.0 / config.sample_rate_hz
+    dwell = max(int(round(config.dwell_s * config.sample_rate_hz)), 1)
+    pieces: list[tuple] = []
+    here = config.phi_bar_rad
+
+    def hold(index: int, count: int) -> None:
+        pieces.append((np.full(count, here), np.zeros(count), np.zeros(count),
+                       np.full(count, index)))
+
+    def move(target: float, speed: float, index: int) -> None:
+        nonlocal here
+        distance = abs(target - here)
+        q, v, a = _trapezoid(distance, speed, config.acceleration_rad_s2, dt)
+        sign = 1.0 if target >= here else -1.0
+        pieces.append((here + sign * q, sign * v, sign * a, np.full(q.size, index)))
+        here = target
+
+    hold(0, dwell)
+    for index, motor_speed in enumerate(speeds_rad_s):
+        speed = motor_speed / config.gear_ratio
+        half = 0.5 * _stroke(speed, config)
+        reposition = math.sqrt(config.acceleration_rad_s2 * config.max_stroke_rad)
+        move(config.phi_bar_rad - half, reposition, index)
+        hold(index, dwell)
+        move(config.phi_bar_rad + half, speed, index)
+        hold(index, dwell)
+        move(config.phi_bar_rad - half, speed, index)
+        hold(index, dwell)
+    move(config.phi_bar_rad, math.sqrt(config.acceleration_rad_s2 * config.max_stroke_rad),
+         len(speeds_rad_s) - 1)
+    hold(len(speeds_rad_s) - 1, dwell)
+    return tuple(np.concatenate(parts) for parts in zip(*pieces))
+
+
+def _quantise(values: FloatArray, step: float) -> FloatArray:
+    return np.round(values / step) * step
+
+
+def simulate_experiment(*, speeds_rad_s: Sequence[float], temperature_degc: float, load: float,
+                        wear: float, model: FrictionModel, config: JointSimConfig,
+                        rng: np.random.Generator, start_time_s: float = 0.0,
+                        level_error_std: float = 0.0, k: int = 0
+                        ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
+                                   ExperimentTruth]:
+    """Simulate one friction experiment of the tested joint, eq. (*) of the module docstring.
+
+    Returns:
+        (time_s (n,), position_rad (n, J), velocity_rad_s (n, J), effort (n, J), truth).
+
+    """
+    speeds = np.asarray(list(speeds_rad_s), dtype=float)
+    if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or \
+            np.any(speeds <= 0):
+        raise InputError(f'simulate_experiment: speeds_rad_s must be positive, got '
+                         f'{list(speeds_rad_s)!r}')
+    true_model = friction_model(speeds, load, temperature_degc, wear, model)
+    true_level = true_model + (rng.normal(0.0, level_error_std, speeds.size)
+                               if level_error_std > 0 else 0.0)
+    q, v, a, index = experiment_trajectory(speeds_rad_s=speeds, config=config)
+    n = q.size
+    time_s = start_time_s + np.arange(n) / config.sample_rate_hz
+    motor_speed = config.gear_ratio * v
+    moving = np.abs(motor_speed) > 0
+    # Friction at the speed actually run (the model of the level's speed on the cruise; the
+    # model at the instantaneous speed on the ramps), plus the level's model error.
+    friction_now = friction_model(np.maximum(np.abs(motor_speed), 1e-9), load,
+                                  temperature_degc, wear, model)
+    friction_now = friction_now + (true_level - true_model)[index]
+    tau = (np.sign(motor_speed) * friction_now * moving
+           + config.gravity_amplitude * np.sin(q + config.gravity_phase_rad)
+           + config.inertia * config.gear_ratio * a
+           + rng.normal(0.0, config.effort_noise_std, n))
+    names = config.joint_names
+    j = config.joint_index
+    position = np.empty((n, len(names)))
+    velocity = np.empty((n, len(names)))
+    effort = np.empty((n, len(names)))
+    others = [i for i in range(len(names)) if i != j]
+    position[:, others] = np.asarray(config.other_positions_rad)
+    effort[:, others] = np.asarray(config.other_efforts) + rng.normal(
+        0.0, config.effort_noise_std * config.torque_scale, (n, len(others)))
+    velocity[:, others] = rng.normal(0.0, config.velocity_noise_std_rad_s / config.gear_ratio,
+                                     (n, len(others)))
+    position[:, j] = q
+    velocity[:, j] = v + rng.normal(0.0, config.velocity_noise_std_rad_s / config.gear_ratio, n)
+    effort[:, j] = tau * config.torque_scale
+    position = _quantise(position, config.position_resolution_rad)
+    effort = _quantise(effort, config.effort_resolution)
+    truth = ExperimentTruth(k=int(k), wear=float(wear), temperature_degc=float(temperature_degc),
+                            load=float(load), speeds_rad_s=tuple(float(s) for s in speeds),
+                            friction_model=tuple(float(f) for f in true_model),
+                            friction_true=tuple(float(f) for f in np.atleast_1d(true_level)),
+                            start_time_s=float(time_s[0]), end_time_s=float(time_s[-1]))
+    return time_s, position, velocity, effort, truth
+
+
+# --------------------------------------------------------------------------- scenarios
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """A sequence of experiments k = 0..K-1 with wear, temperature and load per experiment.
+
+    Attributes:
+        speeds_rad_s: motor-side speeds of every experiment [rad/s].
+        wear: w(k), one per experiment.
+        temperature_degc: T(k) [degC], one per experiment.
+        load: tau_l(k), normalised, one per experiment.
+        experiment_interval_s: time from one experiment's start to the next [s].
+        start_time_s: stamp of the first sample [s] (default 2024-01-01T00:00:00Z).
+        level_error_std: std of the per-level model error epsilon of eq. (9b), normalised.
+        joint: the simulated arm and sensors.
+
+    """
+
+    speeds_rad_s: tuple[float, ...]
+    wear: tuple[float, ...]
+    temperature_degc: tuple[float, ...]
+    load: tuple[float, ...]
+    experiment_interval_s: float = 3600.0
+    start_time_s: float = 1704067200.0
+    level_error_std: float = 0.0
+    joint: JointSimConfig = field(default_factory=JointSimConfig)
+
+    def __post_init__(self) -> None:
+        """Validate the lengths and ranges; raise InputError naming the field."""
+        count = len(self.wear)
+        if count == 0:
+            raise InputError('ScenarioConfig.wear: at least one experiment is needed')
+        for name in ('temperature_degc', 'load'):
+            if len(getattr(self, name)) != count:
+                raise InputError(f'ScenarioConfig.{name}: expected {count} values (one per '
+                                 f'experiment), got {len(getattr(self, name))}')
+        if not self.speeds_rad_s or any(not (s > 0 and math.isfinite(s))
+                                        for s in self.speeds_rad_s):
+            raise InputError(f'ScenarioConfig.speeds_rad_s: expected positive speeds, got '
+                             f'{self.speeds_rad_s!r}')
+        if any(w < 0 or not math.isfinite(w) for w in self.wear):
+            raise InputError('ScenarioConfig.wear: values must be finite and >= 0')
+        if not self.level_error_std >= 0:
+            raise InputError(f'ScenarioConfig.level_error_std: must be >= 0, '
+                             f'got {self.level_error_std}')
+        if not self.experiment_interval_s > 0:
+            raise InputError(f'ScenarioConfig.experiment_interval_s: must be > 0, '
+                             f'got {self.experiment_interval_s}')
+
+    @property
+    def n_experiments(self) -> int:
+        """Number of experiments K."""
+        return len(self.wear)
+
+
+def simulate_scenario(*, config: ScenarioConfig, model: FrictionModel | None = None,
+                      seed: int = 0) -> Scenario:
+    """Simulate every experiment of a scenario; reproducible for a given seed.
+
+    Args:
+        config: the scenario.
+        model: friction model coefficients (default: the packaged parameter set's).
+        seed: random seed.
+
+    Raises:
+        InputError: an experiment would last longer than ``experiment_interval_s``.
+
+    """
+    if model is None:
+        model = load_parameter_set().model
+    rng = np.random.default_rng(seed)
+    chunks = []
+    truth = []
+    for k in range(config.n_experiments):
+        start = config.start_time_s + k * config.experiment_interval_s
+        t, q, v, e, tr = simulate_experiment(
+            speeds_rad_s=config.speeds_rad_s, temperature_degc=config.temperature_degc[k],
+            load=config.load[k], wear=config.wear[k], model=model, config=config.joint, rng=rng,
+            start_time_s=start, level_error_std=config.level_error_std, k=k)
+        if k + 1 < config.n_experiments and t[-1] >= start + config.experiment_interval_s:
+            raise InputError(f'ScenarioConfig.experiment_interval_s: an experiment lasts '
+                             f'{t[-1] - t[0]:.1f} s, longer than the interval')
+        chunks.append((t, q, v, e))
+        truth.append(tr)
+    time_s, position, velocity, effort = (np.concatenate(c) for c in zip(*chunks))
+    order = None
+    if config.joint.shuffle_joint_order:
+        order = np.argsort(rng.random((time_s.size, len(config.joint.joint_names))), axis=1)
+    return Scenario(joint_names=config.joint.joint_names, joint=config.joint.joint,
+                    time_s=time_s, position_rad=position, velocity_rad_s=velocity,
+                    effort=effort, truth=truth, config=config.joint, name_order=order,
+                    metadata={'seed': int(seed), 'scenario': asdict(config)})
+
+
+def accelerated_wear_profile(*, n_experiments: int = 100, wear_final: float = 60.0,
+                             rise_experiments: float = 6.0, baseline: float = 1.0,
+                             jitter: float = 0.5, rng: np.random.Generator) -> FloatArray:
+    """Return w(k): about ``baseline`` with small random variations, then an exponential rise.
+
+    w(k) = baseline + (wear_final - baseline) exp((k - K + 1) / rise_experiments) + jitter, at
+    least 0: it stays low for most of the test and crosses 35 in the last few experiments, like
+    the accelerated wear tests of the paper (Figs. 3 and 9).
+    """
+    k = np.arange(n_experiments, dtype=float)
+    rise = (wear_final - baseline) * np.exp((k - (n_experiments - 1)) / rise_experiments)
+    return np.maximum(baseline + rise + rng.normal(0.0, jitter, n_experiments), 0.0)
+
+
+def accelerated_wear_scenario(*, n_experiments: int = 100,
+                              speeds_rad_s: Sequence[float] = TABLE_V_SPEEDS_RAD_S,
+                              params: ParameterSet | None = None, seed: int = 0,
+                              wear_final: float = 60.0, level_error_std: float | None = None,
+                              joint: JointSimConfig | None = None,
+                              experiment_interval_s: float = 3600.0) -> ScenarioConfig:
+    """Return an accelerated wear test like Sec. V: wear rising at the end, T and load varying.
+
+    Wear: :func:`accelerated_wear_profile` (low, then past 35 in the last experiments).
+    Temperature: a slow drift and a faster swing within 30-50 degC plus 1 degC noise.
+    Load: 0.5 +- 0.1 (slow swing plus noise, clipped to 0.3-0.7).  ``level_error_std``
+    defaults to the parameter set's sigma of eq. (9b).
+    """
+    if n_experiments < 1:
+        raise InputError(f'accelerated_wear_scenario: n_experiments must be >= 1, '
+                         f'got {n_experiments}')
+    params = params if params is not None else load_parameter_set()
+    rng = np.random.default_rng(seed)
+    k = np.arange(n_experiments, dtype=float)
+    wear = accelerated_wear_profile(n_experiments=n_experiments, wear_final=wear_final, rng=rng)
+    temperature = np.clip(40.0 + 6.0 * np.sin(2 * np.pi * k / 41.0 + 0.5)
+                          + 3.0 * np.sin(2 * np.pi * k / 9.0) + rng.normal(0.0, 1.0, k.size),
+                          30.0, 50.0)
+    load = np.clip(params.load_mean + 0.7 * params.load_std * np.sin(2 * np.pi * k / 23.0 + 1.0)
+                   + 0.5 * params.load_std * rng.normal(0.0, 1.0, k.size),
+                   params.load_mean - 2 * params.load_std, params.load_mean + 2 * params.load_std)
+    return ScenarioConfig(
+        speeds_rad_s=tuple(float(s) for s in speeds_rad_s), wear=tuple(wear.tolist()),
+        temperature_degc=tuple(temperature.tolist()), load=tuple(load.tolist()),
+        experiment_interval_s=experiment_interval_s,
+        level_error_std=params.sigma if level_error_std is None else level_error_std,
+        joint=joint if joint is not None else JointSimConfig())
+
+
+# --------------------------------------------------------------------------- truth JSON
+
+def truth_path_for(bag_path: str | os.PathLike) -> Path:
+    """Return where the truth of a simulated bag goes: ``<bag>.truth.json`` beside it."""
+    path = Path(bag_path)
+    return path.with_name(path.name.rstrip('/') + TRUTH_SUFFIX)
+
+
+def truth_to_dict(scenario: Scenario) -> dict:
+    """Return the JSON-ready truth of a scenario: settings and one entry per experiment."""
+    config = replace(scenario.config)
+    return {
+        'format': 'robot_wear_monitor.simulation.truth/1',
+        'joint': scenario.joint, 'joint_names': list(scenario.joint_names),
+        'gear_ratio': config.gear_ratio, 'torque_scale': config.torque_scale,
+        'sample_rate_hz': config.sample_rate_hz, 'n_samples': scenario.n_samples,
+        'units': {'speeds_rad_s': 'motor side rad/s', 'friction': 'normalised torque',
+                  'temperature_degc': 'degC', 'time_s': 's (header stamps)'},
+        'joint_config': asdict(config),
+        'metadata': scenario.metadata,
+        'experiments': [asdict(t) for t in scenario.truth],
+    }
+
+
+def write_truth_json(path: str | os.PathLike, scenario: Scenario) -> Path:
+    """Write the truth of a scenario to ``path`` atomically (temporary file + rename)."""
+    return write_json_atomic(path, truth_to_dict(scenario))
+
+
+def read_truth_json(path: str | os.PathLike) -> list[ExperimentTruth]:
+    """Read the experiments of a truth file written by :func:`write_truth_json`."""
+    try:
+        document = json.loads(Path(path).read_text(encoding='utf-8'))
+        return [ExperimentTruth(**{**e, 'speeds_rad_s': tuple(e['speeds_rad_s']),
+                                   'friction_model': tuple(e['friction_model']),
+                                   'friction_true': tuple(e['friction_true'])})
+                for e in document['experiments']]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise InputError(f'{path}: not a truth file: {error}') from None

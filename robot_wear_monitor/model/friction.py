@@ -1,0 +1,130 @@
+"""Steady-state friction model of a robot joint: nominal (5), wear profile (7), complete (8).
+
+All functions broadcast their array arguments with numpy rules, so one call evaluates many speeds
+and many operating points (T, w, load) at once.  Units: speed is motor side [rad/s] and must be
+positive (the model describes the direction-independent friction level of eq. (3)); load torque
+and friction are normalised [-]; temperature in degrees C; wear w is dimensionless (0 new,
+100 failure).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robot_wear_monitor.model.params import FrictionModel
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class FrictionWithGradients:
+    """Friction of the complete model (8) and its partial derivatives, all of one shape."""
+
+    friction: FloatArray
+    d_temperature: FloatArray
+    d_wear: FloatArray
+    d_load: FloatArray
+
+
+def _stribeck(speed: FloatArray, stribeck_speed: ArrayLike, alpha: float) -> tuple:
+    """Return exp(-|v/phi|^alpha) and |v/phi|^alpha (the latter for derivatives)."""
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        power = np.abs(speed / stribeck_speed) ** alpha
+    return np.exp(-power), power
+
+
+def load_sensitivity(speed: ArrayLike, model: FrictionModel) -> FloatArray:
+    """Return m(v) = d tau_f / d load of eq. (14): F_c,tl + F_s,tl exp(-|v/phi_s,tl|^alpha)."""
+    v = np.asarray(speed, dtype=float)
+    decay, _ = _stribeck(v, model.phi_s_load, model.alpha)
+    return model.f_c_load + model.f_s_load * decay
+
+
+def nominal_friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
+                     model: FrictionModel) -> FloatArray:
+    """Return the nominal (wear-free) friction level tau_f0 of eq. (5), normalised.
+
+    Args:
+        speed: motor-side speed [rad/s], > 0.
+        load: load torque tau_l (normalised, absolute value).
+        temperature: joint temperature [degC].
+        model: model coefficients.
+
+    Returns:
+        The broadcast shape of the arguments.
+
+    """
+    v = np.asarray(speed, dtype=float)
+    tl = np.asarray(load, dtype=float)
+    t = np.asarray(temperature, dtype=float)
+    load_term = model.f_c0 + tl * load_sensitivity(v, model)
+    decay, _ = _stribeck(v, model.phi_s0 + model.phi_s_temp * t, model.alpha)
+    stribeck_term = (model.f_s0 + model.f_s_temp * t) * decay
+    viscous_term = (model.f_v0 + model.f_v_temp * np.exp(-t / model.t_v0)) * v
+    return load_term + stribeck_term + viscous_term
+
+
+def wear_friction(speed: ArrayLike, wear: ArrayLike, model: FrictionModel) -> FloatArray:
+    """Return the wear profile tilde tau_f of eq. (7), normalised; 0 at w = 0."""
+    v = np.asarray(speed, dtype=float)
+    w = np.asarray(wear, dtype=float)
+    decay, _ = _stribeck(v, model.phi_s_wear * w, model.alpha)
+    decay = np.where(w > 0, decay, 0.0)
+    return model.f_s_wear * w * decay + model.f_v_wear * w * v
+
+
+def friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike, wear: ArrayLike,
+             model: FrictionModel) -> FloatArray:
+    """Return the complete friction model (8): tau_f0(v, tl, T) + tilde tau_f(v, w)."""
+    return nominal_friction(speed, load, temperature, model) + wear_friction(speed, wear, model)
+
+
+def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
+                            wear: ArrayLike, model: FrictionModel) -> FrictionWithGradients:
+    """Return the complete model (8) and its analytic derivatives in T [1/degC], w and load."""
+    v, tl, t, w = np.broadcast_arrays(*(np.asarray(a, dtype=float)
+                                        for a in (speed, load, temperature, wear)))
+    m = load_sensitivity(v, model)
+
+    stribeck_speed = model.phi_s0 + model.phi_s_temp * t
+    decay_t, power_t = _stribeck(v, stribeck_speed, model.alpha)
+    amplitude_t = model.f_s0 + model.f_s_temp * t
+    viscous_decay = np.exp(-t / model.t_v0)
+    d_temperature = (model.f_s_temp * decay_t
+                     + amplitude_t * decay_t * model.alpha * power_t
+                     * model.phi_s_temp / stribeck_speed
+                     - model.f_v_temp / model.t_v0 * viscous_decay * v)
+
+    decay_w, power_w = _stribeck(v, model.phi_s_wear * w, model.alpha)
+    positive = w > 0
+    decay_w = np.where(positive, decay_w, 0.0)
+    # d/dw [w exp(-|v/(phi w)|^a)] = exp(-x^a) (1 + a x^a); the limit at w -> 0+ is 0.
+    growth = np.where(positive, decay_w * (1.0 + model.alpha * np.where(positive, power_w, 0.0)),
+                      0.0)
+    d_wear = model.f_s_wear * growth + model.f_v_wear * v
+
+    value = (model.f_c0 + tl * m + amplitude_t * decay_t
+             + (model.f_v0 + model.f_v_temp * viscous_decay) * v
+             + model.f_s_wear * w * decay_w + model.f_v_wear * w * v)
+    return FrictionWithGradients(friction=value, d_temperature=d_temperature, d_wear=d_wear,
+                                 d_load=m)
+
+
+def marginal_covariance(speeds: ArrayLike, *, sigma: float, load_std: float,
+                        model: FrictionModel) -> FloatArray:
+    """Return Sigma(Phi) of eq. (14): sigma^2 I + sigma_tl^2 M M^T, shape (..., N, N).
+
+    Args:
+        speeds: speed levels [rad/s], shape (..., N).
+        sigma: std of the friction-level error of eq. (9b).
+        load_std: std of the load estimate sigma_tl.
+        model: model coefficients (for m(v)).
+
+    """
+    v = np.asarray(speeds, dtype=float)
+    m = load_sensitivity(v, model)
+    n = v.shape[-1]
+    return sigma ** 2 * np.eye(n) + load_std ** 2 * m[..., :, None] * m[..., None, :]

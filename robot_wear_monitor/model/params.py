@@ -1,0 +1,260 @@
+"""Parameter sets of the friction model and the wear monitor, read from YAML and validated.
+
+A parameter set holds the coefficients of the nominal friction model (5) and of the wear profile
+(7), the measurement model of eqs. (9)-(14) (noise sigma, load mean and std), the temperature
+bounds of the estimator (16), the design bounds of (24) and the alarm thresholds.  Units: torques
+are normalised (dimensionless), speeds are motor side in rad/s, temperatures in degrees C.
+
+Every field is required.  Loading reports the first problem as a :class:`ParameterError` that names
+the file and the dotted field (``noise.sigma``), so that a maintenance engineer can fix the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+import math
+import os
+from pathlib import Path
+import sys
+from typing import Any, Mapping
+
+import yaml
+
+from robot_wear_monitor.errors import InputError
+
+PACKAGE_NAME = 'robot_wear_monitor'
+DEFAULT_PARAMETER_FILE = 'irb6620_joint2.yaml'
+
+
+class ParameterError(InputError):
+    """A parameter file or value is invalid; the message names the file and the field."""
+
+
+@dataclass(frozen=True)
+class FrictionModel:
+    """Coefficients of the complete friction model (8) = nominal (5) + wear profile (7).
+
+    Units: torques normalised; speeds motor side [rad/s]; temperatures [degC]; wear w is the
+    dimensionless wear level of the paper (0 = new, 100 = failure).
+    """
+
+    f_c0: float
+    f_c_load: float
+    f_s0: float
+    f_s_load: float
+    f_s_temp: float
+    f_v0: float
+    f_v_temp: float
+    phi_s0: float
+    phi_s_load: float
+    phi_s_temp: float
+    t_v0: float
+    alpha: float
+    f_s_wear: float
+    f_v_wear: float
+    phi_s_wear: float
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    """A validated parameter set: model, measurement model, bounds and alarm thresholds."""
+
+    name: str
+    model: FrictionModel
+    sigma: float
+    load_mean: float
+    load_std: float
+    temperature_min_degc: float
+    temperature_max_degc: float
+    wear_max: float
+    speed_min_rad_s: float
+    speed_max_rad_s: float
+    speed_separation_rad_s: float
+    design_temperature_degc: float
+    design_wear: float
+    wear_threshold: float
+    wear_warning: float
+    source: str = '<built-in>'
+
+    def with_overrides(self, **changes: float) -> 'ParameterSet':
+        """Return a copy with some scalar fields replaced, validated like a loaded file."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        unknown = sorted(set(changes) - set(values) - {'model'})
+        if unknown:
+            raise ParameterError(f'{self.source}: unknown parameter(s) {", ".join(unknown)}')
+        values.update(changes)
+        candidate = ParameterSet(**values)
+        _check_constraints(candidate, self.source)
+        return candidate
+
+
+_MODEL_SECTIONS = {
+    'nominal_model': ('f_c0', 'f_c_load', 'f_s0', 'f_s_load', 'f_s_temp', 'f_v0', 'f_v_temp',
+                      'phi_s0', 'phi_s_load', 'phi_s_temp', 't_v0', 'alpha'),
+    'wear_model': ('f_s_wear', 'f_v_wear', 'phi_s_wear'),
+}
+# section -> {yaml key: ParameterSet field}
+_SCALAR_SECTIONS = {
+    'noise': {'sigma': 'sigma'},
+    'load': {'mean': 'load_mean', 'std': 'load_std'},
+    'estimation': {'temperature_min_degc': 'temperature_min_degc',
+                   'temperature_max_degc': 'temperature_max_degc',
+                   'wear_max': 'wear_max'},
+    'design': {'speed_min_rad_s': 'speed_min_rad_s', 'speed_max_rad_s': 'speed_max_rad_s',
+               'speed_separation_rad_s': 'speed_separation_rad_s',
+               'temperature_degc': 'design_temperature_degc', 'wear': 'design_wear'},
+    'alarm': {'wear_threshold': 'wear_threshold', 'wear_warning': 'wear_warning'},
+}
+
+
+def _number(value: Any, where: str, source: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        hint = ''
+        if isinstance(value, str):
+            hint = (' (YAML reads numbers like 1e-3 as text: write 1.0e-3)'
+                    if _looks_numeric(value) else '')
+        raise ParameterError(
+            f'{source}: {where}: expected a number, got {type(value).__name__} {value!r}{hint}')
+    number = float(value)
+    if not math.isfinite(number):
+        raise ParameterError(f'{source}: {where}: must be finite, got {number}')
+    return number
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _section(document: Mapping[str, Any], key: str, expected: tuple, source: str) -> dict:
+    if key not in document:
+        raise ParameterError(f'{source}: missing section {key!r}')
+    section = document[key]
+    if not isinstance(section, Mapping):
+        raise ParameterError(f'{source}: {key}: expected a mapping, got {type(section).__name__}')
+    missing = [name for name in expected if name not in section]
+    if missing:
+        raise ParameterError(f'{source}: missing key {key}.{missing[0]}')
+    extra = sorted(set(section) - set(expected))
+    if extra:
+        raise ParameterError(f'{source}: unknown key {key}.{extra[0]} '
+                             f'(expected {", ".join(expected)})')
+    return {name: _number(section[name], f'{key}.{name}', source) for name in expected}
+
+
+def _check_constraints(params: ParameterSet, source: str) -> None:
+    """Raise ParameterError for the first value outside its admissible range."""
+    model = params.model
+    checks = (
+        (params.sigma > 0, 'noise.sigma', 'must be > 0', params.sigma),
+        (params.load_std >= 0, 'load.std', 'must be >= 0', params.load_std),
+        (params.temperature_min_degc < params.temperature_max_degc,
+         'estimation.temperature_min_degc', 'must be < estimation.temperature_max_degc',
+         params.temperature_min_degc),
+        (params.wear_max > 0, 'estimation.wear_max', 'must be > 0', params.wear_max),
+        (params.speed_min_rad_s > 0, 'design.speed_min_rad_s', 'must be > 0',
+         params.speed_min_rad_s),
+        (params.speed_min_rad_s < params.speed_max_rad_s, 'design.speed_min_rad_s',
+         'must be < design.speed_max_rad_s', params.speed_min_rad_s),
+        (params.speed_separation_rad_s >= 0, 'design.speed_separation_rad_s', 'must be >= 0',
+         params.speed_separation_rad_s),
+        (params.design_wear >= 0, 'design.wear', 'must be >= 0', params.design_wear),
+        (params.wear_threshold > 0, 'alarm.wear_threshold', 'must be > 0',
+         params.wear_threshold),
+        (0 <= params.wear_warning <= params.wear_threshold, 'alarm.wear_warning',
+         'must be between 0 and alarm.wear_threshold', params.wear_warning),
+        (model.alpha > 0, 'nominal_model.alpha', 'must be > 0', model.alpha),
+        (model.t_v0 != 0, 'nominal_model.t_v0', 'must not be 0', model.t_v0),
+        (model.phi_s_load != 0, 'nominal_model.phi_s_load', 'must not be 0', model.phi_s_load),
+        (model.phi_s_wear > 0, 'wear_model.phi_s_wear', 'must be > 0', model.phi_s_wear),
+    )
+    for ok, where, rule, value in checks:
+        if not ok:
+            raise ParameterError(f'{source}: {where}: {rule}, got {value}')
+    for bound in (params.temperature_min_degc, params.temperature_max_degc,
+                  params.design_temperature_degc):
+        stribeck = model.phi_s0 + model.phi_s_temp * bound
+        if stribeck == 0:
+            raise ParameterError(
+                f'{source}: nominal_model.phi_s0/phi_s_temp: the Stribeck speed '
+                f'phi_s0 + phi_s_temp*T is 0 at T = {bound} degC')
+
+
+def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> ParameterSet:
+    """Validate a parsed YAML document and return the :class:`ParameterSet` it describes."""
+    if not isinstance(document, Mapping):
+        raise ParameterError(
+            f'{source}: expected a mapping at the top level, got {type(document).__name__}')
+    known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS}
+    extra = sorted(set(document) - known)
+    if extra:
+        raise ParameterError(f'{source}: unknown section {extra[0]!r}')
+    name = document.get('name')
+    if not isinstance(name, str) or not name.strip():
+        raise ParameterError(f'{source}: name: expected a non-empty string, got {name!r}')
+    coefficients: dict[str, float] = {}
+    for key, expected in _MODEL_SECTIONS.items():
+        coefficients.update(_section(document, key, expected, source))
+    scalars: dict[str, float] = {}
+    for key, mapping in _SCALAR_SECTIONS.items():
+        values = _section(document, key, tuple(mapping), source)
+        scalars.update({mapping[k]: v for k, v in values.items()})
+    params = ParameterSet(name=name, model=FrictionModel(**coefficients), source=source,
+                          **scalars)
+    _check_constraints(params, source)
+    return params
+
+
+def packaged_config_file(file_name: str) -> Path:
+    """Return the path of a packaged ``config/`` file, wherever the package is installed.
+
+    Looks in the ament share directory (colcon install on a ROS host), in ``<prefix>/share``
+    (pip install), in the ``share`` folder of the prefix this module is installed in (colcon
+    install without ament_index_python), and in the source tree, in that order.
+    """
+    candidates = []
+    try:  # pragma: no cover - only on a ROS 2 host
+        from ament_index_python.packages import get_package_share_directory
+        candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / 'config')
+    except Exception:  # noqa: BLE001 - ament may be absent or the package not indexed
+        pass
+    candidates.append(Path(sys.prefix) / 'share' / PACKAGE_NAME / 'config')
+    here = Path(__file__).resolve()
+    # <prefix>/lib/pythonX.Y/site-packages/robot_wear_monitor/model/params.py -> <prefix>/share
+    candidates.extend(parent / 'share' / PACKAGE_NAME / 'config' for parent in here.parents)
+    candidates.append(here.parents[2] / 'config')  # the source tree
+    for folder in candidates:
+        path = folder / file_name
+        if path.is_file():
+            return path
+    raise ParameterError(
+        f'the packaged {file_name} was not found in ' + ', '.join(str(c) for c in candidates))
+
+
+def default_parameter_file() -> Path:
+    """Return the path of the packaged default parameter set (IRB 6620 joint 2)."""
+    return packaged_config_file(DEFAULT_PARAMETER_FILE)
+
+
+def load_parameter_set(path: str | os.PathLike | None = None) -> ParameterSet:
+    """Load and validate a parameter-set YAML file (the packaged default when ``path`` is None).
+
+    Raises:
+        ParameterError: the file is missing, not YAML, or a field is missing or invalid; the
+            message names the file and the field.
+
+    """
+    file = Path(path) if path is not None else default_parameter_file()
+    source = str(file)
+    try:
+        text = file.read_text(encoding='utf-8')
+    except OSError as error:
+        raise ParameterError(f'{source}: cannot read parameter file: {error.strerror}') from None
+    try:
+        document = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        raise ParameterError(f'{source}: not valid YAML: {error}'.splitlines()[0]) from None
+    return parameter_set_from_mapping(document, source=source)

@@ -1,0 +1,1 @@
+"""The monitoring service the nodes and the replay share, history, node config."""

@@ -1,0 +1,309 @@
+"""Declaration table of the nodes' ROS parameters: names, types, defaults, descriptions, checks.
+
+The rclpy nodes declare exactly these parameters (with the description as ParameterDescriptor);
+the replay, the demo and the tests validate the very same values without rclpy, from the same
+``config/wear_monitor.yaml`` (``<node>: ros__parameters: ...``).  Types follow ROS 2 strictly, as
+rclpy does when it loads a parameter file: a ``double`` must be written ``35.0`` (``35`` is an
+integer) and a ``double_array`` must hold doubles only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+import os
+from pathlib import Path
+from typing import Any, Callable, Mapping, Optional
+
+import yaml
+
+from robot_wear_monitor.model.params import packaged_config_file, ParameterError
+
+FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
+WEAR_ESTIMATOR_NODE = 'wear_estimator_node'
+NODE_CONFIG_FILE = 'wear_monitor.yaml'
+
+#: N = 4 discrete optimum of Table V [rad/s], the experiment the demo scenario runs.
+DEFAULT_EXPERIMENT_SPEEDS_RAD_S = (2.1, 28.5, 35.1, 41.7)
+
+PARAMETER_TYPES = ('bool', 'integer', 'double', 'string', 'double_array')
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One declared node parameter.
+
+    Attributes:
+        name: ROS parameter name.
+        type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``.
+        default: default value (of the declared type).
+        description: ParameterDescriptor description, with the unit.
+        check: returns an error text for an invalid value, or None.
+        read_only: cannot be changed after start (the nodes build their core objects once).
+
+    """
+
+    name: str
+    type: str
+    default: Any
+    description: str
+    check: Optional[Callable[[Any], Optional[str]]] = None
+    read_only: bool = True
+
+
+def _positive(value: float) -> Optional[str]:
+    return None if value > 0 else 'must be > 0'
+
+
+def _non_negative(value: float) -> Optional[str]:
+    return None if value >= 0 else 'must be >= 0'
+
+
+def _probability(value: float) -> Optional[str]:
+    return None if 0 <= value < 1 else 'must be in [0, 1)'
+
+
+def _fraction(value: float) -> Optional[str]:
+    return None if 0 <= value < 1 else 'must be in [0, 1)'
+
+
+def _at_least_3(value: int) -> Optional[str]:
+    return None if value >= 3 else 'must be >= 3'
+
+
+def _non_empty(value: str) -> Optional[str]:
+    return None if value.strip() else 'must not be empty'
+
+
+def _speeds(values: tuple) -> Optional[str]:
+    if any(v <= 0 for v in values):
+        return 'speeds must be > 0 rad/s (motor side)'
+    if len(set(values)) != len(values):
+        return 'speeds must be distinct'
+    return None
+
+
+_JOINT = ParameterSpec('joint', 'string', 'joint_2',
+                       'name of the monitored joint in /joint_states', _non_empty)
+_SPEEDS = ParameterSpec(
+    'experiment_speeds_rad_s', 'double_array', DEFAULT_EXPERIMENT_SPEEDS_RAD_S,
+    'motor-side speed levels of one friction experiment [rad/s] (default: N = 4 optimum of '
+    'Table V); empty: an experiment ends at an idle gap', _speeds)
+
+FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
+    _JOINT,
+    ParameterSpec('gear_ratio', 'double', 150.0,
+                  'motor-side speed = joint-side velocity * gear_ratio [-]', _positive),
+    ParameterSpec('torque_scale', 'double', 10.0,
+                  'normalised torque = effort / torque_scale [effort unit]', _positive),
+    _SPEEDS,
+    ParameterSpec('experiment_speed_tolerance_rad_s', 'double', 1.0,
+                  'a level belongs to an experiment speed within this tolerance, motor side '
+                  '[rad/s]', _positive),
+    ParameterSpec('idle_gap_s', 'double', 30.0,
+                  'a pause longer than this between levels ends an experiment [s]', _positive),
+    ParameterSpec('standstill_speed_rad_s', 'double', 0.1,
+                  'motor-side speed at or below which the joint stands still [rad/s]',
+                  _non_negative),
+    ParameterSpec('speed_tolerance_fraction', 'double', 0.05,
+                  'a sample is at constant speed within this fraction of the level [-]',
+                  _fraction),
+    ParameterSpec('speed_tolerance_rad_s', 'double', 0.05,
+                  'lower bound of the constant-speed band, motor side [rad/s]', _non_negative),
+    ParameterSpec('min_duration_s', 'double', 0.2,
+                  'shortest constant-speed plateau kept as a pass [s]', _non_negative),
+    ParameterSpec('trim_s', 'double', 0.02,
+                  'time dropped at each end of each constant-speed plateau [s]',
+                  _non_negative),
+    ParameterSpec('min_samples', 'integer', 20,
+                  'fewest samples per pass inside the common position window', _at_least_3),
+    ParameterSpec('min_window_rad', 'double', 0.0,
+                  'narrowest common position window of a forward/backward pair, joint side '
+                  '[rad]', _non_negative),
+    ParameterSpec('max_gap_s', 'double', 0.1,
+                  'a time step longer than this splits the joint-state stream [s]', _positive),
+)
+
+#: friction_experiment_node parameters that are fields of segmentation.SegmenterConfig.
+SEGMENTER_FIELDS = ('joint', 'gear_ratio', 'torque_scale', 'standstill_speed_rad_s',
+                    'speed_tolerance_fraction', 'speed_tolerance_rad_s', 'min_duration_s',
+                    'trim_s', 'min_samples', 'min_window_rad', 'max_gap_s')
+
+WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
+    _JOINT,
+    ParameterSpec('parameter_set_file', 'string', '',
+                  'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
+    ParameterSpec('wear_threshold', 'double', 35.0,
+                  'alarm level of the wear w [-]: the alarm is raised by an estimate >= it',
+                  _positive),
+    ParameterSpec('wear_warning', 'double', 28.0,
+                  'diagnostics WARN when the wear estimate reaches this level [-]',
+                  _non_negative),
+    ParameterSpec('wear_healthy', 'double', 25.0,
+                  'wear level that must not raise an alarm [-]; the evidence test weighs each '
+                  'estimate between this level and the threshold', _non_negative),
+    ParameterSpec('alarm_evidence', 'double', 0.0,
+                  'CUSUM log-likelihood ratio (worn vs healthy) an estimate >= wear_threshold '
+                  'also needs to raise the alarm [-]; 0: the paper\'s rule, one estimate >= '
+                  'the threshold is enough', _non_negative),
+    ParameterSpec('min_fit_p_value', 'double', 0.01,
+                  'diagnostics WARN when the chi-square fit p-value is below it [-]',
+                  _probability),
+    _SPEEDS,
+    ParameterSpec('history_file', 'string', '~/.ros/robot_wear_monitor/wear_history.sqlite3',
+                  'SQLite wear history (trend and latched alarm survive restarts); '
+                  '":memory:" keeps nothing', _non_empty),
+)
+
+NODE_PARAMETERS: dict[str, tuple[ParameterSpec, ...]] = {
+    FRICTION_EXPERIMENT_NODE: FRICTION_EXPERIMENT_PARAMETERS,
+    WEAR_ESTIMATOR_NODE: WEAR_ESTIMATOR_PARAMETERS,
+}
+
+
+def _type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return 'bool'
+    if isinstance(value, int):
+        return 'integer'
+    if isinstance(value, float):
+        return 'double'
+    if isinstance(value, str):
+        return 'string'
+    if isinstance(value, (list, tuple)):
+        return 'array'
+    return type(value).__name__
+
+
+def coerce_value(spec: ParameterSpec, value: Any, *, source: str = '<parameters>') -> Any:
+    """Check ``value`` against ``spec`` (type as strict as rclpy, then the range check).
+
+    Returns the value in canonical form (tuple for arrays).
+
+    Raises:
+        ParameterError: naming the source, the parameter and the problem.
+
+    """
+    where = f'{source}: {spec.name}'
+    got = _type_name(value)
+    if spec.type == 'double_array':
+        if not isinstance(value, (list, tuple)):
+            raise ParameterError(f'{where}: expected a list of doubles, got {got} {value!r}')
+        bad = [v for v in value if _type_name(v) != 'double']
+        if bad:
+            raise ParameterError(f'{where}: every element must be a double (write 2.0, not 2), '
+                                 f'got {bad[0]!r}')
+        value = tuple(float(v) for v in value)
+        if not all(math.isfinite(v) for v in value):
+            raise ParameterError(f'{where}: elements must be finite')
+    elif got != spec.type:
+        hint = ' (write it with a decimal point, e.g. 35.0)' if (
+            spec.type == 'double' and got == 'integer') else ''
+        raise ParameterError(f'{where}: expected a {spec.type}, got {got} {value!r}{hint}')
+    elif spec.type == 'double' and not math.isfinite(value):
+        raise ParameterError(f'{where}: must be finite, got {value}')
+    if spec.check is not None:
+        problem = spec.check(value)
+        if problem:
+            raise ParameterError(f'{where}: {problem}, got {value!r}')
+    return value
+
+
+def defaults(node_name: str) -> dict[str, Any]:
+    """Return the default parameter values of a node."""
+    return {spec.name: spec.default for spec in _specs(node_name)}
+
+
+def _specs(node_name: str) -> tuple[ParameterSpec, ...]:
+    try:
+        return NODE_PARAMETERS[node_name]
+    except KeyError:
+        raise ParameterError(f'unknown node {node_name!r} (expected one of '
+                             f'{", ".join(NODE_PARAMETERS)})') from None
+
+
+def validate_parameters(node_name: str, values: Mapping[str, Any], *,
+                        source: str = '<parameters>') -> dict[str, Any]:
+    """Return defaults overridden by ``values``, each checked; reject unknown names.
+
+    Cross-parameter rule of the estimator: wear_healthy < wear_threshold and
+    wear_warning <= wear_threshold.
+    """
+    specs = {spec.name: spec for spec in _specs(node_name)}
+    unknown = sorted(set(values) - set(specs))
+    if unknown:
+        raise ParameterError(f'{source}: {node_name}: unknown parameter {unknown[0]!r} '
+                             f'(known: {", ".join(specs)})')
+    result = {name: coerce_value(spec, spec.default, source='<defaults>')
+              for name, spec in specs.items()}
+    for name, value in values.items():
+        result[name] = coerce_value(specs[name], value, source=source)
+    if node_name == WEAR_ESTIMATOR_NODE:
+        if not result['wear_healthy'] < result['wear_threshold']:
+            raise ParameterError(f'{source}: wear_healthy: must be < wear_threshold, got '
+                                 f'{result["wear_healthy"]} >= {result["wear_threshold"]}')
+        if not result['wear_warning'] <= result['wear_threshold']:
+            raise ParameterError(f'{source}: wear_warning: must be <= wear_threshold, got '
+                                 f'{result["wear_warning"]} > {result["wear_threshold"]}')
+    return result
+
+
+def default_node_config_file() -> Path:
+    """Return the packaged ``config/wear_monitor.yaml`` (see :func:`packaged_config_file`)."""
+    return packaged_config_file(NODE_CONFIG_FILE)
+
+
+def read_ros_parameters_file(path: str | os.PathLike, node_name: str) -> dict[str, Any]:
+    """Return the raw ``ros__parameters`` of ``node_name`` in a ROS 2 parameter YAML.
+
+    Entries under ``/**`` apply to every node; ``<node>`` and ``/<node>`` are both accepted;
+    the node's own entries win.
+    """
+    source = str(path)
+    try:
+        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+    except OSError as error:
+        raise ParameterError(f'{source}: cannot read parameter file: {error.strerror}') from None
+    except yaml.YAMLError as error:
+        raise ParameterError(f'{source}: not valid YAML: {error}'.splitlines()[0]) from None
+    if not isinstance(document, Mapping):
+        raise ParameterError(f'{source}: expected a mapping of node names at the top level')
+    merged: dict[str, Any] = {}
+    for key in ('/**', node_name, '/' + node_name):
+        if key not in document:
+            continue
+        entry = document[key]
+        if not isinstance(entry, Mapping) or 'ros__parameters' not in entry:
+            raise ParameterError(f'{source}: {key}: expected a mapping with ros__parameters')
+        parameters = entry['ros__parameters']
+        if not isinstance(parameters, Mapping):
+            raise ParameterError(f'{source}: {key}.ros__parameters: expected a mapping')
+        merged.update(parameters)
+    return merged
+
+
+def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, *,
+                         overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Load, override and validate the parameters of ``node_name`` (packaged file when None).
+
+    Entries of ``/**`` that the node does not declare are ignored, as rclpy does with
+    wildcard entries; unknown names under the node's own key are errors.
+    """
+    file = Path(path) if path is not None else default_node_config_file()
+    raw = read_ros_parameters_file(file, node_name)
+    own: dict[str, Any] = {}
+    document = yaml.safe_load(file.read_text(encoding='utf-8')) or {}
+    for key in (node_name, '/' + node_name):
+        if key in document:
+            own.update(document[key]['ros__parameters'])
+    known = {spec.name for spec in _specs(node_name)}
+    values = {k: v for k, v in raw.items() if k in known or k in own}
+    values.update(overrides or {})
+    return validate_parameters(node_name, values, source=str(file))
+
+
+def expand_history_path(history_file: str) -> str:
+    """Return the history path with ``~`` and environment variables expanded."""
+    if history_file == ':memory:':
+        return history_file
+    return os.path.expandvars(os.path.expanduser(history_file))

@@ -1,0 +1,184 @@
+"""Replay a recorded ROS 2 bag through the monitoring service, writing the nodes' outputs.
+
+The replay drives the very objects the nodes drive: :class:`FrictionExperimentService` gets
+every sample of the joint from /joint_states, each completed experiment becomes the same
+``friction_levels`` JointState the node publishes, and :class:`WearEstimatorService` consumes
+that message and produces ``temperature``, ``wear``, ``wear_alarm`` and ``/diagnostics``.  All
+five topics are written into OUT_BAG (MCAP by default) with the node types, stamped at the end
+of each experiment, so ``ros2 bag play``, Foxglove or PlotJuggler show them.
+
+OUT_BAG is written atomically (``bags.atomic_bag_writer``); a bad input bag raises
+:class:`~robot_wear_monitor.recordings.bags.BagError` before anything is written.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import os
+from pathlib import Path
+from typing import Any, Mapping, Optional
+
+from robot_wear_monitor.recordings.bags import atomic_bag_writer, read_joint_samples, TYPESTORE
+from robot_wear_monitor.monitoring.history import WearHistory
+from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
+from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
+                                                       load_node_parameters, WEAR_ESTIMATOR_NODE)
+from robot_wear_monitor.model.params import load_parameter_set
+from robot_wear_monitor.monitoring.service import (EstimatorConfig, FRICTION_LEVELS_TOPIC,
+                                                   FrictionExperimentService, json_number,
+                                                   OUTPUT_TOPICS, WearEstimatorService, WearUpdate)
+
+KIT = rosbags_kit(TYPESTORE)
+
+
+def bag_topic(topic: str) -> str:
+    """Return the absolute bag topic of a node topic (the root namespace)."""
+    return topic if topic.startswith('/') else '/' + topic
+
+
+@dataclass
+class ReplayResult:
+    """What a replay found: one update per experiment plus counters."""
+
+    updates: list[WearUpdate]
+    joint: str
+    message_count: int
+    sample_count: int
+    rejections: dict[str, int] = field(default_factory=dict)
+    out_bag: Optional[Path] = None
+    truth: Optional[list] = None
+
+    @property
+    def first_alarm(self) -> Optional[WearUpdate]:
+        """Return the update that raised the alarm first, or None."""
+        return next((u for u in self.updates if u.alarm_raised), None)
+
+    def truth_for(self, update: WearUpdate) -> Optional[Any]:
+        """Return the simulated truth of the experiment of ``update`` (by time), if known."""
+        for entry in self.truth or ():
+            if entry.start_time_s - 1e-6 <= update.stamp_s <= entry.end_time_s + 1e-6:
+                return entry
+        return None
+
+    def summary(self) -> dict[str, Any]:
+        """Return the JSON summary: every experiment and the first that raised the alarm."""
+        experiments = []
+        for update in self.updates:
+            entry = update.to_json()
+            truth = self.truth_for(update)
+            if truth is not None:
+                entry['truth'] = {'k': truth.k, 'wear': truth.wear,
+                                  'temperature_degc': truth.temperature_degc,
+                                  'load': truth.load}
+            experiments.append(entry)
+        first = self.first_alarm
+        return {
+            'format': 'robot_wear_monitor.replay/1',
+            'joint': self.joint, 'joint_state_messages': self.message_count,
+            'samples': self.sample_count, 'experiments': experiments,
+            'first_alarm': None if first is None else {
+                'index': first.index, 'stamp_s': first.stamp_s,
+                'wear': json_number(first.wear), 'wear_std': json_number(first.wear_std)},
+            'rejections': dict(sorted(self.rejections.items())),
+            'out_bag': None if self.out_bag is None else str(self.out_bag),
+        }
+
+
+def replay_parameters(*, config_file: str | os.PathLike | None = None,
+                      joint: str | None = None, gear_ratio: float | None = None,
+                      torque_scale: float | None = None, params_file: str | None = None
+                      ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Return the validated parameters of both nodes, with the CLI overrides applied."""
+    experiment: dict[str, Any] = {}
+    estimator: dict[str, Any] = {'history_file': ':memory:'}
+    if joint is not None:
+        experiment['joint'] = estimator['joint'] = joint
+    if gear_ratio is not None:
+        experiment['gear_ratio'] = float(gear_ratio)
+    if torque_scale is not None:
+        experiment['torque_scale'] = float(torque_scale)
+    if params_file is not None:
+        estimator['parameter_set_file'] = str(params_file)
+    return (load_node_parameters(FRICTION_EXPERIMENT_NODE, config_file, overrides=experiment),
+            load_node_parameters(WEAR_ESTIMATOR_NODE, config_file, overrides=estimator))
+
+
+def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
+               experiment_parameters: Mapping[str, Any],
+               estimator_parameters: Mapping[str, Any], storage: str = 'mcap',
+               history_file: str | os.PathLike | None = None, overwrite: bool = False,
+               progress: bool = False, truth: Optional[list] = None) -> ReplayResult:
+    """Replay ``bag`` through the service; write the node outputs to ``out_bag`` if given.
+
+    Raises:
+        BagError: the input bag is missing, corrupt, truncated, lacks the topic or the joint,
+            or has the wrong type (raised before OUT_BAG is touched).
+        ParameterError: invalid parameters or parameter set.
+
+    """
+    experiments_service = FrictionExperimentService.from_node_parameters(experiment_parameters)
+    params = load_parameter_set(estimator_parameters.get('parameter_set_file') or None)
+    config = EstimatorConfig.from_node_parameters(estimator_parameters, params=params)
+    from tqdm import tqdm
+    with tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}',
+              disable=not progress, mininterval=0.5) as bar:
+        def advance(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        samples = read_joint_samples(bag, joint=experiments_service.joint, progress=advance)
+    history = WearHistory(history_file if history_file is not None else ':memory:')
+    estimator = WearEstimatorService(config, history=history)
+    updates: list[WearUpdate] = []
+    result = ReplayResult(updates=updates, joint=config.joint,
+                          message_count=samples.message_count, sample_count=samples.time_s.size,
+                          truth=truth)
+
+    def run(writer: Any) -> None:
+        def publish(experiment: Any) -> None:
+            msg = experiments_service.friction_levels_message(KIT, experiment)
+            stamp_ns = stamp_to_nanoseconds(experiment.end_time_s)
+            if writer is not None:
+                writer.write(bag_topic(FRICTION_LEVELS_TOPIC), msg, stamp_ns)
+            update = estimator.handle_friction_levels(msg)
+            if update is None:
+                return
+            updates.append(update)
+            if writer is not None:
+                for topic, out in estimator.output_messages(KIT, update):
+                    writer.write(bag_topic(topic), out, stamp_ns)
+
+        experiments = experiments_service.add_recording(
+            time_s=samples.time_s, position_rad=samples.position_rad,
+            velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)
+        for experiment in tqdm(experiments, unit='experiment', desc='estimate',
+                               disable=not progress, mininterval=0.5):
+            publish(experiment)
+        for experiment in experiments_service.finish():
+            publish(experiment)
+
+    try:
+        if out_bag is None:
+            run(None)
+        else:
+            with atomic_bag_writer(out_bag, storage=storage, overwrite=overwrite) as writer:
+                for topic, msgtype in OUTPUT_TOPICS.items():
+                    writer.add_topic(bag_topic(topic), msgtype)
+                run(writer)
+            result.out_bag = Path(out_bag)
+    finally:
+        history.close()
+    rejections = dict(samples.rejections)
+    for reason, count in experiments_service.all_rejections().items():
+        rejections[f'segmentation_{reason}'] = count
+    for reason, count in estimator.rejections.items():
+        rejections[f'friction_levels_{reason}'] = count
+    result.rejections = rejections
+    return result
+
+
+def read_truth_beside(bag: str | os.PathLike) -> Optional[list]:
+    """Return the simulation truth written beside a simulated bag, or None."""
+    from robot_wear_monitor.experiment.simulation import read_truth_json, truth_path_for
+    path = truth_path_for(bag)
+    return read_truth_json(path) if path.is_file() else None

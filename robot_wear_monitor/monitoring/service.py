@@ -1,0 +1,685 @@
+"""The ROS-agnostic monitoring service that both nodes and the bag replay drive.
+
+Pipeline: joint states -> :class:`FrictionExperimentService` (segmentation into friction levels
+and experiments) -> ``friction_levels`` -> :class:`WearEstimatorService` (estimate (T, w),
+alarm latch with reset, diagnostics status and key-values, SQLite history).
+
+Alarm rule (documented in ``docs/service.md``).  The paper's rule is a threshold on each
+estimate: w-hat >= 35.  The latch implements it and, optionally, asks for accumulated evidence
+as well: a one-sided CUSUM of the Gaussian log-likelihood ratio between the threshold ``w1``
+(35) and the healthy level ``w0`` (25), each estimate weighted by its own variance,
+
+    llr_k = (w1 - w0) * (w-hat_k - (w0 + w1) / 2) / std_k^2,    S_k = max(0, S_(k-1) + llr_k)
+
+and the alarm is raised at the first estimate with ``w-hat_k >= w1`` and ``S_k >= h`` (h =
+``alarm_evidence``).  h = 0 (default) is the paper's rule: a Monte Carlo of the N = 4 design over
+wear trends like the paper's Sec. V scenarios, T in 30..50 degC and the load uncertainty gives a
+false alarm while w < 25 in 0-4 % of the runs and an alarm within two experiments of w crossing
+35 in 96-100 %; h = 2 gives a little fewer false alarms for a little later detection.  The alarm
+stays latched until reset (``~/reset_alarm``), which also clears the evidence.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from dataclasses import dataclass, field
+import math
+from typing import Any, Callable, Mapping, Optional, Sequence
+
+import numpy as np
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
+from robot_wear_monitor.recordings import messages
+from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK,
+                                                    DIAGNOSTIC_WARN, FrictionLevelsMessage,
+                                                    MessageError, MessageKit)
+from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
+
+#: Topics of the nodes (relative names resolve to /<name> in the root namespace).
+FRICTION_LEVELS_TOPIC = 'friction_levels'
+TEMPERATURE_TOPIC = 'temperature'
+WEAR_TOPIC = 'wear'
+ALARM_TOPIC = 'wear_alarm'
+DIAGNOSTICS_TOPIC = '/diagnostics'
+RESET_SERVICE = '~/reset_alarm'
+
+#: Topic -> ROS type of every output of the two nodes.
+OUTPUT_TOPICS: dict[str, str] = {
+    FRICTION_LEVELS_TOPIC: messages.FRICTION_LEVELS_TYPE,
+    TEMPERATURE_TOPIC: messages.TEMPERATURE_TYPE,
+    WEAR_TOPIC: messages.WEAR_TYPE,
+    ALARM_TOPIC: messages.ALARM_TYPE,
+    DIAGNOSTICS_TOPIC: messages.DIAGNOSTICS_TYPE,
+}
+
+
+# --------------------------------------------------------------------------- alarm latch
+
+@dataclass(frozen=True)
+class AlarmPolicy:
+    """Parameters of the alarm test: threshold w1, healthy level w0 and evidence h."""
+
+    threshold: float = 35.0
+    healthy: float = 25.0
+    evidence_to_raise: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Reject a policy whose healthy level is not below the threshold."""
+        if not (self.healthy < self.threshold and self.evidence_to_raise >= 0):
+            raise InputError(f'alarm policy: need healthy < threshold and evidence >= 0, got '
+                             f'healthy={self.healthy}, threshold={self.threshold}, '
+                             f'evidence={self.evidence_to_raise}')
+
+    def log_likelihood_ratio(self, *, wear: float, wear_std: float) -> float:
+        """Return llr of one estimate, 0 when its standard deviation is unknown or infinite."""
+        if not (math.isfinite(wear) and math.isfinite(wear_std) and wear_std > 0):
+            return 0.0
+        midpoint = 0.5 * (self.threshold + self.healthy)
+        return (self.threshold - self.healthy) * (wear - midpoint) / wear_std ** 2
+
+
+class AlarmLatch:
+    """A latched wear alarm fed by the CUSUM of the estimates' log-likelihood ratios."""
+
+    def __init__(self, policy: AlarmPolicy, *, active: bool = False,
+                 evidence: float = 0.0) -> None:
+        """Start in the given (restored) state."""
+        self.policy = policy
+        self.active = bool(active)
+        self.evidence = max(0.0, float(evidence))
+
+    def update(self, *, wear: float, wear_std: float) -> bool:
+        """Add one estimate; return True when this estimate raises the alarm."""
+        llr = self.policy.log_likelihood_ratio(wear=wear, wear_std=wear_std)
+        self.evidence = max(0.0, self.evidence + llr)
+        if self.active:
+            return False
+        if wear >= self.policy.threshold and self.evidence >= self.policy.evidence_to_raise:
+            self.active = True
+            return True
+        return False
+
+    def reset(self) -> bool:
+        """Clear the alarm and the evidence; return whether it was active."""
+        was_active = self.active
+        self.active = False
+        self.evidence = 0.0
+        return was_active
+
+
+# --------------------------------------------------------------------------- estimator service
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Configuration of :class:`WearEstimatorService` (from the node parameters)."""
+
+    joint: str
+    params: ParameterSet
+    alarm: AlarmPolicy = AlarmPolicy()
+    wear_warning: float = 28.0
+    min_fit_p_value: float = 0.01
+    experiment_speeds_rad_s: tuple[float, ...] = ()
+    speed_tolerance_rad_s: float = 1.0
+
+    @classmethod
+    def from_node_parameters(cls, values: Mapping[str, Any], *,
+                             params: ParameterSet | None = None) -> 'EstimatorConfig':
+        """Build from validated ``wear_estimator_node`` parameters (see node_config)."""
+        if params is None:
+            params = load_parameter_set(values.get('parameter_set_file') or None)
+        return cls(joint=values['joint'], params=params,
+                   alarm=AlarmPolicy(threshold=values['wear_threshold'],
+                                     healthy=values['wear_healthy'],
+                                     evidence_to_raise=values['alarm_evidence']),
+                   wear_warning=values['wear_warning'],
+                   min_fit_p_value=values['min_fit_p_value'],
+                   experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']))
+
+
+@dataclass(frozen=True)
+class DiagnosticReport:
+    """One DiagnosticStatus: level (0 OK, 1 WARN, 2 ERROR), message and key-values."""
+
+    level: int
+    message: str
+    values: tuple[tuple[str, str], ...]
+
+    def value(self, key: str) -> str:
+        """Return the value of ``key`` (KeyError when absent)."""
+        for k, v in self.values:
+            if k == key:
+                return v
+        raise KeyError(key)
+
+
+@dataclass(frozen=True)
+class WearUpdate:
+    """The result of one experiment: inputs, estimate, alarm state and diagnostics."""
+
+    index: int
+    stamp_s: float
+    joint: str
+    speeds_rad_s: tuple[float, ...]
+    frictions: tuple[float, ...]
+    estimate: Any
+    alarm_active: bool
+    alarm_raised: bool
+    alarm_evidence: float
+    status: DiagnosticReport
+
+    @property
+    def wear(self) -> float:
+        """Return w-hat."""
+        return float(self.estimate.wear)
+
+    @property
+    def wear_std(self) -> float:
+        """Return the standard deviation of w-hat."""
+        return float(self.estimate.wear_std)
+
+    @property
+    def temperature_degc(self) -> float:
+        """Return T-hat [degC]."""
+        return float(self.estimate.temperature_degc)
+
+    @property
+    def temperature_std_degc(self) -> float:
+        """Return the standard deviation of T-hat [degC]."""
+        return float(self.estimate.temperature_std_degc)
+
+    def to_json(self) -> dict[str, Any]:
+        """Return a JSON-safe summary (NaN and inf become None)."""
+        return {
+            'index': self.index, 'stamp_s': self.stamp_s,
+            'speeds_rad_s': [float(v) for v in self.speeds_rad_s],
+            'frictions': [float(f) for f in self.frictions],
+            'temperature_degc': json_number(self.temperature_degc),
+            'temperature_std_degc': json_number(self.temperature_std_degc),
+            'wear': json_number(self.wear), 'wear_std': json_number(self.wear_std),
+            'fit_p_value': json_number(self.estimate.p_value),
+            'chi2': json_number(self.estimate.chi2), 'dof': int(self.estimate.dof),
+            'temperature_at_bound': bool(self.estimate.temperature_at_bound),
+            'wear_at_bound': bool(self.estimate.wear_at_bound),
+            'alarm': self.alarm_active, 'alarm_raised': self.alarm_raised,
+            'alarm_evidence': json_number(self.alarm_evidence),
+            'status': messages.LEVEL_NAMES[self.status.level], 'message': self.status.message,
+        }
+
+
+def json_number(value: float) -> Optional[float]:
+    """Return ``value`` as float, or None when it is NaN or infinite (valid JSON)."""
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _fmt(value: float, digits: int = 4) -> str:
+    value = float(value)
+    return f'{value:.{digits}g}' if math.isfinite(value) else 'nan'
+
+
+#: Rejections that the friction experiment itself produces (ramps too short to be a pass, a
+#: pass without its partner, a pause in the stream): logged as info, not as input defects.
+ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_common_window',
+                                'time_gap'})
+
+
+class RejectionLog:
+    """Rate-limited log text of the inputs rejected since the last report, by reason.
+
+    A node calls :meth:`report` whenever its rejection count grows and from its periodic
+    diagnostics timer; the text says how many inputs of each reason were rejected since the
+    last report, at most once per ``period_s``, so a flood of bad messages gives one line per
+    period and none is left unreported.
+    """
+
+    def __init__(self, *, what: str, period_s: float = 10.0) -> None:
+        """Name the rejected inputs ``what`` (e.g. ``joint_states``) in the text."""
+        self.what = what
+        self.period_s = float(period_s)
+        self._reported: Counter[str] = Counter()
+        self._last_s = -math.inf
+
+    def report(self, counts: Mapping[str, int], *, now_s: float, detail: str = ''
+               ) -> Optional[tuple[str, bool]]:
+        """Return (text, defective) of the rejections not yet reported, or None.
+
+        None when nothing is new or the last report is less than ``period_s`` old;
+        ``defective`` is True when a reason other than :data:`ROUTINE_REJECTIONS` is new.
+        """
+        if now_s - self._last_s < self.period_s:
+            return None
+        new = Counter(counts)
+        new.subtract(self._reported)
+        new = +new
+        if not new:
+            return None
+        self._last_s = now_s
+        self._reported = Counter(counts)
+        by_reason = ', '.join(f'{reason} {count}' for reason, count in sorted(new.items()))
+        text = (f'rejected {sum(new.values())} {self.what} ({by_reason}); '
+                f'{sum(counts.values())} since start')
+        defective = any(reason not in ROUTINE_REJECTIONS for reason in new)
+        return (f'{text}; last: {detail}' if detail and defective else text), defective
+
+
+EstimateFunction = Callable[..., Any]
+
+
+def _default_estimate(speeds_rad_s: np.ndarray, frictions: np.ndarray, *,
+                      params: ParameterSet) -> Any:
+    from robot_wear_monitor.estimation.estimator import estimate_wear
+    return estimate_wear(speeds_rad_s, frictions, params=params)[0]
+
+
+class WearEstimatorService:
+    """Estimate (T, w) per experiment, latch the alarm, report diagnostics, keep the history.
+
+    Args:
+        config: the estimator configuration.
+        history: the SQLite history (``WearHistory(':memory:')`` when None); the trend, the
+            latched alarm and the evidence are restored from it.
+        estimate: ``f(speeds, frictions, *, params) -> WearEstimate`` (the core estimator by
+            default; tests may pass a fake).
+        trend_length: estimates kept in memory for the trend (all stored ones are restored
+            up to this many).
+
+    """
+
+    def __init__(self, config: EstimatorConfig, *, history: WearHistory | None = None,
+                 estimate: EstimateFunction | None = None, trend_length: int = 1000) -> None:
+        """Restore the state of ``config.joint`` from ``history``."""
+        self.config = config
+        self.history = history if history is not None else WearHistory(':memory:')
+        self._estimate = estimate or _default_estimate
+        restored = self.history.restore(joint=config.joint, trend_length=trend_length)
+        self.trend: deque[HistoryRecord] = deque(restored.records, maxlen=trend_length)
+        self.latch = AlarmLatch(config.alarm, active=restored.alarm_active,
+                                evidence=restored.alarm_evidence)
+        self.restored_estimates = len(restored.records)
+        self.experiments = len(restored.records)
+        self.rejections: Counter[str] = Counter()
+        self.last_update: Optional[WearUpdate] = None
+        self.last_rejection = ''
+
+    def warm_up(self) -> None:
+        """Run the estimator once on model friction levels (nothing is stored or published).
+
+        The first estimate of a process pays for imports and caches (about 0.5 s here); a node
+        pays it at start, not at its first experiment while /joint_states keeps arriving.
+        """
+        from robot_wear_monitor.model.friction import friction
+        speeds = np.asarray(self.config.experiment_speeds_rad_s or (30.0, 40.0), dtype=float)
+        levels = np.asarray(friction(speeds, 0.5, 40.0, 10.0, self.config.params.model),
+                            dtype=float)
+        self._estimate(speeds, levels, params=self.config.params)
+
+    # ----------------------------------------------------------------- inputs
+
+    def reject(self, reason: str, detail: str = '') -> None:
+        """Count an unusable input by ``reason`` (shown in the diagnostics key-values)."""
+        self.rejections[reason] += 1
+        self.last_rejection = f'{reason}: {detail}' if detail else reason
+
+    def handle_friction_levels(self, msg: Any) -> Optional[WearUpdate]:
+        """Process a ``friction_levels`` JointState (rclpy or rosbags); None if rejected."""
+        try:
+            levels = messages.friction_levels_from_msg(msg)
+        except MessageError as error:
+            self.reject(error.reason, error.detail)
+            return None
+        return self.process_levels(levels)
+
+    def process_experiment(self, experiment: FrictionExperiment) -> Optional[WearUpdate]:
+        """Process a completed experiment directly (no message in between)."""
+        return self.process_levels(FrictionLevelsMessage(
+            stamp_s=experiment.end_time_s, joint=self.config.joint,
+            speeds_rad_s=tuple(float(v) for v in experiment.speeds_rad_s),
+            frictions=tuple(float(f) for f in experiment.frictions)))
+
+    def process_levels(self, levels: FrictionLevelsMessage) -> Optional[WearUpdate]:
+        """Estimate, update the alarm, store the history; None if the estimate fails."""
+        if levels.joint and levels.joint != self.config.joint:
+            self.reject('other_joint', f'levels of joint {levels.joint!r}, this estimator '
+                                       f'monitors {self.config.joint!r}')
+            return None
+        speeds = np.asarray(levels.speeds_rad_s, dtype=float)
+        frictions = np.asarray(levels.frictions, dtype=float)
+        if speeds.size < 1 or speeds.shape != frictions.shape:
+            self.reject('length_mismatch', f'{speeds.size} speeds, {frictions.size} frictions')
+            return None
+        if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(frictions))):
+            self.reject('not_finite', 'a speed or friction level is NaN or infinite')
+            return None
+        try:
+            estimate = self._estimate(speeds, frictions, params=self.config.params)
+        except (InputError, ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+            self.reject('estimation_failed', str(error).splitlines()[0] if str(error) else '')
+            return None
+        wear = float(estimate.wear)
+        wear_std = float(estimate.wear_std)
+        raised = self.latch.update(wear=wear, wear_std=wear_std)
+        self.experiments += 1
+        status = self._status(estimate=estimate, speeds=levels.speeds_rad_s)
+        record = HistoryRecord(
+            joint=self.config.joint, stamp_s=levels.stamp_s, speeds_rad_s=levels.speeds_rad_s,
+            frictions=levels.frictions, temperature_degc=float(estimate.temperature_degc),
+            temperature_std_degc=float(estimate.temperature_std_degc), wear=wear,
+            wear_std=wear_std, chi2=float(estimate.chi2), dof=int(estimate.dof),
+            p_value=float(estimate.p_value),
+            temperature_at_bound=bool(estimate.temperature_at_bound),
+            wear_at_bound=bool(estimate.wear_at_bound), alarm_active=self.latch.active,
+            alarm_evidence=self.latch.evidence, status_level=status.level,
+            parameter_set=self.config.params.name)
+        events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
+                             wear=wear, note=f'w-hat {_fmt(wear)} >= '
+                                             f'{_fmt(self.config.alarm.threshold)}, evidence '
+                                             f'{_fmt(self.latch.evidence, 3)}')] if raised else []
+        record_id = self.history.append(record, events=events)
+        self.trend.append(HistoryRecord(**{**record.__dict__, 'id': record_id}))
+        self.last_update = WearUpdate(
+            index=self.experiments, stamp_s=levels.stamp_s, joint=self.config.joint,
+            speeds_rad_s=levels.speeds_rad_s, frictions=levels.frictions, estimate=estimate,
+            alarm_active=self.latch.active, alarm_raised=raised,
+            alarm_evidence=self.latch.evidence, status=status)
+        return self.last_update
+
+    def reset_alarm(self, *, stamp_s: float, note: str = 'reset after maintenance'
+                    ) -> tuple[bool, str]:
+        """Clear the latched alarm (``~/reset_alarm``); return (success, message)."""
+        was_active = self.latch.reset()
+        last_id = self.trend[-1].id if self.trend else None
+        self.history.record_event(AlarmEvent(joint=self.config.joint, stamp_s=stamp_s,
+                                             event='reset', wear=None, note=note,
+                                             estimate_id=last_id))
+        if was_active:
+            return True, 'wear alarm cleared; evidence reset'
+        return True, 'no wear alarm was active; evidence reset'
+
+    # ----------------------------------------------------------------- diagnostics
+
+    def _status(self, *, estimate: Any, speeds: Sequence[float]) -> DiagnosticReport:
+        config = self.config
+        wear = float(estimate.wear)
+        wear_std = float(estimate.wear_std)
+        p_value = float(estimate.p_value)
+        summary = (f'w = {_fmt(wear, 3)} +- {_fmt(wear_std, 2)}, '
+                   f'T = {_fmt(estimate.temperature_degc, 3)} degC')
+        warnings = []
+        if wear >= config.wear_warning and not self.latch.active:
+            warnings.append(f'wear near the alarm level {_fmt(config.alarm.threshold)}')
+        if math.isfinite(p_value) and p_value < config.min_fit_p_value:
+            warnings.append(f'the friction levels do not fit the model (p = {p_value:.2g})')
+        if bool(estimate.temperature_at_bound):
+            warnings.append('temperature estimate on its bound')
+        if config.experiment_speeds_rad_s and not _same_speeds(
+                speeds, config.experiment_speeds_rad_s, config.speed_tolerance_rad_s):
+            warnings.append('speeds differ from the configured experiment')
+        if self.latch.active:
+            level = DIAGNOSTIC_ERROR
+            message = f'WEAR ALARM (latched, reset after maintenance): {summary}'
+        elif warnings:
+            level = DIAGNOSTIC_WARN
+            message = f'{summary}; ' + '; '.join(warnings)
+        else:
+            level = DIAGNOSTIC_OK
+            message = summary
+        values = [
+            ('joint', config.joint),
+            ('wear', _fmt(wear, 6)), ('wear_std', _fmt(wear_std, 6)),
+            ('temperature_degc', _fmt(estimate.temperature_degc, 6)),
+            ('temperature_std_degc', _fmt(estimate.temperature_std_degc, 6)),
+            ('speeds_rad_s', ','.join(_fmt(v, 6) for v in speeds)),
+            ('n_levels', str(int(estimate.n_levels))),
+            ('fit_p_value', _fmt(p_value, 4)), ('chi2', _fmt(estimate.chi2, 4)),
+            ('dof', str(int(estimate.dof))),
+            ('temperature_at_bound', str(bool(estimate.temperature_at_bound)).lower()),
+            ('wear_at_bound', str(bool(estimate.wear_at_bound)).lower()),
+            ('alarm', str(self.latch.active).lower()),
+            ('alarm_evidence', _fmt(self.latch.evidence, 4)),
+            ('wear_threshold', _fmt(config.alarm.threshold)),
+            ('wear_warning', _fmt(config.wear_warning)),
+            ('experiments', str(self.experiments)),
+            ('parameter_set', config.params.name),
+        ]
+        values += self._rejection_values()
+        return DiagnosticReport(level=level, message=message, values=tuple(values))
+
+    def _rejection_values(self) -> list[tuple[str, str]]:
+        values = [('rejected_total', str(sum(self.rejections.values())))]
+        values += [(f'rejected_{reason}', str(count))
+                   for reason, count in sorted(self.rejections.items())]
+        if self.last_rejection:
+            values.append(('last_rejection', self.last_rejection))
+        return values
+
+    def current_status(self) -> DiagnosticReport:
+        """Return the status to publish now (periodic diagnostics, before any estimate)."""
+        if self.last_update is not None:
+            status = self.last_update.status
+            values = [kv for kv in status.values if not kv[0].startswith(
+                ('rejected_', 'last_rejection', 'alarm'))]
+            values += [('alarm', str(self.latch.active).lower()),
+                       ('alarm_evidence', _fmt(self.latch.evidence, 4))]
+            level = status.level
+            message = status.message
+            if not self.latch.active and level == DIAGNOSTIC_ERROR:
+                level, message = DIAGNOSTIC_OK, 'wear alarm reset; waiting for the next experiment'
+            return DiagnosticReport(level=level, message=message,
+                                    values=tuple(values + self._rejection_values()))
+        values = [('joint', self.config.joint), ('alarm', str(self.latch.active).lower()),
+                  ('alarm_evidence', _fmt(self.latch.evidence, 4)),
+                  ('experiments', str(self.experiments))]
+        if self.trend:
+            last = self.trend[-1]
+            values += [('wear', _fmt(last.wear, 6)), ('wear_std', _fmt(last.wear_std, 6)),
+                       ('temperature_degc', _fmt(last.temperature_degc, 6))]
+        values += self._rejection_values()
+        if self.latch.active:
+            return DiagnosticReport(DIAGNOSTIC_ERROR, 'WEAR ALARM (latched, restored from the '
+                                    'history; reset after maintenance)', tuple(values))
+        message = ('restored from the history; waiting for the next experiment' if self.trend
+                   else 'waiting for the first friction experiment')
+        return DiagnosticReport(DIAGNOSTIC_OK, message, tuple(values))
+
+    # ----------------------------------------------------------------- outputs
+
+    def diagnostic_name(self) -> str:
+        """Return the DiagnosticStatus name: ``wear_monitor: <joint>``."""
+        return f'wear_monitor: {self.config.joint}'
+
+    def output_messages(self, kit: MessageKit, update: WearUpdate
+                        ) -> list[tuple[str, Any]]:
+        """Return (topic, message) of the estimator's outputs for one update, in order."""
+        return [
+            (TEMPERATURE_TOPIC, messages.temperature_to_msg(
+                kit, stamp_s=update.stamp_s, frame_id=self.config.joint,
+                temperature_degc=update.temperature_degc,
+                variance_degc2=update.temperature_std_degc ** 2)),
+            (WEAR_TOPIC, messages.wear_to_msg(kit, wear=update.wear)),
+            (ALARM_TOPIC, messages.alarm_to_msg(kit, active=update.alarm_active)),
+            (DIAGNOSTICS_TOPIC, self.diagnostics_message(kit, stamp_s=update.stamp_s,
+                                                         status=update.status)),
+        ]
+
+    def diagnostics_message(self, kit: MessageKit, *, stamp_s: float,
+                            status: DiagnosticReport | None = None) -> Any:
+        """Return the DiagnosticArray of ``status`` (the current status when None)."""
+        status = status or self.current_status()
+        return messages.diagnostics_to_msg(
+            kit, stamp_s=stamp_s, name=self.diagnostic_name(), hardware_id=self.config.joint,
+            level=status.level, message=status.message, values=status.values)
+
+
+def _same_speeds(speeds: Sequence[float], expected: Sequence[float], tolerance: float) -> bool:
+    if len(speeds) != len(expected):
+        return False
+    return all(abs(a - b) <= tolerance for a, b in zip(sorted(speeds), sorted(expected)))
+
+
+# --------------------------------------------------------------------------- experiment service
+
+@dataclass
+class FrictionExperimentService:
+    """Segment joint states of one joint into friction levels and completed experiments.
+
+    Wraps the streaming segmenter and the experiment assembler of ``segmentation.py``; the
+    node feeds it every /joint_states message, the replay every recorded one.
+    """
+
+    segmenter_config: Any
+    experiment_speeds_rad_s: tuple[float, ...] = ()
+    speed_tolerance_rad_s: float = 1.0
+    idle_gap_s: float = 30.0
+    rejections: Counter = field(default_factory=Counter)
+    levels: list[FrictionLevel] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        """Build the segmenter and the assembler."""
+        from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler,
+                                                                StreamingSegmenter)
+        self.messages = 0
+        self.experiments = 0
+        self.last_experiment: Optional[FrictionExperiment] = None
+        self.last_error = ''
+        self._status_total = 0
+        self._segmenter = StreamingSegmenter(self.segmenter_config)
+        self._assembler = ExperimentAssembler(
+            speeds_rad_s=list(self.experiment_speeds_rad_s) or None,
+            speed_tolerance_rad_s=self.speed_tolerance_rad_s, idle_gap_s=self.idle_gap_s)
+
+    @classmethod
+    def from_node_parameters(cls, values: Mapping[str, Any]) -> 'FrictionExperimentService':
+        """Build from validated ``friction_experiment_node`` parameters (see node_config)."""
+        from robot_wear_monitor.monitoring.node_config import SEGMENTER_FIELDS
+        from robot_wear_monitor.experiment.segmentation import SegmenterConfig
+        config = SegmenterConfig(**{name: values[name] for name in SEGMENTER_FIELDS})
+        return cls(segmenter_config=config,
+                   experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']),
+                   speed_tolerance_rad_s=values['experiment_speed_tolerance_rad_s'],
+                   idle_gap_s=values['idle_gap_s'])
+
+    @property
+    def joint(self) -> str:
+        """Return the segmented joint."""
+        return self.segmenter_config.joint
+
+    def all_rejections(self) -> Counter:
+        """Return the rejections of the segmenter and of this service, by reason."""
+        total = Counter(self._segmenter.rejections)
+        total.update(self.rejections)
+        return total
+
+    @property
+    def rejected_total(self) -> int:
+        """Return the number of rejections so far (cheap: for a per-message check)."""
+        return self._segmenter.rejections.total() + self.rejections.total()
+
+    def add_joint_state(self, *, stamp_s: float, name: Sequence[str], position: Sequence[float],
+                        velocity: Sequence[float], effort: Sequence[float]
+                        ) -> list[FrictionExperiment]:
+        """Add one JointState; return the experiments it completes (usually none)."""
+        self.messages += 1
+        try:
+            new_levels = self._segmenter.add_joint_state(stamp_s=stamp_s, name=name,
+                                                         position=position, velocity=velocity,
+                                                         effort=effort)
+        except (InputError, ValueError, TypeError) as error:
+            self.rejections['malformed_joint_state'] += 1
+            self.last_error = str(error)
+            return []
+        return self._assemble(new_levels)
+
+    def add_sample(self, *, time_s: float, position_rad: float, velocity_rad_s: float,
+                   effort: float) -> list[FrictionExperiment]:
+        """Add one sample of the joint already picked from its JointState (the replay)."""
+        return self._assemble(self._segmenter.add_sample(
+            time_s=time_s, position_rad=position_rad, velocity_rad_s=velocity_rad_s,
+            effort=effort))
+
+    def add_recording(self, *, time_s: Sequence[float], position_rad: Sequence[float],
+                      velocity_rad_s: Sequence[float], effort: Sequence[float]
+                      ) -> list[FrictionExperiment]:
+        """Segment a whole recording of the joint at once (the replay) and assemble it.
+
+        The batch segmenter gives the same levels and rejection counts as the streaming one
+        that ``add_sample`` feeds (tested), at numpy speed; the levels then go through the same
+        experiment assembler as on the robot.  Use it on a fresh service, then ``finish()``.
+        Arrays: shape (n,), time [s], joint position [rad], joint speed [rad/s], effort.
+        """
+        from robot_wear_monitor.experiment.segmentation import segment_batch
+        result = segment_batch(time_s=time_s, position_rad=position_rad,
+                               velocity_rad_s=velocity_rad_s, effort=effort,
+                               config=self.segmenter_config)
+        self.rejections.update(result.rejections)
+        return self._assemble(result.levels)
+
+    def _assemble(self, new_levels: Sequence[FrictionLevel]) -> list[FrictionExperiment]:
+        experiments: list[FrictionExperiment] = []
+        for level in new_levels:
+            self.levels.append(level)
+            experiments.extend(self._assembler.add(level))
+        if experiments:
+            self.experiments += len(experiments)
+            self.last_experiment = experiments[-1]
+        return experiments
+
+    def diagnostic_name(self) -> str:
+        """Return the DiagnosticStatus name: ``friction_experiment: <joint>``."""
+        return f'friction_experiment: {self.joint}'
+
+    def current_status(self) -> DiagnosticReport:
+        """Return the segmentation status: counts, last experiment, rejections by reason.
+
+        WARN while malformed inputs (reasons outside :data:`ROUTINE_REJECTIONS`) were rejected
+        since the previous call (the node calls it once per diagnostics period), OK otherwise;
+        the counts are totals since start.
+        """
+        rejections = self.all_rejections()
+        total = sum(rejections.values())
+        defects = sum(n for r, n in rejections.items() if r not in ROUTINE_REJECTIONS)
+        new = defects - self._status_total
+        self._status_total = defects
+        summary = (f'{self.messages} joint_states, {len(self.levels)} friction levels, '
+                   f'{self.experiments} experiments')
+        values = [('joint', self.joint), ('joint_states', str(self.messages)),
+                  ('friction_levels', str(len(self.levels))),
+                  ('experiments', str(self.experiments)),
+                  ('levels_at_other_speeds', str(self._assembler.ignored)),
+                  ('experiments_abandoned', str(self._assembler.abandoned))]
+        if self.last_experiment is not None:
+            values += [('last_experiment_end_s', _fmt(self.last_experiment.end_time_s, 15)),
+                       ('last_speeds_rad_s', ','.join(
+                           _fmt(v, 6) for v in self.last_experiment.speeds_rad_s)),
+                       ('last_frictions', ','.join(
+                           _fmt(f, 6) for f in self.last_experiment.frictions))]
+        values.append(('rejected_total', str(total)))
+        values += [(f'rejected_{reason}', str(count))
+                   for reason, count in sorted(rejections.items())]
+        if self.last_error:
+            values.append(('last_rejection', self.last_error))
+        if new > 0:
+            reasons = ', '.join(sorted(set(rejections) - ROUTINE_REJECTIONS))
+            return DiagnosticReport(DIAGNOSTIC_WARN, f'{summary}; {new} malformed inputs '
+                                    f'rejected in the last period ({reasons})', tuple(values))
+        return DiagnosticReport(DIAGNOSTIC_OK, summary, tuple(values))
+
+    def diagnostics_message(self, kit: MessageKit, *, stamp_s: float) -> Any:
+        """Return the DiagnosticArray of :meth:`current_status`."""
+        status = self.current_status()
+        return messages.diagnostics_to_msg(
+            kit, stamp_s=stamp_s, name=self.diagnostic_name(), hardware_id=self.joint,
+            level=status.level, message=status.message, values=status.values)
+
+    def finish(self) -> list[FrictionExperiment]:
+        """Flush the segmenter and the assembler at the end of a stream (bag end, shutdown)."""
+        experiments = self._assemble(self._segmenter.finish() or [])
+        experiments.extend(self._assembler.flush() or [])
+        return experiments
+
+    def friction_levels_message(self, kit: MessageKit, experiment: FrictionExperiment) -> Any:
+        """Return the ``friction_levels`` JointState of a completed experiment."""
+        return messages.friction_levels_to_msg(
+            kit, stamp_s=experiment.end_time_s, joint=self.joint,
+            speeds_rad_s=experiment.speeds_rad_s, frictions=experiment.frictions)

@@ -1,0 +1,1 @@
+"""Recordings: ROS 2 bags, message mapping, measured raw tables."""

@@ -1,0 +1,220 @@
+"""Pure mapping between the monitoring service's results and ROS 2 message fields.
+
+The same functions build messages for the live nodes (rclpy message classes) and for the bag
+replay (rosbags typestore classes): the message classes come from a :class:`MessageKit`, which also
+says how the two worlds spell a float array (list for rclpy, numpy array for rosbags) and a
+``byte`` field (``bytes`` of length 1 for rclpy, ``int`` for rosbags).  Nothing here imports rclpy.
+
+Topic and type contract (documented in ``docs/service.md`` and the README):
+
+``friction_levels`` (sensor_msgs/msg/JointState), one message per completed experiment:
+    ``header.stamp`` end time of the experiment's last sample; ``header.frame_id`` the joint;
+    ``name[i]`` = ``<joint>/level_<i>``; ``velocity[i]`` the motor-side speed level [rad/s];
+    ``effort[i]`` the friction level tau_f (normalised torque) of eq. (3); ``position`` empty.
+``temperature`` (sensor_msgs/msg/Temperature): T-hat [degC] and its variance [degC^2].
+``wear`` (std_msgs/msg/Float64): w-hat.
+``wear_alarm`` (std_msgs/msg/Bool): the latched alarm state.
+``/diagnostics`` (diagnostic_msgs/msg/DiagnosticArray): one DiagnosticStatus with key-values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+
+from robot_wear_monitor.errors import InputError
+
+FRICTION_LEVELS_TYPE = 'sensor_msgs/msg/JointState'
+TEMPERATURE_TYPE = 'sensor_msgs/msg/Temperature'
+WEAR_TYPE = 'std_msgs/msg/Float64'
+ALARM_TYPE = 'std_msgs/msg/Bool'
+DIAGNOSTICS_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
+
+# Status levels of diagnostic_msgs/msg/DiagnosticStatus.
+DIAGNOSTIC_OK = 0
+DIAGNOSTIC_WARN = 1
+DIAGNOSTIC_ERROR = 2
+DIAGNOSTIC_STALE = 3
+LEVEL_NAMES = {DIAGNOSTIC_OK: 'OK', DIAGNOSTIC_WARN: 'WARN', DIAGNOSTIC_ERROR: 'ERROR',
+               DIAGNOSTIC_STALE: 'STALE'}
+
+
+class MessageError(InputError):
+    """A received message cannot be used; ``reason`` is a short counter key for diagnostics."""
+
+    def __init__(self, reason: str, detail: str) -> None:
+        """Keep the counter key ``reason`` and the one-line ``detail``."""
+        super().__init__(f'{reason}: {detail}')
+        self.reason = reason
+        self.detail = detail
+
+
+@dataclass(frozen=True)
+class MessageKit:
+    """Message classes plus the two field conventions that differ between rclpy and rosbags.
+
+    Attributes:
+        get_type: returns the message class of a ROS type name such as
+            ``'sensor_msgs/msg/JointState'``.
+        float_array: converts a sequence of floats to what a ``float64[]`` field takes.
+        byte: converts an int in 0..255 to what a ``byte`` field takes.
+
+    """
+
+    get_type: Callable[[str], Any]
+    float_array: Callable[[Iterable[float]], Any]
+    byte: Callable[[int], Any]
+
+    def make(self, type_name: str, **fields: Any) -> Any:
+        """Build a message of ``type_name`` from keyword fields (all fields must be given)."""
+        return self.get_type(type_name)(**fields)
+
+
+def rosbags_kit(typestore: Any) -> MessageKit:
+    """Return the kit for a rosbags typestore (``float64[]`` as numpy, ``byte`` as int)."""
+    return MessageKit(get_type=lambda name: typestore.types[name],
+                      float_array=lambda values: np.asarray(list(values), dtype=np.float64),
+                      byte=int)
+
+
+def rclpy_kit(get_message: Callable[[str], Any]) -> MessageKit:
+    """Return the kit for rclpy message classes (``get_message`` from rosidl_runtime_py)."""
+    return MessageKit(get_type=get_message,
+                      float_array=lambda values: [float(v) for v in values],
+                      byte=lambda value: bytes([int(value)]))
+
+
+def level_to_int(value: Any) -> int:
+    """Return a DiagnosticStatus ``level`` as int, whether it is bytes (rclpy) or int (rosbags)."""
+    if isinstance(value, (bytes, bytearray)):
+        return int(value[0])
+    return int(value)
+
+
+# --------------------------------------------------------------------------- time
+
+def split_stamp(stamp_s: float) -> tuple[int, int]:
+    """Return (sec, nanosec) of a time in seconds, nanosec in [0, 1e9)."""
+    total_ns = int(round(float(stamp_s) * 1e9))
+    sec, nanosec = divmod(total_ns, 1_000_000_000)
+    return int(sec), int(nanosec)
+
+
+def stamp_to_seconds(stamp: Any) -> float:
+    """Return a builtin_interfaces/Time as float seconds."""
+    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
+
+
+def stamp_to_nanoseconds(stamp_s: float) -> int:
+    """Return a time in seconds as integer nanoseconds (bag timestamps)."""
+    return int(round(float(stamp_s) * 1e9))
+
+
+def make_header(kit: MessageKit, *, stamp_s: float, frame_id: str = '') -> Any:
+    """Build a std_msgs/Header."""
+    sec, nanosec = split_stamp(stamp_s)
+    stamp = kit.make('builtin_interfaces/msg/Time', sec=sec, nanosec=nanosec)
+    return kit.make('std_msgs/msg/Header', stamp=stamp, frame_id=frame_id)
+
+
+# --------------------------------------------------------------------------- friction_levels
+
+@dataclass(frozen=True)
+class FrictionLevelsMessage:
+    """The content of one ``friction_levels`` message: one completed experiment."""
+
+    stamp_s: float
+    joint: str
+    speeds_rad_s: tuple[float, ...]
+    frictions: tuple[float, ...]
+
+
+def level_names(joint: str, count: int) -> list[str]:
+    """Return the ``name`` entries of a friction_levels message: ``<joint>/level_<i>``."""
+    return [f'{joint}/level_{i}' for i in range(count)]
+
+
+def friction_levels_to_msg(kit: MessageKit, *, stamp_s: float, joint: str,
+                           speeds_rad_s: Sequence[float], frictions: Sequence[float]) -> Any:
+    """Build the friction_levels JointState: velocity = speeds [rad/s], effort = friction."""
+    speeds = [float(v) for v in speeds_rad_s]
+    values = [float(f) for f in frictions]
+    if len(speeds) != len(values) or not speeds:
+        raise ValueError(f'need as many speeds as frictions (>= 1), got {len(speeds)} and '
+                         f'{len(values)}')
+    return kit.make(FRICTION_LEVELS_TYPE,
+                    header=make_header(kit, stamp_s=stamp_s, frame_id=joint),
+                    name=level_names(joint, len(speeds)),
+                    position=kit.float_array([]),
+                    velocity=kit.float_array(speeds),
+                    effort=kit.float_array(values))
+
+
+def friction_levels_from_msg(msg: Any) -> FrictionLevelsMessage:
+    """Read a friction_levels JointState; raise :class:`MessageError` when it is unusable.
+
+    Reasons (diagnostic counter keys): ``empty``, ``length_mismatch``, ``not_finite``,
+    ``non_positive_speed``.
+    """
+    try:
+        speeds = tuple(float(v) for v in msg.velocity)
+        frictions = tuple(float(f) for f in msg.effort)
+        names = list(msg.name)
+        stamp_s = stamp_to_seconds(msg.header.stamp)
+        joint = str(msg.header.frame_id)
+    except (AttributeError, TypeError, ValueError) as error:
+        raise MessageError('malformed', f'not a JointState with numbers: {error}') from None
+    if not speeds and not frictions:
+        raise MessageError('empty', 'no friction levels (velocity and effort are empty)')
+    if len(speeds) != len(frictions) or (names and len(names) != len(speeds)):
+        raise MessageError('length_mismatch',
+                           f'velocity has {len(speeds)}, effort {len(frictions)}, '
+                           f'name {len(names)} entries')
+    if not all(math.isfinite(v) for v in speeds + frictions):
+        raise MessageError('not_finite', 'a speed or friction level is NaN or infinite')
+    if min(speeds) <= 0:
+        raise MessageError('non_positive_speed',
+                           f'speed levels must be > 0 rad/s (motor side), got {min(speeds)}')
+    return FrictionLevelsMessage(stamp_s=stamp_s, joint=joint, speeds_rad_s=speeds,
+                                 frictions=frictions)
+
+
+# --------------------------------------------------------------------------- estimator outputs
+
+def temperature_to_msg(kit: MessageKit, *, stamp_s: float, frame_id: str,
+                       temperature_degc: float, variance_degc2: float) -> Any:
+    """Build sensor_msgs/Temperature (variance 0 means unknown in the message definition)."""
+    variance = float(variance_degc2) if math.isfinite(variance_degc2) else 0.0
+    return kit.make(TEMPERATURE_TYPE, header=make_header(kit, stamp_s=stamp_s, frame_id=frame_id),
+                    temperature=float(temperature_degc), variance=variance)
+
+
+def wear_to_msg(kit: MessageKit, *, wear: float) -> Any:
+    """Build std_msgs/Float64 holding w-hat."""
+    return kit.make(WEAR_TYPE, data=float(wear))
+
+
+def alarm_to_msg(kit: MessageKit, *, active: bool) -> Any:
+    """Build std_msgs/Bool holding the latched alarm state."""
+    return kit.make(ALARM_TYPE, data=bool(active))
+
+
+def diagnostics_to_msg(kit: MessageKit, *, stamp_s: float, name: str, hardware_id: str,
+                       level: int, message: str,
+                       values: Sequence[tuple[str, str]]) -> Any:
+    """Build a DiagnosticArray with one DiagnosticStatus and its key-values."""
+    key_values = [kit.make('diagnostic_msgs/msg/KeyValue', key=str(k), value=str(v))
+                  for k, v in values]
+    status = kit.make('diagnostic_msgs/msg/DiagnosticStatus', level=kit.byte(level),
+                      name=name, message=message, hardware_id=hardware_id, values=key_values)
+    return kit.make(DIAGNOSTICS_TYPE, header=make_header(kit, stamp_s=stamp_s),
+                    status=[status])
+
+
+def diagnostics_from_msg(msg: Any) -> list[tuple[int, str, str, dict[str, str]]]:
+    """Return (level, name, message, key-values) of every status of a DiagnosticArray."""
+    return [(level_to_int(s.level), str(s.name), str(s.message),
+             {str(kv.key): str(kv.value) for kv in s.values}) for s in msg.status]

@@ -1,0 +1,178 @@
+"""Readers of raw measured runs (not bags) into sample arrays for the segmenter.
+
+The KUKA LBR iiwa 14 friction runs of ``../shared/data/external/kuka_iiwa_yezhao_drake`` are one
+gzip CSV per run (``raw_runs/<set>_<vel_label>.csv.gz``) with the columns ``t_s, q_rad, dq_rad_s,
+tau_measured_Nm`` of the tested joint (link side: position [rad], velocity [rad/s], joint torque
+sensor [N m], raw sign).  The author's processed tables (``processed_original/*.dat``) hold one
+row per speed: mean joint velocity [rad/s] and mean torque [N m].
+
+For the segmenter, the iiwa's sensors are on the link side, so ``gear_ratio`` is 1 and
+``torque_scale`` is 1 (levels in N m and link-side rad/s): see :func:`kuka_segmenter_config`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import gzip
+import os
+from pathlib import Path
+import re
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.segmentation import SegmenterConfig
+
+FloatArray = NDArray[np.float64]
+
+KUKA_COLUMNS = ('t_s', 'q_rad', 'dq_rad_s', 'tau_measured_Nm')
+_RUN_NAME = re.compile(r'^(?P<set>joint(?P<joint>\d)(?:_[a-z_]+?)?)_vel_(?P<label>[0-9p]+)$')
+
+
+class RecordingError(InputError):
+    """A raw recording cannot be read; the message names the file and the problem."""
+
+
+@dataclass(frozen=True)
+class RawRun:
+    """One raw run of one joint, as sample arrays of shape (n,).
+
+    Attributes:
+        t_s: time [s].
+        q_rad: joint position [rad].
+        dq_rad_s: joint velocity [rad/s].
+        tau_measured_Nm: measured joint torque [N m] (raw sign).
+        joint: tested joint number (1..7), 0 when unknown.
+        test_set: name of the test set, e.g. ``joint5_new_pose_friction_test``.
+        nominal_speed_rad_s: commanded speed from the file name [rad/s], NaN when unknown.
+        source: the file read.
+
+    """
+
+    t_s: FloatArray
+    q_rad: FloatArray
+    dq_rad_s: FloatArray
+    tau_measured_Nm: FloatArray  # noqa: N815 - the CSV column name, with its unit
+    joint: int
+    test_set: str
+    nominal_speed_rad_s: float
+    source: str
+
+    def __iter__(self):
+        """Unpack as (t_s, q_rad, dq_rad_s, tau_measured_Nm)."""
+        return iter((self.t_s, self.q_rad, self.dq_rad_s, self.tau_measured_Nm))
+
+    def __len__(self) -> int:
+        """Return the number of samples."""
+        return int(self.t_s.size)
+
+
+def speed_from_label(label: str) -> float:
+    """Return the speed of a folder label: ``p8`` -> 0.8, ``p15`` -> 0.15, ``1p1`` -> 1.1."""
+    if not re.fullmatch(r'\d*p?\d*', label) or not label.strip('p'):
+        raise RecordingError(f'not a speed label: {label!r}')
+    return float(label.replace('p', '.') if not label.startswith('p')
+                 else '0.' + label[1:])
+
+
+def parse_run_name(path: str | os.PathLike) -> tuple[str, int, float]:
+    """Return (test set, joint number, nominal speed [rad/s]) of a KUKA run file name."""
+    stem = Path(path).name
+    for suffix in ('.gz', '.csv'):
+        stem = stem[:-len(suffix)] if stem.endswith(suffix) else stem
+    match = _RUN_NAME.match(stem)
+    if match is None:
+        return stem, 0, float('nan')
+    return match['set'], int(match['joint']), speed_from_label(match['label'])
+
+
+def read_raw_csv(path: str | os.PathLike, *,
+                 columns: tuple[str, str, str, str] = KUKA_COLUMNS) -> tuple[FloatArray, ...]:
+    """Read a (gzip) CSV with a header row; return the named columns as float arrays (n,).
+
+    Raises:
+        RecordingError: the file is missing, not CSV, lacks a column or has no rows.
+
+    """
+    file = Path(path)
+    opener = gzip.open if file.suffix == '.gz' else open
+    try:
+        with opener(file, 'rt', encoding='utf-8') as stream:
+            header = stream.readline().strip().split(',')
+            missing = [c for c in columns if c not in header]
+            if missing:
+                raise RecordingError(f'{file}: missing column {missing[0]!r} '
+                                     f'(header: {",".join(header)})')
+            data = np.loadtxt(stream, delimiter=',', dtype=np.float64, ndmin=2,
+                              usecols=[header.index(c) for c in columns])
+    except OSError as error:
+        raise RecordingError(f'{file}: cannot read: {error}') from None
+    except ValueError as error:
+        raise RecordingError(f'{file}: not a numeric CSV: {str(error).splitlines()[0]}') \
+            from None
+    if data.shape[0] == 0:
+        raise RecordingError(f'{file}: no data rows')
+    return tuple(np.ascontiguousarray(data[:, i]) for i in range(len(columns)))
+
+
+def read_kuka_run(path: str | os.PathLike) -> RawRun:
+    """Read one KUKA iiwa run ``raw_runs/<set>_<vel_label>.csv.gz`` into a :class:`RawRun`.
+
+    The arrays are unpackable: ``t_s, q_rad, dq_rad_s, tau_measured_Nm = read_kuka_run(p)``.
+    """
+    t, q, dq, tau = read_raw_csv(path)
+    test_set, joint, speed = parse_run_name(path)
+    return RawRun(t_s=t, q_rad=q, dq_rad_s=dq, tau_measured_Nm=tau, joint=joint,
+                  test_set=test_set, nominal_speed_rad_s=speed, source=str(path))
+
+
+def list_kuka_runs(directory: str | os.PathLike, *, test_set: str | None = None) -> list[Path]:
+    """Return the run files of a KUKA data folder (or its ``raw_runs``), sorted by speed.
+
+    Args:
+        directory: the ``kuka_iiwa_yezhao_drake`` folder or its ``raw_runs`` subfolder.
+        test_set: keep only this set, e.g. ``joint3`` or ``joint5_new_pose_friction_test``.
+
+    """
+    folder = Path(directory)
+    if (folder / 'raw_runs').is_dir():
+        folder = folder / 'raw_runs'
+    if not folder.is_dir():
+        raise RecordingError(f'{folder}: not a folder')
+    files = sorted(folder.glob('*.csv.gz'))
+    if test_set is not None:
+        files = [f for f in files if parse_run_name(f)[0] == test_set]
+    return sorted(files, key=lambda f: (parse_run_name(f)[0], parse_run_name(f)[2]))
+
+
+def read_author_table(path: str | os.PathLike) -> tuple[FloatArray, FloatArray]:
+    """Read a processed table ``FRICTION_*_SET_JOINT*.dat``: (velocity [rad/s], torque [N m]).
+
+    Rows are returned sorted by |velocity|.
+    """
+    try:
+        data = np.loadtxt(path, dtype=np.float64, ndmin=2)
+    except (OSError, ValueError) as error:
+        raise RecordingError(f'{path}: cannot read table: {str(error).splitlines()[0]}') \
+            from None
+    if data.shape[1] != 2 or data.shape[0] == 0:
+        raise RecordingError(f'{path}: expected two columns, got shape {data.shape}')
+    order = np.argsort(np.abs(data[:, 0]))
+    return data[order, 0].copy(), data[order, 1].copy()
+
+
+def kuka_segmenter_config(**overrides) -> SegmenterConfig:
+    """Return the segmenter settings for the KUKA iiwa runs (link-side sensors, N m).
+
+    gear_ratio 1 and torque_scale 1 (levels in link-side rad/s and N m); the runs are logged at
+    200 Hz with a speed estimate that ripples by a few percent, so the constant-speed band is
+    5 % (at least 0.01 rad/s), the standstill threshold 0.03 rad/s and passes must last 0.3 s.
+    Keyword arguments override any field.
+    """
+    settings = dict(joint='kuka_joint', gear_ratio=1.0, torque_scale=1.0,
+                    standstill_speed_rad_s=0.03, speed_tolerance_fraction=0.05,
+                    speed_tolerance_rad_s=0.01, min_duration_s=0.3, min_samples=20,
+                    max_gap_s=0.05)
+    settings.update(overrides)
+    return SegmenterConfig(**settings)

@@ -1,0 +1,1 @@
+"""Figures, the replay report and the demo."""

@@ -1,0 +1,169 @@
+"""Segmentation of eq. (3): truth on simulated streams, streaming == batch, bad samples."""
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, SegmenterConfig,
+                                                        StreamingSegmenter, segment_batch)
+from robot_wear_monitor.experiment.simulation import (JointSimConfig, PAPER_SPEEDS_RAD_S,
+                                                      ScenarioConfig, segmenter_config_for,
+                                                      simulate_scenario)
+
+
+@pytest.fixture(scope='module')
+def paper_grid():
+    """One experiment over the whole eq. (27) grid, noise, gravity, quantisation on."""
+    config = ScenarioConfig(speeds_rad_s=PAPER_SPEEDS_RAD_S, wear=(35.0,),
+                            temperature_degc=(40.0,), load=(0.5,), level_error_std=0.005,
+                            joint=JointSimConfig(shuffle_joint_order=True))
+    return simulate_scenario(config=config, seed=3)
+
+
+def _stream(scenario, segmenter):
+    levels = []
+    for stamp, name, position, velocity, effort in scenario.messages():
+        levels += segmenter.add_joint_state(stamp_s=stamp, name=name, position=position,
+                                            velocity=velocity, effort=effort)
+    return levels + segmenter.finish()
+
+
+def test_every_paper_speed_matches_truth(paper_grid):
+    config = segmenter_config_for(paper_grid.config)
+    t, q, v, e = paper_grid.joint_samples()
+    result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    truth = paper_grid.truth[0]
+    assert len(result.levels) == len(truth.speeds_rad_s)
+    quantisation = paper_grid.config.effort_resolution / paper_grid.config.torque_scale
+    for level, speed, friction in zip(result.levels, truth.speeds_rad_s, truth.friction_true):
+        assert level.speed_rad_s == pytest.approx(speed, rel=0.01)
+        # Bound: 4 standard errors of the level plus one quantisation step of the effort.
+        assert abs(level.friction - friction) <= 4 * level.friction_std_error + quantisation
+        assert level.n_forward >= 20 and level.n_backward >= 20
+    assert set(result.rejections) <= {'pass_too_short'}  # reposition moves only
+
+
+def test_streaming_equals_batch_with_bad_samples(paper_grid):
+    config = segmenter_config_for(paper_grid.config)
+    t, q, v, e = (a.copy() for a in paper_grid.joint_samples())
+    rng = np.random.default_rng(0)
+    bad = rng.choice(t.size, 40, replace=False)
+    e[bad[:10]] = np.nan
+    q[bad[10:20]] = np.inf
+    t[bad[20:30]] = t[bad[20:30]] - 0.5
+    t[bad[30]:] += 1.0  # one gap
+    streaming = StreamingSegmenter(config)
+    levels = []
+    for sample in zip(t, q, v, e):
+        levels += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
+                                       velocity_rad_s=sample[2], effort=sample[3])
+    levels += streaming.finish()
+    batch = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    assert levels == batch.levels
+    assert streaming.rejections == batch.rejections
+    assert batch.rejections['non_finite'] == 20
+    assert batch.rejections['time_gap'] == 1
+    assert batch.rejections['time_not_increasing'] >= 10
+
+
+def test_streaming_messages_equal_batch(paper_grid):
+    config = segmenter_config_for(paper_grid.config)
+    streamed = _stream(paper_grid, StreamingSegmenter(config))
+    t, q, v, e = paper_grid.joint_samples()
+    assert streamed == segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e,
+                                     config=config).levels
+
+
+def _message(segmenter, stamp, **fields):
+    message = dict(name=['a', 'j'], position=[0.0, 0.0], velocity=[0.0, 1.0],
+                   effort=[0.0, 0.1])
+    message.update(fields)
+    return segmenter.add_joint_state(stamp_s=stamp, **message)
+
+
+@pytest.mark.parametrize('fields,reason', [
+    (dict(name=['a', 'b']), 'joint_missing'),
+    (dict(effort=[]), 'missing_effort'),
+    (dict(position=[]), 'missing_position'),
+    (dict(velocity=[]), 'missing_velocity'),
+    (dict(effort=[0.0, 0.1, 0.2]), 'length_mismatch'),
+    (dict(effort=[0.0, float('nan')]), 'non_finite'),
+    (dict(position=[0.0, float('inf')]), 'non_finite'),
+])
+def test_message_rejections(fields, reason):
+    segmenter = StreamingSegmenter(SegmenterConfig(joint='j'))
+    _message(segmenter, 0.0)
+    _message(segmenter, 0.01, **fields)
+    assert segmenter.rejections == Counter({reason: 1})
+
+
+def test_time_backwards_and_gap_are_counted():
+    segmenter = StreamingSegmenter(SegmenterConfig(joint='j', max_gap_s=0.1))
+    for stamp in (0.0, 0.01, 0.005, 0.01, 0.5):
+        _message(segmenter, stamp)
+    assert segmenter.rejections == Counter({'time_not_increasing': 2, 'time_gap': 1})
+
+
+def test_bad_sample_cuts_the_pass(paper_grid):
+    config = segmenter_config_for(paper_grid.config)
+    t, q, v, e = (a.copy() for a in paper_grid.joint_samples())
+    clean = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    first = clean.levels[0]
+    middle = np.flatnonzero((t > first.start_time_s + 0.3) & (np.abs(v) > 0))[0]
+    e[middle] = 1e9  # would ruin the mean if it were averaged in...
+    e[middle] = np.nan  # ...so it is rejected instead
+    cut = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    assert all(abs(level.friction) < 1 for level in cut.levels)
+    assert cut.levels[0].n_forward + cut.levels[0].n_backward < \
+        first.n_forward + first.n_backward
+
+
+@pytest.mark.parametrize('field,value', [('gear_ratio', 0.0), ('torque_scale', -1.0),
+                                         ('speed_tolerance_fraction', 1.5),
+                                         ('min_samples', 2), ('max_gap_s', float('nan')),
+                                         ('window_center_rad', 0.1)])
+def test_config_validation_names_the_field(field, value):
+    with pytest.raises(InputError, match=field.split('_rad')[0]):
+        SegmenterConfig(joint='j', **{field: value})
+
+
+def test_batch_rejects_arrays_of_different_lengths():
+    with pytest.raises(InputError, match='differ in length'):
+        segment_batch(time_s=[0, 1], position_rad=[0], velocity_rad_s=[0, 1], effort=[0, 1],
+                      config=SegmenterConfig(joint='j'))
+
+
+def _level(speed, start, friction=0.1, se=0.01):
+    return FrictionLevel(speed_rad_s=speed, friction=friction, friction_std_error=se,
+                         tau_forward=friction, tau_backward=-friction, n_forward=100,
+                         n_backward=100, position_min_rad=0.0, position_max_rad=0.1,
+                         start_time_s=start, end_time_s=start + 2.0)
+
+
+def test_assembler_with_speeds_merges_repeats_and_completes():
+    assembler = ExperimentAssembler(speeds_rad_s=[10.0, 30.0], speed_tolerance_rad_s=1.0,
+                                    idle_gap_s=10.0)
+    assert assembler.add(_level(10.2, 0.0, 0.1)) == []
+    assert assembler.add(_level(9.9, 3.0, 0.3)) == []
+    assert assembler.add(_level(55.0, 5.0)) == [] and assembler.ignored == 1
+    (experiment,) = assembler.add(_level(30.0, 6.0, 0.2))
+    assert experiment.frictions == pytest.approx([0.2, 0.2])
+    assert experiment.levels[0].n_forward == 200
+    # an incomplete experiment followed by a long pause is abandoned
+    assembler.add(_level(10.0, 100.0))
+    assert assembler.add(_level(10.0, 200.0)) == [] and assembler.abandoned == 1
+
+
+def test_assembler_without_speeds_splits_on_idle_and_repeat():
+    assembler = ExperimentAssembler(speed_tolerance_rad_s=1.0, idle_gap_s=10.0)
+    assembler.add(_level(10.0, 0.0))
+    assembler.add(_level(20.0, 3.0))
+    (first,) = assembler.add(_level(10.0, 6.0))  # repeat
+    assert list(first.speeds_rad_s) == [10.0, 20.0]
+    (second,) = assembler.add(_level(30.0, 60.0))  # idle gap
+    assert list(second.speeds_rad_s) == [10.0]
+    (last,) = assembler.flush()
+    assert list(last.speeds_rad_s) == [30.0]

@@ -1,0 +1,71 @@
+"""The online loop: replay -> SQLite history -> `history --csv` -> `audit`; audit of a bag."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from robot_wear_monitor import cli
+from robot_wear_monitor.audit.model_audit import load_audit_data
+from robot_wear_monitor.experiment.simulation import read_truth_json, truth_path_for
+
+SPEEDS = [2.1, 28.5, 35.1, 41.7]
+
+
+@pytest.fixture(scope='module')
+def replayed(tmp_path_factory):
+    folder = tmp_path_factory.mktemp('history')
+    bag = folder / 'bag'
+    assert cli.main(['simulate', '--out', str(bag), '--experiments', '5', '--seed', '4']) == 0
+    history = folder / 'h.sqlite3'
+    assert cli.main(['replay', str(bag), '--out', str(folder / 'out'), '--json',
+                     str(folder / 's.json'), '--history', str(history), '--joint', 'joint_2',
+                     '--gear-ratio', '150', '--torque-scale', '10', '--no-progress']) == 0
+    summary = json.loads((folder / 's.json').read_text())
+    return folder, bag, history, summary
+
+
+def test_history_exports_the_replayed_levels_for_audit(replayed, capsys):
+    folder, _, history, summary = replayed
+    levels_csv = folder / 'levels.csv'
+    capsys.readouterr()
+    assert cli.main(['history', str(history), '--csv', str(levels_csv), '--json']) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown['joint'] == 'joint_2'
+    assert len(shown['estimates']) == len(summary['experiments']) == 5
+    for stored, replayed_experiment in zip(shown['estimates'], summary['experiments']):
+        assert stored['wear'] == pytest.approx(replayed_experiment['wear'], rel=1e-9)
+    with levels_csv.open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) == 5 * len(SPEEDS)
+    frictions = [f for e in summary['experiments'] for f in e['frictions']]
+    assert [float(r['friction']) for r in rows] == pytest.approx(frictions, rel=1e-12)
+    assert len({r['experiment'] for r in rows}) == 5
+    table = load_audit_data(levels_csv, model='speed')
+    distance = np.abs(table.numeric['speed'][:, None] - np.array(SPEEDS)[None, :])
+    assert np.all(distance.min(axis=1) < 1.0)
+    assert np.all(np.bincount(distance.argmin(axis=1), minlength=4) == 5)
+
+
+def test_history_bad_input_is_one_line_and_exit_2(replayed, capsys, tmp_path):
+    _, _, history, _ = replayed
+    assert cli.main(['history', str(tmp_path / 'none.sqlite3')]) == 2
+    assert cli.main(['history', str(history), '--joint', 'joint_9']) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 2
+    assert "no estimates for joint 'joint_9'" in error[1]
+
+
+def test_audit_segments_a_simulated_bag_with_gear_ratio_and_torque_scale(replayed):
+    _, bag, _, _ = replayed
+    table = load_audit_data(bag, model='speed', joint='joint_2', gear_ratio=150.0,
+                            torque_scale=10.0)
+    speeds = table.numeric['speed']
+    truth = read_truth_json(truth_path_for(bag))
+    assert speeds.size == 5 * len(SPEEDS)
+    for level_speed in speeds:
+        assert np.min(np.abs(np.array(SPEEDS) - level_speed)) < 1.0
+    true_levels = np.concatenate([np.asarray(t.friction_true, dtype=float)
+                                  for t in truth])
+    assert np.allclose(np.sort(table.numeric['friction']), np.sort(true_levels), atol=0.01)

@@ -1,0 +1,234 @@
+"""Tests of the ROS-agnostic service the nodes wrap: alarm latch, diagnostics, restore, config."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from rosbags.typesys import get_typestore, Stores
+
+from robot_wear_monitor.recordings import messages
+from robot_wear_monitor.monitoring import node_config
+from robot_wear_monitor.monitoring.history import WearHistory
+from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
+from robot_wear_monitor.model.params import load_parameter_set, ParameterError
+from robot_wear_monitor.monitoring.service import (AlarmLatch, AlarmPolicy, EstimatorConfig,
+                                                   FrictionExperimentService, RejectionLog,
+                                                   WearEstimatorService)
+
+KIT = messages.rosbags_kit(get_typestore(Stores.ROS2_JAZZY))
+PARAMS = load_parameter_set()
+
+
+def fake_estimate(wears, *, std=3.0, p_value=0.5, at_bound=False):
+    """Return an estimate function giving the next wear of ``wears`` on every call."""
+    values = iter(wears)
+
+    def estimate(speeds, frictions, *, params):
+        wear = next(values)
+        return SimpleNamespace(wear=wear, wear_std=std, temperature_degc=40.0,
+                               temperature_std_degc=2.0, chi2=1.0, dof=len(speeds) - 2,
+                               p_value=p_value, temperature_at_bound=at_bound,
+                               wear_at_bound=False, n_levels=len(speeds))
+    return estimate
+
+
+def experiment(k):
+    levels = tuple(FrictionLevel(speed_rad_s=v, friction=0.1, friction_std_error=0.001,
+                                 tau_forward=0.2, tau_backward=0.0, n_forward=50,
+                                 n_backward=50, position_min_rad=0.0, position_max_rad=0.5,
+                                 start_time_s=100.0 * k + i, end_time_s=100.0 * k + i + 0.5)
+                   for i, v in enumerate((2.1, 28.5, 35.1, 41.7)))
+    return FrictionExperiment(levels=levels)
+
+
+def service(wears, history=None, **kwargs):
+    config = EstimatorConfig(joint='joint_2', params=PARAMS,
+                             experiment_speeds_rad_s=(2.1, 28.5, 35.1, 41.7),
+                             **kwargs.pop('config', {}))
+    return WearEstimatorService(config, history=history, estimate=fake_estimate(wears, **kwargs))
+
+
+def test_alarm_latches_at_threshold_and_reset_clears_it():
+    svc = service([10.0, 34.9, 35.0, 20.0, 20.0])
+    updates = [svc.process_experiment(experiment(k)) for k in range(4)]
+    assert [u.alarm_active for u in updates] == [False, False, True, True]
+    assert [u.alarm_raised for u in updates] == [False, False, True, False]
+    assert [u.status.level for u in updates] == [messages.DIAGNOSTIC_OK, messages.DIAGNOSTIC_WARN,
+                                                 messages.DIAGNOSTIC_ERROR,
+                                                 messages.DIAGNOSTIC_ERROR]
+    assert svc.reset_alarm(stamp_s=500.0) == (True, 'wear alarm cleared; evidence reset')
+    assert not svc.latch.active
+    assert svc.current_status().level == messages.DIAGNOSTIC_OK
+    assert not svc.process_experiment(experiment(5)).alarm_active
+
+
+def test_evidence_policy_needs_agreeing_estimates():
+    policy = AlarmPolicy(threshold=35.0, healthy=25.0, evidence_to_raise=3.0)
+    latch = AlarmLatch(policy)
+    # one imprecise estimate over the threshold: llr = 10 * 6 / 100 = 0.6
+    assert not latch.update(wear=36.0, wear_std=10.0)
+    assert latch.evidence == pytest.approx(0.6)
+    # a precise one: llr = 10 * 7 / 4**2 = 4.375, evidence 4.975 >= 3
+    assert latch.update(wear=37.0, wear_std=4.0)
+    # healthy estimates drain evidence but never below 0
+    latch2 = AlarmLatch(policy)
+    latch2.update(wear=5.0, wear_std=5.0)
+    assert latch2.evidence == 0.0
+    assert policy.log_likelihood_ratio(wear=40.0, wear_std=float('nan')) == 0.0
+    with pytest.raises(ValueError):
+        AlarmPolicy(threshold=25.0, healthy=25.0)
+
+
+def test_diagnostics_key_values_and_fit_warning():
+    svc = service([5.0], p_value=0.001)
+    update = svc.process_experiment(experiment(0))
+    assert update.status.level == messages.DIAGNOSTIC_WARN
+    assert 'do not fit the model' in update.status.message
+    assert update.status.value('speeds_rad_s') == '2.1,28.5,35.1,41.7'
+    assert float(update.status.value('wear')) == 5.0
+    assert float(update.status.value('fit_p_value')) == pytest.approx(0.001)
+    out = dict(svc.output_messages(KIT, update))
+    assert out['wear'].data == 5.0 and out['wear_alarm'].data is False
+    assert out['temperature'].variance == pytest.approx(4.0)
+    [(level, name, _, values)] = messages.diagnostics_from_msg(out['/diagnostics'])
+    assert (level, name, values['alarm']) == (1, 'wear_monitor: joint_2', 'false')
+
+
+def test_bad_friction_levels_messages_are_counted_not_fatal():
+    svc = service([12.0])
+    bad = messages.friction_levels_to_msg(KIT, stamp_s=1.0, joint='joint_2',
+                                          speeds_rad_s=[2.1, 28.5], frictions=[0.1, 0.2])
+    bad.effort = np.array([0.1])
+    assert svc.handle_friction_levels(bad) is None
+    bad.effort = np.array([0.1, float('nan')])
+    assert svc.handle_friction_levels(bad) is None
+    good = messages.friction_levels_to_msg(KIT, stamp_s=2.0, joint='joint_2',
+                                           speeds_rad_s=[2.1, 28.5], frictions=[0.1, 0.2])
+    assert svc.handle_friction_levels(good).wear == 12.0
+    status = svc.current_status()
+    assert status.value('rejected_length_mismatch') == '1'
+    assert status.value('rejected_not_finite') == '1'
+    assert status.value('rejected_total') == '2'
+
+
+def test_restart_restores_trend_and_latched_alarm(tmp_path):
+    path = tmp_path / 'history.sqlite3'
+    history = WearHistory(path)
+    svc = service([30.0, 40.0], history=history)
+    svc.process_experiment(experiment(0))
+    svc.process_experiment(experiment(1))
+    history.close()  # the process dies here; everything was committed
+    restarted = service([10.0], history=WearHistory(path))
+    assert restarted.latch.active and restarted.restored_estimates == 2
+    assert [r.wear for r in restarted.trend] == [30.0, 40.0]
+    assert restarted.current_status().level == messages.DIAGNOSTIC_ERROR
+    restarted.reset_alarm(stamp_s=1000.0)
+    restarted.history.close()
+    again = service([10.0], history=WearHistory(path))
+    assert not again.latch.active and again.latch.evidence == 0.0
+
+
+def test_experiment_service_segments_a_simulated_joint():
+    from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
+                                                          simulate_scenario)
+    config = accelerated_wear_scenario(n_experiments=3, seed=3)
+    scenario = simulate_scenario(config=config, seed=3)
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    svc = FrictionExperimentService.from_node_parameters(values)
+    found = []
+    for stamp, name, position, velocity, effort in scenario.messages():
+        found += svc.add_joint_state(stamp_s=stamp, name=name, position=position,
+                                     velocity=velocity, effort=effort)
+    found += svc.finish()
+    assert len(found) == 3
+    for exp, truth in zip(found, scenario.truth):
+        assert np.allclose(exp.speeds_rad_s, truth.speeds_rad_s, atol=0.2)
+        assert np.allclose(exp.frictions, truth.friction_true, atol=3e-3)
+    assert svc.add_joint_state(stamp_s=1e10, name=['joint_2'], position=[0.0],
+                               velocity=[], effort=[0.0]) == []
+    assert svc.all_rejections()['missing_velocity'] == 1
+
+
+def test_rejection_log_reports_each_rejection_once_and_at_most_once_per_period():
+    log = RejectionLog(what='joint_states inputs', period_s=10.0)
+    assert log.report({}, now_s=0.0) is None
+    text, defective = log.report({'non_finite': 2, 'time_gap': 1}, now_s=1.0, detail='nan')
+    assert text == ('rejected 3 joint_states inputs (non_finite 2, time_gap 1); 3 since start; '
+                    'last: nan')
+    assert defective
+    assert log.report({'non_finite': 5, 'time_gap': 1}, now_s=5.0) is None  # too soon
+    text, defective = log.report({'non_finite': 5, 'time_gap': 1}, now_s=11.5)
+    assert text.startswith('rejected 3 joint_states inputs (non_finite 3); 6 since start')
+    assert log.report({'non_finite': 5, 'time_gap': 1}, now_s=30.0) is None  # nothing new
+    text, defective = log.report({'non_finite': 5, 'time_gap': 2, 'pass_too_short': 4},
+                                 now_s=40.0, detail='ignored for routine reasons')
+    assert not defective and 'last:' not in text and '(pass_too_short 4, time_gap 1)' in text
+
+
+def test_experiment_service_status_warns_only_in_a_period_with_malformed_input():
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    svc = FrictionExperimentService.from_node_parameters(values)
+    status = svc.current_status()
+    assert status.level == messages.DIAGNOSTIC_OK and status.value('joint_states') == '0'
+    svc.add_joint_state(stamp_s=1.0, name=['joint_2'], position=[0.0], velocity=[0.0, 1.0],
+                        effort=[0.0])
+    svc.add_joint_state(stamp_s=2.0, name=['joint_2'], position=[0.0], velocity=[0.0],
+                        effort=[0.0])
+    svc.add_joint_state(stamp_s=9.0, name=['joint_2'], position=[0.0], velocity=[0.0],
+                        effort=[0.0])  # a pause: routine
+    status = svc.current_status()
+    assert status.level == messages.DIAGNOSTIC_WARN and 'length_mismatch' in status.message
+    assert status.value('rejected_length_mismatch') == '1'
+    assert status.value('rejected_time_gap') == '1'
+    assert status.value('joint_states') == '3'
+    assert svc.current_status().level == messages.DIAGNOSTIC_OK  # nothing new since
+    svc.add_joint_state(stamp_s=30.0, name=['joint_2'], position=[0.0], velocity=[0.0],
+                        effort=[0.0])
+    assert svc.current_status().level == messages.DIAGNOSTIC_OK  # another pause only
+
+
+# --------------------------------------------------------------------------- node parameters
+
+def test_packaged_node_config_is_valid_for_both_nodes():
+    experiment = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    estimator = node_config.load_node_parameters(node_config.WEAR_ESTIMATOR_NODE)
+    assert experiment['experiment_speeds_rad_s'] == estimator['experiment_speeds_rad_s'] \
+        == node_config.DEFAULT_EXPERIMENT_SPEEDS_RAD_S
+    assert estimator['wear_threshold'] == 35.0
+    for specs in node_config.NODE_PARAMETERS.values():
+        assert all(spec.description for spec in specs)
+    for name in node_config.NODE_PARAMETERS:
+        node_config.validate_parameters(name, {})
+
+
+@pytest.mark.parametrize('node, values, match', [
+    ('wear_estimator_node', {'wear_threshold': 35}, 'write it with a decimal point'),
+    ('wear_estimator_node', {'wear_threshold': -1.0}, 'must be > 0'),
+    ('wear_estimator_node', {'wear_healthy': 40.0}, 'must be < wear_threshold'),
+    ('wear_estimator_node', {'min_fit_p_value': 1.5}, r'in \[0, 1\)'),
+    ('wear_estimator_node', {'alarm_treshold': 1.0}, 'unknown parameter'),
+    ('friction_experiment_node', {'gear_ratio': 0.0}, 'must be > 0'),
+    ('friction_experiment_node', {'experiment_speeds_rad_s': [2, 28.5]}, 'every element'),
+    ('friction_experiment_node', {'experiment_speeds_rad_s': [2.0, -1.0]}, 'must be > 0'),
+    ('friction_experiment_node', {'joint': ''}, 'must not be empty'),
+    ('friction_experiment_node', {'min_samples': 2}, 'must be >= 3'),
+])
+def test_bad_parameters_are_named(node, values, match):
+    with pytest.raises(ParameterError, match=match):
+        node_config.validate_parameters(node, values)
+
+
+def test_parameter_file_layout_errors(tmp_path):
+    path = tmp_path / 'p.yaml'
+    path.write_text('wear_estimator_node:\n  ros__parameters:\n    wear_threshold: 30.0\n'
+                    '/**:\n  ros__parameters:\n    joint: joint_5\n    gear_ratio: 100.0\n')
+    estimator = node_config.load_node_parameters('wear_estimator_node', path)
+    assert (estimator['wear_threshold'], estimator['joint']) == (30.0, 'joint_5')
+    experiment = node_config.load_node_parameters('friction_experiment_node', path)
+    assert experiment['gear_ratio'] == 100.0
+    path.write_text('wear_estimator_node:\n  wear_threshold: 30.0\n')
+    with pytest.raises(ParameterError, match='ros__parameters'):
+        node_config.load_node_parameters('wear_estimator_node', path)
+    path.write_text('a: [1\n')
+    with pytest.raises(ParameterError, match='not valid YAML'):
+        node_config.load_node_parameters('wear_estimator_node', path)
