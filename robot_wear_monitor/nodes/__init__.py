@@ -64,6 +64,26 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
     return values
 
 
+def node_time_s(node: Any) -> float:
+    """Return the node's clock time [s] (ROS time: simulated under ``use_sim_time``)."""
+    return node.get_clock().now().nanoseconds * 1e-9
+
+
+def log_rejection_report(logger: Any, report: tuple[str, bool] | None) -> None:
+    """Log a :class:`~robot_wear_monitor.monitoring.service.RejectionLog` report, if any.
+
+    Malformed inputs are logged as WARN, the routine rejections of the protocol as INFO (one
+    call site per severity: rclpy refuses a call site that changes its severity).
+    """
+    if report is None:
+        return
+    text, defective = report
+    if defective:
+        logger.warning(text)
+    else:
+        logger.info(text)
+
+
 def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -> int:
     """Init rclpy, build the node and spin it until shutdown (the Jazzy try/finally pattern).
 

@@ -19,7 +19,8 @@ from robot_wear_monitor.recordings.messages import stamp_to_seconds
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
                                                        validate_parameters)
-from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
+from robot_wear_monitor.nodes import (declare_parameters, log_rejection_report, message_kit,
+                                      node_time_s, spin_node)
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS, JOINT_STATES_QOS
 from robot_wear_monitor.monitoring.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
                                                    FrictionExperimentService, RejectionLog)
@@ -64,14 +65,11 @@ class FrictionExperimentNode(Node):
             f'torque scale {self.parameters["torque_scale"]}), experiment speeds '
             f'{speeds or "any"} rad/s; publishing on {self.publisher.topic_name}')
 
-    def _now_s(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def on_joint_state(self, msg):
         """Feed one JointState to the segmentation; publish the experiments it completes."""
         stamp_s = stamp_to_seconds(msg.header.stamp)
         if stamp_s == 0.0:  # unstamped publisher: use the reception time
-            stamp_s = self._now_s()
+            stamp_s = node_time_s(self)
         try:
             experiments = self.service.add_joint_state(
                 stamp_s=stamp_s, name=msg.name, position=msg.position,
@@ -96,19 +94,14 @@ class FrictionExperimentNode(Node):
 
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
-        text = self.rejection_log.report(self.service.all_rejections(), now_s=self._now_s(),
-                                         detail=self.service.last_error)
-        if text is None:
-            return
-        if text[1]:
-            self.get_logger().warning(text[0])
-        else:
-            self.get_logger().info(text[0])
+        log_rejection_report(self.get_logger(), self.rejection_log.report(
+            self.service.all_rejections(), now_s=node_time_s(self),
+            detail=self.service.last_error))
 
     def publish_diagnostics(self):
         """Publish the counts and rejections on /diagnostics (periodic)."""
         self.diagnostics_publisher.publish(
-            self.service.diagnostics_message(self.kit, stamp_s=self._now_s()))
+            self.service.diagnostics_message(self.kit, stamp_s=node_time_s(self)))
         self.log_rejections()
 
 

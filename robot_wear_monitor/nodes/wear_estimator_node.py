@@ -20,7 +20,8 @@ from robot_wear_monitor.recordings.messages import alarm_to_msg
 from robot_wear_monitor.monitoring.node_config import (expand_history_path, validate_parameters,
                                                        WEAR_ESTIMATOR_NODE,
                                                        WEAR_ESTIMATOR_PARAMETERS)
-from robot_wear_monitor.nodes import declare_parameters, message_kit, spin_node
+from robot_wear_monitor.nodes import (declare_parameters, log_rejection_report, message_kit,
+                                      node_time_s, spin_node)
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
 from robot_wear_monitor.monitoring.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
@@ -71,9 +72,6 @@ class WearEstimatorNode(Node):
             f'{self.service.restored_estimates} estimates restored, alarm '
             f'{"LATCHED" if self.service.latch.active else "clear"}')
 
-    def _now_s(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def publish_alarm(self):
         """Publish the latched alarm state."""
         self.publishers_by_topic[ALARM_TOPIC].publish(
@@ -82,19 +80,13 @@ class WearEstimatorNode(Node):
     def publish_diagnostics(self):
         """Publish the current diagnostics (periodic, like diagnostic_updater)."""
         self.publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
-            self.service.diagnostics_message(self.kit, stamp_s=self._now_s()))
+            self.service.diagnostics_message(self.kit, stamp_s=node_time_s(self)))
         self.log_rejections()
 
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
-        text = self.rejection_log.report(self.service.rejections, now_s=self._now_s(),
-                                         detail=self.service.last_rejection)
-        if text is None:
-            return
-        if text[1]:
-            self.get_logger().warning(text[0])
-        else:
-            self.get_logger().info(text[0])
+        log_rejection_report(self.get_logger(), self.rejection_log.report(
+            self.service.rejections, now_s=node_time_s(self), detail=self.service.last_rejection))
 
     def on_friction_levels(self, msg):
         """Estimate from one experiment and publish every output."""
@@ -119,7 +111,7 @@ class WearEstimatorNode(Node):
 
     def on_reset_alarm(self, request, response):
         """Clear the latched alarm after maintenance (std_srvs/Trigger)."""
-        response.success, response.message = self.service.reset_alarm(stamp_s=self._now_s())
+        response.success, response.message = self.service.reset_alarm(stamp_s=node_time_s(self))
         self.get_logger().warning(f'reset_alarm: {response.message}')
         self.publish_alarm()
         self.publish_diagnostics()
