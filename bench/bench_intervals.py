@@ -5,7 +5,9 @@ Run as ``python3 bench/bench_intervals.py``.  Prints figures of one run only (no
 * intervals per second of :func:`wear_intervals` for a batch of 10 000 experiments at the
   paper's N = 4 design [2.1, 28.5, 35.1, 41.7] and N = 2 design [35.1, 41.7] rad/s (and N = 1 at
   35.1), both including the ML estimate (``estimate_wear``) and given it;
-* rows per second of :func:`profile_log_likelihood` on the default wear grid (321 points).
+* rows per second of :func:`profile_log_likelihood` on the default wear grid (321 points);
+* the time of the cutoff calibration (:func:`calibrate_cutoffs`), paid once per design and
+  process (cached; the interval figures above exclude it).
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from robot_wear_monitor.estimation.estimator import estimate_wear  # noqa: E402
-from robot_wear_monitor.estimation.intervals import (profile_log_likelihood,  # noqa: E402
-                                                     wear_grid, wear_intervals)
+from robot_wear_monitor.estimation.intervals import (calibrate_cutoffs,  # noqa: E402
+                                                     profile_log_likelihood, wear_grid,
+                                                     wear_intervals)
 from robot_wear_monitor.model import friction as fm  # noqa: E402
 from robot_wear_monitor.model.params import load_parameter_set  # noqa: E402
 
@@ -47,6 +50,9 @@ def main() -> None:
         v = np.asarray(speeds)
         y = simulate(v, params, rng)
         start = time.perf_counter()
+        calibrate_cutoffs(v, params=params)
+        t_cal = time.perf_counter() - start
+        start = time.perf_counter()
         est = estimate_wear(v, y, params=params)
         t_est = time.perf_counter() - start
         start = time.perf_counter()
@@ -60,6 +66,7 @@ def main() -> None:
         print(f'  wear_intervals incl. estimate_wear  {BATCH / (t_est + t_int):10.0f} /s')
         print(f'  wear_intervals given the estimates  {BATCH / t_int:10.0f} /s')
         print(f'  profile_log_likelihood rows         {BATCH / t_rows:10.0f} /s')
+        print(f'  calibrate_cutoffs (once per design) {t_cal:10.2f} s')
 
 
 if __name__ == '__main__':

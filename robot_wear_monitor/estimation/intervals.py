@@ -5,10 +5,12 @@ inverse Fisher information at the estimate; it is meaningless where the wear pro
 collapses (w near 0, where phi_s,w w -> 0) or on a bound.  This module replaces it by the
 profile-likelihood interval
 
-    {w >= 0 : 2 (l_max - l_p(w)) <= chi2_1^-1(level)},
+    {w >= 0 : 2 (l_max - l_p(w)) <= c(w)},
 
 with l_p(w) the log-likelihood maximised over the nuisance parameter (N >= 2) or integrated over
-it (N = 1), and likewise for T.
+it (N = 1), and likewise for T.  The cutoff c(w) is calibrated by simulation for the speeds and
+the parameter set (:func:`calibrate_cutoffs`): Wilks' chi2_1 quantile over-covers near w = 0,
+where w is on a bound and the wear term is nearly invisible.
 
 Log-likelihoods, natural log, true values (no per-row constant dropped):
 
@@ -32,6 +34,7 @@ same profile evaluated at arbitrary w or T, so they do not depend on the grid st
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Iterator
 
 import numpy as np
@@ -301,6 +304,166 @@ class _SingleLevel:
         return self.tabulated(y[:, None] - wear[None, :])
 
 
+class _WearLikelihood:
+    """The wear log-likelihood of a batch: rows on a grid, the maximum and exact values.
+
+    ``rows`` (B, G): l_p(w) on the wear grid (N >= 2: profile over T; N = 1: marginal (17));
+    ``l_hat`` (B,): the log-likelihood at the ML estimate; ``l_max`` (B,): the larger of that and
+    the grid maximum; :meth:`at_wear` evaluates l_p at one w per row.  ``cost_t`` (B, K) is the
+    joint cost minimised over w on the grid, per T of the T grid (for the T interval).
+    """
+
+    def __init__(self, speeds: FloatArray, values: FloatArray, params: ParameterSet,
+                 grid: FloatArray, w_hat: FloatArray, t_hat: FloatArray, *,
+                 want_t: bool) -> None:
+        # the profile in T maximises over w on the wear grid, extended beyond an estimate past
+        # its end (the wear profile uses the first grid.size columns only)
+        target = 1.5 * float(np.max(w_hat, initial=0.0))
+        extended = grid
+        if want_t and target > grid[-1]:
+            count = int(min(np.ceil((target - grid[-1]) / _COARSE_STEP), 200))
+            extended = np.concatenate([grid, np.linspace(grid[-1], target, count + 1)[1:]])
+        self.profile = profile = _Profile(speeds, params, extended)
+        self.data = data = profile.whitened(values)
+        self.single = None
+        if speeds.size == 1:
+            self.single = _SingleLevel(float(speeds[0]), params)
+            self.y = values[:, 0]
+            cost_w, self.cost_t = (profile.grid_profiles(data, want_t=True) if want_t
+                                   else (None, None))
+            self.rows = self.single.rows(self.y, grid)
+            self.l_hat = self.single.exact(self.y, w_hat)
+        else:
+            cost_w, self.cost_t = profile.grid_profiles(data, want_t=want_t)
+            self.rows = profile.const - 0.5 * cost_w[:, :grid.size]
+            residual = data - profile.whitened(
+                fm.friction(speeds[None, :], params.load_mean, np.asarray(t_hat)[:, None],
+                            w_hat[:, None], params.model))
+            self.l_hat = profile.const - 0.5 * np.einsum('bn,bn->b', residual, residual)
+        self.l_max = np.maximum(self.l_hat, self.rows.max(axis=1))
+
+    def at_wear(self, w: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
+        """Return l_p(w_i) of the rows ``rows`` (one w per row)."""
+        if self.single is not None:
+            return self.single.exact(self.y[rows], w)
+        return self.profile.const - 0.5 * self.profile.cost_at_wear(self.data[rows], w)
+
+
+# --------------------------------------------------------------------------- calibration
+
+#: Wear values [-] at which the cutoff of the likelihood-ratio statistic is calibrated.
+CALIBRATION_WEAR = (0.0, 3.0, 7.0, 11.0, 15.0, 20.0, 27.0, 35.0, 50.0, 75.0, 110.0, 150.0)
+#: Simulated experiments per calibrated wear value.
+CALIBRATION_RUNS = 1500
+#: Seed of the calibration (fixed: the same speeds and parameters give the same intervals).
+CALIBRATION_SEED = 20211
+#: Speeds are rounded to this step [rad/s] for the calibration (measured speeds vary by a few
+#: mrad/s between experiments; the cutoffs vary slowly with the speeds, so one calibration per
+#: design serves them all).
+_CALIBRATION_SPEED_STEP = 0.1
+#: Smallest cutoff [-] (a set of measure zero would not contain w-hat).
+_MIN_CUTOFF = 0.05
+
+
+@dataclass(frozen=True)
+class CutoffCalibration:
+    """Cutoffs c(w) of the likelihood-ratio statistic 2 (l_max - l_p(w)) for one design.
+
+    The interval is {w >= 0 : 2 (l_max - l_p(w)) <= c(w)}, c interpolated linearly in w between
+    the calibrated values and held constant beyond the last one.
+
+    Attributes:
+        wear: calibrated wear values [-], shape (C,), increasing.
+        cutoff: the ``level`` quantile of the statistic at the true wear, shape (C,).
+        chi2_cutoff: chi2_1^-1(level), the asymptotic value, for comparison.
+        level: confidence level.
+        runs: simulated experiments per wear value.
+
+    """
+
+    wear: FloatArray
+    cutoff: FloatArray
+    chi2_cutoff: float
+    level: float
+    runs: int
+
+    def at(self, wear: ArrayLike) -> FloatArray:
+        """Return c(w) at ``wear`` [-] (any shape)."""
+        return np.interp(np.asarray(wear, dtype=float), self.wear, self.cutoff)
+
+
+def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: float = 0.95,
+                      runs: int = CALIBRATION_RUNS, seed: int = CALIBRATION_SEED
+                      ) -> CutoffCalibration:
+    """Calibrate the likelihood-ratio cutoff at each wear value by simulation (Neyman).
+
+    Wilks' chi2_1 cutoff assumes a regular model with the truth inside the parameter space.
+    Here neither holds near w = 0: w = 0 is a bound, and the wear profile (7) is nearly
+    invisible for small w (phi_s,w w -> 0), so the statistic at the truth is mostly close to 0
+    and the chi2 interval over-covers (98.7-99.5 % instead of 95 %); the temperature bounds
+    make it over-cover a little at large w too.  This function simulates ``runs`` experiments
+    at each wear value of :data:`CALIBRATION_WEAR` with the data model (9) of the parameter set
+    (T uniform on [T_min, T_max], load Gaussian (mu_tl, sigma_tl), noise sigma; exact through
+    the covariance (14)), computes the statistic at the true wear with the same likelihood as
+    :func:`wear_intervals`, and returns its ``level`` quantile.  The interval then covers the
+    truth at the stated level on average over the temperature range (the Neyman construction
+    with the likelihood-ratio ordering, Feldman and Cousins 1998, the nuisance T averaged).
+
+    The speeds are rounded to 0.1 rad/s, and results are cached per (rounded speeds, parameter
+    set, level, runs, seed), so the measured speeds of repeated experiments of one design share
+    a calibration; one calibration takes about
+    1-2 s (18 000 experiments on 2 cores).
+
+    Args:
+        speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
+        params: the parameter set (the data model).
+        level: confidence level in (0, 1).
+        runs: simulated experiments per wear value, >= 100.
+        seed: random seed.
+
+    Returns:
+        The :class:`CutoffCalibration`.
+
+    """
+    speeds = validate_speeds(speeds_rad_s)
+    if not 0.0 < float(level) < 1.0:
+        raise InputError(f'level: must be in (0, 1), got {level}')
+    if int(runs) < 100:
+        raise InputError(f'runs: must be >= 100, got {runs}')
+    key = tuple(round(float(v) / _CALIBRATION_SPEED_STEP) * _CALIBRATION_SPEED_STEP
+                for v in speeds)
+    return _calibrate(tuple(max(v, _CALIBRATION_SPEED_STEP) for v in key), params,
+                      float(level), int(runs), int(seed))
+
+
+@lru_cache(maxsize=32)
+def _calibrate(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
+               seed: int) -> CutoffCalibration:
+    speeds = np.asarray(speeds_t)
+    wear = np.asarray([w for w in CALIBRATION_WEAR if w <= params.wear_max] + [params.wear_max])
+    wear = np.unique(wear)
+    rng = np.random.default_rng(seed)
+    factor = np.linalg.cholesky(fm.marginal_covariance(speeds, sigma=params.sigma,
+                                                       load_std=params.load_std,
+                                                       model=params.model))
+    grid = wear_grid(params.wear_max)
+    cutoff = np.empty(wear.size)
+    for i, true_wear in enumerate(wear):
+        temps = rng.uniform(params.temperature_min_degc, params.temperature_max_degc, runs)
+        mean = fm.friction(speeds[None, :], params.load_mean, temps[:, None], true_wear,
+                           params.model)
+        values = mean + rng.standard_normal(mean.shape) @ factor.T
+        est = estimate_wear(speeds, values, params=params)
+        like = _WearLikelihood(speeds, values, params, grid, np.asarray(est.wear, dtype=float),
+                               est.temperature_degc, want_t=False)
+        statistic = 2.0 * (like.l_max - like.at_wear(np.full(runs, true_wear),
+                                                     np.arange(runs)))
+        cutoff[i] = np.quantile(np.maximum(statistic, 0.0), level)
+    return CutoffCalibration(wear=wear, cutoff=np.maximum(cutoff, _MIN_CUTOFF),
+                             chi2_cutoff=float(stats.chi2.ppf(level, 1)), level=level,
+                             runs=runs)
+
+
 # --------------------------------------------------------------------------- public functions
 
 def profile_log_likelihood(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
@@ -411,12 +574,16 @@ def _hull(values: FloatArray, nodes: FloatArray, threshold: FloatArray, x_hat: F
 
 def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: ParameterSet,
                    level: float = 0.95, wear_grid_values: ArrayLike | None = None,
-                   estimates: WearEstimates | None = None) -> WearIntervals:
+                   estimates: WearEstimates | None = None,
+                   cutoff: str = 'calibrated') -> WearIntervals:
     """Return profile-likelihood confidence intervals of w and T for a batch of experiments.
 
-    Wear: {w >= 0 : 2 (l_max - l_p(w)) <= chi2_1^-1(level)} with l_p of
+    Wear: {w >= 0 : 2 (l_max - l_p(w)) <= c(w)} with l_p of
     :func:`profile_log_likelihood` (N >= 2: T profiled out within its bounds; N = 1: T
-    integrated out, eq. (17)).  l_max is the log-likelihood at the ML estimate of
+    integrated out, eq. (17)) and c(w) the cutoff: by default calibrated by simulation for
+    these speeds and parameters (:func:`calibrate_cutoffs`; exact coverage on average over the
+    temperature range, also at w = 0, where chi2 over-covers), or chi2_1^-1(level) with
+    ``cutoff='chi2'`` (Wilks).  l_max is the log-likelihood at the ML estimate of
     :func:`~robot_wear_monitor.estimation.estimator.estimate_wear` (or the grid maximum if that
     is higher), so the interval always contains w-hat.  Where the set is not connected its hull
     is returned.  At the bound: when l_p(0) is above the threshold the interval starts at exactly
@@ -443,6 +610,8 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
         wear_grid_values: wear grid (G,) of the profile; default :func:`wear_grid` with
             ``params.wear_max``.
         estimates: the result of ``estimate_wear`` for the same data, if already computed.
+        cutoff: ``'calibrated'`` (default) or ``'chi2'``, see above.  The temperature interval
+            always uses chi2_1^-1(level).
 
     Returns:
         A :class:`WearIntervals` batch of length B.
@@ -453,6 +622,8 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
     """
     if not 0.0 < float(level) < 1.0:
         raise InputError(f'level: must be in (0, 1), got {level}')
+    if cutoff not in ('calibrated', 'chi2'):
+        raise InputError(f"cutoff: must be 'calibrated' or 'chi2', got {cutoff!r}")
     speeds, values = _validate(speeds_rad_s, friction)
     grid = _validate_grid(wear_grid(params.wear_max) if wear_grid_values is None
                           else wear_grid_values)
@@ -461,46 +632,31 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
         raise InputError('estimates: batch size does not match friction')
     half_q = 0.5 * float(stats.chi2.ppf(level, 1))
     w_hat = np.asarray(est.wear, dtype=float)
-    # the profile in T maximises over w on the wear grid, extended beyond an estimate past its
-    # end (the wear profile uses the first grid.size columns only)
-    target = 1.5 * float(np.max(w_hat, initial=0.0))
-    extended = grid
-    if target > grid[-1]:
-        count = int(min(np.ceil((target - grid[-1]) / _COARSE_STEP), 200))
-        extended = np.concatenate([grid, np.linspace(grid[-1], target, count + 1)[1:]])
-    profile = _Profile(speeds, params, extended)
-    data = profile.whitened(values)
-    cost_w, cost_t = profile.grid_profiles(data, want_t=True)
-    joint_w = profile.const - 0.5 * cost_w[:, :grid.size]        # (B, G)
-    joint_t = profile.const - 0.5 * cost_t                       # (B, K)
-
-    if speeds.size == 1:
-        single = _SingleLevel(float(speeds[0]), params)
-        y = values[:, 0]
-        lw = single.rows(y, grid)
-        l_hat = single.exact(y, w_hat)
+    like = _WearLikelihood(speeds, values, params, grid, w_hat, est.temperature_degc,
+                           want_t=True)
+    if cutoff == 'calibrated':
+        calibration = calibrate_cutoffs(speeds, params=params, level=level)
+        half_c = 0.5 * calibration.at(grid)
 
         def wear_func(w: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
-            return single.exact(y[rows], w)
+            return like.at_wear(w, rows) + 0.5 * calibration.at(w)
+        wear_low, wear_high, open_end = _hull(like.rows + half_c[None, :], grid, like.l_max,
+                                              w_hat, like.l_hat + 0.5 * calibration.at(w_hat),
+                                              wear_func)
+    else:
+        wear_low, wear_high, open_end = _hull(like.rows, grid, like.l_max - half_q, w_hat,
+                                              like.l_hat, like.at_wear)
+    wear_low = np.maximum(wear_low, 0.0)
+    profile, data = like.profile, like.data
+    joint_t = profile.const - 0.5 * like.cost_t                  # (B, K)
+    if speeds.size == 1:
         # T: the joint profile; its maximum is on the grid (T-hat of the joint fit)
         jt = np.argmax(joint_t, axis=1)
         t_hat = profile.t_grid[jt]
         lt_hat = joint_t[np.arange(values.shape[0]), jt]
     else:
-        lw = joint_w
-        residual = data - profile.whitened(
-            fm.friction(speeds[None, :], params.load_mean, est.temperature_degc[:, None],
-                        w_hat[:, None], params.model))
-        l_hat = profile.const - 0.5 * np.einsum('bn,bn->b', residual, residual)
-
-        def wear_func(w: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
-            return profile.const - 0.5 * profile.cost_at_wear(data[rows], w)
         t_hat = np.asarray(est.temperature_degc, dtype=float)
-        lt_hat = l_hat
-
-    l_max = np.maximum(l_hat, lw.max(axis=1))
-    wear_low, wear_high, open_end = _hull(lw, grid, l_max - half_q, w_hat, l_hat, wear_func)
-    wear_low = np.maximum(wear_low, 0.0)
+        lt_hat = like.l_hat
 
     def temp_func(t: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
         return profile.const - 0.5 * profile.cost_at_temperature(data[rows], t)

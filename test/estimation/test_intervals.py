@@ -4,7 +4,10 @@ Data come from the independent generator ``test/independent_robot.py`` (model (8
 without the package): levels = model(v, load ~ N(0.5, 0.1), T ~ U[30, 50], w) + N(0, sigma).
 Reference log-likelihoods are computed here from that model and scipy, not from the package.
 
-Coverage measured with 4000 experiments per case (seed 7, package model, same protocol), 95 %:
+The cutoff of the likelihood-ratio statistic is calibrated by the package's own simulation of
+(9) (``calibrate_cutoffs``); the coverage is checked here on the independent generator.
+
+Coverage of the chi2_1 cutoff (Wilks), 4000 experiments per case (seed 7), 95 %:
 
     N     w = 0    w = 5    w = 35   w = 60
     4     99.4     99.2     96.5     96.8
@@ -13,9 +16,9 @@ Coverage measured with 4000 experiments per case (seed 7, package model, same pr
 
 Near w = 0 the wear profile (7) is invisible (|tilde tau_f| < 1e-4 = 0.02 sigma for w < 9 at
 28-42 rad/s) and w = 0 is a bound: the likelihood-ratio statistic at the truth is then mostly 0,
-so the chi2_1 interval over-covers there (as Wilks' theorem at a boundary predicts).  At
-w = 35, 60 the excess over 95 % comes from the temperature bounds (widening them to [0, 90]
-degC gives 95.9 % (N = 4) and 96.2 % (N = 2) at w = 60) and from the curvature of (7).
+so the chi2_1 interval over-covers there; at w = 35, 60 the temperature bounds make it
+over-cover a little.  The calibrated cutoff (about 1.2-1.9 near w = 0 for N = 2, 4) brings every
+case into 93-98 %.
 """
 
 import numpy as np
@@ -25,9 +28,9 @@ from scipy import integrate, optimize, stats
 import independent_robot as robot
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
-from robot_wear_monitor.estimation.intervals import (profile_log_likelihood, WEAR_GRID_MAX,
-                                                     wear_grid, wear_intervals, WearInterval,
-                                                     WearIntervals)
+from robot_wear_monitor.estimation.intervals import (calibrate_cutoffs, profile_log_likelihood,
+                                                     WEAR_GRID_MAX, wear_grid, wear_intervals,
+                                                     WearInterval, WearIntervals)
 from robot_wear_monitor.model.params import load_parameter_set
 
 PARAMS = load_parameter_set()
@@ -150,24 +153,39 @@ def test_profile_log_likelihood_rejects_a_bad_grid():
 
 # --------------------------------------------------------------------------- coverage
 
-@pytest.mark.parametrize('n_levels', [4, 2])
-def test_wear_coverage_is_nominal_away_from_zero_and_conservative_at_zero(
-        monte_carlo, n_levels):
-    # 6000-run measurements: N = 2: 97.6 % (w = 35), 97.7 % (w = 60); N = 4: 96.8 %, 96.9 %
+@pytest.mark.parametrize('n_levels', [4, 2, 1])
+def test_wear_coverage_is_nominal_at_every_wear_including_zero(monte_carlo, n_levels):
     cover = {w: _coverage(monte_carlo[n_levels, w][3], w) for w in WEARS}
-    for wear in (35.0, 60.0):
-        assert 0.93 <= cover[wear] <= 0.99, cover
-    assert 0.94 <= 0.5 * (cover[35.0] + cover[60.0]) <= 0.985, cover  # 3000 runs
-    for wear in (0.0, 5.0):
-        assert cover[wear] >= 0.97, cover  # boundary: mostly a zero LR statistic
-    pooled = np.mean(list(cover.values()))
-    assert 0.95 <= pooled <= 0.99, cover
-
-
-def test_wear_coverage_of_one_level(monte_carlo):
-    cover = {w: _coverage(monte_carlo[1, w][3], w) for w in WEARS}
     for wear in WEARS:
-        assert 0.93 <= cover[wear] <= 0.99, cover
+        assert 0.93 <= cover[wear] <= 0.98, cover
+    assert 0.94 <= np.mean(list(cover.values())) <= 0.965, cover
+
+
+def test_chi2_cutoff_over_covers_at_the_bound_which_the_calibration_corrects(monte_carlo):
+    y, _, est, calibrated = monte_carlo[2, 0.0]
+    wilks = wear_intervals(SPEEDS[2], y, params=PARAMS, estimates=est, cutoff='chi2')
+    assert _coverage(wilks, 0.0) >= 0.985
+    assert _coverage(calibrated, 0.0) <= 0.98
+    # the calibrated interval is the narrower one there (the upper limit of a new joint)
+    assert np.median(calibrated.wear_high) < np.median(wilks.wear_high) - 1.0
+    with pytest.raises(InputError):
+        wear_intervals(SPEEDS[2], y[:2], params=PARAMS, cutoff='wilks')
+
+
+def test_calibration_is_reproducible_and_tends_to_chi2_for_one_level():
+    first = calibrate_cutoffs(SPEEDS[1], params=PARAMS)
+    again = calibrate_cutoffs([35.1 + 0.004], params=PARAMS)  # a measured speed: same design
+    assert again is first and first.wear[0] == 0.0
+    assert first.wear[-1] == PARAMS.wear_max
+    # one level, w well inside the range: the model is regular there and Wilks holds
+    large = first.cutoff[first.wear >= 35.0]
+    assert np.all(np.abs(large - Q95) < 0.5), large
+    # another seed gives cutoffs within the Monte Carlo error of a 95 % quantile
+    other = calibrate_cutoffs(SPEEDS[2], params=PARAMS, seed=99, runs=800)
+    base = calibrate_cutoffs(SPEEDS[2], params=PARAMS)
+    assert np.all(np.abs(other.cutoff - base.cutoff) < 0.8), (other.cutoff, base.cutoff)
+    with pytest.raises(InputError):
+        calibrate_cutoffs(SPEEDS[2], params=PARAMS, runs=10)
 
 
 def test_temperature_coverage_of_four_levels(monte_carlo):
@@ -199,17 +217,20 @@ def test_intervals_contain_the_ml_estimate_and_are_finite(monte_carlo):
 
 
 def test_width_bound(monte_carlo):
-    # measured on 16 000 experiments per N: max width 36.1 (N = 4), 37.6 (N = 2), 38.7 (N = 1)
+    # measured on 4000 experiments per case (N, w): max width 32.7 (N = 4), 31.6 (N = 2),
+    # 35.7 (N = 1); 1st percentile 8.9, 11.0, 13.9; minimum 4.2 (N = 4, w = 0: a level well
+    # below the nominal friction, which only a new joint explains)
     for (n_levels, wear), (_, _, _, iv) in monte_carlo.items():
-        bound = 40.0 if n_levels > 1 else 42.0
+        bound = 35.0 if n_levels > 1 else 38.0
         assert np.max(iv.wear_width) <= bound, (n_levels, wear)
-        assert np.min(iv.wear_width) >= 8.0, (n_levels, wear)  # never a spuriously tight one
+        assert np.percentile(iv.wear_width, 1) >= 8.0, (n_levels, wear)
+        assert np.min(iv.wear_width) >= 3.0, (n_levels, wear)  # never a spuriously tight one
 
 
 def test_lower_end_is_zero_for_a_new_joint(monte_carlo):
     for n_levels in SPEEDS:
         iv = monte_carlo[n_levels, 0.0][3]
-        assert np.mean(iv.wear_low == 0.0) >= 0.96, n_levels
+        assert np.mean(iv.wear_low == 0.0) >= 0.93, n_levels
     # and a clearly worn joint is never compatible with a new one
     for n_levels in (4, 2):
         assert np.all(monte_carlo[n_levels, 60.0][3].wear_low > 20.0), n_levels
@@ -219,6 +240,7 @@ def test_lower_end_is_zero_for_a_new_joint(monte_carlo):
 def test_end_points_are_refined_to_the_threshold(monte_carlo, n_levels):
     y, _, est, iv = monte_carlo[n_levels, 35.0]
     speeds = SPEEDS[n_levels]
+    cutoff = calibrate_cutoffs(speeds, params=PARAMS)
     for b in range(8):
         at_hat = profile_log_likelihood(speeds, y[b], params=PARAMS,
                                         wear_grid=[0.0, est.wear[b] + 1e-9, 200.0])[0, 1]
@@ -226,12 +248,12 @@ def test_end_points_are_refined_to_the_threshold(monte_carlo, n_levels):
         for end in ends:
             grid = [0.0, end, 200.0] if end > 0 else [0.0, 1.0, 2.0]
             value = profile_log_likelihood(speeds, y[b], params=PARAMS, wear_grid=grid)[0, 1]
-            # the statistic at an end point is the chi2 quantile (not the grid step's value)
-            assert 2.0 * (at_hat - value) == pytest.approx(Q95, abs=0.01)
+            # the statistic at an end point is the cutoff there (not the grid step's value)
+            assert 2.0 * (at_hat - value) == pytest.approx(float(cutoff.at(end)), abs=0.01)
         if iv.wear_low[b] == 0.0:
             at_zero = profile_log_likelihood(speeds, y[b], params=PARAMS,
                                              wear_grid=[0.0, 1.0, 2.0])[0, 0]
-            assert 2.0 * (at_hat - at_zero) <= Q95 + 0.01
+            assert 2.0 * (at_hat - at_zero) <= float(cutoff.at(0.0)) + 0.01
 
 
 def test_upper_end_at_the_grid_end_is_reported_as_at_least():
