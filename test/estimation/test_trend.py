@@ -1,0 +1,200 @@
+"""Tests of the wear trend filter and the trend alarm policy.
+
+Friction data come from the independent generator (``independent_robot.friction_model``, which
+shares no code with the package) at the Table V speeds, with one load N(0.5, 0.1) per experiment,
+temperatures varying in 30-50 degC and level noise sigma of (9b); the likelihood rows from
+``intervals.profile_log_likelihood``.
+"""
+
+import json
+import math
+
+import independent_robot as robot
+import numpy as np
+import pytest
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation.intervals import profile_log_likelihood
+from robot_wear_monitor.estimation.trend import (
+    DEFAULT_ALARM_PROBABILITY, filter_batch, TrendAlarmPolicy, TrendConfig, WearTrend)
+from robot_wear_monitor.model.params import load_parameter_set
+
+SPEEDS = robot.TABLE_V_SPEEDS_RAD_S
+PARAMS = load_parameter_set()
+CONFIG = TrendConfig()
+
+
+def likelihood_rows(wear, seed, speeds=SPEEDS):
+    """Rows (K, G) of a simulated test with true wear ``wear`` (K,) from the independent model."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(len(wear))
+    temperature = np.clip(40.0 + 7.0 * np.sin(2 * np.pi * k / 37.0 + rng.uniform(0, 6))
+                          + rng.normal(0.0, 2.0, k.size), 30.0, 50.0)
+    load = rng.normal(0.5, 0.1, k.size)
+    friction = np.array([robot.friction_model(speeds, load[i], temperature[i], wear[i])
+                         for i in k])
+    friction += rng.normal(0.0, robot.SIGMA_9B, friction.shape)
+    return profile_log_likelihood(speeds, friction, params=PARAMS, wear_grid=CONFIG.wear_grid)
+
+
+def exponential_path(k, start=1.0, end=70.0, last=99, scale=6.0):
+    return start + (end - start) * np.exp((np.asarray(k, dtype=float) - last) / scale)
+
+
+def test_recovers_simulated_paths_within_interval():
+    # 12 tests of 100 experiments: linear, exponential and steep-step shapes (4 seeds each).
+    k = np.arange(100)
+    shapes = [1.0 + 0.45 * k, exponential_path(k),
+              np.where(k < 60, 1.0 + 0.3 * k, 19.0 + 8.0 * (k - 60)).clip(max=100.0)]
+    paths = [shape for shape in shapes for _ in range(4)]
+    rows = np.stack([likelihood_rows(path, seed) for seed, path in enumerate(paths)])
+    trend = filter_batch(times_s=np.tile(k, (len(paths), 1)), log_likelihood=rows)
+    truth = np.stack(paths)
+    inside = (trend.wear_low <= truth) & (truth <= trend.wear_high)
+    # measured: 96.8 % of the 1200 experiments here (94-97 % with other seeds); the worst
+    # single path 89 % here, down to 68 % with other seeds (a quiet N = 4 phase at w = 1, where
+    # the pooled rows lean to the dip of the wear profile at w = 4-5)
+    assert inside.mean() >= 0.92
+    assert inside.mean(axis=1).min() >= 0.65
+    # and the median follows the truth where the model identifies w (w >= 20)
+    high = truth >= 20.0
+    assert np.median(np.abs(trend.wear - truth)[high]) < 5.0
+
+
+def test_wear_trend_matches_batch_and_replays_identically():
+    k = np.arange(40)
+    rows = likelihood_rows(1.0 + 1.0 * k, seed=3)
+    times = 3600.0 * k + np.random.default_rng(0).uniform(-900, 900, k.size)
+    first, second = WearTrend(), WearTrend()
+    estimates = [first.update(time_s=t, log_likelihood=r) for t, r in zip(times, rows)]
+    replayed = [second.update(time_s=t, log_likelihood=r) for t, r in zip(times, rows)]
+    assert estimates == replayed
+    quick = WearTrend()
+    for t, r in zip(times, rows):
+        last = quick.update(time_s=t, log_likelihood=r, forecast=False)
+    assert math.isnan(last.remaining_experiments)
+    assert last.wear == estimates[-1].wear
+    assert quick.update(time_s=times[-1], log_likelihood=rows[-1]) == first.update(
+        time_s=times[-1], log_likelihood=rows[-1])
+    batch = filter_batch(times_s=times[None, :], log_likelihood=rows[None])
+    np.testing.assert_allclose([e.wear for e in estimates], batch.wear[0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose([e.probability_above_threshold for e in estimates],
+                               batch.probability_above_threshold[0], rtol=0, atol=1e-12)
+
+
+def test_experiment_index_and_regular_stamps_give_the_same_trend():
+    k = np.arange(30)
+    rows = likelihood_rows(2.0 + 1.5 * k, seed=4)
+    by_index = filter_batch(times_s=k[None, :], log_likelihood=rows[None])
+    by_stamp = filter_batch(times_s=1.7e9 + 600.0 * k[None, :], log_likelihood=rows[None])
+    np.testing.assert_allclose(by_index.wear, by_stamp.wear, atol=1e-9)
+
+
+def test_wear_never_decreases_without_data():
+    trend = WearTrend()
+    trend.update(time_s=0.0, log_likelihood=likelihood_rows([30.0], seed=5)[0])
+    flat = np.zeros(CONFIG.wear_grid.size)
+    previous = trend.last_estimate
+    for t in range(1, 30):
+        estimate = trend.update(time_s=float(t), log_likelihood=flat)
+        assert estimate.wear >= previous.wear - 1e-9
+        assert estimate.wear_low >= previous.wear_low - 1e-9
+        assert estimate.wear_high >= previous.wear_high - 1e-9
+        previous = estimate
+
+
+def test_reset_starts_a_new_segment_that_follows_the_new_low_wear():
+    worn = np.linspace(5.0, 70.0, 40)
+    new = np.full(25, 1.0)
+    rows = likelihood_rows(np.concatenate([worn, new]), seed=6)
+    trend = WearTrend()
+    for t in range(40):
+        trend.update(time_s=t * 3600.0, log_likelihood=rows[t])
+    assert trend.last_estimate.wear > 55.0
+    trend.reset(time_s=40 * 3600.0 - 1.0)
+    assert trend.segment == 1 and trend.experiments == 0
+    estimates = [trend.update(time_s=t * 3600.0, log_likelihood=rows[t]) for t in range(40, 65)]
+    assert estimates[0].experiments == 1 and estimates[0].segment == 1
+    assert all(e.wear < 12.0 and e.wear_low <= 1.0 <= e.wear_high for e in estimates)
+    assert all(e.probability_above_threshold < 1e-3 for e in estimates)
+
+
+def test_forecast_of_a_linear_path_brackets_the_true_crossing():
+    # w = 2 + 0.5 k: crosses 35 at k = 66; observed up to k = 39 (27 experiments to go)
+    k = np.arange(40)
+    rows = likelihood_rows(2.0 + 0.5 * k, seed=7)
+    trend = WearTrend()
+    for t in k:
+        estimate = trend.update(time_s=1.7e9 + 3600.0 * t, log_likelihood=rows[t])
+    remaining = 66 - 39
+    assert estimate.remaining_experiments_low <= remaining <= estimate.remaining_experiments_high
+    assert abs(estimate.remaining_experiments - remaining) <= 0.4 * remaining
+    assert estimate.experiment_spacing_s == pytest.approx(3600.0)
+    assert estimate.crossing_time_s == pytest.approx(
+        estimate.time_s + 3600.0 * estimate.remaining_experiments)
+    assert (estimate.crossing_time_low_s <= estimate.crossing_time_s
+            <= estimate.crossing_time_high_s)
+
+
+def test_forecast_is_infinite_for_a_healthy_joint_and_json_is_safe():
+    rows = likelihood_rows(np.full(30, 1.0), seed=8)
+    trend = WearTrend(TrendConfig(forecast_horizon=20))
+    for t in range(30):
+        estimate = trend.update(time_s=float(t), log_likelihood=rows[t])
+    assert math.isinf(estimate.remaining_experiments_high)
+    assert math.isinf(estimate.crossing_time_high_s)
+    data = estimate.to_json()
+    assert data['remaining_experiments_high'] is None
+    json.dumps(data, allow_nan=False)
+    assert set(data) >= {'wear', 'wear_low', 'wear_high', 'probability_above_threshold',
+                         'remaining_experiments', 'crossing_time_s'}
+
+
+def scenario_path(shape, k):
+    """Return the true wear of the paper's Sec. V shape (as in bench/bench_alarm.py)."""
+    if shape == 0:
+        return np.minimum(exponential_path(k), 100.0)
+    if shape == 1:
+        return 2.0 + 37.2 / (1.0 + np.exp(-(k - 80.0) / 3.5))
+    slow = 1.0 + 29.0 * np.clip((k - 30.0) / 67.0, 0.0, 1.0)
+    return np.minimum(slow + 22.1 * np.maximum(k - 97.0, 0.0), 100.0)
+
+
+@pytest.mark.parametrize('shape', [0, 1, 2])
+def test_alarm_policy_quiet_while_healthy_and_prompt_after_crossing(shape):
+    k = np.arange(110)
+    truth = scenario_path(shape, k.astype(float))
+    rows = likelihood_rows(truth, seed=20 + shape)
+    trend = WearTrend(TrendConfig(forecast_horizon=5))  # the forecast plays no part here
+    policy = TrendAlarmPolicy()
+    alarms = np.array([policy.decide(trend.update(time_s=float(t), log_likelihood=rows[t]))
+                       for t in k])
+    assert not np.any(alarms[truth < 25.0])
+    crossing = int(np.argmax(truth >= 35.0))
+    assert np.any(alarms[crossing:crossing + 3])  # within 2 experiments of the crossing
+
+
+def test_alarm_policy_validation_and_batch():
+    assert TrendAlarmPolicy().probability == DEFAULT_ALARM_PROBABILITY
+    with pytest.raises(InputError):
+        TrendAlarmPolicy(probability=1.0)
+    np.testing.assert_array_equal(TrendAlarmPolicy(probability=0.5).decide_batch([0.2, 0.5]),
+                                  [False, True])
+
+
+def test_bad_inputs_are_rejected():
+    trend = WearTrend()
+    row = np.zeros(CONFIG.wear_grid.size)
+    trend.update(time_s=10.0, log_likelihood=row)
+    with pytest.raises(InputError, match='backwards'):
+        trend.update(time_s=9.0, log_likelihood=row)
+    with pytest.raises(InputError, match='shape'):
+        trend.update(time_s=11.0, log_likelihood=row[:-1])
+    with pytest.raises(InputError):
+        trend.update(time_s=11.0, log_likelihood=np.full(row.size, np.nan))
+    with pytest.raises(InputError):
+        trend.update(time_s=11.0, log_likelihood=np.full(row.size, -np.inf))
+    with pytest.raises(InputError):
+        TrendConfig(wear_grid=[0.0, 2.0, 1.0])
+    with pytest.raises(InputError):
+        TrendConfig(threshold=200.0)
