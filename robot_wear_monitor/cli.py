@@ -123,11 +123,19 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from robot_wear_monitor.estimation.estimator import estimate_wear
+    from robot_wear_monitor.estimation.intervals import wear_intervals
+    from robot_wear_monitor.monitoring.service import meaningful_std
     params = _params_from(args)
     if len(args.speeds) != len(args.friction):
         raise InputError(f'--speeds has {len(args.speeds)} values but --friction has '
                          f'{len(args.friction)}: give one friction level per speed')
-    est = estimate_wear(args.speeds, args.friction, params=params)[0]
+    estimates = estimate_wear(args.speeds, args.friction, params=params)
+    est = estimates[0]
+    interval = wear_intervals(args.speeds, args.friction, params=params,
+                              estimates=estimates)[0]
+    wear_std = meaningful_std(std=float(est.wear_std), value=float(est.wear),
+                              low=interval.wear_low, high=interval.wear_high,
+                              open_above=interval.wear_high_at_grid_end)
     alarm = est.wear >= params.wear_threshold
 
     def finite(value: float) -> float | None:
@@ -137,8 +145,12 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
         _print_json({
             'temperature': float(est.temperature_degc), 'wear': float(est.wear),
             'covariance': [[finite(x) for x in row] for row in est.covariance],
-            'wear_std': finite(est.wear_std),
+            'wear_std': finite(wear_std),
             'temperature_std': finite(est.temperature_std_degc),
+            'wear_interval': [finite(interval.wear_low), finite(interval.wear_high)],
+            'wear_interval_open_above': interval.wear_high_at_grid_end,
+            'temperature_interval': [finite(interval.temperature_low),
+                                     finite(interval.temperature_high)],
             'alarm': bool(alarm), 'warning': bool(est.wear >= params.wear_warning),
             'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': finite(est.p_value),
             'temperature_at_bound': est.temperature_at_bound,
@@ -151,9 +163,12 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
     if est.n_levels == 1:
         t_note = ' (posterior mean, N = 1)'
     p_text = 'n/a (dof = 0)' if not np.isfinite(est.p_value) else f'{est.p_value:.3f}'
-    rows = [('temperature [degC]', f'{est.temperature_degc:8.2f} +- '
-             f'{est.temperature_std_degc:.2f}{t_note}'),
-            ('wear w [-]', f'{est.wear:8.2f} +- {est.wear_std:.2f}{w_note}'),
+    above = '+' if interval.wear_high_at_grid_end else ''
+    w_std = f' +- {wear_std:.2f}' if np.isfinite(wear_std) else ''
+    rows = [('temperature [degC]', f'{est.temperature_degc:8.2f}  95 % '
+             f'[{interval.temperature_low:.1f}, {interval.temperature_high:.1f}]{t_note}'),
+            ('wear w [-]', f'{est.wear:8.2f}  95 % [{interval.wear_low:.1f}, '
+             f'{interval.wear_high:.1f}{above}]{w_std}{w_note}'),
             ('alarm', f'{"YES" if alarm else "no"} (threshold w >= {params.wear_threshold:g})'),
             ('chi2 / dof', f'{est.chi2:8.3f} / {est.dof}'),
             ('p-value', p_text)]

@@ -108,13 +108,15 @@ def test_replay_cli_estimates_the_true_wear_and_alarms_near_35(recording, replay
         else:
             assert entry['wear'] < 30.0, (entry, true)
     assert abs(np.mean(errors)) < 6.0, errors
-    # The alarm: raised by the first estimate >= 35, when the true wear is near 35, latched.
-    estimates = [entry['wear'] for entry in experiments]
-    first = next(i for i, w in enumerate(estimates) if w >= 35.0)
+    # The alarm (default rule 'trend'): raised by the first experiment whose wear trend gives
+    # P(w >= 35) >= 0.15, when the true wear is near 35, never while it is below 25; latched.
+    probability = [entry['trend']['probability_above_threshold'] for entry in experiments]
+    first = next(i for i, p in enumerate(probability) if p >= 0.15)
     assert summary['first_alarm'] is not None
     assert summary['first_alarm']['index'] == experiments[first]['index']
-    assert summary['first_alarm']['wear'] == pytest.approx(estimates[first])
+    assert summary['first_alarm']['wear'] == pytest.approx(experiments[first]['wear'])
     assert 25.0 <= truth[first].wear <= 52.0
+    assert all(p < 0.15 for p, true in zip(probability, truth) if true.wear < 25.0)
     assert [entry['alarm'] for entry in experiments] == \
         [False] * first + [True] * (N_EXPERIMENTS - first)
 

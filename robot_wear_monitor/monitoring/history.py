@@ -3,7 +3,9 @@
 One transaction per estimate (the estimate row and, when the alarm changes, the alarm event are
 committed together), WAL journal with ``synchronous=FULL``: a killed process loses nothing that
 was reported.  On start the estimator restores its trend, its latched alarm and the evidence of
-the alarm test from here.  A ``schema_version`` table guards the layout.
+the alarm test from here.  A ``schema_version`` table guards the layout; a history of an older
+layout is migrated in place when opened (version 1 -> 2 adds the confidence intervals and the
+trend columns, empty for the old rows), so a file that loads today loads tomorrow.
 """
 
 from __future__ import annotations
@@ -19,7 +21,12 @@ from typing import Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+
+#: Columns added by schema version 2 (nullable REAL): intervals of the estimate and the trend.
+INTERVAL_COLUMNS = ('wear_low', 'wear_high', 'temperature_low_degc', 'temperature_high_degc',
+                    'trend_wear', 'trend_low', 'trend_high', 'crossing_experiments',
+                    'crossing_time_s')
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL);
@@ -42,7 +49,16 @@ CREATE TABLE IF NOT EXISTS estimates (
     alarm_active INTEGER NOT NULL,
     alarm_evidence REAL NOT NULL,
     status_level INTEGER NOT NULL,
-    parameter_set TEXT NOT NULL
+    parameter_set TEXT NOT NULL,
+    wear_low REAL,
+    wear_high REAL,
+    temperature_low_degc REAL,
+    temperature_high_degc REAL,
+    trend_wear REAL,
+    trend_low REAL,
+    trend_high REAL,
+    crossing_experiments REAL,
+    crossing_time_s REAL
 );
 CREATE INDEX IF NOT EXISTS estimates_joint ON estimates (joint, id);
 CREATE TABLE IF NOT EXISTS alarm_events (
@@ -85,6 +101,15 @@ class HistoryRecord:
     status_level: int
     parameter_set: str
     id: Optional[int] = None
+    wear_low: float = math.nan
+    wear_high: float = math.nan
+    temperature_low_degc: float = math.nan
+    temperature_high_degc: float = math.nan
+    trend_wear: float = math.nan
+    trend_low: float = math.nan
+    trend_high: float = math.nan
+    crossing_experiments: float = math.nan
+    crossing_time_s: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -139,6 +164,7 @@ class WearHistory:
             self._conn.execute('PRAGMA journal_mode=WAL')
             self._conn.execute('PRAGMA synchronous=FULL')
             self._conn.execute('PRAGMA foreign_keys=ON')
+            self._migrate()
             self._conn.executescript(_SCHEMA)
             self._check_version()
         except sqlite3.OperationalError as error:
@@ -146,6 +172,20 @@ class WearHistory:
         except sqlite3.DatabaseError as error:
             raise HistoryError(f'{self.path}: not a usable wear history database: '
                                f'{error}') from None
+
+    def _migrate(self) -> None:
+        """Bring a history of an older schema version to this one (in one transaction)."""
+        tables = {row[0] for row in self._conn.execute(
+            "SELECT name FROM sqlite_master WHERE type = 'table'")}
+        if 'schema_version' not in tables or 'estimates' not in tables:
+            return
+        rows = self._conn.execute('SELECT version FROM schema_version').fetchall()
+        if not rows or rows[0][0] != 1:
+            return
+        with self._transaction() as conn:
+            for column in INTERVAL_COLUMNS:
+                conn.execute(f'ALTER TABLE estimates ADD COLUMN {column} REAL')
+            conn.execute('UPDATE schema_version SET version = ?', (SCHEMA_VERSION,))
 
     def _check_version(self) -> None:
         rows = self._conn.execute('SELECT version FROM schema_version').fetchall()
@@ -191,7 +231,8 @@ class WearHistory:
                 'INSERT INTO estimates (joint, stamp_s, wall_time_s, speeds_rad_s, frictions, '
                 'temperature_degc, temperature_std_degc, wear, wear_std, chi2, dof, p_value, '
                 'temperature_at_bound, wear_at_bound, alarm_active, alarm_evidence, '
-                'status_level, parameter_set) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)',
+                'status_level, parameter_set, ' + ', '.join(INTERVAL_COLUMNS) + ') VALUES ('
+                + ','.join('?' * (18 + len(INTERVAL_COLUMNS))) + ')',
                 (record.joint, float(record.stamp_s), time.time(),
                  json.dumps([float(v) for v in record.speeds_rad_s]),
                  json.dumps([float(f) for f in record.frictions]),
@@ -200,7 +241,8 @@ class WearHistory:
                  _finite_or_none(record.chi2), int(record.dof), _finite_or_none(record.p_value),
                  int(bool(record.temperature_at_bound)), int(bool(record.wear_at_bound)),
                  int(bool(record.alarm_active)), float(record.alarm_evidence),
-                 int(record.status_level), record.parameter_set))
+                 int(record.status_level), record.parameter_set,
+                 *(_finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS)))
             estimate_id = int(cursor.lastrowid)
             for event in events:
                 self._insert_event(conn, event, estimate_id)
@@ -225,7 +267,8 @@ class WearHistory:
         query = ('SELECT id, joint, stamp_s, speeds_rad_s, frictions, temperature_degc, '
                  'temperature_std_degc, wear, wear_std, chi2, dof, p_value, '
                  'temperature_at_bound, wear_at_bound, alarm_active, alarm_evidence, '
-                 'status_level, parameter_set FROM estimates WHERE joint = ? ORDER BY id DESC')
+                 'status_level, parameter_set, ' + ', '.join(INTERVAL_COLUMNS)
+                 + ' FROM estimates WHERE joint = ? ORDER BY id DESC')
         params: tuple = (joint,)
         if limit is not None:
             query += ' LIMIT ?'
@@ -238,7 +281,9 @@ class WearHistory:
             wear_std=_nan_if_none(row[8]), chi2=_nan_if_none(row[9]), dof=row[10],
             p_value=_nan_if_none(row[11]), temperature_at_bound=bool(row[12]),
             wear_at_bound=bool(row[13]), alarm_active=bool(row[14]), alarm_evidence=row[15],
-            status_level=row[16], parameter_set=row[17]) for row in reversed(rows))
+            status_level=row[16], parameter_set=row[17],
+            **{c: _nan_if_none(v) for c, v in zip(INTERVAL_COLUMNS, row[18:])})
+            for row in reversed(rows))
 
     def joints(self) -> tuple[str, ...]:
         """Return the joints that have stored estimates, sorted."""

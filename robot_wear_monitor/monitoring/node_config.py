@@ -67,6 +67,14 @@ def _fraction(value: float) -> Optional[str]:
     return None if 0 <= value < 1 else 'must be in [0, 1)'
 
 
+def _open_probability(value: float) -> Optional[str]:
+    return None if 0 < value < 1 else 'must be in (0, 1)'
+
+
+def _alarm_rule(value: str) -> Optional[str]:
+    return None if value in ('trend', 'estimate') else 'must be "trend" or "estimate"'
+
+
 def _at_least_3(value: int) -> Optional[str]:
     return None if value >= 3 else 'must be >= 3'
 
@@ -146,6 +154,13 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
                   'CUSUM log-likelihood ratio (worn vs healthy) an estimate >= wear_threshold '
                   'also needs to raise the alarm [-]; 0: the paper\'s rule, one estimate >= '
                   'the threshold is enough', _non_negative),
+    ParameterSpec('alarm_rule', 'string', 'trend',
+                  'what raises the wear alarm: "trend" (the filtered trend\'s P(w >= '
+                  'wear_threshold) reaches alarm_probability) or "estimate" (the paper\'s rule: '
+                  'one estimate >= wear_threshold, with alarm_evidence)', _alarm_rule),
+    ParameterSpec('alarm_probability', 'double', 0.15,
+                  'with alarm_rule "trend": the posterior probability of w >= wear_threshold '
+                  'that raises the alarm [-]', _open_probability),
     ParameterSpec('min_fit_p_value', 'double', 0.01,
                   'diagnostics WARN when the chi-square fit p-value is below it [-]',
                   _probability),

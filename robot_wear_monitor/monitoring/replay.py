@@ -78,7 +78,10 @@ class ReplayResult:
             'samples': self.sample_count, 'experiments': experiments,
             'first_alarm': None if first is None else {
                 'index': first.index, 'stamp_s': first.stamp_s,
-                'wear': json_number(first.wear), 'wear_std': json_number(first.wear_std)},
+                'wear': json_number(first.wear), 'wear_std': json_number(first.wear_std),
+                'wear_interval': [json_number(v) for v in first.wear_interval]},
+            'forecast': (None if not self.updates or self.updates[-1].trend is None
+                         else self.updates[-1].trend.to_json()),
             'rejections': dict(sorted(self.rejections.items())),
             'out_bag': None if self.out_bag is None else str(self.out_bag),
         }

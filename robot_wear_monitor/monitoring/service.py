@@ -43,6 +43,7 @@ TEMPERATURE_TOPIC = 'temperature'
 WEAR_TOPIC = 'wear'
 ALARM_TOPIC = 'wear_alarm'
 DIAGNOSTICS_TOPIC = '/diagnostics'
+TREND_TOPIC = 'wear_trend'
 RESET_SERVICE = '~/reset_alarm'
 
 #: Topic -> ROS type of every output of the two nodes.
@@ -52,7 +53,13 @@ OUTPUT_TOPICS: dict[str, str] = {
     WEAR_TOPIC: messages.WEAR_TYPE,
     ALARM_TOPIC: messages.ALARM_TYPE,
     DIAGNOSTICS_TOPIC: messages.DIAGNOSTICS_TYPE,
+    TREND_TOPIC: messages.TREND_TYPE,
 }
+
+#: Alarm rules: ``trend`` raises when the trend's P(w >= threshold) reaches ``probability``
+#: (the default, chosen by ``bench/bench_alarm.py``); ``estimate`` is the paper's rule, one
+#: estimate w-hat >= threshold (with the optional CUSUM evidence).
+ALARM_RULES = ('trend', 'estimate')
 
 
 # --------------------------------------------------------------------------- alarm latch
@@ -64,13 +71,18 @@ class AlarmPolicy:
     threshold: float = 35.0
     healthy: float = 25.0
     evidence_to_raise: float = 0.0
+    rule: str = 'estimate'
+    probability: float = 0.5
 
     def __post_init__(self) -> None:
-        """Reject a policy whose healthy level is not below the threshold."""
+        """Reject a policy whose healthy level is not below the threshold, or a bad rule."""
         if not (self.healthy < self.threshold and self.evidence_to_raise >= 0):
             raise InputError(f'alarm policy: need healthy < threshold and evidence >= 0, got '
                              f'healthy={self.healthy}, threshold={self.threshold}, '
                              f'evidence={self.evidence_to_raise}')
+        if self.rule not in ALARM_RULES or not 0.0 < self.probability < 1.0:
+            raise InputError(f'alarm policy: rule must be one of {", ".join(ALARM_RULES)} and '
+                             f'0 < probability < 1, got {self.rule!r}, {self.probability}')
 
     def log_likelihood_ratio(self, *, wear: float, wear_std: float) -> float:
         """Return llr of one estimate, 0 when its standard deviation is unknown or infinite."""
@@ -90,13 +102,23 @@ class AlarmLatch:
         self.active = bool(active)
         self.evidence = max(0.0, float(evidence))
 
-    def update(self, *, wear: float, wear_std: float) -> bool:
-        """Add one estimate; return True when this estimate raises the alarm."""
+    def update(self, *, wear: float, wear_std: float,
+               probability_above_threshold: float = math.nan) -> bool:
+        """Add one estimate; return True when this estimate raises the alarm.
+
+        Rule ``estimate``: w-hat >= threshold (and the CUSUM evidence >= ``evidence_to_raise``).
+        Rule ``trend``: the trend's posterior P(w >= threshold) >= ``probability``.
+        """
         llr = self.policy.log_likelihood_ratio(wear=wear, wear_std=wear_std)
         self.evidence = max(0.0, self.evidence + llr)
         if self.active:
             return False
-        if wear >= self.policy.threshold and self.evidence >= self.policy.evidence_to_raise:
+        if self.policy.rule == 'trend':
+            raise_now = probability_above_threshold >= self.policy.probability
+        else:
+            raise_now = (wear >= self.policy.threshold
+                         and self.evidence >= self.policy.evidence_to_raise)
+        if raise_now:
             self.active = True
             return True
         return False
@@ -132,7 +154,9 @@ class EstimatorConfig:
         return cls(joint=values['joint'], params=params,
                    alarm=AlarmPolicy(threshold=values['wear_threshold'],
                                      healthy=values['wear_healthy'],
-                                     evidence_to_raise=values['alarm_evidence']),
+                                     evidence_to_raise=values['alarm_evidence'],
+                                     rule=values.get('alarm_rule', 'trend'),
+                                     probability=values.get('alarm_probability', 0.15)),
                    wear_warning=values['wear_warning'],
                    min_fit_p_value=values['min_fit_p_value'],
                    experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']))
@@ -168,6 +192,8 @@ class WearUpdate:
     alarm_raised: bool
     alarm_evidence: float
     status: DiagnosticReport
+    interval: Any = None
+    trend: Any = None
 
     @property
     def wear(self) -> float:
@@ -176,8 +202,33 @@ class WearUpdate:
 
     @property
     def wear_std(self) -> float:
-        """Return the standard deviation of w-hat."""
-        return float(self.estimate.wear_std)
+        """Return the standard deviation of w-hat where it means something, else NaN.
+
+        See :func:`meaningful_std`: near w = 0 or on a bound the inverse Fisher information is
+        no measure of the uncertainty and only the interval is reported.
+        """
+        return meaningful_std(std=float(self.estimate.wear_std), value=self.wear,
+                              low=self.wear_interval[0], high=self.wear_interval[1],
+                              open_above=self.wear_interval_open_above)
+
+    @property
+    def wear_interval(self) -> tuple[float, float]:
+        """Return the 95 % profile-likelihood interval of w (NaNs when not computed)."""
+        if self.interval is None:
+            return (math.nan, math.nan)
+        return (float(self.interval.wear_low), float(self.interval.wear_high))
+
+    @property
+    def wear_interval_open_above(self) -> bool:
+        """Return True when the upper end is only a lower bound (the wear grid's end)."""
+        return bool(self.interval is not None and self.interval.wear_high_at_grid_end)
+
+    @property
+    def temperature_interval(self) -> tuple[float, float]:
+        """Return the 95 % profile-likelihood interval of T [degC] (NaNs when not computed)."""
+        if self.interval is None:
+            return (math.nan, math.nan)
+        return (float(self.interval.temperature_low), float(self.interval.temperature_high))
 
     @property
     def temperature_degc(self) -> float:
@@ -198,6 +249,10 @@ class WearUpdate:
             'temperature_degc': json_number(self.temperature_degc),
             'temperature_std_degc': json_number(self.temperature_std_degc),
             'wear': json_number(self.wear), 'wear_std': json_number(self.wear_std),
+            'wear_interval': [json_number(v) for v in self.wear_interval],
+            'wear_interval_open_above': self.wear_interval_open_above,
+            'temperature_interval': [json_number(v) for v in self.temperature_interval],
+            'trend': None if self.trend is None else self.trend.to_json(),
             'fit_p_value': json_number(self.estimate.p_value),
             'chi2': json_number(self.estimate.chi2), 'dof': int(self.estimate.dof),
             'temperature_at_bound': bool(self.estimate.temperature_at_bound),
@@ -206,6 +261,26 @@ class WearUpdate:
             'alarm_evidence': json_number(self.alarm_evidence),
             'status': messages.LEVEL_NAMES[self.status.level], 'message': self.status.message,
         }
+
+
+def meaningful_std(*, std: float, value: float, low: float, high: float,
+                   open_above: bool = False) -> float:
+    """Return ``std`` when it describes the uncertainty of ``value``, else NaN.
+
+    The standard deviation (inverse Fisher information) is kept when the 95 % profile-likelihood
+    interval [low, high] is interior (low > 0, a finite upper end inside the grid) and the Wald
+    interval value +- 1.96 std agrees with it: each half-width within a factor 1.5.  Near w = 0,
+    where the wear term's speed scale collapses, or at a bound, it is not (0.3 +- 4317) and only
+    the interval is reported.
+    """
+    if not (math.isfinite(std) and std > 0 and math.isfinite(low) and math.isfinite(high)):
+        return math.nan
+    if open_above or low <= 0 or not low <= value <= high:
+        return math.nan
+    for half in (value - low, high - value):
+        if not (half > 0 and 1 / 1.5 <= 1.96 * std / half <= 1.5):
+            return math.nan
+    return std
 
 
 def json_number(value: float) -> Optional[float]:
@@ -295,6 +370,7 @@ class WearEstimatorService:
         self._estimate = estimate or _default_estimate
         restored = self.history.restore(joint=config.joint, trend_length=trend_length)
         self.trend: deque[HistoryRecord] = deque(restored.records, maxlen=trend_length)
+        self.wear_trend = self._rebuild_trend(restored.records)
         self.latch = AlarmLatch(config.alarm, active=restored.alarm_active,
                                 evidence=restored.alarm_evidence)
         self.restored_estimates = len(restored.records)
@@ -303,17 +379,81 @@ class WearEstimatorService:
         self.last_update: Optional[WearUpdate] = None
         self.last_rejection = ''
 
+    def _new_trend(self) -> Any:
+        from robot_wear_monitor.estimation.trend import TrendConfig, WearTrend
+        return WearTrend(TrendConfig(threshold=self.config.alarm.threshold))
+
+    def _likelihood_rows(self, speeds: np.ndarray, frictions: np.ndarray) -> np.ndarray:
+        """Return the profile log-likelihood rows of w on the trend's grid, (B, G)."""
+        from robot_wear_monitor.estimation.intervals import profile_log_likelihood
+        return profile_log_likelihood(speeds, frictions, params=self.config.params,
+                                      wear_grid=self.wear_trend.wear_grid)
+
+    def _rebuild_trend(self, records: Sequence[HistoryRecord]) -> Any:
+        """Rebuild the trend filter from the stored estimates and maintenance resets.
+
+        The filter's state is a pure function of its rows, so replaying the stored friction
+        levels (grouped by speed set, one batched likelihood call per set) and the ``reset``
+        events in their order gives the trend the service had before the restart.
+        """
+        self.wear_trend = self._new_trend()
+        if not records:
+            return self.wear_trend
+        rows: list[Any] = [None] * len(records)
+        groups: dict[tuple[float, ...], list[int]] = {}
+        for i, record in enumerate(records):
+            groups.setdefault(tuple(record.speeds_rad_s), []).append(i)
+        for speeds, indices in groups.items():
+            try:
+                batch = self._likelihood_rows(np.asarray(speeds), np.asarray(
+                    [records[i].frictions for i in indices], dtype=float))
+            except (InputError, ValueError):
+                continue
+            for i, row in zip(indices, batch):
+                rows[i] = row
+        resets = [e for e in self.history.events(joint=self.config.joint)
+                  if e.event == 'reset']
+        for record, row in zip(records, rows):
+            for event in [e for e in resets if e.estimate_id is not None
+                          and e.estimate_id < (record.id or 0)]:
+                self._reset_trend()
+                resets.remove(event)
+            if row is not None:
+                try:
+                    self.wear_trend.update(time_s=record.stamp_s, log_likelihood=row,
+                                           forecast=False)
+                except InputError:
+                    continue
+        for event in resets:
+            if records and event.estimate_id is not None and event.estimate_id >= (
+                    records[-1].id or 0):
+                self._reset_trend()
+        return self.wear_trend
+
+    def _reset_trend(self) -> None:
+        # The reset is stamped by this process's clock, the experiments by their recordings'
+        # stamps (a replayed bag, simulated time): the new segment starts at the last experiment
+        # so that the two clocks never meet on the trend's time line.
+        self.wear_trend.reset()
+
     def warm_up(self) -> None:
         """Run the estimator once on model friction levels (nothing is stored or published).
 
-        The first estimate of a process pays for imports and caches (about 0.5 s here); a node
-        pays it at start, not at its first experiment while /joint_states keeps arriving.
+        The first estimate of a process pays for imports and caches (about 0.5 s here), and the
+        first interval of a design for the calibration of its cutoffs (about 2 s, see
+        :func:`~robot_wear_monitor.estimation.intervals.calibrate_cutoffs`); a node pays both at
+        start for its configured speeds, not at its first experiment while /joint_states keeps
+        arriving.
         """
+        from robot_wear_monitor.estimation.intervals import calibrate_cutoffs
         from robot_wear_monitor.model.friction import friction
-        speeds = np.asarray(self.config.experiment_speeds_rad_s or (30.0, 40.0), dtype=float)
+        configured = self.config.experiment_speeds_rad_s
+        speeds = np.asarray(configured or (30.0, 40.0), dtype=float)
         levels = np.asarray(friction(speeds, 0.5, 40.0, 10.0, self.config.params.model),
                             dtype=float)
         self._estimate(speeds, levels, params=self.config.params)
+        if configured:
+            calibrate_cutoffs(speeds, params=self.config.params)
 
     # ----------------------------------------------------------------- inputs
 
@@ -359,9 +499,19 @@ class WearEstimatorService:
             return None
         wear = float(estimate.wear)
         wear_std = float(estimate.wear_std)
-        raised = self.latch.update(wear=wear, wear_std=wear_std)
+        interval, trend = self._interval_and_trend(speeds, frictions, stamp_s=levels.stamp_s)
+        raised = self.latch.update(
+            wear=wear, wear_std=wear_std,
+            probability_above_threshold=(math.nan if trend is None
+                                         else trend.probability_above_threshold))
         self.experiments += 1
-        status = self._status(estimate=estimate, speeds=levels.speeds_rad_s)
+        update_std = meaningful_std(
+            std=wear_std, value=wear,
+            low=math.nan if interval is None else interval.wear_low,
+            high=math.nan if interval is None else interval.wear_high,
+            open_above=bool(interval is not None and interval.wear_high_at_grid_end))
+        status = self._status(estimate=estimate, speeds=levels.speeds_rad_s,
+                              interval=interval, trend=trend, wear_std=update_std)
         record = HistoryRecord(
             joint=self.config.joint, stamp_s=levels.stamp_s, speeds_rad_s=levels.speeds_rad_s,
             frictions=levels.frictions, temperature_degc=float(estimate.temperature_degc),
@@ -371,41 +521,75 @@ class WearEstimatorService:
             temperature_at_bound=bool(estimate.temperature_at_bound),
             wear_at_bound=bool(estimate.wear_at_bound), alarm_active=self.latch.active,
             alarm_evidence=self.latch.evidence, status_level=status.level,
-            parameter_set=self.config.params.name)
+            parameter_set=self.config.params.name, **_interval_columns(interval, trend))
         events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
-                             wear=wear, note=f'w-hat {_fmt(wear)} >= '
-                                             f'{_fmt(self.config.alarm.threshold)}, evidence '
-                                             f'{_fmt(self.latch.evidence, 3)}')] if raised else []
+                             wear=wear, note=self._raise_note(wear, trend))] if raised else []
         record_id = self.history.append(record, events=events)
         self.trend.append(HistoryRecord(**{**record.__dict__, 'id': record_id}))
         self.last_update = WearUpdate(
             index=self.experiments, stamp_s=levels.stamp_s, joint=self.config.joint,
             speeds_rad_s=levels.speeds_rad_s, frictions=levels.frictions, estimate=estimate,
             alarm_active=self.latch.active, alarm_raised=raised,
-            alarm_evidence=self.latch.evidence, status=status)
+            alarm_evidence=self.latch.evidence, status=status, interval=interval, trend=trend)
         return self.last_update
+
+    def _raise_note(self, wear: float, trend: Any) -> str:
+        """Say which evidence raised the alarm (the history's ``alarm_events.note``)."""
+        policy = self.config.alarm
+        if policy.rule == 'trend' and trend is not None:
+            return (f'trend P(w >= {_fmt(policy.threshold)}) = '
+                    f'{_fmt(trend.probability_above_threshold, 3)} >= '
+                    f'{_fmt(policy.probability, 3)}; trend w {_fmt(trend.wear)} '
+                    f'[{_fmt(trend.wear_low)}, {_fmt(trend.wear_high)}], w-hat {_fmt(wear)}')
+        return (f'w-hat {_fmt(wear)} >= {_fmt(policy.threshold)}, evidence '
+                f'{_fmt(self.latch.evidence, 3)}')
+
+    def _interval_and_trend(self, speeds: np.ndarray, frictions: np.ndarray, *,
+                            stamp_s: float) -> tuple[Any, Any]:
+        """Return the 95 % intervals of (w, T) and the updated trend (None where they fail)."""
+        from robot_wear_monitor.estimation.intervals import wear_intervals
+        interval = trend = None
+        try:
+            interval = wear_intervals(speeds, frictions, params=self.config.params)[0]
+        except (InputError, ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+            self.reject('interval_failed', str(error).splitlines()[0] if str(error) else '')
+        try:
+            row = self._likelihood_rows(speeds, frictions)[0]
+            trend = self.wear_trend.update(time_s=stamp_s, log_likelihood=row)
+        except (InputError, ValueError, FloatingPointError) as error:
+            self.reject('trend_failed', str(error).splitlines()[0] if str(error) else '')
+        return interval, trend
 
     def reset_alarm(self, *, stamp_s: float, note: str = 'reset after maintenance'
                     ) -> tuple[bool, str]:
-        """Clear the latched alarm (``~/reset_alarm``); return (success, message)."""
+        """Clear the latched alarm (``~/reset_alarm``); return (success, message).
+
+        A reset follows maintenance: the wear trend starts a new segment from the new-joint prior.
+        """
         was_active = self.latch.reset()
+        self._reset_trend()
         last_id = self.trend[-1].id if self.trend else None
         self.history.record_event(AlarmEvent(joint=self.config.joint, stamp_s=stamp_s,
                                              event='reset', wear=None, note=note,
                                              estimate_id=last_id))
         if was_active:
-            return True, 'wear alarm cleared; evidence reset'
-        return True, 'no wear alarm was active; evidence reset'
+            return True, 'wear alarm cleared; evidence and trend reset'
+        return True, 'no wear alarm was active; evidence and trend reset'
 
     # ----------------------------------------------------------------- diagnostics
 
-    def _status(self, *, estimate: Any, speeds: Sequence[float]) -> DiagnosticReport:
+    def _status(self, *, estimate: Any, speeds: Sequence[float], interval: Any = None,
+                trend: Any = None, wear_std: float = math.nan) -> DiagnosticReport:
         config = self.config
         wear = float(estimate.wear)
-        wear_std = float(estimate.wear_std)
         p_value = float(estimate.p_value)
-        summary = (f'w = {_fmt(wear, 3)} +- {_fmt(wear_std, 2)}, '
+        summary = (f'w = {_fmt(wear, 3)}{_interval_text(interval)}, '
                    f'T = {_fmt(estimate.temperature_degc, 3)} degC')
+        if trend is not None:
+            summary += (f'; trend {_fmt(trend.wear, 3)} ({_fmt(trend.wear_low, 3)}-'
+                        f'{_fmt(trend.wear_high, 3)}), P(w >= '
+                        f'{_fmt(config.alarm.threshold)}) {trend.probability_above_threshold:.0%}'
+                        f'{_forecast_text(trend)}')
         warnings = []
         if wear >= config.wear_warning and not self.latch.active:
             warnings.append(f'wear near the alarm level {_fmt(config.alarm.threshold)}')
@@ -428,8 +612,14 @@ class WearEstimatorService:
         values = [
             ('joint', config.joint),
             ('wear', _fmt(wear, 6)), ('wear_std', _fmt(wear_std, 6)),
+            ('wear_low', _fmt(math.nan if interval is None else interval.wear_low, 6)),
+            ('wear_high', _fmt(math.nan if interval is None else interval.wear_high, 6)),
             ('temperature_degc', _fmt(estimate.temperature_degc, 6)),
             ('temperature_std_degc', _fmt(estimate.temperature_std_degc, 6)),
+            ('temperature_low_degc',
+             _fmt(math.nan if interval is None else interval.temperature_low, 6)),
+            ('temperature_high_degc',
+             _fmt(math.nan if interval is None else interval.temperature_high, 6)),
             ('speeds_rad_s', ','.join(_fmt(v, 6) for v in speeds)),
             ('n_levels', str(int(estimate.n_levels))),
             ('fit_p_value', _fmt(p_value, 4)), ('chi2', _fmt(estimate.chi2, 4)),
@@ -438,11 +628,13 @@ class WearEstimatorService:
             ('wear_at_bound', str(bool(estimate.wear_at_bound)).lower()),
             ('alarm', str(self.latch.active).lower()),
             ('alarm_evidence', _fmt(self.latch.evidence, 4)),
+            ('alarm_rule', config.alarm.rule),
             ('wear_threshold', _fmt(config.alarm.threshold)),
             ('wear_warning', _fmt(config.wear_warning)),
             ('experiments', str(self.experiments)),
             ('parameter_set', config.params.name),
         ]
+        values += _trend_values(trend)
         values += self._rejection_values()
         return DiagnosticReport(level=level, message=message, values=tuple(values))
 
@@ -499,6 +691,8 @@ class WearEstimatorService:
                 variance_degc2=update.temperature_std_degc ** 2)),
             (WEAR_TOPIC, messages.wear_to_msg(kit, wear=update.wear)),
             (ALARM_TOPIC, messages.alarm_to_msg(kit, active=update.alarm_active)),
+            *([] if update.trend is None else [(TREND_TOPIC, messages.trend_to_msg(
+                kit, stamp_s=update.stamp_s, joint=self.config.joint, trend=update.trend))]),
             (DIAGNOSTICS_TOPIC, self.diagnostics_message(kit, stamp_s=update.stamp_s,
                                                          status=update.status)),
         ]
@@ -510,6 +704,58 @@ class WearEstimatorService:
         return messages.diagnostics_to_msg(
             kit, stamp_s=stamp_s, name=self.diagnostic_name(), hardware_id=self.config.joint,
             level=status.level, message=status.message, values=status.values)
+
+
+def _interval_text(interval: Any) -> str:
+    if interval is None:
+        return ''
+    above = '+' if interval.wear_high_at_grid_end else ''
+    return (f' (95 %: {_fmt(interval.wear_low, 3)}-{_fmt(interval.wear_high, 3)}'
+            f'{above})')
+
+
+def _forecast_text(trend: Any) -> str:
+    remaining = float(trend.remaining_experiments)
+    if trend.probability_above_threshold >= 0.5 or not math.isfinite(remaining):
+        return ''
+    return (f', crossing in {remaining:.0f} experiments '
+            f'({_fmt(trend.remaining_experiments_low, 3)}-'
+            f'{_fmt(trend.remaining_experiments_high, 3)})')
+
+
+#: Diagnostics key-values of the trend (trend attribute names, with their keys).
+_TREND_KEYS = (('trend_wear', 'wear'), ('trend_low', 'wear_low'), ('trend_high', 'wear_high'),
+               ('trend_rate_per_experiment', 'rate'),
+               ('probability_above_threshold', 'probability_above_threshold'),
+               ('remaining_experiments', 'remaining_experiments'),
+               ('remaining_experiments_low', 'remaining_experiments_low'),
+               ('remaining_experiments_high', 'remaining_experiments_high'),
+               ('crossing_time_s', 'crossing_time_s'),
+               ('crossing_time_low_s', 'crossing_time_low_s'),
+               ('crossing_time_high_s', 'crossing_time_high_s'))
+
+
+def _trend_values(trend: Any) -> list[tuple[str, str]]:
+    if trend is None:
+        return []
+    return [(key, _fmt(getattr(trend, name), 15 if 'time' in key else 6))
+            for key, name in _TREND_KEYS]
+
+
+def _interval_columns(interval: Any, trend: Any) -> dict[str, float]:
+    """Return the history's interval and trend columns of one estimate (NaN when absent)."""
+    nan = math.nan
+    return {
+        'wear_low': nan if interval is None else float(interval.wear_low),
+        'wear_high': nan if interval is None else float(interval.wear_high),
+        'temperature_low_degc': nan if interval is None else float(interval.temperature_low),
+        'temperature_high_degc': nan if interval is None else float(interval.temperature_high),
+        'trend_wear': nan if trend is None else float(trend.wear),
+        'trend_low': nan if trend is None else float(trend.wear_low),
+        'trend_high': nan if trend is None else float(trend.wear_high),
+        'crossing_experiments': nan if trend is None else float(trend.remaining_experiments),
+        'crossing_time_s': nan if trend is None else float(trend.crossing_time_s),
+    }
 
 
 def _same_speeds(speeds: Sequence[float], expected: Sequence[float], tolerance: float) -> bool:

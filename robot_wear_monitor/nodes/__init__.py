@@ -17,13 +17,17 @@ def message_kit() -> MessageKit:
     from builtin_interfaces.msg import Time
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from sensor_msgs.msg import JointState, Temperature
-    from std_msgs.msg import Bool, Float64, Header
+    from std_msgs.msg import (Bool, Float64, Float64MultiArray, Header, MultiArrayDimension,
+                              MultiArrayLayout)
 
     classes = {
         'builtin_interfaces/msg/Time': Time,
         'std_msgs/msg/Header': Header,
         'std_msgs/msg/Bool': Bool,
         'std_msgs/msg/Float64': Float64,
+        'std_msgs/msg/Float64MultiArray': Float64MultiArray,
+        'std_msgs/msg/MultiArrayLayout': MultiArrayLayout,
+        'std_msgs/msg/MultiArrayDimension': MultiArrayDimension,
         'sensor_msgs/msg/JointState': JointState,
         'sensor_msgs/msg/Temperature': Temperature,
         'diagnostic_msgs/msg/DiagnosticArray': DiagnosticArray,

@@ -12,7 +12,7 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, Temperature
-from std_msgs.msg import Bool, Float64
+from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -26,16 +26,16 @@ from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_Q
                                           FRICTION_LEVELS_QOS)
 from robot_wear_monitor.monitoring.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
                                                    FRICTION_LEVELS_TOPIC, RejectionLog,
-                                                   RESET_SERVICE, TEMPERATURE_TOPIC, WEAR_TOPIC,
-                                                   WearEstimatorService)
+                                                   RESET_SERVICE, TEMPERATURE_TOPIC, TREND_TOPIC,
+                                                   WEAR_TOPIC, WearEstimatorService)
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0
 
 _TYPES = {TEMPERATURE_TOPIC: Temperature, WEAR_TOPIC: Float64, ALARM_TOPIC: Bool,
-          DIAGNOSTICS_TOPIC: DiagnosticArray}
+          DIAGNOSTICS_TOPIC: DiagnosticArray, TREND_TOPIC: Float64MultiArray}
 _QOS = {TEMPERATURE_TOPIC: ESTIMATE_QOS, WEAR_TOPIC: ESTIMATE_QOS, ALARM_TOPIC: ALARM_QOS,
-        DIAGNOSTICS_TOPIC: DIAGNOSTICS_QOS}
+        DIAGNOSTICS_TOPIC: DIAGNOSTICS_QOS, TREND_TOPIC: ESTIMATE_QOS}
 
 
 class WearEstimatorNode(Node):

@@ -15,6 +15,12 @@ Topic and type contract (documented in ``docs/service.md`` and the README):
 ``wear`` (std_msgs/msg/Float64): w-hat.
 ``wear_alarm`` (std_msgs/msg/Bool): the latched alarm state.
 ``/diagnostics`` (diagnostic_msgs/msg/DiagnosticArray): one DiagnosticStatus with key-values.
+``wear_trend`` (std_msgs/msg/Float64MultiArray): the filtered trend and forecast after each
+    experiment; one dimension labelled ``<joint>:`` followed by :data:`TREND_FIELDS` joined by
+    commas, ``data`` in that order (w, its 95 % interval, P(w >= threshold), rate [w per
+    experiment], remaining experiments to the threshold with 95 % interval, crossing time [s]
+    with 95 % interval, time of the experiment [s]; inf = beyond the forecast horizon, NaN =
+    unknown).
 """
 
 from __future__ import annotations
@@ -32,6 +38,13 @@ TEMPERATURE_TYPE = 'sensor_msgs/msg/Temperature'
 WEAR_TYPE = 'std_msgs/msg/Float64'
 ALARM_TYPE = 'std_msgs/msg/Bool'
 DIAGNOSTICS_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
+TREND_TYPE = 'std_msgs/msg/Float64MultiArray'
+
+#: ``wear_trend`` fields, in the order of ``data`` (also the label of its one dimension).
+TREND_FIELDS = ('wear', 'wear_low', 'wear_high', 'probability_above_threshold', 'rate',
+                'remaining_experiments', 'remaining_experiments_low',
+                'remaining_experiments_high', 'crossing_time_s', 'crossing_time_low_s',
+                'crossing_time_high_s', 'time_s')
 
 # Status levels of diagnostic_msgs/msg/DiagnosticStatus.
 DIAGNOSTIC_OK = 0
@@ -200,6 +213,24 @@ def wear_to_msg(kit: MessageKit, *, wear: float) -> Any:
 def alarm_to_msg(kit: MessageKit, *, active: bool) -> Any:
     """Build std_msgs/Bool holding the latched alarm state."""
     return kit.make(ALARM_TYPE, data=bool(active))
+
+
+def trend_to_msg(kit: MessageKit, *, stamp_s: float, joint: str, trend: Any) -> Any:
+    """Build the ``wear_trend`` Float64MultiArray of a trend estimate (see the module doc)."""
+    del stamp_s  # Float64MultiArray has no header; the time is the last element of data
+    values = [float(getattr(trend, name)) for name in TREND_FIELDS]
+    dimension = kit.make('std_msgs/msg/MultiArrayDimension',
+                         label=f'{joint}:' + ','.join(TREND_FIELDS), size=len(values),
+                         stride=len(values))
+    layout = kit.make('std_msgs/msg/MultiArrayLayout', dim=[dimension], data_offset=0)
+    return kit.make(TREND_TYPE, layout=layout, data=kit.float_array(values))
+
+
+def trend_from_msg(msg: Any) -> dict[str, float]:
+    """Return the ``wear_trend`` fields by name (the inverse of :func:`trend_to_msg`)."""
+    label = str(msg.layout.dim[0].label)
+    names = label.split(':', 1)[-1].split(',')
+    return {name: float(value) for name, value in zip(names, msg.data)}
 
 
 def diagnostics_to_msg(kit: MessageKit, *, stamp_s: float, name: str, hardware_id: str,

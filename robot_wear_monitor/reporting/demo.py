@@ -82,13 +82,14 @@ def run_demo(*, out_dir: str | os.PathLike = 'wear_demo', n_experiments: int = 1
     elapsed = time.perf_counter() - started
     extra = (f'{n_experiments} simulated friction experiments of {joint.joint} at '
              f'{", ".join(f"{v:g}" for v in config.speeds_rad_s)} rad/s (Table V, N = 4), '
-             f'temperature 30-50 degC and load 0.5 +- 0.1 varying per experiment (Sec. V); '
+             f'temperature 30-50 degC and load 0.5 (std 0.1) varying per experiment (Sec. V); '
              f'{scenario.n_samples} JointState messages at {joint.sample_rate_hz:g} Hz, '
              f'replayed through the monitoring service.  Bags: `scenario_bag/` (input, '
              f'truth in `scenario_bag.truth.json`) and `monitor_bag/` (every node output).')
     write_report(result, folder, threshold=threshold,
-                 figures={'Wear estimate with +-2 std band against the truth, threshold and '
-                          'alarm': 'wear_trend.png',
+                 figures={'Wear estimate with its 95 % interval and the wear trend with its '
+                          '95 % interval, against the truth, threshold and alarm':
+                          'wear_trend.png',
                           'Friction levels of every experiment': 'friction_curves.png'},
                  extra=extra, elapsed_s=elapsed)
     summary['elapsed_s'] = elapsed

@@ -1,10 +1,11 @@
 """Figures and the Markdown report of a replay: wear trend like the paper's Fig. 11, friction.
 
-:func:`plot_wear_trend` draws w-hat with its +-2 std band, the threshold, the truth when known
-(simulated bags) with the region where detection is due shaded, and the alarm; a second panel
-shows T-hat against the true temperature.  :func:`plot_friction_curves` draws the friction
-levels of every experiment against speed, coloured by experiment (like Fig. 2(b)), over the
-model at w = 0 and at the threshold.  :func:`write_report` writes ``report.md`` with a table.
+:func:`plot_wear_trend` draws w-hat with its 95 % interval band, the filtered trend with its
+interval, the threshold, the truth when known (simulated bags) with the region where detection
+is due shaded, and the alarm; a second panel shows T-hat against the true temperature.
+:func:`plot_friction_curves` draws the friction levels of every experiment against speed,
+coloured by experiment (like Fig. 2(b)), over the model at w = 0 and at the threshold.
+:func:`write_report` writes ``report.md`` with a table.
 """
 
 from __future__ import annotations
@@ -33,6 +34,14 @@ def _arrays(result: Any) -> dict[str, np.ndarray]:
         'index': np.array([u.index for u in updates], dtype=float),
         'wear': np.array([u.wear for u in updates], dtype=float),
         'wear_std': np.array([u.wear_std for u in updates], dtype=float),
+        'wear_low': np.array([u.wear_interval[0] for u in updates], dtype=float),
+        'wear_high': np.array([u.wear_interval[1] for u in updates], dtype=float),
+        'trend': np.array([np.nan if u.trend is None else u.trend.wear for u in updates],
+                          dtype=float),
+        'trend_low': np.array([np.nan if u.trend is None else u.trend.wear_low
+                               for u in updates], dtype=float),
+        'trend_high': np.array([np.nan if u.trend is None else u.trend.wear_high
+                                for u in updates], dtype=float),
         'temperature': np.array([u.temperature_degc for u in updates], dtype=float),
         'temperature_std': np.array([u.temperature_std_degc for u in updates], dtype=float),
         'alarm': np.array([u.alarm_active for u in updates], dtype=bool),
@@ -44,22 +53,29 @@ def _arrays(result: Any) -> dict[str, np.ndarray]:
 
 def plot_wear_trend(result: Any, path: str | os.PathLike, *, threshold: float,
                     title: str = 'Wear estimate') -> Path:
-    """Draw the wear trend (w-hat +- 2 std, threshold, truth, alarm) and T-hat; save a PNG."""
+    """Draw w-hat with its 95 % interval, the trend with its interval, truth, alarm; save a PNG.
+
+    The bands are the profile-likelihood intervals of each estimate and the trend's posterior
+    interval (never +-2 std, which is meaningless near w = 0).
+    """
     plt = _pyplot()
     data = _arrays(result)
     k = data['index']
     fig, (ax, ax_t) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True,
                                    gridspec_kw={'height_ratios': [2.2, 1]})
-    finite = np.where(np.isfinite(data['wear_std']), data['wear_std'], np.nan)
     top_data = np.nanmax(np.concatenate([data['wear'], data['true_wear'], [threshold]])) \
         if k.size else threshold
     top = 1.25 * max(top_data, threshold)
-    lower = np.clip(data['wear'] - 2 * finite, 0, top)
-    upper = np.clip(data['wear'] + 2 * finite, 0, top)
     if k.size:
-        ax.fill_between(k, lower, upper, color='tab:blue', alpha=0.2, linewidth=0,
-                        label='w-hat +- 2 std')
-        ax.plot(k, data['wear'], '.-', color='tab:blue', lw=1, ms=4, label='w-hat')
+        ax.fill_between(k, np.clip(data['wear_low'], 0, top), np.clip(data['wear_high'], 0, top),
+                        color='tab:blue', alpha=0.15, linewidth=0,
+                        label='w-hat 95 % interval (profile likelihood)')
+        ax.plot(k, data['wear'], '.', color='tab:blue', ms=4, label='w-hat per experiment')
+    if np.any(np.isfinite(data['trend'])):
+        ax.fill_between(k, np.clip(data['trend_low'], 0, top),
+                        np.clip(data['trend_high'], 0, top), color='tab:green', alpha=0.25,
+                        linewidth=0, label='trend 95 % interval')
+        ax.plot(k, data['trend'], '-', color='tab:green', lw=1.8, label='wear trend')
     if np.any(np.isfinite(data['true_wear'])):
         ax.plot(k, data['true_wear'], color='black', lw=1.5, label='true w (simulation)')
         due = data['true_wear'] >= threshold
@@ -134,6 +150,35 @@ def _cell(value: Optional[float], digits: int = 1) -> str:
     return f'{value:.{digits}f}'
 
 
+def _trend_cell(trend: Any) -> str:
+    if trend is None:
+        return '-'
+    return f'{_cell(trend.wear)} ({_cell(trend.wear_low)}-{_cell(trend.wear_high)})'
+
+
+def _trend_text(update: Any) -> str:
+    trend = update.trend
+    if trend is None:
+        return ''
+    return (f', trend {trend.wear:.1f} (95 % {trend.wear_low:.1f}-{trend.wear_high:.1f}), '
+            f'P(w >= threshold) = {trend.probability_above_threshold:.0%}')
+
+
+def _forecast_sentence(trend: Any) -> str:
+    """Return a sentence on the trend and the forecast crossing of the threshold."""
+    text = (f'wear trend {trend.wear:.1f} (95 % {trend.wear_low:.1f}-{trend.wear_high:.1f}), '
+            f'P(w >= {trend.threshold:g}) = {trend.probability_above_threshold:.0%}')
+    remaining = trend.remaining_experiments
+    if trend.probability_above_threshold >= 0.5:
+        return text + '; the threshold is most likely crossed.'
+    if not math.isfinite(remaining):
+        return text + '; no crossing of the threshold within the forecast horizon.'
+    high = trend.remaining_experiments_high
+    high_text = f'{high:.0f}' if math.isfinite(high) else 'beyond the horizon'
+    return (text + f'; forecast crossing in {remaining:.0f} experiments (95 % '
+            f'{trend.remaining_experiments_low:.0f} to {high_text}).')
+
+
 def write_report(result: Any, folder: str | os.PathLike, *, threshold: float,
                  figures: dict[str, str], extra: str = '', elapsed_s: float | None = None
                  ) -> Path:
@@ -148,8 +193,10 @@ def write_report(result: Any, folder: str | os.PathLike, *, threshold: float,
     else:
         truth = result.truth_for(first)
         true_text = f', true w = {truth.wear:.1f}' if truth is not None else ''
+        low, high = first.wear_interval
         lines.append(f'**Alarm raised at experiment {first.index}**: w-hat = {first.wear:.1f} '
-                     f'+- {first.wear_std:.1f}{true_text} (threshold {threshold:g}).')
+                     f'(95 % {low:.1f}-{high:.1f}){_trend_text(first)}{true_text} '
+                     f'(threshold {threshold:g}).')
     crossing = next((u for u in result.updates
                      if (t := result.truth_for(u)) is not None and t.wear >= threshold), None)
     if crossing is not None:
@@ -160,16 +207,21 @@ def write_report(result: Any, folder: str | os.PathLike, *, threshold: float,
     lines.append('')
     for caption, name in figures.items():
         lines += [f'![{caption}]({name})', '', f'*{caption}*', '']
-    lines += ['| exp | speeds [rad/s] | friction levels | true w | w-hat | std | true T | '
-              'T-hat | p | alarm | status |',
-              '|---|---|---|---|---|---|---|---|---|---|---|']
+    last = result.updates[-1] if result.updates else None
+    if last is not None and last.trend is not None:
+        lines.append(f'After the last experiment: {_forecast_sentence(last.trend)}')
+    lines.append('')
+    lines += ['| exp | speeds [rad/s] | friction levels | true w | w-hat | 95 % interval | '
+              'trend (95 %) | true T | T-hat | p | alarm | status |',
+              '|---|---|---|---|---|---|---|---|---|---|---|---|']
     for update in result.updates:
         truth = result.truth_for(update)
         lines.append(
             f'| {update.index} | {", ".join(f"{v:g}" for v in update.speeds_rad_s)} | '
             f'{", ".join(f"{f:.4f}" for f in update.frictions)} | '
             f'{_cell(truth.wear if truth else None)} | {_cell(update.wear)} | '
-            f'{_cell(update.wear_std)} | '
+            f'{_cell(update.wear_interval[0])}-{_cell(update.wear_interval[1])} | '
+            f'{_trend_cell(update.trend)} | '
             f'{_cell(truth.temperature_degc if truth else None)} | '
             f'{_cell(update.temperature_degc)} | {_cell(update.estimate.p_value, 2)} | '
             f'{"**ALARM**" if update.alarm_active else ""} | '

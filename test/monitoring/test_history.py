@@ -73,3 +73,45 @@ def test_unknown_schema_version_and_garbage_are_clear_errors(tmp_path):
     garbage.write_bytes(b'not a database' * 100)
     with pytest.raises(HistoryError, match='not a usable'):
         WearHistory(garbage)
+
+
+_VERSION_1_SCHEMA = """
+CREATE TABLE schema_version (version INTEGER NOT NULL);
+INSERT INTO schema_version VALUES (1);
+CREATE TABLE estimates (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, joint TEXT NOT NULL, stamp_s REAL NOT NULL,
+    wall_time_s REAL NOT NULL, speeds_rad_s TEXT NOT NULL, frictions TEXT NOT NULL,
+    temperature_degc REAL NOT NULL, temperature_std_degc REAL, wear REAL NOT NULL,
+    wear_std REAL, chi2 REAL, dof INTEGER NOT NULL, p_value REAL,
+    temperature_at_bound INTEGER NOT NULL, wear_at_bound INTEGER NOT NULL,
+    alarm_active INTEGER NOT NULL, alarm_evidence REAL NOT NULL, status_level INTEGER NOT NULL,
+    parameter_set TEXT NOT NULL);
+CREATE TABLE alarm_events (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, joint TEXT NOT NULL, stamp_s REAL NOT NULL,
+    wall_time_s REAL NOT NULL, event TEXT NOT NULL CHECK (event IN ('raised', 'reset')),
+    wear REAL, estimate_id INTEGER REFERENCES estimates (id), note TEXT NOT NULL DEFAULT '');
+INSERT INTO estimates VALUES (1, 'joint_2', 100.0, 1.0, '[2.1, 28.5]', '[0.1, 0.05]', 41.0,
+    2.0, 37.5, 4.0, 1.0, 0, NULL, 0, 0, 1, 3.0, 2, 'p');
+INSERT INTO alarm_events VALUES (1, 'joint_2', 100.0, 1.0, 'raised', 37.5, 1, 'old');
+"""
+
+
+def test_a_version_1_history_is_migrated_and_keeps_its_rows_and_alarm(tmp_path):
+    path = tmp_path / 'old.sqlite3'
+    with sqlite3.connect(path) as conn:
+        conn.executescript(_VERSION_1_SCHEMA)
+    with WearHistory(path) as history:
+        [old] = history.records(joint='joint_2')
+        assert (old.wear, old.temperature_degc, old.alarm_active) == (37.5, 41.0, True)
+        assert math.isnan(old.wear_low) and math.isnan(old.trend_wear)
+        restored = history.restore(joint='joint_2')
+        assert restored.alarm_active and restored.alarm_evidence == 3.0
+        history.append(HistoryRecord(**{**_record(1, wear=40.0).__dict__, 'wear_low': 31.0,
+                                        'wear_high': 48.5, 'trend_wear': 38.0}))
+    with WearHistory(path) as history:
+        records = history.records(joint='joint_2')
+    assert [r.wear for r in records] == [37.5, 40.0]
+    assert (records[1].wear_low, records[1].wear_high, records[1].trend_wear) == (31.0, 48.5,
+                                                                                  38.0)
+    with sqlite3.connect(path) as conn:
+        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == SCHEMA_VERSION

@@ -132,7 +132,7 @@ def test_sqlite3_input_bag_replays(small_bag, tmp_path):
                         estimator_parameters=estimator, storage='sqlite3')
     assert len(result.updates) == 3
     with Reader(tmp_path / 'o') as reader:
-        assert reader.message_count == 15
+        assert reader.message_count == 3 * 6  # friction_levels and 5 outputs per experiment
 
 
 def _broken_bags(small_bag, folder):

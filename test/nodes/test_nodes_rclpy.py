@@ -20,10 +20,11 @@ from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Bool, Float64  # noqa: E402
+from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
+from robot_wear_monitor.recordings.messages import (  # noqa: E402
+    diagnostics_from_msg, trend_from_msg)
 from robot_wear_monitor.nodes.friction_experiment_node import (  # noqa: E402
     FrictionExperimentNode, main as friction_main)
 from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS  # noqa: E402
@@ -49,6 +50,9 @@ class Probe:
         executor.add_node(self.node)
         self.executor = executor
         self.wear, self.alarm, self.temperature, self.levels = [], [], [], []
+        self.trend = []
+        self.node.create_subscription(Float64MultiArray, 'wear_trend',
+                                      lambda m: self.trend.append(trend_from_msg(m)), 10)
         self.diagnostics = {}
         self.node.create_subscription(Float64, 'wear', lambda m: self.wear.append(m.data), 10)
         self.node.create_subscription(Bool, 'wear_alarm',
@@ -159,6 +163,11 @@ def test_estimator_keeps_estimating_past_the_alarm_then_resets_and_restores(
                                                    temperature_degc=temperature))
         assert probe.spin_until(lambda: len(probe.wear) == k + 1), f'no /wear for {k}'
     assert probe.spin_until(lambda: len(probe.temperature) == len(wear_truth))
+    assert probe.spin_until(lambda: len(probe.trend) == len(wear_truth))
+    for trend in probe.trend:
+        assert 0.0 <= trend['wear_low'] <= trend['wear'] <= trend['wear_high']
+        assert 0.0 <= trend['probability_above_threshold'] <= 1.0
+    assert probe.trend[-1]['probability_above_threshold'] > 0.9
     # One estimate per experiment, on the truth where the model is sensitive to w.
     for estimate, truth in zip(probe.wear[2:], wear_truth[2:]):
         assert abs(estimate - truth) < 2.0
@@ -184,9 +193,24 @@ def test_estimator_keeps_estimating_past_the_alarm_then_resets_and_restores(
     assert probe.spin_until(lambda: probe.alarm[-1] is False)
     assert probe.spin_until(lambda: probe.last_diagnostics('wear_monitor')[0] != 2, 3.0)
 
-    # The next estimate >= 35 raises it again; then a restart restores the latched state.
-    probe.levels_publisher.publish(_levels_msg(stamp_s=2000.0, wear=55.0))
-    assert probe.spin_until(lambda: len(probe.wear) == 7 and probe.alarm[-1] is True)
+    # A reset is maintenance: the trend starts again from the new-joint prior, so one reading
+    # of 55 does not raise the alarm (the reset's wall-clock stamp is later than these
+    # experiments' stamps: the trend must not take that for time going backwards); a worn
+    # joint keeps reading 55 and raises it again within three experiments.
+    for k in range(3):
+        probe.levels_publisher.publish(_levels_msg(stamp_s=2000.0 + k, wear=55.0))
+        assert probe.spin_until(lambda: len(probe.wear) == 7 + k and len(probe.trend) == 7 + k)
+        if k == 0:
+            probe.spin_until(lambda: probe.alarm[-1] is True, 0.5)
+            assert probe.alarm[-1] is False
+            assert probe.trend[-1]['wear'] < 20.0
+        if probe.alarm[-1]:
+            break
+    assert probe.spin_until(lambda: probe.alarm[-1] is True), 'alarm not raised again'
+    assert probe.trend[-1]['probability_above_threshold'] >= 0.15
+    stored = len(probe.wear)
+    assert estimator.service.rejections.get('trend_failed', 0) == 0
+    # Then a restart restores the latched state.
     executor.remove_node(estimator)
     estimator.destroy_node()
 
@@ -196,8 +220,8 @@ def test_estimator_keeps_estimating_past_the_alarm_then_resets_and_restores(
     assert late.spin_until(lambda: late.alarm == [True]), 'latched alarm not restored'
     assert late.spin_until(lambda: late.last_diagnostics('wear_monitor') is not None, 3.0)
     level, message, values = late.last_diagnostics('wear_monitor')
-    assert level == 2 and 'restored' in message and values['experiments'] == '7'
-    assert restarted.service.restored_estimates == 7
+    assert level == 2 and 'restored' in message and values['experiments'] == str(stored)
+    assert restarted.service.restored_estimates == stored
     restarted.destroy_node()
     with sqlite3.connect(tmp_path / 'history.sqlite3') as conn:
         events = [row[0] for row in conn.execute('SELECT event FROM alarm_events ORDER BY id')]

@@ -21,8 +21,19 @@ def test_demo_writes_the_report_folder(tmp_path, capsys):
     assert len(summary['experiments']) == len(truth['experiments']) == 14
     assert [e['truth']['wear'] for e in summary['experiments']] == \
         [e['wear'] for e in truth['experiments']]
+    for entry in summary['experiments']:
+        low, high = entry['wear_interval']
+        assert 0.0 <= low <= entry['wear'] <= high <= low + 42.0
+        assert entry['wear_std'] is None or entry['wear_std'] < 100.0  # no 0.3 +- 4317
+        trend = entry['trend']
+        assert 0.0 <= trend['wear_low'] <= trend['wear'] <= trend['wear_high']
+    covered = sum(e['wear_interval'][0] - 1e-9 <= e['truth']['wear'] <= e['wear_interval'][1]
+                  for e in summary['experiments'])
+    assert covered >= 12  # 95 % intervals, 14 experiments
+    assert summary['forecast']['experiments'] == 14
     report = (folder / 'report.md').read_text()
     assert report.count('\n| ') == 14 + 1  # header + one row per experiment
+    assert 'After the last experiment: wear trend' in report and '+-' not in report
     assert '![' in report and 'wear_trend.png' in report
     # a second run into the same folder replaces the demo files
     assert cli.main(['demo', '--out', str(folder), '--experiments', '2', '--no-progress']) == 0
