@@ -1,10 +1,11 @@
 """Simulated friction experiments of one joint of a 6-axis arm, and accelerated wear scenarios.
 
 One experiment (Sec. II-A of the paper) moves the tested joint back and forth around phi_bar at
-each speed of a list: for every speed a forward and a backward pass with a trapezoidal velocity
-profile (constant joint acceleration, a constant-speed cruise of about ``cruise_s``, at most
-``max_stroke_rad`` of travel), with a short standstill at each turn and a triangular reposition
-move between speeds.  The normalised motor torque of the tested joint is
+each speed of a list, along the planned motion of ``experiment.planning`` (the same plan that
+``robot-wear-monitor plan`` writes and the runner node sends): for every speed a forward and a
+backward pass at constant speed for about ``cruise_s`` inside a window of ``max_stroke_rad``,
+trapezoidal (or jerk-limited) speed changes outside it, and a short standstill at each turn.
+The normalised motor torque of the tested joint is
 
     tau = sign(v) tau_f(|v_m|, load, T, w) + g(q) + J a_m + e,                             (*)
 
@@ -31,7 +32,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +41,7 @@ from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.friction import friction as friction_model
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
+from robot_wear_monitor.experiment.planning import PlanConfig, plan_experiment
 from robot_wear_monitor.experiment.segmentation import SegmenterConfig
 
 FloatArray = NDArray[np.float64]
@@ -65,7 +67,8 @@ class JointSimConfig:
         phi_bar_rad: centre of the back-and-forth moves, joint side [rad].
         cruise_s: wanted constant-speed time per pass [s].
         max_stroke_rad: longest travel per pass, joint side [rad].
-        acceleration_rad_s2: joint acceleration of the trapezoids [rad/s^2].
+        acceleration_rad_s2: joint acceleration limit of the speed changes [rad/s^2].
+        jerk_rad_s3: joint jerk limit [rad/s^3]; None: trapezoidal speed changes.
         dwell_s: standstill at every turn [s].
         gravity_amplitude: amplitude of g(q), normalised.
         gravity_phase_rad: phase of g(q) = amplitude sin(q + phase) [rad].
@@ -90,6 +93,7 @@ class JointSimConfig:
     cruise_s: float = 1.2
     max_stroke_rad: float = 1.2
     acceleration_rad_s2: float = 10.0
+    jerk_rad_s3: Optional[float] = None
     dwell_s: float = 0.2
     gravity_amplitude: float = 0.3
     gravity_phase_rad: float = 0.4
@@ -219,78 +223,45 @@ class Scenario:
 
 # --------------------------------------------------------------------------- trajectories
 
-def _trapezoid(distance: float, speed: float, acceleration: float,
-               dt: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Sample a move of ``distance`` >= 0 at cruise ``speed``: (position, velocity, accel)."""
-    if distance <= 0:
-        return np.zeros(0), np.zeros(0), np.zeros(0)
-    ramp = speed / acceleration
-    if speed * ramp >= distance:  # triangular: the cruise speed is not reached
-        ramp = math.sqrt(distance / acceleration)
-        speed = acceleration * ramp
-        cruise = 0.0
-    else:
-        cruise = (distance - speed * ramp) / speed
-    total = 2 * ramp + cruise
-    t = np.arange(0.0, total, dt)
-    a1, a2 = ramp, ramp + cruise
-    velocity = np.where(t < a1, acceleration * t,
-                        np.where(t < a2, speed, np.maximum(speed - acceleration * (t - a2), 0)))
-    position = np.where(
-        t < a1, 0.5 * acceleration * t ** 2,
-        np.where(t < a2, 0.5 * speed * ramp + speed * (t - a1),
-                 distance - 0.5 * acceleration * np.maximum(total - t, 0) ** 2))
-    accel = np.where(t < a1, acceleration, np.where(t < a2, 0.0, -acceleration))
-    return position, velocity, accel
+def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float]) -> PlanConfig:
+    """Return the plan the simulated joint executes (``experiment.planning``).
 
-
-def _stroke(joint_speed: float, config: JointSimConfig) -> float:
-    """Travel per pass: cruise_s at speed plus the ramps, at most max_stroke_rad."""
-    return min(joint_speed * config.cruise_s + joint_speed ** 2 / config.acceleration_rad_s2,
-               config.max_stroke_rad)
+    The window is centred on ``phi_bar_rad`` with half width ``max_stroke_rad`` / 2, each
+    plateau lasts ``cruise_s`` (``desired_plateau_s``; no accuracy target; shorter where the
+    window is too narrow for it at a fast speed, down to what :func:`segmenter_config_for`
+    keeps), the
+    speed changes use ``acceleration_rad_s2`` (and ``jerk_rad_s3`` when set), and the joint
+    stands still ``dwell_s`` at every turn.
+    """
+    return PlanConfig(joint=config.joint, speeds_rad_s=tuple(float(v) for v in speeds_rad_s),
+                      center_rad=config.phi_bar_rad, half_range_rad=0.5 * config.max_stroke_rad,
+                      gear_ratio=config.gear_ratio,
+                      max_acceleration_rad_s2=config.acceleration_rad_s2,
+                      max_jerk_rad_s3=config.jerk_rad_s3, rate_hz=config.sample_rate_hz,
+                      noise_std=config.effort_noise_std, target_std_error=None,
+                      min_plateau_s=0.2, trim_s=0.02, min_samples=20,
+                      desired_plateau_s=config.cruise_s, dwell_s=config.dwell_s,
+                      shorten_to_window=True)
 
 
 def experiment_trajectory(*, speeds_rad_s: Sequence[float], config: JointSimConfig
                           ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64]]:
-    """Return the tested joint's trajectory for one experiment, sampled at the sample rate.
+    """Return the tested joint's planned trajectory, sampled at the sample rate.
+
+    The motion is the one ``robot-wear-monitor plan`` and the ``friction_experiment_runner``
+    node send to the robot (:func:`plan_config_for`, ``planning.plan_experiment``): there is
+    no second trajectory generator.
 
     Returns:
         (position [rad], velocity [rad/s], acceleration [rad/s^2], speed index) of shape (n,),
-        joint side; the speed index says which speed of ``speeds_rad_s`` a sample belongs to.
+        joint side, at t = k / sample_rate_hz; the speed index says which speed of
+        ``speeds_rad_s`` a sample belongs to.
 
     """
-    dt = 1.0 / config.sample_rate_hz
-    dwell = max(int(round(config.dwell_s * config.sample_rate_hz)), 1)
-    pieces: list[tuple] = []
-    here = config.phi_bar_rad
-
-    def hold(index: int, count: int) -> None:
-        pieces.append((np.full(count, here), np.zeros(count), np.zeros(count),
-                       np.full(count, index)))
-
-    def move(target: float, speed: float, index: int) -> None:
-        nonlocal here
-        distance = abs(target - here)
-        q, v, a = _trapezoid(distance, speed, config.acceleration_rad_s2, dt)
-        sign = 1.0 if target >= here else -1.0
-        pieces.append((here + sign * q, sign * v, sign * a, np.full(q.size, index)))
-        here = target
-
-    hold(0, dwell)
-    for index, motor_speed in enumerate(speeds_rad_s):
-        speed = motor_speed / config.gear_ratio
-        half = 0.5 * _stroke(speed, config)
-        reposition = math.sqrt(config.acceleration_rad_s2 * config.max_stroke_rad)
-        move(config.phi_bar_rad - half, reposition, index)
-        hold(index, dwell)
-        move(config.phi_bar_rad + half, speed, index)
-        hold(index, dwell)
-        move(config.phi_bar_rad - half, speed, index)
-        hold(index, dwell)
-    move(config.phi_bar_rad, math.sqrt(config.acceleration_rad_s2 * config.max_stroke_rad),
-         len(speeds_rad_s) - 1)
-    hold(len(speeds_rad_s) - 1, dwell)
-    return tuple(np.concatenate(parts) for parts in zip(*pieces))
+    plan = plan_experiment(config=plan_config_for(config, speeds_rad_s))
+    t = np.arange(int(math.floor(plan.total_s * config.sample_rate_hz)) + 1) \
+        / config.sample_rate_hz
+    return plan.sample(t)
 
 
 def _quantise(values: FloatArray, step: float) -> FloatArray:

@@ -21,6 +21,17 @@ Topic and type contract (documented in ``docs/service.md`` and the README):
     experiment], remaining experiments to the threshold with 95 % interval, crossing time [s]
     with 95 % interval, time of the experiment [s]; inf = beyond the forecast horizon, NaN =
     unknown).
+``<controller>/joint_trajectory`` (trajectory_msgs/msg/JointTrajectory): the planned friction
+    experiment (``experiment.planning.trajectory_points``), positions [rad], velocities
+    [rad/s] and accelerations [rad/s^2] of every joint at each point, ``effort`` empty.
+``friction_experiment/events`` (diagnostic_msgs/msg/DiagnosticArray): the friction experiment
+    runner's boundaries of each experiment, one message per event: ``header.stamp`` the time of
+    the event (runner clock); one DiagnosticStatus named ``friction_experiment_runner:
+    <joint>``, ``hardware_id`` the joint, ``message`` the event (``start``, ``end`` or
+    ``aborted``), level OK (WARN for ``aborted``), key-values ``event``, ``joint``,
+    ``experiment_id`` (integer), ``speeds_rad_s`` (motor side, comma-separated),
+    ``planned_duration_s`` and ``controller_topic``.  ``end`` comes ``end_margin_s`` after the
+    planned end of the motion (:class:`ExperimentEvent`).
 """
 
 from __future__ import annotations
@@ -39,6 +50,7 @@ WEAR_TYPE = 'std_msgs/msg/Float64'
 ALARM_TYPE = 'std_msgs/msg/Bool'
 DIAGNOSTICS_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
 TREND_TYPE = 'std_msgs/msg/Float64MultiArray'
+TRAJECTORY_TYPE = 'trajectory_msgs/msg/JointTrajectory'
 
 #: ``wear_trend`` fields, in the order of ``data`` (also the label of its one dimension).
 TREND_FIELDS = ('wear', 'wear_low', 'wear_high', 'probability_above_threshold', 'rate',
@@ -249,3 +261,174 @@ def diagnostics_from_msg(msg: Any) -> list[tuple[int, str, str, dict[str, str]]]
     """Return (level, name, message, key-values) of every status of a DiagnosticArray."""
     return [(level_to_int(s.level), str(s.name), str(s.message),
              {str(kv.key): str(kv.value) for kv in s.values}) for s in msg.status]
+
+
+# --------------------------------------------------------------------------- joint trajectory
+
+def _duration(kit: MessageKit, seconds: float) -> Any:
+    sec, nanosec = split_stamp(seconds)
+    return kit.make('builtin_interfaces/msg/Duration', sec=sec, nanosec=nanosec)
+
+
+def trajectory_to_msg(kit: MessageKit, *, points: Any, stamp_s: float = 0.0,
+                      frame_id: str = '') -> Any:
+    """Build a trajectory_msgs/JointTrajectory from ``TrajectoryPoints``.
+
+    ``stamp_s`` = 0 means "start on receipt" for ros2_control's joint_trajectory_controller.
+    """
+    empty = kit.float_array([])
+    rows = [kit.make('trajectory_msgs/msg/JointTrajectoryPoint',
+                     positions=kit.float_array(q), velocities=kit.float_array(v),
+                     accelerations=kit.float_array(a), effort=empty,
+                     time_from_start=_duration(kit, t))
+            for t, q, v, a in zip(points.time_from_start_s, points.positions_rad,
+                                  points.velocities_rad_s, points.accelerations_rad_s2)]
+    header = make_header(kit, stamp_s=stamp_s, frame_id=frame_id)
+    return kit.make(TRAJECTORY_TYPE, header=header, joint_names=list(points.joint_names),
+                    points=rows)
+
+
+def trajectory_to_dict(points: Any) -> dict[str, Any]:
+    """Return a JointTrajectory as plain data (the YAML that ``ros2 topic pub`` accepts)."""
+    def duration(seconds: float) -> dict[str, int]:
+        sec, nanosec = split_stamp(seconds)
+        return {'sec': sec, 'nanosec': nanosec}
+    return {
+        'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': ''},
+        'joint_names': list(points.joint_names),
+        'points': [{'positions': [float(x) for x in q], 'velocities': [float(x) for x in v],
+                    'accelerations': [float(x) for x in a], 'effort': [],
+                    'time_from_start': duration(t)}
+                   for t, q, v, a in zip(points.time_from_start_s, points.positions_rad,
+                                         points.velocities_rad_s,
+                                         points.accelerations_rad_s2)],
+    }
+
+
+def trajectory_from_msg(msg: Any) -> dict[str, Any]:
+    """Return the content of a JointTrajectory as a dict; raise MessageError when malformed.
+
+    Keys: ``joint_names``, ``time_from_start_s`` (P,) [s], ``positions`` [rad],
+    ``velocities`` [rad/s] and ``accelerations`` [rad/s^2] of shape (P, J) (or (P, 0) where the
+    points leave them empty).
+    """
+    names = list(msg.joint_names)
+    times, columns = [], {'positions': [], 'velocities': [], 'accelerations': []}
+    for k, point in enumerate(msg.points):
+        times.append(float(point.time_from_start.sec)
+                     + 1e-9 * float(point.time_from_start.nanosec))
+        for key, values in columns.items():
+            row = [float(x) for x in getattr(point, key)]
+            if row and len(row) != len(names):
+                raise MessageError('length_mismatch', f'point {k}: {len(row)} {key} for '
+                                                      f'{len(names)} joints')
+            values.append(row)
+    return {'joint_names': names, 'time_from_start_s': np.asarray(times),
+            **{key: np.asarray(values, dtype=float) for key, values in columns.items()}}
+
+
+# --------------------------------------------------------------------------- experiment events
+
+#: Topic of the friction experiment runner's events (relative: ``/friction_experiment/events``).
+EXPERIMENT_EVENTS_TOPIC = 'friction_experiment/events'
+EXPERIMENT_EVENTS_TYPE = DIAGNOSTICS_TYPE
+#: The events, in the order they can happen to one experiment (``end`` or ``aborted``).
+EXPERIMENT_EVENT_KINDS = ('start', 'end', 'aborted')
+#: DiagnosticStatus name of an event: ``friction_experiment_runner: <joint>``.
+EXPERIMENT_EVENT_NAME = 'friction_experiment_runner'
+#: Key-values of an event's DiagnosticStatus, in order.
+EXPERIMENT_EVENT_KEYS = ('event', 'joint', 'experiment_id', 'speeds_rad_s',
+                         'planned_duration_s', 'controller_topic')
+
+
+@dataclass(frozen=True)
+class ExperimentEvent:
+    """One event of the friction experiment runner (see the module docstring).
+
+    Attributes:
+        event: ``start``, ``end`` or ``aborted``.
+        joint: the tested joint.
+        experiment_id: the runner's number of this joint's experiment (start, end and aborted
+            of one experiment share it).
+        speeds_rad_s: the planned speeds, motor side [rad/s], in the order they are run.
+        planned_duration_s: duration of the planned motion [s].
+        controller_topic: the JointTrajectory topic the motion was sent to.
+        stamp_s: ``header.stamp`` [s] as read by :func:`experiment_event_from_msg` (the
+            runner's clock); :func:`experiment_event_to_msg` stamps with its own argument.
+
+    """
+
+    event: str
+    joint: str
+    experiment_id: int
+    speeds_rad_s: tuple[float, ...]
+    planned_duration_s: float
+    controller_topic: str = ''
+    stamp_s: float = 0.0
+
+
+def experiment_event_to_msg(kit: MessageKit, *, stamp_s: float, event: ExperimentEvent) -> Any:
+    """Build the DiagnosticArray of one experiment event, stamped ``stamp_s`` [s].
+
+    Level OK for ``start`` and ``end``, WARN for ``aborted``.
+    """
+    if event.event not in EXPERIMENT_EVENT_KINDS:
+        raise ValueError(f'event must be one of {", ".join(EXPERIMENT_EVENT_KINDS)}, got '
+                         f'{event.event!r}')
+    values = (('event', event.event), ('joint', event.joint),
+              ('experiment_id', str(int(event.experiment_id))),
+              ('speeds_rad_s', ','.join(repr(float(v)) for v in event.speeds_rad_s)),
+              ('planned_duration_s', repr(float(event.planned_duration_s))),
+              ('controller_topic', event.controller_topic))
+    level = DIAGNOSTIC_WARN if event.event == 'aborted' else DIAGNOSTIC_OK
+    return diagnostics_to_msg(kit, stamp_s=stamp_s,
+                              name=f'{EXPERIMENT_EVENT_NAME}: {event.joint}',
+                              hardware_id=event.joint, level=level, message=event.event,
+                              values=values)
+
+
+def experiment_event_from_msg(msg: Any) -> ExperimentEvent:
+    """Read an experiment event; raise :class:`MessageError` when it is unusable.
+
+    Reasons (diagnostic counter keys): ``malformed`` (not a DiagnosticArray with exactly one
+    status of the runner), ``missing_key``, ``unknown_event``, ``bad_value``.
+    """
+    try:
+        statuses = list(msg.status)
+        stamp_s = stamp_to_seconds(msg.header.stamp)
+        if len(statuses) != 1:
+            raise MessageError('malformed', f'expected one DiagnosticStatus, got '
+                                            f'{len(statuses)}')
+        status = statuses[0]
+        name = str(status.name)
+        values = {str(kv.key): str(kv.value) for kv in status.values}
+    except (AttributeError, TypeError, ValueError) as error:
+        if isinstance(error, MessageError):
+            raise
+        raise MessageError('malformed', f'not a DiagnosticArray: {error}') from None
+    if not name.startswith(EXPERIMENT_EVENT_NAME):
+        raise MessageError('malformed', f'status {name!r} is not a '
+                                        f'{EXPERIMENT_EVENT_NAME} event')
+    missing = [key for key in EXPERIMENT_EVENT_KEYS if key not in values]
+    if missing:
+        raise MessageError('missing_key', f'no key-value {missing[0]!r}')
+    if values['event'] not in EXPERIMENT_EVENT_KINDS:
+        raise MessageError('unknown_event', f'event {values["event"]!r} is not one of '
+                                            f'{", ".join(EXPERIMENT_EVENT_KINDS)}')
+    if not values['joint']:
+        raise MessageError('bad_value', 'joint is empty')
+    try:
+        experiment_id = int(values['experiment_id'])
+        text = values['speeds_rad_s'].strip()
+        speeds = tuple(float(v) for v in text.split(',')) if text else ()
+        duration = float(values['planned_duration_s'])
+    except ValueError as error:
+        raise MessageError('bad_value', f'not a number: {error}') from None
+    if not all(math.isfinite(v) and v > 0 for v in speeds):
+        raise MessageError('bad_value', f'speeds must be > 0 rad/s (motor side), got {speeds}')
+    if not (math.isfinite(duration) and duration >= 0):
+        raise MessageError('bad_value', f'planned_duration_s must be >= 0, got {duration}')
+    return ExperimentEvent(event=values['event'], joint=values['joint'],
+                           experiment_id=experiment_id, speeds_rad_s=speeds,
+                           planned_duration_s=duration,
+                           controller_topic=values['controller_topic'], stamp_s=stamp_s)
