@@ -31,7 +31,7 @@ setup(
         # The nodes on a pip-only host: ROS 2 Jazzy's rclpy with Fast DDS and the message
         # packages from PyPI (on a ROS 2 host the system's rclpy stands; see package.xml).
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-sensor-msgs', 'ros-jazzy-std-msgs',
-                'ros-jazzy-std-srvs', 'ros-jazzy-diagnostic-msgs'],
+                'ros-jazzy-std-srvs', 'ros-jazzy-diagnostic-msgs', 'ros-jazzy-trajectory-msgs'],
         'test': ['pytest>=7', 'mcap>=1.1', 'mcap-ros2-support>=0.5', 'flake8>=6',
                  'flake8-docstrings>=1.7', 'pydocstyle>=6.3',
                  'colcon-common-extensions>=0.3'],
@@ -46,6 +46,8 @@ setup(
             'robot-wear-monitor = robot_wear_monitor.cli:main',
             'friction_experiment_node = robot_wear_monitor.nodes.friction_experiment_node:main',
             'wear_estimator_node = robot_wear_monitor.nodes.wear_estimator_node:main',
+            'friction_experiment_runner = '
+            'robot_wear_monitor.nodes.friction_experiment_runner:main',
         ],
     },
 )

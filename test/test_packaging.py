@@ -11,7 +11,8 @@ import pytest
 
 from conftest import REPO_ROOT
 
-SCRIPTS = ('robot-wear-monitor', 'friction_experiment_node', 'wear_estimator_node')
+SCRIPTS = ('robot-wear-monitor', 'friction_experiment_node', 'wear_estimator_node',
+           'friction_experiment_runner')
 
 
 def test_setup_cfg_puts_node_scripts_where_ros2_run_looks():
@@ -24,7 +25,7 @@ def test_setup_cfg_puts_node_scripts_where_ros2_run_looks():
 def test_core_never_imports_rclpy():
     """Only robot_wear_monitor/nodes may import rclpy (and ROS message packages)."""
     ros_modules = ('rclpy', 'sensor_msgs', 'std_msgs', 'std_srvs', 'diagnostic_msgs',
-                   'launch', 'launch_ros', 'builtin_interfaces')
+                   'trajectory_msgs', 'launch', 'launch_ros', 'builtin_interfaces')
     offenders = []
     for path in (REPO_ROOT / 'robot_wear_monitor').rglob('*.py'):
         if 'nodes' in path.relative_to(REPO_ROOT / 'robot_wear_monitor').parts:

@@ -21,12 +21,13 @@ from robot_wear_monitor.model.params import packaged_config_file, ParameterError
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
 WEAR_ESTIMATOR_NODE = 'wear_estimator_node'
+FRICTION_EXPERIMENT_RUNNER_NODE = 'friction_experiment_runner'
 NODE_CONFIG_FILE = 'wear_monitor.yaml'
 
 #: N = 4 discrete optimum of Table V [rad/s], the experiment the demo scenario runs.
 DEFAULT_EXPERIMENT_SPEEDS_RAD_S = (2.1, 28.5, 35.1, 41.7)
 
-PARAMETER_TYPES = ('bool', 'integer', 'double', 'string', 'double_array')
+PARAMETER_TYPES = ('bool', 'integer', 'double', 'string', 'double_array', 'string_array')
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,8 @@ class ParameterSpec:
 
     Attributes:
         name: ROS parameter name.
-        type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``.
+        type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
+            ``string_array``.
         default: default value (of the declared type).
         description: ParameterDescriptor description, with the unit.
         check: returns an error text for an invalid value, or None.
@@ -81,6 +83,24 @@ def _at_least_3(value: int) -> Optional[str]:
 
 def _non_empty(value: str) -> Optional[str]:
     return None if value.strip() else 'must not be empty'
+
+
+def _topic(value: str) -> Optional[str]:
+    if value and (value != value.strip() or ' ' in value):
+        return 'must be a topic name without spaces (empty: disabled)'
+    return None
+
+
+def _all_positive(values: tuple) -> Optional[str]:
+    return None if all(v > 0 for v in values) else 'every element must be > 0'
+
+
+def _names(values: tuple) -> Optional[str]:
+    if not values or not all(v.strip() for v in values):
+        return 'must be non-empty names'
+    if len(set(values)) != len(values):
+        return 'names must be distinct'
+    return None
 
 
 def _speeds(values: tuple) -> Optional[str]:
@@ -130,6 +150,10 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
                   '[rad]', _non_negative),
     ParameterSpec('max_gap_s', 'double', 0.1,
                   'a time step longer than this splits the joint-state stream [s]', _positive),
+    ParameterSpec('experiment_events_topic', 'string', 'friction_experiment/events',
+                  'the friction_experiment_runner\'s events (start/end/aborted of each '
+                  'experiment): an end event closes the experiment at once; empty: not '
+                  'subscribed, experiments end at an idle gap only', _topic),
 )
 
 #: friction_experiment_node parameters that are fields of segmentation.SegmenterConfig.
@@ -170,9 +194,76 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
                   '":memory:" keeps nothing', _non_empty),
 )
 
+#: The friction_experiment_runner's parameters (validated against each other and against the
+#: planned motion in ``monitoring.runner``).
+FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec('joint_names', 'string_array', tuple(f'joint_{i}' for i in range(1, 7)),
+                  'every joint of the trajectory controller, in its order', _names),
+    ParameterSpec('posture_rad', 'double_array', (0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+                  'the held posture, one position per joint_names [rad]; a tested joint\'s '
+                  'value is the centre of its position window; the joints must stand there '
+                  'when the experiment starts'),
+    ParameterSpec('joints', 'string_array', ('joint_2',),
+                  'the tested joints (among joint_names), run one after the other in this '
+                  'order', _names),
+    ParameterSpec('gear_ratios', 'double_array', (150.0,),
+                  'motor speed / joint speed, one per tested joint [-]', _all_positive),
+    ParameterSpec('half_ranges_rad', 'double_array', (0.1,),
+                  'half width of the position window the constant-speed passes stay in, one '
+                  'per tested joint, joint side [rad]', _all_positive),
+    ParameterSpec('speeds_rad_s', 'double_array', DEFAULT_EXPERIMENT_SPEEDS_RAD_S,
+                  'speeds of the friction experiment, motor side [rad/s] (default: N = 4 '
+                  'optimum of Table V)', _speeds),
+    ParameterSpec('max_acceleration_rad_s2', 'double', 5.0,
+                  'joint acceleration limit of the planned motion, joint side [rad/s^2]',
+                  _positive),
+    ParameterSpec('max_jerk_rad_s3', 'double', 0.0,
+                  'joint jerk limit, joint side [rad/s^3]; 0: trapezoidal speed changes',
+                  _non_negative),
+    ParameterSpec('max_speed_rad_s', 'double', 0.0,
+                  'joint speed limit, joint side [rad/s]; 0: the fastest designed speed '
+                  '(also the speed of the repositioning moves)', _non_negative),
+    ParameterSpec('position_lower_limits_rad', 'double_array', (),
+                  'lower joint limits, one per tested joint [rad]; empty: not checked'),
+    ParameterSpec('position_upper_limits_rad', 'double_array', (),
+                  'upper joint limits, one per tested joint [rad]; empty: not checked'),
+    ParameterSpec('rate_hz', 'double', 250.0,
+                  'JointState rate the friction_experiment_node sees [Hz] (sample counts)',
+                  _positive),
+    ParameterSpec('noise_std', 'double', 0.01,
+                  'torque noise of one sample, normalised (effort / torque_scale) [-]',
+                  _non_negative),
+    ParameterSpec('target_std_error', 'double', 0.001,
+                  'wanted standard error of each friction level, normalised [-]; 0: only the '
+                  'segmentation\'s shortest plateau', _non_negative),
+    ParameterSpec('min_plateau_s', 'double', 0.2,
+                  'shortest plateau the segmentation keeps after trimming [s] (the '
+                  'friction_experiment_node\'s min_duration_s)', _positive),
+    ParameterSpec('trim_s', 'double', 0.02,
+                  'time the segmentation trims at each plateau end [s] (its trim_s)',
+                  _non_negative),
+    ParameterSpec('min_samples', 'integer', 20,
+                  'fewest samples per pass the segmentation keeps (its min_samples)', _positive),
+    ParameterSpec('dwell_s', 'double', 0.1,
+                  'standstill at every turn of the motion [s]', _non_negative),
+    ParameterSpec('point_rate_hz', 'double', 50.0,
+                  'rate of the JointTrajectory points [Hz] (every phase end is a point too)',
+                  _positive),
+    ParameterSpec('controller', 'string', 'joint_trajectory_controller',
+                  'the ros2_control joint_trajectory_controller: the motion goes to '
+                  '/<controller>/joint_trajectory', _non_empty),
+    ParameterSpec('end_margin_s', 'double', 0.5,
+                  'the end event comes this long after the planned end of the motion [s] '
+                  '(the last samples reach the segmentation)', _non_negative),
+    ParameterSpec('pause_between_joints_s', 'double', 1.0,
+                  'standstill between the end event of one tested joint and the start of the '
+                  'next [s]', _non_negative),
+)
+
 NODE_PARAMETERS: dict[str, tuple[ParameterSpec, ...]] = {
     FRICTION_EXPERIMENT_NODE: FRICTION_EXPERIMENT_PARAMETERS,
     WEAR_ESTIMATOR_NODE: WEAR_ESTIMATOR_PARAMETERS,
+    FRICTION_EXPERIMENT_RUNNER_NODE: FRICTION_EXPERIMENT_RUNNER_PARAMETERS,
 }
 
 
@@ -211,6 +302,13 @@ def coerce_value(spec: ParameterSpec, value: Any, *, source: str = '<parameters>
         value = tuple(float(v) for v in value)
         if not all(math.isfinite(v) for v in value):
             raise ParameterError(f'{where}: elements must be finite')
+    elif spec.type == 'string_array':
+        if not isinstance(value, (list, tuple)):
+            raise ParameterError(f'{where}: expected a list of strings, got {got} {value!r}')
+        bad = [v for v in value if not isinstance(v, str)]
+        if bad:
+            raise ParameterError(f'{where}: every element must be a string, got {bad[0]!r}')
+        value = tuple(value)
     elif got != spec.type:
         hint = ' (write it with a decimal point, e.g. 35.0)' if (
             spec.type == 'double' and got == 'integer') else ''

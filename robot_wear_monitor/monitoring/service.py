@@ -295,9 +295,10 @@ def _fmt(value: float, digits: int = 4) -> str:
 
 
 #: Rejections that the friction experiment itself produces (ramps too short to be a pass, a
-#: pass without its partner, a pause in the stream): logged as info, not as input defects.
+#: pass without its partner, a pause in the stream, an experiment the runner aborted): logged
+#: as info, not as input defects.
 ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_common_window',
-                                'time_gap'})
+                                'time_gap', 'aborted_experiment'})
 
 
 class RejectionLog:
@@ -767,11 +768,37 @@ def _same_speeds(speeds: Sequence[float], expected: Sequence[float], tolerance: 
 # --------------------------------------------------------------------------- experiment service
 
 @dataclass
+class _EventExperiment:
+    """An experiment opened by a runner ``start`` event: its window [start_s, end_s] [s]."""
+
+    start: messages.ExperimentEvent
+    start_s: float
+    end_s: float = math.inf
+    levels: list[FrictionLevel] = field(default_factory=list)
+
+
+@dataclass
 class FrictionExperimentService:
     """Segment joint states of one joint into friction levels and completed experiments.
 
     Wraps the streaming segmenter and the experiment assembler of ``segmentation.py``; the
     node feeds it every /joint_states message, the replay every recorded one.
+
+    Experiment boundaries.  Without events an experiment is complete when every configured
+    speed has a level, and an idle gap abandons an incomplete one (the assembler).  The
+    friction_experiment_runner's events (:meth:`add_experiment_event`, streaming path only)
+    say exactly which levels form an experiment: a ``start`` for this joint closes any open
+    experiment (emitted if it has levels; the assembler's is flushed) and opens one at the
+    event's stamp S; every level completed from then on goes to it, not to the assembler, when
+    its passes lie in [S, E] (E = the ``end`` stamp, open until it comes; levels outside are
+    counted); an ``end`` with the same experiment id closes it as soon as a sample stamped E or
+    later has been added (at once when one already has: the segmentation has then seen every
+    sample up to E), and it is emitted with one merged level per planned speed of the event
+    (``speeds_rad_s``; the configured speeds when the event has none), in the planned order,
+    even if a speed is missing (counted as incomplete); ``aborted`` drops the open experiment's
+    levels (rejection ``aborted_experiment``).  Events of other joints, and an ``end`` or
+    ``aborted`` of no open experiment, are counted and ignored.  Events and JointStates must be
+    stamped by the same clock.
     """
 
     segmenter_config: Any
@@ -794,6 +821,13 @@ class FrictionExperimentService:
         self._assembler = ExperimentAssembler(
             speeds_rad_s=list(self.experiment_speeds_rad_s) or None,
             speed_tolerance_rad_s=self.speed_tolerance_rad_s, idle_gap_s=self.idle_gap_s)
+        self.event_counts: Counter = Counter()
+        self.experiments_from_events = 0
+        self.experiments_incomplete = 0
+        self.levels_outside_experiment = 0
+        self._event_ignored = 0
+        self._open: Optional[_EventExperiment] = None
+        self._latest_stamp_s = -math.inf
 
     @classmethod
     def from_node_parameters(cls, values: Mapping[str, Any]) -> 'FrictionExperimentService':
@@ -835,14 +869,14 @@ class FrictionExperimentService:
             self.rejections['malformed_joint_state'] += 1
             self.last_error = str(error)
             return []
-        return self._assemble(new_levels)
+        return self._after_sample(stamp_s, self._assemble(new_levels))
 
     def add_sample(self, *, time_s: float, position_rad: float, velocity_rad_s: float,
                    effort: float) -> list[FrictionExperiment]:
         """Add one sample of the joint already picked from its JointState (the replay)."""
-        return self._assemble(self._segmenter.add_sample(
+        return self._after_sample(time_s, self._assemble(self._segmenter.add_sample(
             time_s=time_s, position_rad=position_rad, velocity_rad_s=velocity_rad_s,
-            effort=effort))
+            effort=effort)))
 
     def add_recording(self, *, time_s: Sequence[float], position_rad: Sequence[float],
                       velocity_rad_s: Sequence[float], effort: Sequence[float]
@@ -865,11 +899,107 @@ class FrictionExperimentService:
         experiments: list[FrictionExperiment] = []
         for level in new_levels:
             self.levels.append(level)
-            experiments.extend(self._assembler.add(level))
+            if self._open is None:
+                experiments.extend(self._assembler.add(level))
+            elif self._open.start_s <= level.start_time_s and \
+                    level.end_time_s <= self._open.end_s:
+                self._open.levels.append(level)
+            else:
+                self.levels_outside_experiment += 1
+        return self._completed(experiments)
+
+    def _completed(self, experiments: list[FrictionExperiment]) -> list[FrictionExperiment]:
+        """Count completed experiments and keep the last one; return them."""
         if experiments:
             self.experiments += len(experiments)
             self.last_experiment = experiments[-1]
         return experiments
+
+    def _after_sample(self, stamp_s: float, experiments: list[FrictionExperiment]
+                      ) -> list[FrictionExperiment]:
+        """Close the event experiment whose ``end`` stamp the samples have reached."""
+        stamp_s = float(stamp_s)
+        if math.isfinite(stamp_s) and stamp_s > self._latest_stamp_s:
+            self._latest_stamp_s = stamp_s
+        if self._open is not None and self._latest_stamp_s >= self._open.end_s:
+            experiments = experiments + self._completed(self._close_event_experiment())
+        return experiments
+
+    # ----------------------------------------------------------------- experiment events
+
+    def handle_experiment_event_msg(self, msg: Any) -> list[FrictionExperiment]:
+        """Read one ``friction_experiment/events`` message and apply it (see the class doc).
+
+        A malformed message is counted (rejection ``experiment_event_<reason>``) and ignored.
+        """
+        try:
+            event = messages.experiment_event_from_msg(msg)
+        except MessageError as error:
+            self.rejections[f'experiment_event_{error.reason}'] += 1
+            self.last_error = f'experiment event: {error}'
+            return []
+        return self.add_experiment_event(event)
+
+    def add_experiment_event(self, event: messages.ExperimentEvent
+                             ) -> list[FrictionExperiment]:
+        """Apply one runner event; return the experiments it completes (see the class doc)."""
+        if event.joint != self.joint:
+            self.event_counts['other_joint'] += 1
+            return []
+        self.event_counts[event.event] += 1
+        if event.event == 'start':
+            done = self._close_event_experiment()
+            done += self._assembler.flush() or []
+            self._open = _EventExperiment(start=event, start_s=float(event.stamp_s))
+            return self._completed(done)
+        if self._open is None or self._open.start.experiment_id != event.experiment_id:
+            self.event_counts['unmatched'] += 1
+            return []
+        if event.event == 'aborted':
+            self.rejections['aborted_experiment'] += 1
+            self._open = None
+            return []
+        self._open.end_s = float(event.stamp_s)
+        if self._latest_stamp_s >= self._open.end_s:
+            return self._completed(self._close_event_experiment())
+        return []
+
+    @property
+    def open_experiment_id(self) -> Optional[int]:
+        """Return the runner's id of the experiment in progress (opened by ``start``), if any."""
+        return None if self._open is None else int(self._open.start.experiment_id)
+
+    def _close_event_experiment(self) -> list[FrictionExperiment]:
+        """Close the open event experiment; return it when it has levels (not counted yet)."""
+        from robot_wear_monitor.experiment.segmentation import merge_levels
+        current, self._open = self._open, None
+        if current is None:
+            return []
+        levels = [lv for lv in current.levels if lv.end_time_s <= current.end_s]
+        self.levels_outside_experiment += len(current.levels) - len(levels)
+        speeds = list(current.start.speeds_rad_s or self.experiment_speeds_rad_s)
+        groups: list[list[FrictionLevel]] = [[] for _ in speeds]
+        for level in levels:
+            if speeds:
+                distance = [abs(v - level.speed_rad_s) for v in speeds]
+                slot = int(np.argmin(distance))
+                if distance[slot] > self.speed_tolerance_rad_s:
+                    self._event_ignored += 1
+                    continue
+            else:
+                slot = next((i for i, group in enumerate(groups) if abs(
+                    group[0].speed_rad_s - level.speed_rad_s) <= self.speed_tolerance_rad_s),
+                    len(groups))
+                if slot == len(groups):
+                    groups.append([])
+            groups[slot].append(level)
+        found = [merge_levels(group) for group in groups if group]
+        if not found:
+            return []
+        if len(found) < len(groups):
+            self.experiments_incomplete += 1
+        self.experiments_from_events += 1
+        return [FrictionExperiment(levels=tuple(found))]
 
     def diagnostic_name(self) -> str:
         """Return the DiagnosticStatus name: ``friction_experiment: <joint>``."""
@@ -892,8 +1022,18 @@ class FrictionExperimentService:
         values = [('joint', self.joint), ('joint_states', str(self.messages)),
                   ('friction_levels', str(len(self.levels))),
                   ('experiments', str(self.experiments)),
-                  ('levels_at_other_speeds', str(self._assembler.ignored)),
+                  ('levels_at_other_speeds', str(self._assembler.ignored + self._event_ignored)),
                   ('experiments_abandoned', str(self._assembler.abandoned))]
+        if self.event_counts:
+            open_id = self.open_experiment_id
+            values += [('experiment_events', str(sum(self.event_counts[k] for k in (
+                           'start', 'end', 'aborted')))),
+                       ('experiment_events_other_joints', str(self.event_counts['other_joint'])),
+                       ('experiment_events_unmatched', str(self.event_counts['unmatched'])),
+                       ('experiments_from_events', str(self.experiments_from_events)),
+                       ('experiments_incomplete', str(self.experiments_incomplete)),
+                       ('levels_outside_experiment', str(self.levels_outside_experiment)),
+                       ('experiment_open', 'none' if open_id is None else str(open_id))]
         if self.last_experiment is not None:
             values += [('last_experiment_end_s', _fmt(self.last_experiment.end_time_s, 15)),
                        ('last_speeds_rad_s', ','.join(
@@ -919,8 +1059,13 @@ class FrictionExperimentService:
             level=status.level, message=status.message, values=status.values)
 
     def finish(self) -> list[FrictionExperiment]:
-        """Flush the segmenter and the assembler at the end of a stream (bag end, shutdown)."""
+        """Flush the segmenter and the assembler at the end of a stream (bag end, shutdown).
+
+        An experiment opened by a ``start`` event and not ended is closed (emitted if it has
+        levels).
+        """
         experiments = self._assemble(self._segmenter.finish() or [])
+        experiments.extend(self._completed(self._close_event_experiment()))
         experiments.extend(self._assembler.flush() or [])
         return experiments
 

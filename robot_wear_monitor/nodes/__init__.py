@@ -12,8 +12,20 @@ from robot_wear_monitor.recordings.messages import MessageKit, rclpy_kit
 from robot_wear_monitor.monitoring.node_config import ParameterSpec
 
 
+def _import_message(type_name: str) -> Any:
+    """Return the rclpy class of ``pkg/msg/Name`` (imported on first use)."""
+    import importlib
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
+
+
 def message_kit() -> MessageKit:
-    """Return the :class:`MessageKit` of the rclpy message classes the nodes use."""
+    """Return the :class:`MessageKit` of the rclpy message classes the nodes use.
+
+    The types every node uses are imported at once; others (trajectory_msgs for the
+    friction_experiment_runner) on first use, so that a node never needs a message package
+    it does not publish.
+    """
     from builtin_interfaces.msg import Time
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from sensor_msgs.msg import JointState, Temperature
@@ -34,7 +46,12 @@ def message_kit() -> MessageKit:
         'diagnostic_msgs/msg/DiagnosticStatus': DiagnosticStatus,
         'diagnostic_msgs/msg/KeyValue': KeyValue,
     }
-    return rclpy_kit(classes.__getitem__)
+
+    def get_type(type_name: str) -> Any:
+        if type_name not in classes:
+            classes[type_name] = _import_message(type_name)
+        return classes[type_name]
+    return rclpy_kit(get_type)
 
 
 def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
@@ -56,6 +73,8 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
         default = spec.default
         if spec.type == 'double_array':
             default = [float(v) for v in default]
+        elif spec.type == 'string_array':
+            default = [str(v) for v in default]
         descriptor = ParameterDescriptor(description=spec.description, read_only=spec.read_only,
                                          dynamic_typing=True)
         try:
@@ -63,6 +82,8 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
         except ParameterException as error:
             raise ParameterError(f'{node.get_name()}: {spec.name}: {error}') from None
         value = parameter.value
+        if value is None and spec.type.endswith('_array'):
+            value = []  # rclpy reads an empty list (`-p name:=[]`, YAML []) as NOT_SET
         values[spec.name] = list(value) if isinstance(value, (list, tuple)) or (
             hasattr(value, 'tolist')) else value
     return values

@@ -6,7 +6,9 @@ each completed experiment on ``friction_levels`` (sensor_msgs/JointState: ``velo
 speed levels [rad/s],
 ``effort`` = friction levels, ``header.frame_id`` = joint).  Every second it publishes its
 counts and the rejected inputs by reason on ``/diagnostics`` (``friction_experiment: <joint>``);
-rejected inputs are also logged, at most once per 10 s.
+rejected inputs are also logged, at most once per 10 s.  The friction_experiment_runner's events
+(``experiment_events_topic``, default ``friction_experiment/events``; empty: not subscribed)
+give the experiments' exact boundaries: an ``end`` event publishes the experiment at once.
 """
 
 import sys
@@ -21,7 +23,8 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        validate_parameters)
 from robot_wear_monitor.nodes import (declare_parameters, log_rejection_report, message_kit,
                                       node_time_s, spin_node)
-from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS, JOINT_STATES_QOS
+from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
+                                          FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
 from robot_wear_monitor.monitoring.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
                                                    FrictionExperimentService, RejectionLog)
 
@@ -56,6 +59,11 @@ class FrictionExperimentNode(Node):
                                                            DIAGNOSTICS_QOS)
         self.subscription = self.create_subscription(JointState, 'joint_states',
                                                      self.on_joint_state, JOINT_STATES_QOS)
+        self.events_subscription = None
+        if self.parameters['experiment_events_topic']:
+            self.events_subscription = self.create_subscription(
+                DiagnosticArray, self.parameters['experiment_events_topic'],
+                self.on_experiment_event, EXPERIMENT_EVENTS_QOS)
         self.timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
         self._rejected = 0
         speeds = _rounded(self.parameters['experiment_speeds_rad_s'], 3)
@@ -63,7 +71,9 @@ class FrictionExperimentNode(Node):
             f'segmenting joint {self.service.joint!r} of '
             f'{self.subscription.topic_name} (gear ratio {self.parameters["gear_ratio"]}, '
             f'torque scale {self.parameters["torque_scale"]}), experiment speeds '
-            f'{speeds or "any"} rad/s; publishing on {self.publisher.topic_name}')
+            f'{speeds or "any"} rad/s; publishing on {self.publisher.topic_name}; '
+            + (f'experiment boundaries from {self.events_subscription.topic_name}'
+               if self.events_subscription is not None else 'no experiment events'))
 
     def on_joint_state(self, msg):
         """Feed one JointState to the segmentation; publish the experiments it completes."""
@@ -80,6 +90,29 @@ class FrictionExperimentNode(Node):
             experiments = []
         for experiment in experiments:
             self.publish_experiment(experiment)
+        if self.service.rejected_total > self._rejected:
+            self._rejected = self.service.rejected_total
+            self.log_rejections()
+
+    def on_experiment_event(self, msg):
+        """Apply one friction_experiment_runner event; publish the experiment it ends."""
+        open_before = self.service.open_experiment_id
+        aborted_before = self.service.rejections['aborted_experiment']
+        try:
+            experiments = self.service.handle_experiment_event_msg(msg)
+        except Exception as error:  # noqa: BLE001 - the node must outlive any one input
+            self.service.rejections['internal_error'] += 1
+            self.service.last_error = f'{type(error).__name__}: {error}'
+            experiments = []
+        for experiment in experiments:
+            self.publish_experiment(experiment)
+        open_after = self.service.open_experiment_id
+        if open_after is not None and open_after != open_before:
+            self.get_logger().info(f'runner started friction experiment #{open_after} of '
+                                   f'{self.service.joint!r}')
+        elif self.service.rejections['aborted_experiment'] > aborted_before:
+            self.get_logger().info(f'runner aborted friction experiment #{open_before} of '
+                                   f'{self.service.joint!r}: its friction levels are dropped')
         if self.service.rejected_total > self._rejected:
             self._rejected = self.service.rejected_total
             self.log_rejections()

@@ -1,4 +1,4 @@
-"""QoS profiles of the wear monitor's topics, shared by both nodes (publisher = subscriber)."""
+"""QoS profiles of the wear monitor's topics, shared by the nodes (publisher = subscriber)."""
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -19,3 +19,13 @@ ESTIMATE_QOS = _reliable(10)
 #: The alarm state is latched: a late subscriber gets the current state at once.
 ALARM_QOS = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
 DIAGNOSTICS_QOS = _reliable(10)
+#: The runner's JointTrajectory: reliable, volatile, like the controller's subscription
+#: (ros2_control's joint_trajectory_controller subscribes with the system default QoS); a
+#: trajectory must never reach a controller late, so it is not kept for late joiners.
+TRAJECTORY_QOS = _reliable(10)
+#: The runner's experiment events: reliable and transient local, so that a consumer that
+#: (re)starts during an experiment still gets its ``start`` (and a recorder the recent
+#: events); both are needed for the boundaries, and they are rare.  Depth 100 keeps the last
+#: 50 experiments.  A transient-local publisher also serves volatile subscribers
+#: (``ros2 topic echo``); the friction_experiment_node subscribes transient local.
+EXPERIMENT_EVENTS_QOS = _reliable(100, DurabilityPolicy.TRANSIENT_LOCAL)

@@ -1,0 +1,113 @@
+"""A simulated arm on the ROS 2 graph for the closed-loop test (the tests' own code).
+
+Usage: ``python3 simulated_arm_node.py CONFIG_JSON [--ros-args ...]`` with CONFIG_JSON
+``{"names": [...], "posture": [...], "tested": {"joint_2": {JointTruth fields}, ...},
+"controller": "joint_trajectory_controller", "rate_hz": 250.0, "seed": 0}``.
+
+It stands in for a robot with ros2_control: it subscribes to
+``/<controller>/joint_trajectory`` like a joint_trajectory_controller (a new trajectory replaces
+the current one from the arm's present state, header stamp 0 = now) and publishes
+``/joint_states`` at ``rate_hz`` in real time from a thread of its own, stamped with the ROS
+clock, with the efforts of ``trajectory_follower.SimulatedArm`` (``independent_robot``'s
+friction model at the configured wear, temperature and load, gravity, inertia and noise).
+"""
+
+import json
+from pathlib import Path
+import sys
+import threading
+import time
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # test/: the tests' own modules
+
+import rclpy  # noqa: E402
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from trajectory_msgs.msg import JointTrajectory  # noqa: E402
+
+from trajectory_follower import JointTruth, SimulatedArm  # noqa: E402
+
+
+def _qos(depth):
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                      reliability=ReliabilityPolicy.RELIABLE)
+
+
+class ArmNode:
+    """The node, the arm, and the publishing thread."""
+
+    def __init__(self, config):
+        """Subscribe to the controller's trajectory topic and advertise /joint_states."""
+        self.node = rclpy.create_node('simulated_arm')
+        self.arm = SimulatedArm(config['names'], config['posture'],
+                                tested={j: JointTruth(**t) for j, t in config['tested'].items()},
+                                seed=int(config.get('seed', 0)))
+        self.period_s = 1.0 / float(config.get('rate_hz', 250.0))
+        self.lock = threading.Lock()
+        self.running = True
+        controller = config.get('controller', 'joint_trajectory_controller')
+        self.node.create_subscription(JointTrajectory, f'/{controller}/joint_trajectory',
+                                      self.on_trajectory, _qos(10))
+        self.publisher = self.node.create_publisher(JointState, 'joint_states', _qos(1000))
+        self.thread = threading.Thread(target=self.publish_loop, daemon=True)
+
+    def now_s(self):
+        return self.node.get_clock().now().nanoseconds * 1e-9
+
+    def on_trajectory(self, msg):
+        times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
+        with self.lock:
+            self.arm.command(self.now_s(), joint_names=list(msg.joint_names),
+                             time_from_start_s=times,
+                             positions=[list(p.positions) for p in msg.points],
+                             velocities=[list(p.velocities) for p in msg.points])
+        self.node.get_logger().info(f'trajectory of {len(times)} points, '
+                                    f'{times[-1] if times else 0.0:.2f} s')
+
+    def publish_loop(self):
+        due = time.monotonic()
+        names = list(self.arm.names)
+        while self.running:
+            delay = due - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -0.05:  # far behind (a stall): resynchronise
+                due = time.monotonic()
+            due += self.period_s
+            stamp = self.now_s()
+            with self.lock:
+                position, velocity, effort = self.arm.sample(stamp)
+            msg = JointState()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp * 1e9),
+                                                                    1_000_000_000)
+            msg.name = names
+            msg.position, msg.velocity, msg.effort = position, velocity, effort
+            try:
+                self.publisher.publish(msg)
+            except Exception:  # noqa: BLE001 - shutting down under the thread
+                return
+
+
+def main():
+    config = json.loads(sys.argv[1])
+    rclpy.init(args=sys.argv)
+    arm = ArmNode(config)
+    executor = SingleThreadedExecutor()
+    executor.add_node(arm.node)
+    arm.thread.start()
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        arm.running = False
+        arm.thread.join(timeout=1.0)
+        executor.shutdown()
+        arm.node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
