@@ -400,7 +400,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     print(f'{bag}: {scenario.n_samples} JointState messages on /joint_states '
           f'({len(scenario.truth)} experiments, joint {scenario.joint}, gear ratio '
           f'{scenario.config.gear_ratio:g}, torque scale {scenario.config.torque_scale:g}); '
-          f'truth: {truth}')
+          f'truth: {truth} (replay ... --truth {truth})')
     return 0
 
 
@@ -498,6 +498,10 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='storage of OUT_BAG (default mcap)')
     parser.add_argument('--history', metavar='FILE', help='also keep the SQLite wear history')
+    parser.add_argument('--truth', metavar='JSON',
+                        help='truth of a simulated bag (simulate writes BAG.truth.json), added '
+                             'to the summary and the plot; nothing beside the bag is read '
+                             'unless named here')
     parser.add_argument('--overwrite', action='store_true', help='replace an existing OUT_BAG')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
@@ -506,17 +510,18 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.atomic_files import write_json_atomic
-    from robot_wear_monitor.monitoring.replay import (read_truth_beside, replay_bag,
-                                                      replay_parameters)
+    from robot_wear_monitor.experiment.simulation import read_truth_json
+    from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
     if Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
+    truth = read_truth_json(args.truth) if args.truth else None
     experiment, estimator = replay_parameters(
         config_file=args.config, joint=args.joint, gear_ratio=args.gear_ratio,
         torque_scale=args.torque_scale, params_file=args.params)
     result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
                         estimator_parameters=estimator, storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
-                        progress=not args.no_progress, truth=read_truth_beside(args.bag))
+                        progress=not args.no_progress, truth=truth)
     summary = result.summary()
     if args.json:
         write_json_atomic(args.json, summary)

@@ -178,10 +178,3 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
         rejections[f'friction_levels_{reason}'] = count
     result.rejections = rejections
     return result
-
-
-def read_truth_beside(bag: str | os.PathLike) -> Optional[list]:
-    """Return the simulation truth written beside a simulated bag, or None."""
-    from robot_wear_monitor.experiment.simulation import read_truth_json, truth_path_for
-    path = truth_path_for(bag)
-    return read_truth_json(path) if path.is_file() else None

@@ -41,7 +41,8 @@ def replayed(tmp_path_factory):
     code = cli.main([
         'replay', str(bag), '--out', str(out), '--json', str(folder / 's.json'),
         '--plot', str(folder / 'trend.png'), '--joint', 'joint_2', '--gear-ratio', '150',
-        '--torque-scale', '10', '--no-progress', '--history', str(folder / 'h.sqlite3')])
+        '--torque-scale', '10', '--no-progress', '--history', str(folder / 'h.sqlite3'),
+        '--truth', str(folder / 'scenario.truth.json')])
     assert code == 0
     summary = json.loads((folder / 's.json').read_text())
     return scenario, summary, out, folder
@@ -228,3 +229,23 @@ def test_batch_replay_path_equals_the_streaming_node_path(tmp_path):
     assert batch.all_rejections() == streaming.all_rejections()
     assert batch.all_rejections()['non_finite'] == 1
     assert streaming.rejected_total == sum(streaming.all_rejections().values()) >= 1
+
+
+def test_replay_reads_nothing_beside_the_bag_and_a_named_bad_truth_is_an_error(
+        tmp_path, capsys):
+    bag = tmp_path / 'small'
+    scenario = _write_scenario(bag, n_experiments=3, seed=4)
+    beside = truth_path_for(bag)
+    beside.write_text(json.dumps({'speeds_rad_s': [1.0, 2.0]}))  # another tool's file
+    args = ['replay', str(bag), '--joint', 'joint_2', '--gear-ratio', '150',
+            '--torque-scale', '10', '--no-progress']
+    assert cli.main(args + ['--out', str(tmp_path / 'out'), '--json',
+                            str(tmp_path / 's.json')]) == 0
+    summary = json.loads((tmp_path / 's.json').read_text())
+    assert len(summary['experiments']) == len(scenario.truth) == 3
+    assert all('truth' not in entry for entry in summary['experiments'])
+    capsys.readouterr()
+    assert cli.main(args + ['--out', str(tmp_path / 'out2'), '--truth', str(beside)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and 'not a truth file' in err
+    assert not (tmp_path / 'out2').exists()
