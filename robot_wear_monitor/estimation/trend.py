@@ -523,10 +523,12 @@ class WearTrend:
         ahead.prob = self._filter.prob.copy()
         out = [float(ahead.probability_above(cfg.threshold)[0])]
         one = np.ones(1)
+        # one experiment ahead, without data: the same transition every step (computed once)
+        step = self._filter.rate_transition(one)[0].T
         for _ in range(cfg.forecast_horizon):
             if out[-1] >= 0.975:
                 break
-            ahead.predict(one)
+            ahead.prob = ahead._shift((step @ ahead.prob[0])[None], one)
             out.append(float(ahead.probability_above(cfg.threshold)[0]))
         return np.maximum.accumulate(np.array(out))
 
