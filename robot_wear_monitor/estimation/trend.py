@@ -438,7 +438,7 @@ class WearTrend:
                 experiment or reset.
             log_likelihood: log-likelihood of w on ``wear_grid`` (any additive constant; -inf
                 allowed), shape (G,).
-            forecast: compute the crossing forecast (about 45 ms for a healthy joint at the
+            forecast: compute the crossing forecast (about 20 ms for a healthy joint at the
                 default horizon); False leaves its fields NaN, e.g. while replaying a history
                 (the state does not depend on it).
 
