@@ -522,6 +522,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
                         estimator_parameters=estimator, storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
                         progress=not args.no_progress, truth=truth)
+    for partial in result.removed_partials:
+        print(f'removed {partial}: the unfinished output of a replay that was killed',
+              file=sys.stderr)
     summary = result.summary()
     if args.json:
         write_json_atomic(args.json, summary)

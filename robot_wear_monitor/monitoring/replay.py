@@ -47,6 +47,7 @@ class ReplayResult:
     rejections: dict[str, int] = field(default_factory=dict)
     out_bag: Optional[Path] = None
     truth: Optional[list] = None
+    removed_partials: list[Path] = field(default_factory=list)
 
     @property
     def first_alarm(self) -> Optional[WearUpdate]:
@@ -165,6 +166,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
             run(None)
         else:
             with atomic_bag_writer(out_bag, storage=storage, overwrite=overwrite) as writer:
+                result.removed_partials = list(writer.removed_stale)
                 for topic, msgtype in OUTPUT_TOPICS.items():
                     writer.add_topic(bag_topic(topic), msgtype)
                 run(writer)

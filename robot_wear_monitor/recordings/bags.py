@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
 
+from robot_wear_monitor.atomic_files import remove_stale_partials
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation import pick_joint
 
@@ -66,6 +67,8 @@ class BagWriter:
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
         self.message_count = 0
+        #: staging copies of killed writers of the same bag, removed before this one started
+        self.removed_stale: list[Path] = []
 
     def add_topic(self, topic: str, msgtype: str) -> None:
         """Declare ``topic`` with the message type ``msgtype`` (a Jazzy type name)."""
@@ -127,6 +130,7 @@ def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
         raise BagError(f'{target}: already exists (choose another path or overwrite)')
     if not target.parent.is_dir():
         raise BagError(f'{target}: the folder {target.parent} does not exist')
+    stale = remove_stale_partials(target)
     staging = target.with_name(f'.{target.name}.partial-{os.getpid()}')
     if staging.exists():
         shutil.rmtree(staging)
@@ -135,7 +139,9 @@ def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
     writer = Writer(temporary, version=BAG_VERSION, storage_plugin=plugin)
     try:
         writer.open()
-        yield BagWriter(writer)
+        bag_writer = BagWriter(writer)
+        bag_writer.removed_stale = stale
+        yield bag_writer
         writer.close()
         if target.exists():
             old = staging / '.old'

@@ -249,3 +249,31 @@ def test_replay_reads_nothing_beside_the_bag_and_a_named_bad_truth_is_an_error(
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and 'not a truth file' in err
     assert not (tmp_path / 'out2').exists()
+
+
+def test_a_killed_replays_partial_output_is_removed_by_the_next_run(tmp_path, capsys):
+    import os
+    import subprocess
+    import sys
+    bag = tmp_path / 'small'
+    _write_scenario(bag, n_experiments=2, seed=5)
+    out = tmp_path / 'out'
+    gone = subprocess.run([sys.executable, '-c', 'import os; print(os.getpid())'],
+                          capture_output=True, text=True, check=True)
+    dead = tmp_path / f'.out.partial-{int(gone.stdout)}'   # what kill -9 leaves behind
+    (dead / 'out').mkdir(parents=True)
+    (dead / 'out' / 'out_0.mcap').write_bytes(b'\x89MCAP0\r\n')
+    alive = tmp_path / f'.out.partial-{os.getppid()}'       # a writer that still runs
+    alive.mkdir()
+    dead_json = tmp_path / f'.s.json.tmp-{int(gone.stdout)}'
+    dead_json.write_text('{')
+    args = ['replay', str(bag), '--out', str(out), '--json', str(tmp_path / 's.json'),
+            '--joint', 'joint_2', '--gear-ratio', '150', '--torque-scale', '10',
+            '--no-progress']
+    assert cli.main(args) == 0
+    err = capsys.readouterr().err
+    assert not dead.exists() and alive.is_dir() and not dead_json.exists()
+    assert f'removed {dead}' in err and 'killed' in err
+    assert (out / 'metadata.yaml').is_file()
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith('.')) == \
+        [alive.name]
