@@ -26,13 +26,14 @@ setup(
         'matplotlib>=3.6',
         'tqdm>=4.60',
         'rosbags>=0.10',
+        'mcap>=1.1',  # reads recordings cut off by a crash, record by record
     ],
     extras_require={
         # The nodes on a pip-only host: ROS 2 Jazzy's rclpy with Fast DDS and the message
         # packages from PyPI (on a ROS 2 host the system's rclpy stands; see package.xml).
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-sensor-msgs', 'ros-jazzy-std-msgs',
                 'ros-jazzy-std-srvs', 'ros-jazzy-diagnostic-msgs', 'ros-jazzy-trajectory-msgs'],
-        'test': ['pytest>=7', 'mcap>=1.1', 'mcap-ros2-support>=0.5', 'flake8>=6',
+        'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'flake8>=6',
                  'flake8-docstrings>=1.7', 'pydocstyle>=6.3',
                  'colcon-common-extensions>=0.3'],
     },

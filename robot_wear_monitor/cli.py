@@ -503,6 +503,8 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
                              'to the summary and the plot; nothing beside the bag is read '
                              'unless named here')
     parser.add_argument('--overwrite', action='store_true', help='replace an existing OUT_BAG')
+    parser.add_argument('--strict', action='store_true',
+                        help='refuse a recording whose end is cut (default: read it up to the cut)')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
@@ -521,7 +523,12 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
                         estimator_parameters=estimator, storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
-                        progress=not args.no_progress, truth=truth)
+                        progress=not args.no_progress, truth=truth, recover=not args.strict)
+    if result.recovery is not None and not result.recovery.complete:
+        print(f'warning: {args.bag}: unfinished recording ({result.recovery.reason}): read '
+              f'{result.recovery.messages} complete messages up to bag time '
+              f'{result.recovery.last_stamp_s:.3f} s; what followed is lost (--strict '
+              f'refuses such a recording)', file=sys.stderr)
     for partial in result.removed_partials:
         print(f'removed {partial}: the unfinished output of a replay that was killed',
               file=sys.stderr)

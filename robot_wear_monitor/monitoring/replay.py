@@ -48,6 +48,7 @@ class ReplayResult:
     out_bag: Optional[Path] = None
     truth: Optional[list] = None
     removed_partials: list[Path] = field(default_factory=list)
+    recovery: Optional[Any] = None
 
     @property
     def first_alarm(self) -> Optional[WearUpdate]:
@@ -85,6 +86,10 @@ class ReplayResult:
                          else self.updates[-1].trend.to_json()),
             'rejections': dict(sorted(self.rejections.items())),
             'out_bag': None if self.out_bag is None else str(self.out_bag),
+            'recovery': None if self.recovery is None else {
+                'files': list(self.recovery.files), 'messages': self.recovery.messages,
+                'last_stamp_s': self.recovery.last_stamp_s,
+                'complete': self.recovery.complete, 'reason': self.recovery.reason},
         }
 
 
@@ -111,12 +116,18 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                experiment_parameters: Mapping[str, Any],
                estimator_parameters: Mapping[str, Any], storage: str = 'mcap',
                history_file: str | os.PathLike | None = None, overwrite: bool = False,
-               progress: bool = False, truth: Optional[list] = None) -> ReplayResult:
+               progress: bool = False, truth: Optional[list] = None,
+               recover: bool = True) -> ReplayResult:
     """Replay ``bag`` through the service; write the node outputs to ``out_bag`` if given.
+
+    An unfinished recording (MCAP files without ``metadata.yaml``, or an MCAP file given
+    directly) is read up to its last complete message (``recover``; the result's ``recovery``
+    says where it stops); its complete experiments are estimated.
 
     Raises:
         BagError: the input bag is missing, corrupt, truncated, lacks the topic or the joint,
-            or has the wrong type (raised before OUT_BAG is touched).
+            or has the wrong type, or is unfinished and ``recover`` is false (raised before
+            OUT_BAG is touched).
         ParameterError: invalid parameters or parameter set.
 
     """
@@ -130,13 +141,14 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
             bar.total = total
             bar.update(done - bar.n)
 
-        samples = read_joint_samples(bag, joint=experiments_service.joint, progress=advance)
+        samples = read_joint_samples(bag, joint=experiments_service.joint, progress=advance,
+                                     recover=recover)
     history = WearHistory(history_file if history_file is not None else ':memory:')
     estimator = WearEstimatorService(config, history=history)
     updates: list[WearUpdate] = []
     result = ReplayResult(updates=updates, joint=config.joint,
                           message_count=samples.message_count, sample_count=samples.time_s.size,
-                          truth=truth)
+                          truth=truth, recovery=samples.recovery)
 
     def run(writer: Any) -> None:
         def publish(experiment: Any) -> None:

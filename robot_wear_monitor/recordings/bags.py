@@ -30,7 +30,7 @@ import os
 from pathlib import Path
 import shutil
 import struct
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -351,6 +351,7 @@ class JointSamples:
         velocity_rad_s: joint velocities [rad/s].
         effort: efforts (as recorded).
         message_count: JointState messages on the topic.
+        recovery: set when the recording was unfinished and read up to its cut.
         rejections: messages not used, reason -> count (reasons of ``pick_joint``).
 
     """
@@ -361,6 +362,7 @@ class JointSamples:
     effort: FloatArray
     message_count: int
     rejections: Counter = field(default_factory=Counter)
+    recovery: Optional['Recovery'] = None
 
 
 def _open_reader(path: str | os.PathLike) -> Reader:
@@ -535,31 +537,127 @@ class _ChunkDecoder:
         self.parts.append((time_s[used], values[:, used]))
 
 
+# --------------------------------------------------------------------------- unfinished MCAP
+
+@dataclass(frozen=True)
+class Recovery:
+    """What was read from an unfinished recording (a recorder killed before it closed the bag).
+
+    Attributes:
+        files: the MCAP files read.
+        messages: complete messages recovered on the topic.
+        last_stamp_s: bag time of the last complete message [s] (where the recording stops).
+        complete: the files end with their footer (nothing was lost, e.g. an MCAP file
+            given directly); False: the recording stops at ``last_stamp_s``.
+        reason: how the recording was read (no metadata.yaml, a file given directly, a cut).
+
+    """
+
+    files: tuple[str, ...]
+    messages: int
+    last_stamp_s: float
+    complete: bool
+    reason: str
+
+
+def _unfinished_mcap_files(path: Path) -> tuple[list[Path], str] | None:
+    """Return the MCAP files of a recording rosbags cannot open as a bag, and why; else None."""
+    if path.is_file() and path.suffix == '.mcap':
+        return [path], 'an MCAP file given directly (no bag metadata)'
+    if path.is_dir() and not (path / 'metadata.yaml').is_file():
+        files = sorted(path.glob('*.mcap'))
+        if files:
+            return files, 'no metadata.yaml (the recorder did not close the bag)'
+    return None
+
+
+def _iter_unfinished_mcap(files: Sequence[Path], topic: str, state: dict
+                          ) -> Iterator[bytes]:
+    """Yield the CDR bytes of every complete message on ``topic``, record by record.
+
+    A recorder killed mid-write leaves an MCAP without summary and footer, often with a cut
+    chunk at the end; the mcap stream reader reads the file record by record, and reading stops
+    at the first incomplete record.  ``state`` receives ``count``, ``last_ns``, ``cut`` and the
+    channel types seen (``types``).
+    """
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, Footer, Message, Schema
+    from mcap.stream_reader import StreamReader
+    for file in files:
+        channels: dict[int, str] = {}
+        schemas: dict[int, str] = {}
+        try:
+            with open(file, 'rb') as handle:
+                for record in StreamReader(handle, record_size_limit=1 << 30).records:
+                    if isinstance(record, Schema):
+                        schemas[record.id] = record.name
+                    elif isinstance(record, Channel):
+                        channels[record.id] = record.topic
+                        state['types'][record.topic] = schemas.get(record.schema_id, '')
+                    elif isinstance(record, Message):
+                        if channels.get(record.channel_id) == topic:
+                            state['count'] += 1
+                            state['last_ns'] = max(state['last_ns'], record.log_time)
+                            yield record.data
+                    elif isinstance(record, Footer):
+                        break
+                else:
+                    state['cut'] = True
+        except (McapError, EOFError, struct.error, ValueError, OSError):
+            state['cut'] = True  # the incomplete record at the cut
+
+
+def _unfinished_source(path: Path, topic: str, files: list[Path], reason: str, state: dict
+                       ) -> Iterator[bytes]:
+    """Check the topic's type on the fly and yield its messages (see _iter_unfinished_mcap)."""
+    for raw in _iter_unfinished_mcap(files, topic, state):
+        msgtype = state['types'].get(topic, '')
+        if msgtype and msgtype.replace('/msg/', '/') != JOINT_STATE_TYPE.replace('/msg/', '/'):
+            raise BagError(f'{path}: topic {topic} has type {msgtype}, expected '
+                           f'{JOINT_STATE_TYPE}')
+        yield raw
+
+
 def read_joint_samples(path: str | os.PathLike, *, joint: str,
                        topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
-                       progress: Callable[[int, int], None] | None = None) -> JointSamples:
+                       progress: Callable[[int, int], None] | None = None,
+                       recover: bool = True) -> JointSamples:
     """Read one joint's samples from the JointState messages of a bag (fast path).
 
     Raw messages are taken from rosbags in chunks of ``chunk_messages`` and decoded with numpy
     (see the module docstring).  ``progress(read, total)`` is called after each chunk with the
     number of messages read so far and the topic's message count (for a progress bar).
 
+    An unfinished recording (a bag folder with MCAP files but no ``metadata.yaml``, or an MCAP
+    file given directly: what a killed recorder leaves) is read record by record up to its
+    last complete message; ``JointSamples.recovery`` then says how much was read and where the
+    recording stops.  With ``recover`` false a recording whose end is cut is refused.
+
     Raises:
         BagError: the bag is missing, corrupt or truncated, the topic is absent or has another
-            type, or no message carries the joint.
+            type, or no message carries the joint; a cut recording when ``recover`` is false.
 
     """
+    bag = Path(path)
+    unfinished = _unfinished_mcap_files(bag) if bag.exists() else None
     decoder = _ChunkDecoder(joint)
     count = 0
-    reader = _open_reader(path)
+    reader = None if unfinished is not None else _open_reader(path)
+    state = {'count': 0, 'last_ns': -1, 'cut': False, 'types': {}}
     collecting = gc.isenabled()
     gc.disable()  # the chunk holds many small objects; the collector would rescan them
     try:
-        connections = _connections(reader, path, topic)
-        total = sum(int(getattr(c, 'msgcount', 0) or 0) for c in connections)
+        if reader is not None:
+            connections = _connections(reader, path, topic)
+            total = sum(int(getattr(c, 'msgcount', 0) or 0) for c in connections)
+            source: Iterator[Any] = (raw for _, _, raw in
+                                     reader.messages(connections=connections))
+        else:
+            total = 0
+            source = _unfinished_source(bag, topic, unfinished[0], unfinished[1], state)
         chunk: list[bytes] = []
         try:
-            for _, _, raw in reader.messages(connections=connections):
+            for raw in source:
                 chunk.append(raw)
                 if len(chunk) >= chunk_messages:
                     decoder.decode(chunk)
@@ -567,6 +665,8 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
                     chunk = []
                     if progress is not None:
                         progress(count, total)
+        except BagError:
+            raise
         except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
             message = str(error).splitlines()[0] if str(error) else type(error).__name__
             raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
@@ -578,16 +678,28 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
     finally:
         if collecting:
             gc.enable()
-        reader.close()
+        if reader is not None:
+            reader.close()
+    if unfinished is not None and state['cut'] and not recover:
+        raise BagError(f'{bag}: unfinished recording ({unfinished[1]}; the last record is '
+                       f'cut); refused (strict)')
+    if unfinished is not None and topic not in state['types']:
+        topics = ', '.join(sorted(state['types'])) or 'none'
+        raise BagError(f'{path}: no topic {topic} in the unfinished recording (topics: '
+                       f'{topics})')
     if count == 0:
         raise BagError(f'{path}: topic {topic} has no messages')
     if not decoder.seen_joint:
         raise BagError(f'{path}: joint {joint!r} is in no message on {topic}')
     times = [p[0] for p in decoder.parts]
     values = np.concatenate([p[1] for p in decoder.parts], axis=1)
+    recovery = None if unfinished is None else Recovery(
+        files=tuple(str(f) for f in unfinished[0]), messages=count,
+        last_stamp_s=state['last_ns'] * 1e-9, complete=not state['cut'],
+        reason=unfinished[1] + ('; the last record is cut' if state['cut'] else ''))
     return JointSamples(time_s=np.concatenate(times), position_rad=values[0],
                         velocity_rad_s=values[1], effort=values[2], message_count=count,
-                        rejections=decoder.rejections)
+                        rejections=decoder.rejections, recovery=recovery)
 
 
 def iter_joint_states(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPIC
