@@ -504,7 +504,7 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
                              'unless named here')
     parser.add_argument('--overwrite', action='store_true', help='replace an existing OUT_BAG')
     parser.add_argument('--strict', action='store_true',
-                        help='refuse a recording whose end is cut (default: read it up to the cut)')
+                        help='refuse a recording whose end is cut (default: read up to the cut)')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
@@ -767,6 +767,109 @@ def _cmd_history(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- identify
+# (core: audit/identification.py, sharing audit/fitting.py with audit)
+
+def _add_identify_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('baseline', metavar='BASELINE',
+                        help='healthy-joint friction levels: a CSV with speed, friction, '
+                             'temperature, load (optionally experiment), or raw runs / a bag '
+                             'that the segmentation turns into levels')
+    parser.add_argument('--wear-test', metavar='WEAR',
+                        help='levels of an accelerated wear test (same columns plus '
+                             'experiment, the time index k)')
+    parser.add_argument('--critical-experiment', metavar='K',
+                        help='experiment of the wear test identified with w = --critical-wear')
+    parser.add_argument('--critical-wear', type=float, default=35.0, metavar='W',
+                        help='wear level of experiment K (default 35, the paper\'s convention)')
+    parser.add_argument('--from-params', metavar='FILE',
+                        help='reference parameter set for the fields the data cannot determine '
+                             '(default: the packaged IRB 6620 joint 2 set)')
+    parser.add_argument('--name', help='name of the new set (default: identified_<BASELINE>)')
+    parser.add_argument('--out', required=True, metavar='PARAMS.yaml',
+                        help='write the parameter set here (atomically; loaded back to check)')
+    parser.add_argument('--json', metavar='REPORT', dest='json_report',
+                        help="write the JSON report to this file ('-' for stdout)")
+    parser.add_argument('--plots', metavar='DIR', help='write the residual figures here')
+    parser.add_argument('--temperature-bounds', type=parse_float_list, metavar='LOW,HIGH',
+                        help='temperature bounds of the estimator [degC] (default: the '
+                             'baseline\'s temperature range)')
+    parser.add_argument('--temperature-column', metavar='COLUMN',
+                        help='column holding the joint temperature [degC] (default temperature)')
+    parser.add_argument('--load-column', metavar='COLUMN',
+                        help='column holding the load torque (default load)')
+    parser.add_argument('--folds', type=int, default=5,
+                        help='cross-validation folds of the held-out error (default 5)')
+    parser.add_argument('--joint', help='joint name to segment (bag input)')
+    parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
+    parser.add_argument('--raw-sign', action='store_true',
+                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    parser.add_argument('--gear-ratio', type=float, default=1.0,
+                        help='bag input: motor speed = gear ratio x joint speed (default 1)')
+    parser.add_argument('--torque-scale', type=float, default=1.0,
+                        help='bag input: normalised torque = effort / scale (default 1)')
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    import math
+    from pathlib import Path
+    import re
+
+    from robot_wear_monitor.atomic_files import write_json_atomic
+    from robot_wear_monitor.audit.identification import (identify, plot_identification,
+                                                         prepare_levels, write_parameter_set)
+    from robot_wear_monitor.audit.model_audit import load_audit_data
+
+    if (args.wear_test is None) != (args.critical_experiment is None):
+        raise InputError('--wear-test and --critical-experiment K go together (K is the '
+                         'experiment of the wear test with w = --critical-wear)')
+    if not (math.isfinite(args.critical_wear) and args.critical_wear > 0):
+        raise InputError(f'--critical-wear must be > 0, got {args.critical_wear}')
+    if args.folds < 2:
+        raise InputError(f'--folds must be >= 2, got {args.folds}')
+    bounds = None
+    if args.temperature_bounds is not None:
+        if len(args.temperature_bounds) != 2 or not (
+                args.temperature_bounds[0] < args.temperature_bounds[1]):
+            raise InputError('--temperature-bounds: expected LOW,HIGH with LOW < HIGH')
+        bounds = (args.temperature_bounds[0], args.temperature_bounds[1])
+    from_params = load_parameter_set(args.from_params)
+
+    def levels(path: str, role: str):
+        table = load_audit_data(path, model='speed', joint=args.joint, topic=args.topic,
+                                flip_sign=not args.raw_sign, gear_ratio=args.gear_ratio,
+                                torque_scale=args.torque_scale)
+        return prepare_levels(table, role=role, temperature_column=args.temperature_column,
+                              load_column=args.load_column)
+
+    baseline = levels(args.baseline, 'BASELINE')
+    wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None
+    stem = Path(args.baseline.rstrip('/')).name.split('.')[0]
+    name = args.name or 'identified_' + (re.sub(r'[^A-Za-z0-9_]+', '_', stem) or 'set')
+    result = identify(baseline=baseline, from_params=from_params, name=name,
+                      wear_test=wear_test, critical_experiment=args.critical_experiment,
+                      critical_wear=args.critical_wear, temperature_bounds_degc=bounds,
+                      n_folds=args.folds)
+    loaded = write_parameter_set(args.out, result)
+    report = result.to_dict()
+    report['out'] = str(args.out)
+    report['loaded_back'] = loaded.name == result.params.name
+    if args.plots:
+        report['figures'] = [str(p) for p in plot_identification(
+            result=result, baseline=baseline, wear_test=wear_test, out_dir=args.plots)]
+    if args.json_report == '-':
+        _print_json(report)
+        return 0
+    print(result.summary())
+    print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
+    if args.json_report:
+        try:
+            write_json_atomic(args.json_report, report)
+        except OSError as error:
+            raise InputError(f'{args.json_report}: cannot write: {error.strerror}') from None
+    return 0
+
+
 # --------------------------------------------------------------------------- entry point
 
 _COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
@@ -794,6 +897,8 @@ _COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
              _add_live_arguments, _cmd_live),
     'play': ('play a recorded bag on the live ROS 2 graph, like ros2 bag play (needs rclpy)',
              _add_play_arguments, _cmd_play),
+    'identify': ('identify a parameter set (models (5), (7), sigma) from friction levels',
+                 _add_identify_arguments, _cmd_identify),
 }
 
 
