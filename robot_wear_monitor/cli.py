@@ -798,6 +798,16 @@ def _add_identify_arguments(parser: argparse.ArgumentParser) -> None:
                         help='column holding the joint temperature [degC] (default temperature)')
     parser.add_argument('--load-column', metavar='COLUMN',
                         help='column holding the load torque (default load)')
+    parser.add_argument('--temperature-topic', metavar='TOPIC',
+                        help='bag input: the joint temperature [degC] recorded on this topic '
+                             '(sensor_msgs/Temperature or std_msgs/Float64), per level at its '
+                             'time')
+    parser.add_argument('--load-topic', metavar='TOPIC',
+                        help='bag input: the load torque tau_l (normalised) recorded on this '
+                             'topic (std_msgs/Float64), per level at its time')
+    parser.add_argument('--experiment-gap', type=float, default=10.0, metavar='S',
+                        help='bag input: levels more than S seconds apart start a new '
+                             'experiment (default 10)')
     parser.add_argument('--folds', type=int, default=5,
                         help='cross-validation folds of the held-out error (default 5)')
     parser.add_argument('--joint', help='joint name to segment (bag input)')
@@ -816,9 +826,11 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     import re
 
     from robot_wear_monitor.atomic_files import write_json_atomic
-    from robot_wear_monitor.audit.identification import (identify, plot_identification,
-                                                         prepare_levels, write_parameter_set)
-    from robot_wear_monitor.audit.model_audit import load_audit_data
+    from robot_wear_monitor.audit.identification import (attach_series, identify,
+                                                         number_experiments,
+                                                         plot_identification, prepare_levels,
+                                                         write_parameter_set)
+    from robot_wear_monitor.audit.model_audit import is_bag, load_audit_data
 
     if (args.wear_test is None) != (args.critical_experiment is None):
         raise InputError('--wear-test and --critical-experiment K go together (K is the '
@@ -839,6 +851,19 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         table = load_audit_data(path, model='speed', joint=args.joint, topic=args.topic,
                                 flip_sign=not args.raw_sign, gear_ratio=args.gear_ratio,
                                 torque_scale=args.torque_scale)
+        topics = {'temperature': args.temperature_topic, 'load': args.load_topic}
+        if any(topics.values()):
+            if not is_bag(path):
+                raise InputError(f'{role} {path}: --temperature-topic and --load-topic are '
+                                 f'for bag input')
+            from robot_wear_monitor.recordings.bags import read_scalar_topic
+            for column, topic in topics.items():
+                if topic:
+                    time_s, values, _ = read_scalar_topic(path, topic=topic)
+                    table = attach_series(table, column=column, time_s=time_s,
+                                          values=values, source=f'topic {topic}')
+        if is_bag(path):
+            table = number_experiments(table, gap_s=args.experiment_gap)
         return prepare_levels(table, role=role, temperature_column=args.temperature_column,
                               load_column=args.load_column)
 

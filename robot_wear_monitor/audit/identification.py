@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
 from robot_wear_monitor.atomic_files import write_text_atomic
@@ -1038,6 +1038,47 @@ def default_from_params() -> ParameterSet:
 
 # --------------------------------------------------------------------------- inputs and figures
 
+def attach_series(table: AuditTable, *, column: str, time_s: ArrayLike, values: ArrayLike,
+                  source: str) -> AuditTable:
+    """Return ``table`` with ``column`` = the series interpolated at each level's time.
+
+    For levels segmented from a bag (column ``time``, the level's centre time [s]) whose
+    temperature or load was recorded on a topic: linear interpolation in time, the end values
+    held outside the series.  Raises InputError when the table has no ``time`` column or the
+    levels lie more than 60 s outside the series (a topic from another recording).
+    """
+    if 'time' not in table.numeric:
+        raise InputError(f'{table.source}: {source}: the levels have no time to match it to')
+    t = np.asarray(time_s, dtype=float)
+    v = np.asarray(values, dtype=float)
+    level_t = table.numeric['time']
+    if level_t.min() < t[0] - 60.0 or level_t.max() > t[-1] + 60.0:
+        raise InputError(f'{table.source}: {source} covers {t[0]:.1f}..{t[-1]:.1f} s, the '
+                         f'levels {level_t.min():.1f}..{level_t.max():.1f} s')
+    numeric = dict(table.numeric)
+    numeric[column] = np.interp(level_t, t, v)
+    return AuditTable(numeric, dict(table.text), table.source)
+
+
+def number_experiments(table: AuditTable, *, gap_s: float) -> AuditTable:
+    """Return ``table`` with ``experiment`` = 0, 1, ... split where levels are > gap_s apart.
+
+    For levels segmented from a recording without an experiment column: consecutive levels
+    (in time) less than ``gap_s`` [s] apart belong to one experiment.
+    """
+    if 'time' not in table.numeric or 'experiment' in table.columns:
+        return table
+    if not (math.isfinite(gap_s) and gap_s > 0):
+        raise InputError(f'experiment gap must be > 0 s, got {gap_s}')
+    t = table.numeric['time']
+    order = np.argsort(t, kind='stable')
+    index = np.empty(t.size)
+    index[order] = np.concatenate([[0], np.cumsum(np.diff(t[order]) > gap_s)])
+    numeric = dict(table.numeric)
+    numeric['experiment'] = index
+    return AuditTable(numeric, dict(table.text), table.source)
+
+
 def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | None = None,
                    load_column: str | None = None) -> AuditTable:
     """Return the levels with ``temperature`` and ``load`` columns, named or checked.
@@ -1068,9 +1109,9 @@ def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | No
                     target == 'load' else '')
             raise InputError(
                 f'{role} {table.source}: no {target!r} column: model (5) needs the {target} of '
-                f'every friction level; segmented raw runs and bags carry none (reading a '
-                f'{target} topic is not supported): add it as a column of a level CSV or name '
-                f'the column with {option}{hint}')
+                f'every friction level; segmented raw runs and bags carry none: add it as a '
+                f'column of a level CSV, name the column with {option}, or for a bag name '
+                f'its topic with --{target}-topic{hint}')
     return AuditTable(numeric, dict(table.text), table.source)
 
 

@@ -1076,6 +1076,13 @@ def _sample_field(samples, name: str) -> FloatArray:
     return np.asarray(samples[index], dtype=float)
 
 
+def is_bag(path: str | Path) -> bool:
+    """Return True for a bag: a folder with ``metadata.yaml``, or a ``.mcap`` / ``.db3`` file."""
+    file = Path(path)
+    return (file.is_dir() and (file / 'metadata.yaml').exists()) or \
+        file.suffix in ('.mcap', '.db3')
+
+
 def load_audit_data(path: str | Path, *, model: str = 'speed', joint: str | None = None,
                     topic: str = '/joint_states', flip_sign: bool = True,
                     gear_ratio: float = 1.0, torque_scale: float = 1.0) -> AuditTable:
@@ -1089,9 +1096,7 @@ def load_audit_data(path: str | Path, *, model: str = 'speed', joint: str | None
     file = Path(path)
     if not file.exists():
         raise InputError(f'{file}: no such file or folder')
-    is_bag = (file.is_dir() and (file / 'metadata.yaml').exists()) or \
-        file.suffix in ('.mcap', '.db3')
-    if is_bag:
+    if is_bag(file):
         if not joint:
             raise InputError(f'{file}: a bag needs --joint NAME (the joint to segment)')
         from robot_wear_monitor.experiment.segmentation import SegmenterConfig

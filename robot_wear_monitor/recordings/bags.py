@@ -537,6 +537,48 @@ class _ChunkDecoder:
         self.parts.append((time_s[used], values[:, used]))
 
 
+# --------------------------------------------------------------------------- scalar topics
+
+#: Scalar message types :func:`read_scalar_topic` reads, and the field holding the value.
+SCALAR_FIELDS = {'sensor_msgs/msg/Temperature': 'temperature', 'std_msgs/msg/Float64': 'data',
+                 'std_msgs/msg/Float32': 'data'}
+
+
+def read_scalar_topic(path: str | os.PathLike, *, topic: str
+                      ) -> tuple[FloatArray, FloatArray, str]:
+    """Return (time [s], value, type) of a scalar topic of a bag, e.g. a joint temperature.
+
+    ``sensor_msgs/msg/Temperature`` gives ``temperature`` [degC] at its header stamp;
+    ``std_msgs/msg/Float64`` and ``Float32`` give ``data`` at the bag time.  Samples are sorted
+    by time; non-finite values are dropped.
+
+    Raises:
+        BagError: the bag is unreadable, the topic is absent, empty or of another type.
+
+    """
+    topics = recorded_topics(path)
+    if topic not in topics:
+        raise BagError(f'{path}: no topic {topic} (topics: {", ".join(sorted(topics))})')
+    msgtype = topics[topic]
+    if msgtype not in SCALAR_FIELDS:
+        raise BagError(f'{path}: topic {topic} has type {msgtype}; expected one of '
+                       f'{", ".join(SCALAR_FIELDS)}')
+    name = SCALAR_FIELDS[msgtype]
+    times, values = [], []
+    for _, timestamp, raw in iter_recorded_messages(path, topics=[topic]):
+        msg = TYPESTORE.deserialize_cdr(raw, msgtype)
+        stamp = getattr(msg, 'header', None)
+        times.append(stamp.stamp.sec + 1e-9 * stamp.stamp.nanosec if stamp is not None
+                     else timestamp * 1e-9)
+        values.append(float(getattr(msg, name)))
+    time_s, value = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+    keep = np.isfinite(time_s) & np.isfinite(value)
+    if not np.any(keep):
+        raise BagError(f'{path}: topic {topic} has no finite value')
+    order = np.argsort(time_s[keep], kind='stable')
+    return time_s[keep][order], value[keep][order], msgtype
+
+
 # --------------------------------------------------------------------------- unfinished MCAP
 
 @dataclass(frozen=True)
