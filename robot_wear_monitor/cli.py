@@ -643,6 +643,18 @@ def _cmd_play(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------- audit (audit.py)
 
+def _add_level_source_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the options of raw-run and bag inputs that are segmented into levels."""
+    parser.add_argument('--joint', help='joint name to segment (bag input)')
+    parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
+    parser.add_argument('--raw-sign', action='store_true',
+                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    parser.add_argument('--gear-ratio', type=float, default=1.0,
+                        help='bag input: motor speed = gear ratio x joint speed (default 1)')
+    parser.add_argument('--torque-scale', type=float, default=1.0,
+                        help='bag input: normalised torque = effort / scale (default 1)')
+
+
 def _add_audit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('data', metavar='DATA',
                         help='friction-level CSV (speed, friction, ...), a raw run or a folder '
@@ -662,14 +674,7 @@ def _add_audit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--max-effects', type=int, default=4,
                         help='add at most this many effects (default 4)')
     parser.add_argument('--folds', type=int, default=5, help='cross-validation folds (default 5)')
-    parser.add_argument('--joint', help='joint name to segment (bag input)')
-    parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
-    parser.add_argument('--raw-sign', action='store_true',
-                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
-    parser.add_argument('--gear-ratio', type=float, default=1.0,
-                        help='bag input: motor speed = gear ratio x joint speed (default 1)')
-    parser.add_argument('--torque-scale', type=float, default=1.0,
-                        help='bag input: normalised torque = effort / scale (default 1)')
+    _add_level_source_arguments(parser)
 
 
 def _cmd_audit(args: argparse.Namespace) -> int:
@@ -810,14 +815,7 @@ def _add_identify_arguments(parser: argparse.ArgumentParser) -> None:
                              'experiment (default 10)')
     parser.add_argument('--folds', type=int, default=5,
                         help='cross-validation folds of the held-out error (default 5)')
-    parser.add_argument('--joint', help='joint name to segment (bag input)')
-    parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
-    parser.add_argument('--raw-sign', action='store_true',
-                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
-    parser.add_argument('--gear-ratio', type=float, default=1.0,
-                        help='bag input: motor speed = gear ratio x joint speed (default 1)')
-    parser.add_argument('--torque-scale', type=float, default=1.0,
-                        help='bag input: normalised torque = effort / scale (default 1)')
+    _add_level_source_arguments(parser)
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
