@@ -540,7 +540,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         plot_wear_trend(result, args.plot, threshold=estimator['wear_threshold'],
                         title=f'Wear estimate, {Path(args.bag).name}, joint {result.joint}')
     first = summary['first_alarm']
+    skipped = result.rejections.get('friction_levels_already_in_history', 0)
     print(f'{len(result.updates)} experiments from {result.message_count} messages; '
+          + (f'{skipped} already in the history (skipped, not estimated again); '
+             if skipped else '')
           + ('no alarm' if first is None else
              f'alarm at experiment {first["index"]} (w-hat {first["wear"]:.1f})')
           + f'; wrote {args.out}')

@@ -61,6 +61,7 @@ CREATE TABLE IF NOT EXISTS estimates (
     crossing_time_s REAL
 );
 CREATE INDEX IF NOT EXISTS estimates_joint ON estimates (joint, id);
+CREATE INDEX IF NOT EXISTS estimates_joint_stamp ON estimates (joint, stamp_s);
 CREATE TABLE IF NOT EXISTS alarm_events (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
     joint TEXT NOT NULL,
@@ -247,6 +248,19 @@ class WearHistory:
             for event in events:
                 self._insert_event(conn, event, estimate_id)
         return estimate_id
+
+    def find_estimate(self, *, joint: str, stamp_s: float,
+                      tolerance_s: float = 1e-6) -> Optional[int]:
+        """Return the id of the stored estimate of ``joint``'s experiment ending at ``stamp_s``.
+
+        An experiment's identity is its joint and the stamp of its end [s] (one joint ends one
+        experiment at a time): a re-run of the same recording finds its estimates here.
+        """
+        row = self._conn.execute(
+            'SELECT id FROM estimates WHERE joint = ? AND stamp_s BETWEEN ? AND ? '
+            'ORDER BY id LIMIT 1', (joint, float(stamp_s) - tolerance_s,
+                                    float(stamp_s) + tolerance_s)).fetchone()
+        return None if row is None else int(row[0])
 
     def record_event(self, event: AlarmEvent) -> None:
         """Store an alarm event on its own (a reset after maintenance)."""

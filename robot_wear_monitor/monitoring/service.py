@@ -298,7 +298,7 @@ def _fmt(value: float, digits: int = 4) -> str:
 #: pass without its partner, a pause in the stream, an experiment the runner aborted): logged
 #: as info, not as input defects.
 ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_common_window',
-                                'time_gap', 'aborted_experiment'})
+                                'time_gap', 'aborted_experiment', 'already_in_history'})
 
 
 class RejectionLog:
@@ -492,6 +492,13 @@ class WearEstimatorService:
             return None
         if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(frictions))):
             self.reject('not_finite', 'a speed or friction level is NaN or infinite')
+            return None
+        known = self.history.find_estimate(joint=self.config.joint, stamp_s=levels.stamp_s)
+        if known is not None:
+            # the same experiment again (a re-run of a recording into the same history, a
+            # replayed message): its estimate is stored and in the trend; never twice
+            self.reject('already_in_history', f'the experiment ending at {levels.stamp_s:.6f} '
+                                              f's is estimate {known} of the history; skipped')
             return None
         try:
             estimate = self._estimate(speeds, frictions, params=self.config.params)

@@ -277,3 +277,28 @@ def test_a_killed_replays_partial_output_is_removed_by_the_next_run(tmp_path, ca
     assert (out / 'metadata.yaml').is_file()
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith('.')) == \
         [alive.name]
+
+
+def test_a_recording_replayed_twice_into_one_history_is_stored_once(tmp_path, capsys):
+    from robot_wear_monitor.monitoring.history import WearHistory
+    bag = tmp_path / 'small'
+    scenario = _write_scenario(bag, n_experiments=4, seed=6)
+    history = tmp_path / 'h.sqlite3'
+    args = ['replay', str(bag), '--joint', 'joint_2', '--gear-ratio', '150',
+            '--torque-scale', '10', '--no-progress', '--history', str(history)]
+    assert cli.main(args + ['--out', str(tmp_path / 'first')]) == 0
+    first = capsys.readouterr().out
+    assert 'already in the history' not in first
+    assert cli.main(args + ['--out', str(tmp_path / 'second'), '--json',
+                            str(tmp_path / 's.json')]) == 0
+    second = capsys.readouterr().out
+    assert '0 experiments from' in second and '4 already in the history (skipped' in second
+    summary = json.loads((tmp_path / 's.json').read_text())
+    assert summary['rejections']['friction_levels_already_in_history'] == 4
+    store = WearHistory(history)
+    try:
+        records = store.records(joint='joint_2')
+        assert len(records) == len(scenario.truth) == 4
+        assert len({r.stamp_s for r in records}) == 4
+    finally:
+        store.close()
