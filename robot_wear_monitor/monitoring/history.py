@@ -225,9 +225,16 @@ class WearHistory:
         self.close()
 
     def append(self, record: HistoryRecord, *,
-               events: Sequence[AlarmEvent] = ()) -> int:
-        """Store one estimate and its alarm events atomically; return the estimate id."""
+               events: Sequence[AlarmEvent] = ()) -> Optional[int]:
+        """Store one estimate and its alarm events atomically; return the estimate id.
+
+        Returns None, storing nothing, when the history already holds that experiment (same
+        joint and end stamp, see :meth:`find_estimate`); the check and the insert are one
+        transaction, so two processes writing one history never store an experiment twice.
+        """
         with self._transaction() as conn:
+            if self.find_estimate(joint=record.joint, stamp_s=record.stamp_s) is not None:
+                return None
             cursor = conn.execute(
                 'INSERT INTO estimates (joint, stamp_s, wall_time_s, speeds_rad_s, frictions, '
                 'temperature_degc, temperature_std_degc, wear, wear_std, chi2, dof, p_value, '

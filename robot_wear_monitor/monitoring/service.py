@@ -533,6 +533,10 @@ class WearEstimatorService:
         events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
                              wear=wear, note=self._raise_note(wear, trend))] if raised else []
         record_id = self.history.append(record, events=events)
+        if record_id is None:  # another writer stored this experiment meanwhile
+            self.reject('already_in_history', f'the experiment ending at {levels.stamp_s:.6f} '
+                                              f's was stored by another writer; skipped')
+            return None
         self.trend.append(HistoryRecord(**{**record.__dict__, 'id': record_id}))
         self.last_update = WearUpdate(
             index=self.experiments, stamp_s=levels.stamp_s, joint=self.config.joint,

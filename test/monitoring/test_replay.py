@@ -302,3 +302,37 @@ def test_a_recording_replayed_twice_into_one_history_is_stored_once(tmp_path, ca
         assert len({r.stamp_s for r in records}) == 4
     finally:
         store.close()
+
+
+def test_two_replays_writing_one_history_at_once_store_each_experiment_once(tmp_path):
+    import os
+    import subprocess
+    import sys
+    from robot_wear_monitor.monitoring.history import WearHistory
+    root = Path(__file__).resolve().parents[2]
+    bag = tmp_path / 'small'
+    scenario = _write_scenario(bag, n_experiments=6, seed=8)
+    history = tmp_path / 'h.sqlite3'
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(root)] + [p for p in [os.environ.get('PYTHONPATH')] if p]))
+    runs = [subprocess.Popen(
+        [sys.executable, '-m', 'robot_wear_monitor.cli', 'replay', str(bag), '--joint',
+         'joint_2', '--gear-ratio', '150', '--torque-scale', '10', '--no-progress',
+         '--history', str(history), '--out', str(tmp_path / f'out{i}'), '--json',
+         str(tmp_path / f's{i}.json')], cwd=root, env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True) for i in range(2)]
+    for run in runs:
+        out, err = run.communicate(timeout=120)
+        assert run.returncode == 0, out + err
+    summaries = [json.loads((tmp_path / f's{i}.json').read_text()) for i in range(2)]
+    estimated = sum(len(s['experiments']) for s in summaries)
+    skipped = sum(s['rejections'].get('friction_levels_already_in_history', 0)
+                  for s in summaries)
+    assert estimated + skipped == 2 * len(scenario.truth)
+    store = WearHistory(history)
+    try:
+        records = store.records(joint='joint_2')
+    finally:
+        store.close()
+    assert len(records) == len(scenario.truth) == 6
+    assert len({round(r.stamp_s, 6) for r in records}) == 6
