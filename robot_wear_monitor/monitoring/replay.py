@@ -23,12 +23,17 @@ from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.monitoring.service import (EstimatorConfig, FRICTION_LEVELS_TOPIC,
                                                    FrictionExperimentService, json_number,
                                                    OUTPUT_TOPICS, WearEstimatorService, WearUpdate)
 
 KIT = rosbags_kit(TYPESTORE)
+
+
+class NoExperimentError(InputError):
+    """A recording in which no friction experiment was found; the message says why."""
 
 
 def bag_topic(topic: str) -> str:
@@ -128,6 +133,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
         BagError: the input bag is missing, corrupt, truncated, lacks the topic or the joint,
             or has the wrong type, or is unfinished and ``recover`` is false (raised before
             OUT_BAG is touched).
+        NoExperimentError: no experiment was found (none already in the history either);
+            its message says why, and no OUT_BAG is written.
         ParameterError: invalid parameters or parameter set.
 
     """
@@ -176,12 +183,14 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     try:
         if out_bag is None:
             run(None)
+            _require_experiments(updates, estimator, experiments_service, samples)
         else:
             with atomic_bag_writer(out_bag, storage=storage, overwrite=overwrite) as writer:
                 result.removed_partials = list(writer.removed_stale)
                 for topic, msgtype in OUTPUT_TOPICS.items():
                     writer.add_topic(bag_topic(topic), msgtype)
                 run(writer)
+                _require_experiments(updates, estimator, experiments_service, samples)
             result.out_bag = Path(out_bag)
     finally:
         history.close()
@@ -192,3 +201,54 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
         rejections[f'friction_levels_{reason}'] = count
     result.rejections = rejections
     return result
+
+
+def explain_no_experiment(*, samples: Any, service: FrictionExperimentService) -> str:
+    """Return one sentence on why a recording of the joint gave no friction experiment.
+
+    Checked in order: no usable sample of the joint, no motion (motor speed never above the
+    standstill speed), no constant-speed plateau (every pass too short), passes found but
+    never paired forward/backward over a common window, and levels whose speeds match none of
+    the configured experiment speeds (the recorded speeds are listed).
+    """
+    import numpy as np
+    config = service.segmenter_config
+    joint = service.joint
+    if samples.time_s.size == 0:
+        reasons = ', '.join(f'{k} {v}' for k, v in sorted(samples.rejections.items()))
+        return f'no usable sample of joint {joint!r} ({reasons or "none"})'
+    speed = np.abs(np.asarray(samples.velocity_rad_s)) * config.gear_ratio
+    fastest = float(np.nanmax(speed)) if speed.size else 0.0
+    if not fastest > config.standstill_speed_rad_s:
+        return (f'joint {joint!r} never moves: its motor speed stays at or below '
+                f'{fastest:.3g} rad/s (standstill {config.standstill_speed_rad_s:g} rad/s at '
+                f'gear ratio {config.gear_ratio:g}); check the joint name and the gear ratio')
+    rejections = service.all_rejections()
+    if not service.levels:
+        if rejections.get('pass_unpaired', 0) or rejections.get('pass_no_common_window', 0):
+            return (f'joint {joint!r} has constant-speed passes, but none was paired with a '
+                    f'pass the other way over a common position window (unpaired '
+                    f'{rejections.get("pass_unpaired", 0)}, no common window '
+                    f'{rejections.get("pass_no_common_window", 0)}): eq. (3) needs back-and-'
+                    f'forth moves at one speed')
+        return (f'joint {joint!r} moves (up to {fastest:.3g} rad/s motor side) but has no '
+                f'constant-speed plateau of {config.min_duration_s:g} s or more '
+                f'({rejections.get("pass_too_short", 0)} passes too short)')
+    found = sorted({round(float(level.speed_rad_s), 1) for level in service.levels})
+    shown = ', '.join(f'{v:g}' for v in found[:12]) + (', ...' if len(found) > 12 else '')
+    configured = ', '.join(f'{v:g}' for v in service.experiment_speeds_rad_s)
+    return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s, but '
+            f'none formed an experiment of the configured speeds [{configured}] rad/s '
+            f'(tolerance {service.speed_tolerance_rad_s:g} rad/s): set '
+            f'experiment_speeds_rad_s in --config to the recorded speeds')
+
+
+def _require_experiments(updates: list, estimator: WearEstimatorService,
+                         service: FrictionExperimentService, samples: Any) -> None:
+    """Raise NoExperimentError when the recording gave nothing (and nothing was skipped)."""
+    if updates or estimator.rejections:
+        return
+    if service.experiments:
+        return
+    raise NoExperimentError(f'no friction experiment: '
+                            f'{explain_no_experiment(samples=samples, service=service)}')

@@ -732,7 +732,10 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
     if count == 0:
         raise BagError(f'{path}: topic {topic} has no messages')
     if not decoder.seen_joint:
-        raise BagError(f'{path}: joint {joint!r} is in no message on {topic}')
+        seen = sorted({name for layout, _, _ in decoder.layouts for name in layout.names})
+        shown = ', '.join(seen[:12]) + (', ...' if len(seen) > 12 else '')
+        raise BagError(f'{path}: joint {joint!r} is in no message on {topic} (joints seen: '
+                       f'{shown or "none"})')
     times = [p[0] for p in decoder.parts]
     values = np.concatenate([p[1] for p in decoder.parts], axis=1)
     recovery = None if unfinished is None else Recovery(

@@ -336,3 +336,34 @@ def test_two_replays_writing_one_history_at_once_store_each_experiment_once(tmp_
         store.close()
     assert len(records) == len(scenario.truth) == 6
     assert len({round(r.stamp_s, 6) for r in records}) == 6
+
+
+@pytest.fixture(scope='module')
+def independent_bags(tmp_path_factory):
+    """Write recordings of the independent generator: Table V, other speeds, no plateau."""
+    import independent_robot as robot
+    folder = tmp_path_factory.mktemp('no_experiment')
+    bags = {}
+    for name, settings in (('table_v', {}), ('other_speeds', {'speeds_rad_s': (35.84, 40.84)}),
+                           ('no_plateau', {'plateau_s': 0.1})):
+        recording = robot.generate_wear_test(n_experiments=2, seed=2, rate_hz=250.0,
+                                             **settings)
+        bags[name] = robot.write_bag(folder / name, recording)
+    return bags
+
+
+@pytest.mark.parametrize('bag, extra, reason', [
+    ('table_v', ['--joint', 'joint_1'], 'never moves'),
+    ('table_v', ['--joint', 'joint_9'], "joints seen: joint_1, joint_2"),
+    ('other_speeds', [], 'at 35.8, 40.8 rad/s, but none formed an experiment of the '
+                         'configured speeds [2.1, 28.5, 35.1, 41.7]'),
+    ('no_plateau', [], 'no constant-speed plateau of 0.2 s'),
+])
+def test_a_recording_without_experiments_exits_2_and_says_why(
+        independent_bags, tmp_path, capsys, bag, extra, reason):
+    out = tmp_path / 'out'
+    code = cli.main(['replay', str(independent_bags[bag]), '--out', str(out), '--json',
+                     str(tmp_path / 's.json'), '--no-progress', *extra])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and reason in err, err
+    assert not out.exists() and not (tmp_path / 's.json').exists()
