@@ -80,16 +80,25 @@ class FrictionExperimentNode(Node):
         stamp_s = stamp_to_seconds(msg.header.stamp)
         if stamp_s == 0.0:  # unstamped publisher: use the reception time
             stamp_s = node_time_s(self)
+        self._publish_all(self._guarded(
+            self.service.add_joint_state, stamp_s=stamp_s, name=msg.name,
+            position=msg.position, velocity=msg.velocity, effort=msg.effort))
+        self._log_new_rejections()
+
+    def _guarded(self, call, *args, **kwargs):
+        """Return call(...)'s experiments; an internal error is counted, never raised."""
         try:
-            experiments = self.service.add_joint_state(
-                stamp_s=stamp_s, name=msg.name, position=msg.position,
-                velocity=msg.velocity, effort=msg.effort)
+            return call(*args, **kwargs)
         except Exception as error:  # noqa: BLE001 - the node must outlive any one input
             self.service.rejections['internal_error'] += 1
             self.service.last_error = f'{type(error).__name__}: {error}'
-            experiments = []
+            return []
+
+    def _publish_all(self, experiments):
         for experiment in experiments:
             self.publish_experiment(experiment)
+
+    def _log_new_rejections(self):
         if self.service.rejected_total > self._rejected:
             self._rejected = self.service.rejected_total
             self.log_rejections()
@@ -98,14 +107,7 @@ class FrictionExperimentNode(Node):
         """Apply one friction_experiment_runner event; publish the experiment it ends."""
         open_before = self.service.open_experiment_id
         aborted_before = self.service.rejections['aborted_experiment']
-        try:
-            experiments = self.service.handle_experiment_event_msg(msg)
-        except Exception as error:  # noqa: BLE001 - the node must outlive any one input
-            self.service.rejections['internal_error'] += 1
-            self.service.last_error = f'{type(error).__name__}: {error}'
-            experiments = []
-        for experiment in experiments:
-            self.publish_experiment(experiment)
+        self._publish_all(self._guarded(self.service.handle_experiment_event_msg, msg))
         open_after = self.service.open_experiment_id
         if open_after is not None and open_after != open_before:
             self.get_logger().info(f'runner started friction experiment #{open_after} of '
@@ -113,9 +115,7 @@ class FrictionExperimentNode(Node):
         elif self.service.rejections['aborted_experiment'] > aborted_before:
             self.get_logger().info(f'runner aborted friction experiment #{open_before} of '
                                    f'{self.service.joint!r}: its friction levels are dropped')
-        if self.service.rejected_total > self._rejected:
-            self._rejected = self.service.rejected_total
-            self.log_rejections()
+        self._log_new_rejections()
 
     def publish_experiment(self, experiment):
         """Publish one completed experiment on ``friction_levels`` and log it."""
