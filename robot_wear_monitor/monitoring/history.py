@@ -28,6 +28,11 @@ INTERVAL_COLUMNS = ('wear_low', 'wear_high', 'temperature_low_degc', 'temperatur
                     'trend_wear', 'trend_low', 'trend_high', 'crossing_experiments',
                     'crossing_time_s')
 
+#: How long a writer waits for another process's transaction [s] (SQLite busy timeout).
+_BUSY_TIMEOUT_S = 30.0
+#: How long opening retries while another process creates or converts the file [s].
+_OPEN_TIMEOUT_S = 30.0
+
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL);
 CREATE TABLE IF NOT EXISTS estimates (
@@ -159,20 +164,35 @@ class WearHistory:
             except OSError as error:
                 raise HistoryError(f'{self.path}: cannot create its folder: '
                                    f'{error.strerror}') from None
-        try:
-            self._conn = sqlite3.connect(self.path, isolation_level=None,
-                                         check_same_thread=False)
-            self._conn.execute('PRAGMA journal_mode=WAL')
-            self._conn.execute('PRAGMA synchronous=FULL')
-            self._conn.execute('PRAGMA foreign_keys=ON')
-            self._migrate()
-            self._conn.executescript(_SCHEMA)
-            self._check_version()
-        except sqlite3.OperationalError as error:
-            raise HistoryError(f'{self.path}: cannot open the wear history: {error}') from None
-        except sqlite3.DatabaseError as error:
-            raise HistoryError(f'{self.path}: not a usable wear history database: '
-                               f'{error}') from None
+        deadline = time.monotonic() + _OPEN_TIMEOUT_S
+        while True:
+            conn = None
+            try:
+                conn = sqlite3.connect(self.path, isolation_level=None,
+                                       check_same_thread=False, timeout=_BUSY_TIMEOUT_S)
+                self._conn = conn
+                conn.execute('PRAGMA journal_mode=WAL')
+                conn.execute('PRAGMA synchronous=FULL')
+                conn.execute('PRAGMA foreign_keys=ON')
+                self._migrate()
+                conn.executescript(_SCHEMA)
+                self._check_version()
+                return
+            except sqlite3.OperationalError as error:
+                if conn is not None:
+                    conn.close()
+                # another process is creating or converting the file (WAL needs a moment of
+                # exclusive access, which SQLite reports as busy without waiting): retry
+                if 'locked' in str(error) and time.monotonic() < deadline:
+                    time.sleep(0.05)
+                    continue
+                raise HistoryError(f'{self.path}: cannot open the wear history: '
+                                   f'{error}') from None
+            except sqlite3.DatabaseError as error:
+                if conn is not None:
+                    conn.close()
+                raise HistoryError(f'{self.path}: not a usable wear history database: '
+                                   f'{error}') from None
 
     def _migrate(self) -> None:
         """Bring a history of an older schema version to this one (in one transaction)."""

@@ -1,6 +1,7 @@
 """Tests of the SQLite wear history: atomic rows, restore of trend and latched alarm."""
 
 import math
+from pathlib import Path
 import sqlite3
 
 import pytest
@@ -115,3 +116,22 @@ def test_a_version_1_history_is_migrated_and_keeps_its_rows_and_alarm(tmp_path):
                                                                                   38.0)
     with sqlite3.connect(path) as conn:
         assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == SCHEMA_VERSION
+
+
+def test_processes_opening_a_new_history_at_once_all_succeed(tmp_path):
+    # WAL needs a moment of exclusive access when the file is created; SQLite reports that as
+    # "database is locked" without waiting, so opening retries (it failed in about 3 % of
+    # opens of six racing processes before)
+    import subprocess
+    import sys
+    root = Path(__file__).resolve().parents[2]
+    path = tmp_path / 'shared.sqlite3'
+    code = ('import sys; sys.path.insert(0, sys.argv[1]); '
+            'from robot_wear_monitor.monitoring.history import WearHistory; '
+            'h = WearHistory(sys.argv[2]); h.close(); print("ok")')
+    runs = [subprocess.Popen([sys.executable, '-c', code, str(root), str(path)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for _ in range(6)]
+    for run in runs:
+        out, err = run.communicate(timeout=60)
+        assert run.returncode == 0 and out.strip() == 'ok', err
