@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,6 +35,24 @@ from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.errors import InputError
 
 FloatArray = NDArray[np.float64]
+
+
+class PlanError(InputError):
+    """A motion the constraints do not allow.
+
+    Attributes:
+        field: the :class:`PlanConfig` field to change (``half_range_rad``,
+            ``position_limits_rad``, ``max_speed_rad_s``).
+        detail: the problem with its numbers, without the hint of what to change.
+
+    """
+
+    def __init__(self, detail: str, *, field: str, hint: str) -> None:
+        """Keep ``detail`` and ``field``; the message is ``plan: <detail> (<hint>)``."""
+        super().__init__(f'plan: {detail}' + (f' ({hint})' if hint else ''))
+        self.detail = detail
+        self.field = field
+
 
 #: Samples of margin per plateau for the segmentation's sample-resolution ends (see above).
 _MARGIN_SAMPLES = 4.0
@@ -145,8 +163,9 @@ class PlanConfig:
             raise InputError('plan: hold_positions_rad given without joint_names')
         fastest = max(speeds) / self.gear_ratio
         if self.max_speed_rad_s is not None and fastest > self.max_speed_rad_s * (1 + 1e-12):
-            raise InputError(f'plan: speed {max(speeds):g} rad/s (motor) is {fastest:.4g} rad/s '
-                             f'at the joint, above its limit {self.max_speed_rad_s:g} rad/s')
+            raise PlanError(f'speed {max(speeds):g} rad/s (motor) is {fastest:.4g} rad/s at the '
+                            f'joint, above its limit {self.max_speed_rad_s:g} rad/s',
+                            field='max_speed_rad_s', hint='')
 
     @property
     def samples_per_pass(self) -> int:
@@ -374,8 +393,8 @@ def plan_experiment(*, config: PlanConfig) -> ExperimentPlan:
         The :class:`ExperimentPlan`.
 
     Raises:
-        InputError: a plateau that does not fit the window, or a motion beyond the joint
-            limits; the message names the speed and the numbers.
+        PlanError: a plateau that does not fit the window, or a motion beyond the joint
+            limits; the message names the speed and the numbers, ``field`` the constraint.
 
     """
     cfg = config
@@ -392,20 +411,20 @@ def plan_experiment(*, config: PlanConfig) -> ExperimentPlan:
             if speed * cfg.shortest_plateau_s <= 2.0 * cfg.half_range_rad:
                 half = cfg.half_range_rad
         if half > cfg.half_range_rad:
-            raise InputError(
-                f'plan: speed {motor:g} rad/s needs a plateau of {plateau:.3g} s = '
-                f'{2 * half:.4g} rad at the joint, wider than the window '
-                f'{2 * cfg.half_range_rad:.4g} rad (widen the window or lower the accuracy '
-                f'target)')
+            raise PlanError(
+                f'speed {motor:g} rad/s needs a plateau of {plateau:.3g} s = {2 * half:.4g} rad '
+                f'at the joint, wider than the window {2 * cfg.half_range_rad:.4g} rad',
+                field='half_range_rad', hint='widen the window or lower the accuracy target')
         ramp = _ramp_distance(speed, acc, jerk)
         left, right = cfg.center_rad - half - ramp, cfg.center_rad + half + ramp
         if cfg.position_limits_rad is not None:
             low, high = cfg.position_limits_rad
             if left < low or right > high:
-                raise InputError(
-                    f'plan: speed {motor:g} rad/s moves the joint over [{left:.4g}, '
-                    f'{right:.4g}] rad (window and ramps of {ramp:.3g} rad), beyond its limits '
-                    f'[{low:g}, {high:g}] rad (raise --max-acceleration or move --center)')
+                raise PlanError(
+                    f'speed {motor:g} rad/s moves the joint over [{left:.4g}, {right:.4g}] rad '
+                    f'(window and ramps of {ramp:.3g} rad), beyond its limits [{low:g}, '
+                    f'{high:g}] rad', field='position_limits_rad',
+                    hint='raise --max-acceleration or move --center')
         start = builder.t
         builder.move(left, reposition, cfg, index, REPOSITION, REPOSITION)
         if start != builder.t:
@@ -450,13 +469,9 @@ def plan_summary(plan: ExperimentPlan) -> dict:
 
 
 def _position_range(plan: ExperimentPlan) -> list[float]:
-    _, q, _, _, _ = plan.sampled(max(plan.config.rate_hz, 1000.0))
-    return [float(q.min()), float(q.max())]
-
-
-def plan_for_speeds(speeds_rad_s: Sequence[float], **settings) -> ExperimentPlan:
-    """Shortcut: ``plan_experiment(config=PlanConfig(speeds_rad_s=..., **settings))``."""
-    return plan_experiment(config=PlanConfig(speeds_rad_s=tuple(speeds_rad_s), **settings))
+    """Return [min, max] of the position [rad]: every phase is monotone, so at phase ends."""
+    ends = np.append(plan.position_rad, plan.sample(plan.total_s)[0])
+    return [float(ends.min()), float(ends.max())]
 
 
 @dataclass(frozen=True)

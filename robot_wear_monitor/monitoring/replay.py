@@ -18,6 +18,8 @@ import os
 from pathlib import Path
 from typing import Any, Mapping, Optional
 
+import numpy as np
+
 from robot_wear_monitor.recordings.bags import atomic_bag_writer, read_joint_samples, TYPESTORE
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
@@ -211,7 +213,6 @@ def explain_no_experiment(*, samples: Any, service: FrictionExperimentService) -
     never paired forward/backward over a common window, and levels whose speeds match none of
     the configured experiment speeds (the recorded speeds are listed).
     """
-    import numpy as np
     config = service.segmenter_config
     joint = service.joint
     if samples.time_s.size == 0:

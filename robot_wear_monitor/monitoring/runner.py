@@ -20,14 +20,14 @@ expects the joint: every plan starts and ends at rest at the posture.
 from __future__ import annotations
 
 from dataclasses import dataclass
-import re
 from typing import Any, Mapping, Optional
 
 import numpy as np
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.planning import (ExperimentPlan, PlanConfig, plan_experiment,
-                                                    trajectory_points, TrajectoryPoints)
+from robot_wear_monitor.experiment.planning import (ExperimentPlan, PlanConfig, PlanError,
+                                                    plan_experiment, trajectory_points,
+                                                    TrajectoryPoints)
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring.service import DiagnosticReport
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
@@ -165,25 +165,24 @@ def runner_config(values: Mapping[str, Any], *, source: str = '<parameters>') ->
                         pause_between_joints_s=float(values['pause_between_joints_s']))
 
 
-#: Planning errors -> (the node parameter to change, what to do), by a phrase of the error.
-_PLAN_ERRORS = (
-    ('wider than the window', 'half_ranges_rad',
-     'raise half_ranges_rad, or raise target_std_error or lower min_plateau_s'),
-    ('beyond its limits', 'position_lower_limits_rad',
-     'raise max_acceleration_rad_s2 or move posture_rad away from the limit'),
-    ('above its limit', 'speeds_rad_s', 'lower speeds_rad_s or raise max_speed_rad_s'),
-)
+#: PlanConfig field at fault -> (the node parameter to change, what to do).
+_PLAN_ERRORS = {
+    'half_range_rad': ('half_ranges_rad',
+                       'raise half_ranges_rad, or raise target_std_error or lower min_plateau_s'),
+    'position_limits_rad': ('position_lower_limits_rad',
+                            'raise max_acceleration_rad_s2 or move posture_rad away from the '
+                            'limit'),
+    'max_speed_rad_s': ('speeds_rad_s', 'lower speeds_rad_s or raise max_speed_rad_s'),
+}
 
 
 def _plan_error(error: InputError, joint: str, source: str) -> ParameterError:
     """Return a planning error as a one-line parameter error (the node's words, not the CLI's)."""
+    if isinstance(error, PlanError) and error.field in _PLAN_ERRORS:
+        name, hint = _PLAN_ERRORS[error.field]
+        return _fail(source, name, f'{joint}: {error.detail} ({hint})')
     text = str(error).splitlines()[0]
-    text = re.sub(r'^plan: ', '', text)
-    text = re.sub(r'\s*\([^()]*\)\s*$', '', text)  # the planner's hint: ours replaces it
-    for phrase, name, hint in _PLAN_ERRORS:
-        if phrase in text:
-            return _fail(source, name, f'{joint}: {text} ({hint})')
-    return _fail(source, 'joints', f'{joint}: {text}')
+    return _fail(source, 'joints', f'{joint}: {text.removeprefix("plan: ")}')
 
 
 @dataclass(frozen=True)

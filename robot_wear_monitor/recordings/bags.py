@@ -602,6 +602,10 @@ class Recovery:
     reason: str
 
 
+#: The JointState schema name as MCAP writers spell it, with or without ``/msg/``.
+_JOINT_STATE_SCHEMA = JOINT_STATE_TYPE.replace('/msg/', '/')
+
+
 def _unfinished_mcap_files(path: Path) -> tuple[list[Path], str] | None:
     """Return the MCAP files of a recording rosbags cannot open as a bag, and why; else None."""
     if path.is_file() and path.suffix == '.mcap':
@@ -613,14 +617,15 @@ def _unfinished_mcap_files(path: Path) -> tuple[list[Path], str] | None:
     return None
 
 
-def _iter_unfinished_mcap(files: Sequence[Path], topic: str, state: dict
+def _iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: dict
                           ) -> Iterator[bytes]:
     """Yield the CDR bytes of every complete message on ``topic``, record by record.
 
     A recorder killed mid-write leaves an MCAP without summary and footer, often with a cut
     chunk at the end; the mcap stream reader reads the file record by record, and reading stops
     at the first incomplete record.  ``state`` receives ``count``, ``last_ns``, ``cut`` and the
-    channel types seen (``types``).
+    channel types seen (``types``).  A channel of ``topic`` of another type than JointState
+    raises BagError when it appears.
     """
     from mcap.exceptions import McapError
     from mcap.records import Channel, Footer, Message, Schema
@@ -635,7 +640,12 @@ def _iter_unfinished_mcap(files: Sequence[Path], topic: str, state: dict
                         schemas[record.id] = record.name
                     elif isinstance(record, Channel):
                         channels[record.id] = record.topic
-                        state['types'][record.topic] = schemas.get(record.schema_id, '')
+                        msgtype = schemas.get(record.schema_id, '')
+                        state['types'][record.topic] = msgtype
+                        if record.topic == topic and msgtype and \
+                                msgtype.replace('/msg/', '/') != _JOINT_STATE_SCHEMA:
+                            raise BagError(f'{path}: topic {topic} has type {msgtype}, '
+                                           f'expected {JOINT_STATE_TYPE}')
                     elif isinstance(record, Message):
                         if channels.get(record.channel_id) == topic:
                             state['count'] += 1
@@ -645,19 +655,10 @@ def _iter_unfinished_mcap(files: Sequence[Path], topic: str, state: dict
                         break
                 else:
                     state['cut'] = True
+        except BagError:
+            raise
         except (McapError, EOFError, struct.error, ValueError, OSError):
             state['cut'] = True  # the incomplete record at the cut
-
-
-def _unfinished_source(path: Path, topic: str, files: list[Path], reason: str, state: dict
-                       ) -> Iterator[bytes]:
-    """Check the topic's type on the fly and yield its messages (see _iter_unfinished_mcap)."""
-    for raw in _iter_unfinished_mcap(files, topic, state):
-        msgtype = state['types'].get(topic, '')
-        if msgtype and msgtype.replace('/msg/', '/') != JOINT_STATE_TYPE.replace('/msg/', '/'):
-            raise BagError(f'{path}: topic {topic} has type {msgtype}, expected '
-                           f'{JOINT_STATE_TYPE}')
-        yield raw
 
 
 def read_joint_samples(path: str | os.PathLike, *, joint: str,
@@ -696,7 +697,7 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
                                      reader.messages(connections=connections))
         else:
             total = 0
-            source = _unfinished_source(bag, topic, unfinished[0], unfinished[1], state)
+            source = _iter_unfinished_mcap(bag, unfinished[0], topic, state)
         chunk: list[bytes] = []
         try:
             for raw in source:
