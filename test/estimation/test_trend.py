@@ -198,3 +198,46 @@ def test_bad_inputs_are_rejected():
         TrendConfig(wear_grid=[0.0, 2.0, 1.0])
     with pytest.raises(InputError):
         TrendConfig(threshold=200.0)
+
+
+def _forward_forecast(trend):
+    """Propagate p(r, w) step by step without data (the definition; the reference)."""
+    flt = trend._filter
+    cfg = trend.config
+    prob = flt.prob[0].copy()
+    step = flt.rate_transition(np.ones(1))[0].T
+    shift = flt.rates / flt.step
+    whole = np.floor(shift).astype(int)
+    frac = shift - whole
+    g = flt.grid.size
+    lo, hi = flt.wear_edges[:-1], flt.wear_edges[1:]
+    above = np.clip((hi - cfg.threshold) / (hi - lo), 0.0, 1.0)
+    out = [float(prob.sum(axis=0) @ above)]
+    for _ in range(cfg.forecast_horizon):
+        mixed = step @ prob
+        moved = np.zeros_like(mixed)
+        cells = np.arange(g)
+        for j in range(mixed.shape[0]):  # scatter every cell's mass to its two targets
+            np.add.at(moved[j], np.minimum(cells + whole[j], g - 1),
+                      (1.0 - frac[j]) * mixed[j])
+            np.add.at(moved[j], np.minimum(cells + whole[j] + 1, g - 1), frac[j] * mixed[j])
+        prob = moved
+        out.append(float(prob.sum(axis=0) @ above))
+    return np.maximum.accumulate(np.array(out))
+
+
+@pytest.mark.parametrize('slope', [0.0, 0.4, 1.5])
+def test_forecast_equals_the_step_by_step_propagation(slope):
+    rng = np.random.default_rng(7)
+    trend = WearTrend()
+    grid = trend.config.wear_grid
+    for k in range(12):
+        wear = slope * k + rng.normal(0.0, 2.0)
+        trend.update(time_s=3600.0 * k, log_likelihood=-0.5 * ((grid - wear) / 4.0) ** 2,
+                     forecast=False)
+    fast = trend._forecast()
+    reference = _forward_forecast(trend)
+    assert fast.size >= 2
+    np.testing.assert_allclose(fast, reference[:fast.size], atol=1e-12)
+    if fast.size < reference.size:  # stopped at the first value the quantiles need
+        assert fast[-1] >= 0.975 > fast[-2]
