@@ -36,11 +36,22 @@ def _stribeck(speed: FloatArray, stribeck_speed: ArrayLike, alpha: float) -> tup
     return np.exp(-power), power
 
 
-def load_sensitivity(speed: ArrayLike, model: FrictionModel) -> FloatArray:
-    """Return m(v) = d tau_f / d load of eq. (14): F_c,tl + F_s,tl exp(-|v/phi_s,tl|^alpha)."""
-    v = np.asarray(speed, dtype=float)
-    decay, _ = _stribeck(v, model.phi_s_load, model.alpha)
+def _paper_load_sensitivity(speed: FloatArray, model: FrictionModel) -> FloatArray:
+    decay, _ = _stribeck(speed, model.phi_s_load, model.alpha)
     return model.f_c_load + model.f_s_load * decay
+
+
+def load_sensitivity(speed: ArrayLike, model: FrictionModel) -> FloatArray:
+    """Return m(v) = d tau_f / d load of eq. (14): F_c,tl + F_s,tl exp(-|v/phi_s,tl|^alpha).
+
+    With added terms in load, their load derivative at the extension's default load and
+    temperature is added (exact for terms linear in load).
+    """
+    v = np.asarray(speed, dtype=float)
+    m = _paper_load_sensitivity(v, model)
+    if model.extension is not None:
+        m = m + model.extension.load_sensitivity(v)
+    return m
 
 
 def nominal_friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
@@ -60,11 +71,14 @@ def nominal_friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
     v = np.asarray(speed, dtype=float)
     tl = np.asarray(load, dtype=float)
     t = np.asarray(temperature, dtype=float)
-    load_term = model.f_c0 + tl * load_sensitivity(v, model)
+    load_term = model.f_c0 + tl * _paper_load_sensitivity(v, model)
     decay, _ = _stribeck(v, model.phi_s0 + model.phi_s_temp * t, model.alpha)
     stribeck_term = (model.f_s0 + model.f_s_temp * t) * decay
     viscous_term = (model.f_v0 + model.f_v_temp * np.exp(-t / model.t_v0)) * v
-    return load_term + stribeck_term + viscous_term
+    value = load_term + stribeck_term + viscous_term
+    if model.extension is not None:
+        value = value + model.extension.nominal(v, tl, t)
+    return value
 
 
 def wear_friction(speed: ArrayLike, wear: ArrayLike, model: FrictionModel) -> FloatArray:
@@ -73,7 +87,10 @@ def wear_friction(speed: ArrayLike, wear: ArrayLike, model: FrictionModel) -> Fl
     w = np.asarray(wear, dtype=float)
     decay, _ = _stribeck(v, model.phi_s_wear * w, model.alpha)
     decay = np.where(w > 0, decay, 0.0)
-    return model.f_s_wear * w * decay + model.f_v_wear * w * v
+    value = model.f_s_wear * w * decay + model.f_v_wear * w * v
+    if model.extension is not None and model.extension.wear_terms():
+        value = value + model.extension.wear(v, w)
+    return value
 
 
 def friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike, wear: ArrayLike,
@@ -87,7 +104,7 @@ def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: Arra
     """Return the complete model (8) and its analytic derivatives in T [1/degC], w and load."""
     v, tl, t, w = np.broadcast_arrays(*(np.asarray(a, dtype=float)
                                         for a in (speed, load, temperature, wear)))
-    m = load_sensitivity(v, model)
+    m = _paper_load_sensitivity(v, model)
 
     stribeck_speed = model.phi_s0 + model.phi_s_temp * t
     decay_t, power_t = _stribeck(v, stribeck_speed, model.alpha)
@@ -109,6 +126,12 @@ def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: Arra
     value = (model.f_c0 + tl * m + amplitude_t * decay_t
              + (model.f_v0 + model.f_v_temp * viscous_decay) * v
              + model.f_s_wear * w * decay_w + model.f_v_wear * w * v)
+    if model.extension is not None:
+        added, slopes = model.extension.with_gradients(v, tl, t, w)
+        value = value + added
+        d_temperature = d_temperature + slopes['temperature']
+        d_wear = d_wear + slopes['wear']
+        m = m + slopes['load']
     return FrictionWithGradients(friction=value, d_temperature=d_temperature, d_wear=d_wear,
                                  d_load=m)
 

@@ -21,6 +21,8 @@ from typing import Any, Mapping
 import yaml
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.extensions import (extension_from_mapping, extension_to_mapping,
+                                                 ExtensionError, ModelExtension)
 
 PACKAGE_NAME = 'robot_wear_monitor'
 DEFAULT_PARAMETER_FILE = 'irb6620_joint2.yaml'
@@ -35,7 +37,9 @@ class FrictionModel:
     """Coefficients of the complete friction model (8) = nominal (5) + wear profile (7).
 
     Units: torques normalised; speeds motor side [rad/s]; temperatures [degC]; wear w is the
-    dimensionless wear level of the paper (0 = new, 100 = failure).
+    dimensionless wear level of the paper (0 = new, 100 = failure).  ``extension`` holds the
+    terms an audit added (optional section ``added_terms`` of the YAML file, see
+    :mod:`robot_wear_monitor.model.extensions`); None for the paper's model.
     """
 
     f_c0: float
@@ -53,6 +57,7 @@ class FrictionModel:
     f_s_wear: float
     f_v_wear: float
     phi_s_wear: float
+    extension: ModelExtension | None = None
 
 
 @dataclass(frozen=True)
@@ -93,6 +98,8 @@ _MODEL_SECTIONS = {
                       'phi_s0', 'phi_s_load', 'phi_s_temp', 't_v0', 'alpha'),
     'wear_model': ('f_s_wear', 'f_v_wear', 'phi_s_wear'),
 }
+#: Optional section of the terms an audit added (model/extensions.py).
+_EXTENSION_SECTION = 'added_terms'
 # section -> {yaml key: ParameterSet field}
 _SCALAR_SECTIONS = {
     'noise': {'sigma': 'sigma'},
@@ -188,7 +195,7 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
     if not isinstance(document, Mapping):
         raise ParameterError(
             f'{source}: expected a mapping at the top level, got {type(document).__name__}')
-    known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS}
+    known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS, _EXTENSION_SECTION}
     extra = sorted(set(document) - known)
     if extra:
         raise ParameterError(f'{source}: unknown section {extra[0]!r}')
@@ -202,8 +209,14 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
     for key, mapping in _SCALAR_SECTIONS.items():
         values = _section(document, key, tuple(mapping), source)
         scalars.update({mapping[k]: v for k, v in values.items()})
-    params = ParameterSet(name=name, model=FrictionModel(**coefficients), source=source,
-                          **scalars)
+    extension = None
+    if document.get(_EXTENSION_SECTION) is not None:
+        try:
+            extension = extension_from_mapping(document[_EXTENSION_SECTION], _EXTENSION_SECTION)
+        except ExtensionError as error:
+            raise ParameterError(f'{source}: {error}') from None
+    params = ParameterSet(name=name, model=FrictionModel(**coefficients, extension=extension),
+                          source=source, **scalars)
     _check_constraints(params, source)
     return params
 
@@ -258,3 +271,26 @@ def load_parameter_set(path: str | os.PathLike | None = None) -> ParameterSet:
     except yaml.YAMLError as error:
         raise ParameterError(f'{source}: not valid YAML: {error}'.splitlines()[0]) from None
     return parameter_set_from_mapping(document, source=source)
+
+
+def parameter_set_to_mapping(params: ParameterSet) -> dict:
+    """Return the YAML-ready document of a parameter set (what :func:`load_parameter_set` reads).
+
+    The ``added_terms`` section is written only when the model has added terms.
+    """
+    document: dict[str, Any] = {'name': params.name}
+    for key, names in _MODEL_SECTIONS.items():
+        document[key] = {n: float(getattr(params.model, n)) for n in names}
+    for key, mapping in _SCALAR_SECTIONS.items():
+        document[key] = {k: float(getattr(params, f)) for k, f in mapping.items()}
+    if params.model.extension is not None and params.model.extension.terms:
+        document[_EXTENSION_SECTION] = extension_to_mapping(params.model.extension)
+    return document
+
+
+def parameter_set_yaml_text(params: ParameterSet, *, header: str = '') -> str:
+    """Return a parameter set as YAML text (``header`` lines are written as comments first)."""
+    comments = ''.join(f'# {line}\n' if line else '#\n' for line in header.splitlines())
+    body = yaml.safe_dump(parameter_set_to_mapping(params), sort_keys=False,
+                          default_flow_style=None, width=99)
+    return comments + body
