@@ -1,4 +1,4 @@
-"""Bag rates: write, raw rosbags iteration, our fast reader, per-message deserialisation."""
+"""Bag rates: write, rosbags raw iteration, our reader (one joint, all joints), deserialising."""
 
 from pathlib import Path
 import tempfile
@@ -6,7 +6,8 @@ import time
 
 from rosbags.rosbag2 import Reader
 
-from robot_wear_monitor.recordings.bags import (JOINT_STATE_TYPE, read_joint_samples, TYPESTORE,
+from robot_wear_monitor.recordings.bags import (iter_joint_chunks, JOINT_STATE_TYPE,
+                                                read_joint_samples, TYPESTORE,
                                                 write_joint_state_bag)
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
 
@@ -37,6 +38,10 @@ def main() -> None:
         samples = read_joint_samples(bag, joint=scenario.joint)
         fast = time.perf_counter() - start
         start = time.perf_counter()
+        stream = iter_joint_chunks(bag, joints=None)
+        samples_all = sum(len(part) for chunk in stream for part in chunk.values())
+        every = time.perf_counter() - start
+        start = time.perf_counter()
         with Reader(bag) as reader:
             for _, _, data in reader.messages():
                 TYPESTORE.deserialize_cdr(data, JOINT_STATE_TYPE)
@@ -44,6 +49,9 @@ def main() -> None:
         print(f'rosbags raw iteration:      {_rate(count, raw)}')
         print(f'read_joint_samples (ours):  {_rate(samples.message_count, fast)} '
               f'({fast / raw:.2f} x raw)')
+        print(f'iter_joint_chunks (all {len(stream.joints_seen)} joints): '
+              f'{_rate(stream.message_count, every)} ({every / raw:.2f} x raw, '
+              f'{samples_all} joint samples)')
         print(f'deserialize_cdr per msg:    {_rate(count, plain)} ({plain / raw:.2f} x raw)')
 
 

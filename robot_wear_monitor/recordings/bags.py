@@ -39,7 +39,6 @@ from rosbags.typesys import get_typestore, Stores
 
 from robot_wear_monitor.atomic_files import remove_stale_partials
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.segmentation import pick_joint
 
 FloatArray = NDArray[np.float64]
 
@@ -49,7 +48,6 @@ JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'
 JOINT_STATES_TOPIC = '/joint_states'
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 BAG_VERSION = 9
-_MAX_LAYOUTS = 64
 
 
 class BagError(InputError):
@@ -352,7 +350,9 @@ class JointSamples:
         effort: efforts (as recorded).
         message_count: JointState messages on the topic.
         recovery: set when the recording was unfinished and read up to its cut.
-        rejections: messages not used, reason -> count (reasons of ``pick_joint``).
+        rejections: messages not used, reason -> count (:data:`READER_REASONS`).
+        zero_stamps: messages whose header stamp is zero (read at their bag receive time).
+        notes: one-line remarks on the reading (the zero-stamp fallback, said once).
 
     """
 
@@ -363,6 +363,8 @@ class JointSamples:
     message_count: int
     rejections: Counter = field(default_factory=Counter)
     recovery: Optional['Recovery'] = None
+    zero_stamps: int = 0
+    notes: list[str] = field(default_factory=list)
 
 
 def _open_reader(path: str | os.PathLike) -> Reader:
@@ -440,101 +442,6 @@ def iter_recorded_messages(path: str | os.PathLike, *, topics: Sequence[str]
             raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
     finally:
         reader.close()
-
-
-def _layout_reason(layout: _Layout, joint: str) -> str | int:
-    """Return the joint's index in a layout, or the reason the layout's messages are unusable."""
-    if joint not in layout.names:
-        return 'joint_missing'
-    n = len(layout.names)
-    counts = [count for _, count in layout.arrays]
-    for reason, count in zip(('missing_position', 'missing_velocity', 'missing_effort'),
-                             counts):
-        if count == 0:
-            return reason
-    if any(count != n for count in counts):
-        return 'length_mismatch'
-    return layout.names.index(joint)
-
-
-class _ChunkDecoder:
-    """Decode one joint from chunks of raw JointState messages, grouping them by layout."""
-
-    def __init__(self, joint: str) -> None:
-        self.joint = joint
-        self.layouts: list[tuple[_Layout, NDArray[np.uint8], str | int]] = []
-        self.rejections: Counter = Counter()
-        self.seen_joint = False
-        self.parts: list[tuple[FloatArray, FloatArray]] = []  # (time (m,), values (3, m))
-
-    def decode(self, raws: list[bytes]) -> None:
-        count = len(raws)
-        time_s = np.full(count, np.nan)
-        values = np.full((3, count), np.nan)
-        used = np.zeros(count, dtype=bool)
-        sizes = np.fromiter((len(r) for r in raws), dtype=np.int64, count=count)
-        pending = np.ones(count, dtype=bool)
-        known = 0
-        blocks: dict[int, tuple[NDArray[np.int64], NDArray[np.uint8]]] = {}
-        while pending.any():
-            if known < len(self.layouts):
-                layout, reference, reason = self.layouts[known]
-                known += 1
-            elif len(self.layouts) < _MAX_LAYOUTS:
-                first = int(np.argmax(pending))
-                try:
-                    layout = _parse_layout(raws[first])
-                except (ValueError, struct.error, UnicodeDecodeError):
-                    self.rejections['malformed'] += 1
-                    pending[first] = False
-                    continue
-                reference = np.frombuffer(bytes(raws[first]), dtype=np.uint8)
-                reason = _layout_reason(layout, self.joint)
-                self.seen_joint = self.seen_joint or self.joint in layout.names
-                self.layouts.append((layout, reference, reason))
-                known += 1
-            else:
-                break
-            if layout.size not in blocks:
-                rows = np.flatnonzero(sizes == layout.size)
-                data = b''.join([raws[i] for i in rows])
-                blocks[layout.size] = rows, np.frombuffer(data, np.uint8).reshape(rows.size, -1)
-            rows, block = blocks[layout.size]
-            same = pending[rows]
-            for start, stop in layout.structure_ranges():
-                same &= np.all(block[:, start:stop] == reference[start:stop], axis=1)
-            if not same.any():
-                continue
-            mine, block_mine = rows[same], block[same]
-            pending[mine] = False
-            if isinstance(reason, str):
-                self.rejections[reason] += mine.size
-                continue
-            end = '<' if layout.little else '>'
-            sec = np.ascontiguousarray(block_mine[:, 4:8]).view(end + 'i4').ravel()
-            nanosec = np.ascontiguousarray(block_mine[:, 8:12]).view(end + 'u4').ravel()
-            time_s[mine] = sec + nanosec * 1e-9
-            for k, (offset, _) in enumerate(layout.arrays):
-                first_byte = offset + 8 * reason
-                values[k, mine] = np.ascontiguousarray(
-                    block_mine[:, first_byte:first_byte + 8]).view(end + 'f8').ravel()
-            used[mine] = True
-        for i in np.flatnonzero(pending):  # too many layouts: one by one
-            try:
-                stamp, _, names, position, velocity, effort = decode_joint_state(raws[i])
-            except BagError:
-                self.rejections['malformed'] += 1
-                continue
-            picked = pick_joint(name=names, position=position, velocity=velocity,
-                                effort=effort, joint=self.joint)
-            self.seen_joint = self.seen_joint or self.joint in names
-            if isinstance(picked, str):
-                self.rejections[picked] += 1
-                continue
-            time_s[i] = stamp
-            values[:, i] = picked
-            used[i] = True
-        self.parts.append((time_s[used], values[:, used]))
 
 
 # --------------------------------------------------------------------------- scalar topics
@@ -618,8 +525,8 @@ def _unfinished_mcap_files(path: Path) -> tuple[list[Path], str] | None:
 
 
 def _iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: dict
-                          ) -> Iterator[bytes]:
-    """Yield the CDR bytes of every complete message on ``topic``, record by record.
+                          ) -> Iterator[tuple[int, bytes]]:
+    """Yield (log time [ns], CDR bytes) of every complete message on ``topic``, in order.
 
     A recorder killed mid-write leaves an MCAP without summary and footer, often with a cut
     chunk at the end; the mcap stream reader reads the file record by record, and reading stops
@@ -650,7 +557,7 @@ def _iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: 
                         if channels.get(record.channel_id) == topic:
                             state['count'] += 1
                             state['last_ns'] = max(state['last_ns'], record.log_time)
-                            yield record.data
+                            yield record.log_time, record.data
                     elif isinstance(record, Footer):
                         break
                 else:
@@ -661,15 +568,506 @@ def _iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: 
             state['cut'] = True  # the incomplete record at the cut
 
 
+# --------------------------------------------------------------------------- multi-joint reader
+
+#: Message rejection reasons of the reader, per joint, in the order they are checked.  They are
+#: the message reasons of :func:`robot_wear_monitor.experiment.segmentation.pick_joint` plus
+#: ``malformed`` (bytes that are no JointState).  Non-finite values are passed on (the segmenter
+#: counts them as ``non_finite``).
+READER_REASONS = ('malformed', 'joint_missing', 'missing_position', 'missing_velocity',
+                  'missing_effort', 'length_mismatch')
+#: Layouts remembered by one stream (cleared when exceeded: a bag whose every message differs).
+_MAX_LAYOUTS = 4096
+
+
+def _layout_reason(layout: _Layout) -> str | None:
+    """Return the reason no joint of a layout can be used (empty or short arrays), else None."""
+    n = len(layout.names)
+    counts = [count for _, count in layout.arrays]
+    for reason, count in zip(('missing_position', 'missing_velocity', 'missing_effort'),
+                             counts):
+        if count == 0:
+            return reason
+    if any(count != n for count in counts):
+        return 'length_mismatch'
+    return None
+
+
+@dataclass
+class JointChunk:
+    """One joint's usable samples of one chunk of messages, in bag order; shape (m,).
+
+    Attributes:
+        time_s: header stamps [s] (the bag receive time where the header stamp is zero).
+        position_rad: joint positions [rad].
+        velocity_rad_s: joint velocities [rad/s].
+        effort: efforts (as recorded).
+
+    """
+
+    time_s: FloatArray
+    position_rad: FloatArray
+    velocity_rad_s: FloatArray
+    effort: FloatArray
+
+    def __len__(self) -> int:
+        """Return the number of samples."""
+        return int(self.time_s.size)
+
+
+def _record_size(size: int) -> int:
+    """Bytes per message in a decoding block: 4 bytes before, padding to a multiple of 8."""
+    return 4 + size + (-(size + 4)) % 8
+
+
+def _padded(raw: bytes | memoryview) -> NDArray[np.uint64]:
+    """Return one message as the 8-byte words of its record in a decoding block."""
+    size = len(raw)
+    data = bytes(4) + bytes(raw) + bytes(_record_size(size) - 4 - size)
+    return np.frombuffer(data, dtype='<u8')
+
+
+class _Known:
+    """A parsed layout: the words that identify it, its joints and its message tally.
+
+    In a decoding block every message starts 4 bytes into an 8-byte word, so that CDR's
+    8-byte alignment (counted from after the 4-byte encapsulation header) falls on words: the
+    stamp is word 1 and every float is one word.  The other words identify the layout.
+    """
+
+    __slots__ = ('layout', 'words', 'reference', 'reason', 'index', 'count', 'end')
+
+    def __init__(self, layout: _Layout, raw: bytes | memoryview) -> None:
+        self.layout = layout
+        skip = {1}
+        for offset, count in layout.arrays:
+            if count:
+                first = (offset + 4) // 8
+                skip.update(range(first, first + count))
+        self.words = np.array([w for w in range(_record_size(layout.size) // 8)
+                               if w not in skip], dtype=np.int64)
+        self.reference = _padded(raw)[self.words]
+        self.reason = _layout_reason(layout)
+        self.index: dict[str, int] = {}
+        for i, name in enumerate(layout.names):
+            self.index.setdefault(name, i)
+        self.count = 0
+        self.end = '<' if layout.little else '>'
+
+    def key(self) -> tuple[int, bytes, bytes]:
+        """Return the identity of the layout: size, identifying words and their bytes."""
+        return self.layout.size, self.words.tobytes(), self.reference.tobytes()
+
+
+class _MultiDecoder:
+    """Decode the joints of chunks of raw JointState messages, grouping them by layout.
+
+    Messages of the same size are compared word-wise, outside the stamp and the float arrays,
+    with the recent layouts of that size; the rest are grouped by those words (``np.unique``)
+    and one message per new group is parsed.  Every joint of a layout is read in one pass.
+    """
+
+    def __init__(self, joints: Sequence[str] | None) -> None:
+        self.requested = None if joints is None else list(dict.fromkeys(joints))
+        self.seen: dict[str, None] = {}          # joint names in the order first seen
+        self.known: list[_Known] = []            # every layout met (for the tallies)
+        self.by_size: dict[int, list[_Known]] = {}
+        self.by_key: dict[tuple[int, bytes, bytes], _Known] = {}
+        self.malformed = 0
+        self.zero_stamps = 0
+        self.messages = 0
+        self._forgotten: Counter = Counter()     # tallies of forgotten layouts
+
+    # -- layouts
+
+    def _lookup(self, raw: bytes | memoryview) -> _Known | None:
+        """Return the layout of one message (parsing it when new), None if malformed."""
+        try:
+            layout = _parse_layout(raw)
+        except (ValueError, struct.error, UnicodeDecodeError):
+            return None
+        known = _Known(layout, raw)
+        found = self.by_key.get(known.key())
+        if found is None:
+            if len(self.known) >= _MAX_LAYOUTS:
+                self._forget()
+            found = known
+            self.known.append(known)
+            self.by_key[known.key()] = known
+            for name in layout.names:
+                if name not in self.seen:
+                    self.seen[name] = None
+        recent = self.by_size.setdefault(layout.size, [])
+        if found not in recent:
+            recent.insert(0, found)
+            del recent[4:]
+        return found
+
+    def _forget(self) -> None:
+        """Fold the tallies of the remembered layouts into ``_forgotten`` and forget them."""
+        for known in self.known:
+            self._forgotten[(tuple(known.index), known.reason)] += known.count
+        self.known, self.by_size, self.by_key = [], {}, {}
+
+    # -- tallies
+
+    def rejections(self) -> dict[str, Counter]:
+        """Return joint -> Counter(reason -> messages) for the requested or seen joints."""
+        joints = self.requested if self.requested is not None else list(self.seen)
+        result = {joint: Counter() for joint in joints}
+        tallies = Counter(self._forgotten)
+        for known in self.known:
+            tallies[(tuple(known.index), known.reason)] += known.count
+        present: Counter = Counter()
+        for (names, reason), count in tallies.items():
+            for joint in names:
+                present[joint] += count
+                if reason is not None and joint in result:
+                    result[joint][reason] += count
+        parsed = self.messages - self.malformed
+        for joint, counter in result.items():
+            if self.malformed:
+                counter['malformed'] += self.malformed
+            if parsed - present[joint]:
+                counter['joint_missing'] += parsed - present[joint]
+        return result
+
+    # -- decoding
+
+    def decode(self, raws: list, receive_ns: list[int]) -> dict[str, JointChunk]:
+        """Decode one chunk; return joint -> its samples of the chunk, in bag order."""
+        count = len(raws)
+        self.messages += count
+        time_s = np.zeros(count)
+        receive = None
+        sizes = np.fromiter(map(len, raws), dtype=np.int64, count=count)
+        columns: dict[str, tuple[FloatArray, NDArray[np.bool_]]] = {}
+        order = np.argsort(sizes, kind='stable')
+        bounds = np.flatnonzero(np.diff(sizes[order])) + 1
+        for rows in np.split(order, bounds):
+            size = int(sizes[rows[0]])
+            record = _record_size(size)
+            after = bytes(record - 4 - size)
+            data = bytes(4) + (after + bytes(4)).join([raws[i] for i in rows.tolist()]) + after
+            words = np.frombuffer(data, dtype='<u8').reshape(rows.size, record // 8)
+            for known, mine in self._match(raws, rows, words, size):
+                known.count += int(mine.size)
+                if known.reason is not None:
+                    continue
+                end = known.end
+                # the common case, every message of the chunk in one layout: slices, no copies
+                if mine.size == rows.size:
+                    mine = slice(None)
+                    where = slice(None) if rows.size == count else rows
+                else:
+                    where = rows[mine]
+                ints = np.frombuffer(data, dtype=end + 'u4').reshape(rows.size, record // 4)
+                sec = ints[mine, 2].view(end + 'i4')
+                nanosec = ints[mine, 3]
+                stamp = sec + nanosec * 1e-9
+                zero = (sec == 0) & (nanosec == 0)
+                if zero.any():
+                    if receive is None:
+                        receive = np.asarray(receive_ns, dtype=np.int64)
+                    self.zero_stamps += int(np.count_nonzero(zero))
+                    stamp[zero] = receive[where][zero] * 1e-9
+                time_s[where] = stamp
+                names = [name for name in known.index
+                         if self.requested is None or name in self.requested]
+                if not names:
+                    continue
+                floats = np.frombuffer(data, dtype=end + 'f8').reshape(rows.size, record // 8)
+                firsts = [(offset + 4) // 8 for offset, _ in known.layout.arrays]
+                for name in names:
+                    if name not in columns:
+                        columns[name] = (np.full((3, count), np.nan),
+                                         np.zeros(count, dtype=bool))
+                    values, used = columns[name]
+                    j = known.index[name]
+                    for k in range(3):
+                        values[k, where] = floats[mine, firsts[k] + j]
+                    used[where] = True
+        joints = self.requested if self.requested is not None else list(self.seen)
+        chunk = {}
+        for name in joints:
+            if name in columns:
+                values, used = columns[name]
+                chunk[name] = JointChunk(time_s=time_s[used], position_rad=values[0, used],
+                                         velocity_rad_s=values[1, used],
+                                         effort=values[2, used])
+            else:
+                chunk[name] = JointChunk(time_s=np.zeros(0), position_rad=np.zeros(0),
+                                         velocity_rad_s=np.zeros(0), effort=np.zeros(0))
+        return chunk
+
+    def _match(self, raws: list, rows: NDArray[np.int64], words: NDArray[np.uint64],
+               size: int) -> Iterator[tuple[_Known, NDArray[np.int64]]]:
+        """Yield (layout, indices into ``rows``) for the messages of one size."""
+        pending = np.ones(rows.size, dtype=bool)
+        for known in list(self.by_size.get(size, ())):  # the recent layouts of this size
+            same = np.all(words[:, known.words] == known.reference, axis=1) & pending
+            if same.any():
+                pending &= ~same
+                yield known, np.flatnonzero(same)
+                if not pending.any():
+                    return
+        while pending.any():
+            first = int(np.argmax(pending))
+            known = self._lookup(raws[int(rows[first])])
+            if known is None:
+                self.malformed += 1
+                pending[first] = False
+                continue
+            left = np.flatnonzero(pending)
+            keys = np.ascontiguousarray(words[np.ix_(left, known.words)])
+            groups = keys.view(np.dtype((np.void, 8 * keys.shape[1]))).ravel()
+            _, firsts, inverse = np.unique(groups, return_index=True, return_inverse=True)
+            inverse = inverse.ravel()
+            # the first pending message's group first; at most 256 more groups per round (a
+            # bag of same-size messages of other layouts waits for later rounds)
+            for g in [int(inverse[0])] + [g for g in range(min(firsts.size, 257))
+                                          if g != inverse[0]][:256]:
+                member = left[inverse == g]
+                found = self.by_key.get((size, known.words.tobytes(),
+                                         keys[firsts[g]].tobytes()))
+                if found is None:
+                    found = self._lookup(raws[int(rows[member[0]])])
+                    if found is None:
+                        self.malformed += 1
+                        pending[member[0]] = False
+                        continue
+                    if not np.array_equal(found.words, known.words):
+                        continue  # another layout of the same size: a later round
+                pending[member] = False
+                yield found, member
+
+
+class JointStream:
+    """Chunks of the samples of several joints of a bag; see :func:`iter_joint_chunks`.
+
+    Iterating yields one ``dict`` per chunk of messages: joint name -> :class:`JointChunk`
+    (the samples of that joint in the chunk, in bag order; empty arrays when the chunk has
+    none).  The keys are the requested joints, or with ``joints=None`` every joint seen so far
+    in the order first seen.  Only one chunk is held at a time.
+
+    Attributes (complete after the iteration; updated chunk by chunk):
+        path: the bag.
+        topic: the topic read.
+        joints: the requested joints (None: every joint seen).
+        message_count: messages on the topic read so far.
+        total_messages: the topic's message count from the bag metadata (0 when unknown).
+        rejections: joint -> Counter(reason -> messages), reasons of :data:`READER_REASONS`.
+        joints_seen: names of every joint in any message, in the order first seen.
+        zero_stamps: messages whose header stamp is zero (their bag receive time is used).
+        stamp_source: ``'header'``, ``'receive_time'`` (every stamp was zero) or ``'mixed'``.
+        notes: one-line remarks on the reading (the zero-stamp fallback, said once).
+        recovery: a :class:`Recovery` when the recording was unfinished, else None.
+
+    """
+
+    def __init__(self, path: str | os.PathLike, *, joints: Sequence[str] | None,
+                 topic: str, chunk_messages: int,
+                 progress: Callable[[int, int], None] | None, recover: bool,
+                 require_joints: bool) -> None:
+        """Check the bag and the topic (BagError); nothing is read before iterating."""
+        if isinstance(joints, str):
+            joints = [joints]
+        if joints is not None and not joints:
+            raise BagError(f'{path}: no joint requested')
+        if int(chunk_messages) < 1:
+            raise BagError(f'{path}: chunk_messages must be >= 1, got {chunk_messages}')
+        self.path = path
+        self.topic = topic
+        self.joints = None if joints is None else list(dict.fromkeys(joints))
+        self.chunk_messages = int(chunk_messages)
+        self.progress = progress
+        self.recover = recover
+        self.require_joints = require_joints
+        self.recovery: Recovery | None = None
+        self.total_messages = 0
+        bag = Path(path)
+        self._unfinished = _unfinished_mcap_files(bag) if bag.exists() else None
+        if self._unfinished is None:
+            reader = _open_reader(path)
+            try:
+                connections = _connections(reader, path, topic)
+                self.total_messages = sum(int(getattr(c, 'msgcount', 0) or 0)
+                                          for c in connections)
+            finally:
+                reader.close()
+        self._decoder = _MultiDecoder(self.joints)
+
+    # -- figures
+
+    @property
+    def message_count(self) -> int:
+        """Messages on the topic read so far."""
+        return self._decoder.messages
+
+    @property
+    def rejections(self) -> dict[str, Counter]:
+        """Joint -> Counter(reason -> messages not usable for that joint)."""
+        return self._decoder.rejections()
+
+    @property
+    def joints_seen(self) -> list[str]:
+        """Every joint name met in a message, in the order first seen."""
+        return list(self._decoder.seen)
+
+    @property
+    def zero_stamps(self) -> int:
+        """Messages whose header stamp is zero (read at their bag receive time)."""
+        return self._decoder.zero_stamps
+
+    @property
+    def stamp_source(self) -> str:
+        """``'header'``, ``'receive_time'`` (all stamps zero) or ``'mixed'``."""
+        zero = self._decoder.zero_stamps
+        if zero == 0:
+            return 'header'
+        usable = self._decoder.messages - self._decoder.malformed
+        return 'receive_time' if zero >= usable else 'mixed'
+
+    @property
+    def notes(self) -> list[str]:
+        """One-line remarks on the reading (currently: the zero-stamp fallback)."""
+        zero = self._decoder.zero_stamps
+        if not zero:
+            return []
+        return [f'{self.path}: {zero} of {self._decoder.messages} messages on {self.topic} '
+                f'have a zero header stamp; their bag receive time is used instead']
+
+    # -- reading
+
+    def __iter__(self) -> Iterator[dict[str, JointChunk]]:
+        """Read the bag from its start (a new iteration starts over)."""
+        self._decoder = _MultiDecoder(self.joints)
+        self.recovery = None
+        path, topic = self.path, self.topic
+        unfinished = self._unfinished
+        state = {'count': 0, 'last_ns': -1, 'cut': False, 'types': {}}
+        reader = None
+        if unfinished is None:
+            reader = _open_reader(path)
+        collecting = gc.isenabled()
+        try:
+            if reader is not None:
+                connections = _connections(reader, path, topic)
+                source: Iterator[Any] = ((t, raw) for _, t, raw in
+                                         reader.messages(connections=connections))
+            else:
+                source = _iter_unfinished_mcap(Path(path), unfinished[0], topic, state)
+            total = self.total_messages
+            raws: list = []
+            stamps: list = []
+            size = self.chunk_messages
+            decoder = self._decoder
+            while True:
+                gc.disable()  # the chunk holds many small objects; the collector rescans them
+                try:
+                    for stamp, raw in source:
+                        raws.append(raw)
+                        stamps.append(stamp)
+                        if len(raws) >= size:
+                            break
+                except BagError:
+                    raise
+                except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
+                    message = str(error).splitlines()[0] if str(error) \
+                        else type(error).__name__
+                    raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+                finally:
+                    if collecting:
+                        gc.enable()
+                if not raws:
+                    break
+                chunk = decoder.decode(raws, stamps)
+                raws, stamps = [], []
+                if self.progress is not None:
+                    self.progress(decoder.messages, max(total, decoder.messages))
+                yield chunk
+        finally:
+            if reader is not None:
+                reader.close()
+        self._finish(unfinished, state)
+
+    def _finish(self, unfinished: tuple[list[Path], str] | None, state: dict) -> None:
+        """Check the end of the reading: cut recordings, absent topic, unseen joints."""
+        path, topic, decoder = self.path, self.topic, self._decoder
+        if unfinished is not None and state['cut'] and not self.recover:
+            raise BagError(f'{path}: unfinished recording ({unfinished[1]}; the last record '
+                           f'is cut); refused (strict)')
+        if unfinished is not None and topic not in state['types']:
+            topics = ', '.join(sorted(state['types'])) or 'none'
+            raise BagError(f'{path}: no topic {topic} in the unfinished recording (topics: '
+                           f'{topics})')
+        if unfinished is not None:
+            self.recovery = Recovery(
+                files=tuple(str(f) for f in unfinished[0]), messages=decoder.messages,
+                last_stamp_s=state['last_ns'] * 1e-9, complete=not state['cut'],
+                reason=unfinished[1] + ('; the last record is cut' if state['cut'] else ''))
+        if decoder.messages == 0:
+            raise BagError(f'{path}: topic {topic} has no messages')
+        missing = [j for j in self.joints or () if j not in decoder.seen]
+        if missing and self.require_joints:
+            seen = list(decoder.seen)
+            shown = ', '.join(seen[:12]) + (', ...' if len(seen) > 12 else '')
+            names = ', '.join(repr(j) for j in missing)
+            raise BagError(f'{path}: joint {names} is in no message on {topic} (joints seen: '
+                           f'{shown or "none"})')
+
+    @property
+    def joints_missing(self) -> list[str]:
+        """Requested joints that no message read so far carries."""
+        return [j for j in self.joints or () if j not in self._decoder.seen]
+
+
+def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None = None,
+                      topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
+                      progress: Callable[[int, int], None] | None = None,
+                      recover: bool = True, require_joints: bool = True) -> JointStream:
+    """Stream the samples of several joints of a bag chunk by chunk (flat memory).
+
+    Raw messages are taken from rosbags in chunks of ``chunk_messages`` and decoded with numpy
+    (see the module docstring); each chunk yields joint -> :class:`JointChunk`.  A message
+    is usable for a joint when it names the joint and its position, velocity and effort arrays
+    are as long as its names; otherwise it is counted for that joint under a reason of
+    :data:`READER_REASONS`.  A message whose header stamp is zero gets its bag receive time
+    (counted in ``zero_stamps``, said once in ``notes``).  Storage (MCAP, sqlite3) and bags
+    split into several files are rosbags' business; an unfinished MCAP recording is read up
+    to its last complete message (``recovery``, see :func:`read_joint_samples`).
+
+    Args:
+        path: the bag folder (or an unfinished recording, see :class:`Recovery`).
+        joints: the joints to read; None: every joint, as each is first seen.
+        topic: the JointState topic.
+        chunk_messages: messages per chunk.
+        progress: ``progress(read, total)`` after each chunk.
+        recover: read an unfinished recording whose end is cut (False: refuse it).
+        require_joints: raise when a requested joint is in no message (at the end of the
+            iteration); False leaves it with no samples (see ``joints_missing``).
+
+    Raises:
+        BagError: at the call, the bag is missing or unreadable, the topic is absent (the
+            message lists the topics) or has another type; during the iteration, the bag is
+            corrupt or truncated; at its end, the topic has no message, a requested joint is
+            in no message (the message lists the joints seen), or a cut recording when
+            ``recover`` is false.
+
+    """
+    return JointStream(path, joints=joints, topic=topic, chunk_messages=chunk_messages,
+                       progress=progress, recover=recover, require_joints=require_joints)
+
+
 def read_joint_samples(path: str | os.PathLike, *, joint: str,
                        topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                        progress: Callable[[int, int], None] | None = None,
                        recover: bool = True) -> JointSamples:
     """Read one joint's samples from the JointState messages of a bag (fast path).
 
-    Raw messages are taken from rosbags in chunks of ``chunk_messages`` and decoded with numpy
-    (see the module docstring).  ``progress(read, total)`` is called after each chunk with the
-    number of messages read so far and the topic's message count (for a progress bar).
+    The chunks of :func:`iter_joint_chunks` for this joint, concatenated.
+    ``progress(read, total)`` is called after each chunk with the number of messages read so
+    far and the topic's message count (for a progress bar).
 
     An unfinished recording (a bag folder with MCAP files but no ``metadata.yaml``, or an MCAP
     file given directly: what a killed recorder leaves) is read record by record up to its
@@ -681,71 +1079,17 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
             type, or no message carries the joint; a cut recording when ``recover`` is false.
 
     """
-    bag = Path(path)
-    unfinished = _unfinished_mcap_files(bag) if bag.exists() else None
-    decoder = _ChunkDecoder(joint)
-    count = 0
-    reader = None if unfinished is not None else _open_reader(path)
-    state = {'count': 0, 'last_ns': -1, 'cut': False, 'types': {}}
-    collecting = gc.isenabled()
-    gc.disable()  # the chunk holds many small objects; the collector would rescan them
-    try:
-        if reader is not None:
-            connections = _connections(reader, path, topic)
-            total = sum(int(getattr(c, 'msgcount', 0) or 0) for c in connections)
-            source: Iterator[Any] = (raw for _, _, raw in
-                                     reader.messages(connections=connections))
-        else:
-            total = 0
-            source = _iter_unfinished_mcap(bag, unfinished[0], topic, state)
-        chunk: list[bytes] = []
-        try:
-            for raw in source:
-                chunk.append(raw)
-                if len(chunk) >= chunk_messages:
-                    decoder.decode(chunk)
-                    count += len(chunk)
-                    chunk = []
-                    if progress is not None:
-                        progress(count, total)
-        except BagError:
-            raise
-        except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
-            message = str(error).splitlines()[0] if str(error) else type(error).__name__
-            raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
-        if chunk:
-            decoder.decode(chunk)
-            count += len(chunk)
-        if progress is not None:
-            progress(count, max(total, count))
-    finally:
-        if collecting:
-            gc.enable()
-        if reader is not None:
-            reader.close()
-    if unfinished is not None and state['cut'] and not recover:
-        raise BagError(f'{bag}: unfinished recording ({unfinished[1]}; the last record is '
-                       f'cut); refused (strict)')
-    if unfinished is not None and topic not in state['types']:
-        topics = ', '.join(sorted(state['types'])) or 'none'
-        raise BagError(f'{path}: no topic {topic} in the unfinished recording (topics: '
-                       f'{topics})')
-    if count == 0:
-        raise BagError(f'{path}: topic {topic} has no messages')
-    if not decoder.seen_joint:
-        seen = sorted({name for layout, _, _ in decoder.layouts for name in layout.names})
-        shown = ', '.join(seen[:12]) + (', ...' if len(seen) > 12 else '')
-        raise BagError(f'{path}: joint {joint!r} is in no message on {topic} (joints seen: '
-                       f'{shown or "none"})')
-    times = [p[0] for p in decoder.parts]
-    values = np.concatenate([p[1] for p in decoder.parts], axis=1)
-    recovery = None if unfinished is None else Recovery(
-        files=tuple(str(f) for f in unfinished[0]), messages=count,
-        last_stamp_s=state['last_ns'] * 1e-9, complete=not state['cut'],
-        reason=unfinished[1] + ('; the last record is cut' if state['cut'] else ''))
-    return JointSamples(time_s=np.concatenate(times), position_rad=values[0],
-                        velocity_rad_s=values[1], effort=values[2], message_count=count,
-                        rejections=decoder.rejections, recovery=recovery)
+    stream = iter_joint_chunks(path, joints=[joint], topic=topic,
+                               chunk_messages=chunk_messages, progress=progress,
+                               recover=recover)
+    parts = [chunk[joint] for chunk in stream]
+    return JointSamples(
+        time_s=np.concatenate([p.time_s for p in parts]),
+        position_rad=np.concatenate([p.position_rad for p in parts]),
+        velocity_rad_s=np.concatenate([p.velocity_rad_s for p in parts]),
+        effort=np.concatenate([p.effort for p in parts]), message_count=stream.message_count,
+        rejections=stream.rejections[joint], recovery=stream.recovery,
+        zero_stamps=stream.zero_stamps, notes=stream.notes)
 
 
 def iter_joint_states(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPIC
