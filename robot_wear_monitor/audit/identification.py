@@ -36,9 +36,10 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
 from robot_wear_monitor.atomic_files import write_text_atomic
+from robot_wear_monitor.audit.cross_validation import _cv_rms, _folds
 from robot_wear_monitor.audit.fitting import (
-    _as_text, _Base, _cv_rms, _fit, _folds, _multistart_fit, _nominal_base, _parameter_errors,
-    _speed_base, _wear_base, AuditTable)
+    _as_text, _Base, _fit, _multistart_fit, _nominal_base, _parameter_errors, _speed_base,
+    _wear_base, AuditTable)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, load_parameter_set,
@@ -770,7 +771,7 @@ def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds
     fewer than six distinct speeds are left out (reported in ``excluded``).  The friction unit
     is the table's (N.m for the KUKA iiwa levels); speeds in the table's unit.
     """
-    from robot_wear_monitor.audit.model_audit import _enough_speeds
+    from robot_wear_monitor.audit.run import _enough_speeds
 
     table, excluded = _enough_speeds(table, group, 'speed')
     keys = (sorted(set(_as_text(table, group).tolist())) if group is not None else ['all'])
@@ -1084,7 +1085,7 @@ def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | No
     """Return the levels with ``temperature`` and ``load`` columns, named or checked.
 
     Args:
-        table: levels read by :func:`~robot_wear_monitor.audit.model_audit.load_audit_data`.
+        table: levels read by :func:`~robot_wear_monitor.audit.data.load_audit_data`.
         role: 'BASELINE' or 'WEAR' (for messages).
         temperature_column: column holding the joint temperature [degC] (default
             ``temperature``).

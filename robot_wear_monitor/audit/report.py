@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_wear_monitor.audit.model_audit import AuditResult, AuditTable
+from robot_wear_monitor.audit.fitting import AuditTable
+from robot_wear_monitor.audit.result import AuditResult
 
 
 def _pyplot():

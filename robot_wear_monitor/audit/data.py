@@ -1,0 +1,272 @@
+"""Reading the data of an audit: level tables (CSV), raw runs, bags, into an AuditTable.
+
+Units: speeds motor side [rad/s] (link side for the KUKA raw runs), friction in the table's own
+unit (normalised for the packaged model; N.m for the KUKA data), temperature [degC].
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.audit.fitting import AuditTable
+from robot_wear_monitor.errors import InputError
+
+FloatArray = NDArray[np.float64]
+
+#: The models an audit identifies: (4) per group, (5), (8).
+MODELS = ('speed', 'nominal', 'complete')
+REQUIRED_COLUMNS = {'speed': ('speed', 'friction'),
+                    'nominal': ('speed', 'friction', 'temperature', 'load'),
+                    'complete': ('speed', 'friction', 'temperature', 'load', 'wear')}
+
+
+def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table>',
+                       model: str = 'speed') -> AuditTable:
+    """Validate a mapping of columns into an :class:`AuditTable`.
+
+    Numeric columns become float arrays; a column whose values are not all numbers is a text
+    (categorical) column.  Raises :class:`InputError` for an empty table, unequal lengths,
+    missing required columns, NaN/inf or non-positive speeds.
+    """
+    if model not in MODELS:
+        raise InputError(f'unknown model {model!r} (expected one of {", ".join(MODELS)})')
+    if not columns:
+        raise InputError(f'{source}: the table has no columns')
+    lengths = {len(v) for v in columns.values()}
+    if len(lengths) != 1:
+        raise InputError(f'{source}: columns have different lengths {sorted(lengths)}')
+    if lengths.pop() == 0:
+        raise InputError(f'{source}: the table has no rows')
+    numeric: dict[str, FloatArray] = {}
+    text: dict[str, NDArray[np.str_]] = {}
+    for name, values in columns.items():
+        name = str(name).strip()
+        array = np.asarray(values)
+        if array.dtype.kind in 'fiub':
+            numeric[name] = array.astype(float)
+            continue
+        try:
+            numeric[name] = np.array([float(v) for v in array], dtype=float)
+        except (TypeError, ValueError):
+            text[name] = np.array([str(v).strip() for v in array])
+    missing = [c for c in REQUIRED_COLUMNS[model] if c not in numeric]
+    if missing:
+        what = 'non-numeric' if missing[0] in text else 'missing'
+        raise InputError(f'{source}: column {missing[0]!r} is {what} (the {model} model needs '
+                         f'{", ".join(REQUIRED_COLUMNS[model])})')
+    for name, array in numeric.items():
+        bad = ~np.isfinite(array)
+        if bad.any():
+            raise InputError(f'{source}: column {name!r} has NaN or inf values '
+                             f'(first at row {int(np.argmax(bad)) + 1})')
+    if np.any(numeric['speed'] <= 0):
+        raise InputError(f'{source}: column \'speed\' must be > 0 (the friction level of eq. (3) '
+                         'is direction independent: use |speed|)')
+    return AuditTable(numeric, text, source)
+
+
+def read_level_table(path: str | Path, *, model: str = 'speed') -> AuditTable:
+    """Read a CSV (optionally .gz) table of friction levels with a header row."""
+    file = Path(path)
+    opener = gzip.open if file.suffix == '.gz' else open
+    try:
+        with opener(file, 'rt', encoding='utf-8', newline='') as stream:
+            rows = list(csv.reader(stream))
+    except OSError as error:
+        raise InputError(f'{file}: cannot read: {error.strerror or error}') from None
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise InputError(f'{file}: not a CSV text table ({error})') from None
+    rows = [r for r in rows if r and any(cell.strip() for cell in r)]
+    if not rows:
+        raise InputError(f'{file}: empty table')
+    header = [h.strip() for h in rows[0]]
+    body = rows[1:]
+    if not body:
+        raise InputError(f'{file}: the table has no rows')
+    if len(set(header)) != len(header):
+        raise InputError(f'{file}: duplicate column names in the header')
+    for number, row in enumerate(body, start=2):
+        if len(row) != len(header):
+            raise InputError(f'{file}: line {number} has {len(row)} fields, the header '
+                             f'{len(header)}')
+    columns = {name: [row[i].strip() for row in body] for i, name in enumerate(header)}
+    for name in REQUIRED_COLUMNS.get(model, ()):
+        values = columns.get(name)
+        if values is not None and any(v == '' or v.lower() == 'nan' for v in values):
+            raise InputError(f'{file}: column {name!r} has empty or NaN values')
+    return table_from_columns(columns, source=str(file), model=model)
+
+
+def table_from_levels(levels: Sequence, *, extra: Mapping[str, Sequence] | None = None,
+                      source: str = '<levels>', model: str = 'speed') -> AuditTable:
+    """Build a table from :class:`~robot_wear_monitor.experiment.levels.FrictionLevel` objects.
+
+    Columns: ``speed``, ``friction``, ``friction_std_error`` and the candidates
+    ``position_centre`` [rad], ``position_span`` [rad], ``time`` (level centre time) [s];
+    ``extra`` adds per-level columns (e.g. ``experiment``, ``joint``).
+    """
+    if not levels:
+        raise InputError(f'{source}: no friction levels')
+    columns: dict[str, Sequence] = {
+        'speed': [lv.speed_rad_s for lv in levels],
+        'friction': [lv.friction for lv in levels],
+        'friction_std_error': [lv.friction_std_error for lv in levels],
+        'position_centre': [0.5 * (lv.position_min_rad + lv.position_max_rad) for lv in levels],
+        'position_span': [lv.position_max_rad - lv.position_min_rad for lv in levels],
+        'time': [0.5 * (lv.start_time_s + lv.end_time_s) for lv in levels],
+    }
+    columns.update(extra or {})
+    return table_from_columns(columns, source=source, model=model)
+
+
+def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
+                        config=None, model: str = 'speed') -> AuditTable:
+    """Segment KUKA-style raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
+
+    Every forward/backward pair of a run gives one level (segmentation of
+    :mod:`robot_wear_monitor.segmentation`, settings of
+    :func:`robot_wear_monitor.recordings.tables.kuka_segmenter_config`); link-side rad/s and N.m.
+
+    Columns: ``speed``, ``friction`` (sign flipped when ``flip_sign``, as the data's author did,
+    so that friction is positive), ``friction_std_error``, ``experiment`` (the run),
+    ``joint`` and ``pose`` (text, from the run name) and the candidates ``position_centre``
+    and ``position_span`` of the common window [rad], ``time`` (level centre time in the run)
+    [s], ``cycle`` (index of the level in its run), ``load_torque`` = |tau+ + tau-|/2 [N.m]
+    (the gravity load the level was measured under, the tau_l of eq. (5)) and
+    ``run_duration`` [s].
+    """
+    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_kuka_run
+    from robot_wear_monitor.experiment.segmentation import segment_batch
+
+    settings = config if config is not None else kuka_segmenter_config()
+    sign = -1.0 if flip_sign else 1.0
+    columns: dict[str, list] = {k: [] for k in (
+        'speed', 'friction', 'friction_std_error', 'experiment', 'joint', 'pose',
+        'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration')}
+    rejected: list[str] = []
+    for path in paths:
+        run = read_kuka_run(path)
+        result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
+                               velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
+                               config=settings)
+        if not result.levels:
+            rejected.append(Path(path).name)
+            continue
+        pose = 'new_pose' if 'new_pose' in run.test_set else 'standard'
+        duration = float(run.t_s[-1] - run.t_s[0])
+        for i, level in enumerate(result.levels):
+            columns['speed'].append(level.speed_rad_s)
+            columns['friction'].append(sign * level.friction)
+            columns['friction_std_error'].append(level.friction_std_error)
+            columns['experiment'].append(Path(path).name.split('.')[0])
+            columns['joint'].append(f'joint{run.joint}' if run.joint else run.test_set)
+            columns['pose'].append(pose)
+            columns['position_centre'].append(0.5 * (level.position_min_rad
+                                                     + level.position_max_rad))
+            columns['position_span'].append(level.position_max_rad - level.position_min_rad)
+            columns['time'].append(0.5 * (level.start_time_s + level.end_time_s))
+            columns['cycle'].append(float(i))
+            columns['load_torque'].append(0.5 * abs(level.tau_forward + level.tau_backward))
+            columns['run_duration'].append(duration)
+    if not columns['speed']:
+        raise InputError(f'no friction level found in {len(paths)} raw run(s)')
+    if len(set(columns['pose'])) == 1:
+        del columns['pose']
+    if len(set(columns['joint'])) == 1:
+        del columns['joint']
+    table = table_from_columns(columns, source=f'{len(paths)} raw runs', model=model)
+    return table
+
+
+def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states',
+                   config=None, model: str = 'speed') -> AuditTable:
+    """Segment the joint states of a recorded bag into friction levels (one per pass pair).
+
+    Uses :func:`robot_wear_monitor.recordings.bags.read_joint_samples` and the segmenter;
+    ``config`` is a :class:`~robot_wear_monitor.experiment.segmentation.SegmenterConfig`
+    (default: link side, scale 1).
+    """
+    try:
+        from robot_wear_monitor.recordings.bags import read_joint_samples
+    except ImportError as error:
+        raise InputError(f'{path}: reading bags needs robot_wear_monitor.recordings.bags '
+                         f'({error})') from None
+    from robot_wear_monitor.experiment.segmentation import SegmenterConfig, segment_batch
+
+    samples = read_joint_samples(path, joint=joint, topic=topic)
+    time_s, position, velocity, effort = (_sample_field(samples, name) for name in (
+        'time_s', 'position_rad', 'velocity_rad_s', 'effort'))
+    settings = config if config is not None else SegmenterConfig(joint=joint)
+    result = segment_batch(time_s=time_s, position_rad=position, velocity_rad_s=velocity,
+                           effort=effort, config=settings)
+    if not result.levels:
+        raise InputError(f'{path}: no friction level found for joint {joint!r} on {topic}')
+    return table_from_levels(result.levels, source=str(path), model=model)
+
+
+def _sample_field(samples, name: str) -> FloatArray:
+    """Return one sample array from the bag reader's result (attribute, key or position)."""
+    aliases = {'time_s': ('time_s', 't_s', 'time'),
+               'position_rad': ('position_rad', 'position', 'q_rad'),
+               'velocity_rad_s': ('velocity_rad_s', 'velocity', 'dq_rad_s'),
+               'effort': ('effort', 'effort_Nm', 'tau')}
+    for alias in aliases[name]:
+        if hasattr(samples, alias):
+            return np.asarray(getattr(samples, alias), dtype=float)
+        if isinstance(samples, Mapping) and alias in samples:
+            return np.asarray(samples[alias], dtype=float)
+    index = ('time_s', 'position_rad', 'velocity_rad_s', 'effort').index(name)
+    return np.asarray(samples[index], dtype=float)
+
+
+def is_bag(path: str | Path) -> bool:
+    """Return True for a bag: a folder with ``metadata.yaml``, or a ``.mcap`` / ``.db3`` file."""
+    file = Path(path)
+    return (file.is_dir() and (file / 'metadata.yaml').exists()) or \
+        file.suffix in ('.mcap', '.db3')
+
+
+def load_audit_data(path: str | Path, *, model: str = 'speed', joint: str | None = None,
+                    topic: str = '/joint_states', flip_sign: bool = True,
+                    gear_ratio: float = 1.0, torque_scale: float = 1.0) -> AuditTable:
+    """Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
+
+    * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
+    * a CSV with ``t_s, q_rad, dq_rad_s, tau_measured_Nm``: one raw run, segmented;
+    * a folder holding ``*.csv.gz`` raw runs (or a ``raw_runs`` subfolder): all runs;
+    * a bag (folder with ``metadata.yaml``, or a ``.mcap`` / ``.db3`` file): ``joint`` needed.
+    """
+    file = Path(path)
+    if not file.exists():
+        raise InputError(f'{file}: no such file or folder')
+    if is_bag(file):
+        if not joint:
+            raise InputError(f'{file}: a bag needs --joint NAME (the joint to segment)')
+        from robot_wear_monitor.experiment.segmentation import SegmenterConfig
+        config = SegmenterConfig(joint=joint, gear_ratio=gear_ratio, torque_scale=torque_scale)
+        return table_from_bag(file, joint=joint, topic=topic, model=model, config=config)
+    if file.is_dir():
+        from robot_wear_monitor.recordings.tables import list_kuka_runs
+        runs = list_kuka_runs(file)
+        if not runs:
+            raise InputError(f'{file}: no raw runs (*.csv.gz) and no bag metadata.yaml here')
+        return table_from_raw_runs(runs, flip_sign=flip_sign, model=model)
+    if _is_raw_run(file):
+        return table_from_raw_runs([file], flip_sign=flip_sign, model=model)
+    return read_level_table(file, model=model)
+
+
+def _is_raw_run(file: Path) -> bool:
+    opener = gzip.open if file.suffix == '.gz' else open
+    try:
+        with opener(file, 'rt', encoding='utf-8') as stream:
+            header = {h.strip() for h in stream.readline().split(',')}
+    except (OSError, UnicodeDecodeError):
+        return False
+    return {'t_s', 'q_rad', 'dq_rad_s', 'tau_measured_Nm'} <= header

@@ -1,0 +1,202 @@
+"""The audit's result: the effects it added and the report (JSON and text).
+
+Units: friction in the table's own unit; temperatures [degC].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+from typing import Any, Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.model.extensions import extension_to_mapping
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Effect:
+    """An effect the audit traced and added to the model.
+
+    Attributes:
+        name: human-readable name of the term (shape and variables).
+        shape: 'linear', 'periodic', 'Stribeck interaction', 'smooth', ... .
+        variables: the table columns it depends on.
+        df: number of parameters the term adds (amplitudes, plus a period or Stribeck speed).
+        log10_p: log10 of the F-test p-value that found it (BH-controlled family).
+        rms_cv_before: held-out RMS error before adding it [friction units].
+        rms_cv_after: held-out RMS error after adding it [friction units].
+        size_rms: RMS over the table of the change of the fitted friction when the term is
+            added and everything re-identified [friction units].
+        size_range: max - min of that change [friction units].
+        info: shape constants (period, Stribeck speed).
+        candidate: the candidate family that found it.
+        confounded_with: the other significant candidates that lost their evidence once this
+            effect was in the model (each {'candidate', 'log10_p_alone',
+            'log10_p_given_chosen'}): named here, not added.
+
+    """
+
+    name: str
+    shape: str
+    variables: tuple[str, ...]
+    df: int
+    log10_p: float
+    rms_cv_before: float
+    rms_cv_after: float
+    size_rms: float
+    size_range: float
+    info: Mapping[str, float]
+    candidate: str = ''
+    confounded_with: tuple = ()
+
+    @property
+    def rms_gain(self) -> float:
+        """Reduction of the held-out RMS error the term brings [friction units]."""
+        return self.rms_cv_before - self.rms_cv_after
+
+    def to_dict(self) -> dict:
+        """Return a JSON-ready dict (finite numbers only)."""
+        return {'name': self.name, 'shape': self.shape, 'variables': list(self.variables),
+                'df': self.df, 'log10_p': _finite(self.log10_p),
+                'rms_cv_before': self.rms_cv_before, 'rms_cv_after': self.rms_cv_after,
+                'rms_gain': self.rms_gain,
+                'relative_gain': self.rms_gain / self.rms_cv_before
+                if self.rms_cv_before > 0 else 0.0,
+                'size_rms': self.size_rms, 'size_range': self.size_range,
+                'info': {k: float(v) for k, v in self.info.items()},
+                'candidate': self.candidate,
+                'confounded_with': [dict(c) for c in self.confounded_with]}
+
+
+@dataclass(frozen=True)
+class AuditResult:
+    """Outcome of :func:`run_audit`.
+
+    Attributes:
+        model: 'speed', 'nominal' or 'complete'.
+        n_levels: rows audited.
+        group: column the base model is identified per group of (or None).
+        candidates: the candidate variables examined.
+        rms_before: held-out RMS error of the model alone [friction units].
+        rms_after: held-out RMS error with the effects added.
+        fit_rms_before: in-sample RMS error of the model alone.
+        fit_rms_after: in-sample RMS error with the effects.
+        noise_floor: estimated std of the irreducible level error [friction units].
+        noise_floor_method: how it was estimated (see :func:`noise_floor`).
+        folds: description of the cross-validation folds.
+        effects: the effects added, in order.
+        steps: per step, the best candidates and the decision (for the report).
+        residual_before: in-sample residuals of the model alone, shape (n,).
+        residual_after: in-sample residuals of the extended model, shape (n,).
+        parameters_before: identified base-model parameters without effects.
+        parameters_after: identified base-model parameters with the effects.
+        estimate_changes: how the (T, w) estimates change (None when not applicable).
+        stop_reason: why the loop stopped.
+        excluded: groups left out (too few distinct speeds), with the reason.
+        extended_params: the input parameter set plus the added terms (nominal and complete
+            models; None for the speed model), what ``audit --out-params`` writes.
+        offline: variable -> (default, how chosen) for the terms' variables that the service
+            does not measure online (evaluated at the default there).
+
+    """
+
+    model: str
+    n_levels: int
+    group: str | None
+    candidates: tuple[str, ...]
+    rms_before: float
+    rms_after: float
+    fit_rms_before: float
+    fit_rms_after: float
+    noise_floor: float
+    noise_floor_method: str
+    folds: str
+    effects: tuple[Effect, ...]
+    steps: tuple[dict, ...]
+    residual_before: FloatArray
+    residual_after: FloatArray
+    parameters_before: dict
+    parameters_after: dict
+    estimate_changes: dict | None
+    stop_reason: str
+    excluded: tuple[str, ...] = ()
+    extended_params: Any = None
+    offline: Mapping[str, tuple] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """Return the JSON report (valid JSON: no NaN or inf)."""
+        return _json_clean({
+            'model': self.model, 'n_levels': self.n_levels, 'group': self.group,
+            'candidates': list(self.candidates),
+            'rms_before': self.rms_before, 'rms_after': self.rms_after,
+            'fit_rms_before': self.fit_rms_before, 'fit_rms_after': self.fit_rms_after,
+            'noise_floor': self.noise_floor, 'noise_floor_method': self.noise_floor_method,
+            'folds': self.folds, 'effects': [e.to_dict() for e in self.effects],
+            'steps': list(self.steps), 'stop_reason': self.stop_reason,
+            'parameters_before': self.parameters_before,
+            'parameters_after': self.parameters_after,
+            'estimate_changes': self.estimate_changes, 'excluded': list(self.excluded),
+            'added_terms': self._added_terms(),
+            'offline_variables': [{'variable': k, 'default': v, 'how': how}
+                                  for k, (v, how) in self.offline.items()]})
+
+    def _added_terms(self) -> dict | None:
+        extension = getattr(self.extended_params, 'model', None)
+        extension = getattr(extension, 'extension', None)
+        return extension_to_mapping(extension) if extension is not None else None
+
+    def summary(self) -> str:
+        """Return a short plain-text report."""
+        lines = [f'audit of the {self.model} model on {self.n_levels} friction levels'
+                 + (f' (identified per {self.group})' if self.group else ''),
+                 f'  candidates: {", ".join(self.candidates) or "(none)"}',
+                 f'  held-out RMS error before: {self.rms_before:.4g}',
+                 f'  held-out RMS error after:  {self.rms_after:.4g}',
+                 f'  noise floor: {self.noise_floor:.4g} ({self.noise_floor_method})',
+                 f'  folds: {self.folds}']
+        lines += [f'  left out: {text}' for text in self.excluded]
+        if not self.effects:
+            lines.append('  no effect added')
+        for i, effect in enumerate(self.effects, start=1):
+            lines.append(f'  effect {i}: {effect.name} [{", ".join(effect.variables)}], '
+                         f'size {effect.size_rms:.3g} rms, held-out error '
+                         f'{effect.rms_cv_before:.4g} -> {effect.rms_cv_after:.4g} '
+                         f'(log10 p {effect.log10_p:.1f})')
+            for other in effect.confounded_with:
+                lines.append(f'    confounded with {other["candidate"]} (not added: no evidence '
+                             f'of its own given this effect)')
+        lines.append(f'  stopped: {self.stop_reason}')
+        for name, (value, how) in self.offline.items():
+            lines.append(f'  not measured online: {name}, evaluated at {value!r} ({how}) by '
+                         'the extended parameter set')
+        if self.estimate_changes:
+            for key, value in self.estimate_changes.items():
+                if isinstance(value, bool):
+                    continue
+                if isinstance(value, (int, float)):
+                    lines.append(f'  {key}: {value:.4g}')
+                elif isinstance(value, str):
+                    lines.append(f'  {key}: {value}')
+        return '\n'.join(lines)
+
+
+def _finite(value: float) -> float:
+    return float(value) if math.isfinite(value) else (-1e300 if value < 0 else 1e300)
+
+
+def _json_clean(value):
+    if isinstance(value, dict):
+        return {str(k): _json_clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_clean(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        return _finite(float(value)) if math.isfinite(float(value)) else None
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, np.ndarray):
+        return _json_clean(value.tolist())
+    return value

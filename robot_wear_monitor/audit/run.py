@@ -1,0 +1,275 @@
+"""The audit loop: identify, test every candidate, name the best effect, add it, repeat.
+
+1. identify the chosen model on the table (variable projection, :mod:`.fitting`, the core
+   shared with ``identify``);
+2. test the residual against every candidate family (:mod:`.candidates`, :mod:`.significance`)
+   with Benjamini-Hochberg control over the step's candidates;
+3. name the most significant effect with the simplest shape (:mod:`.shapes`); the other
+   significant candidates that have no evidence given it are listed as confounded with it;
+4. re-identify everything jointly and keep the effect when the held-out error
+   (:mod:`.cross_validation`) comes down; repeat while the evidence holds.
+
+Then the noise floor (:mod:`.noise`), the extended parameter set (:mod:`.export`) and the T
+and w estimates before and after (:mod:`.estimates`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.audit.candidates import (families, make_variable, make_variables,
+                                                 periodic_frequencies, Variable,
+                                                 with_experiment_order)
+from robot_wear_monitor.audit.candidates import candidate_columns
+from robot_wear_monitor.audit.cross_validation import _cv_rms, _folds
+from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
+from robot_wear_monitor.audit.estimates import estimate_changes
+from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
+                                             offline_defaults)
+from robot_wear_monitor.audit.fitting import (_Base, _design, _fit, _Fit, _group_codes,
+                                              _nominal_base, _orthonormal, _speed_base,
+                                              AuditTable)
+from robot_wear_monitor.audit.noise import noise_floor
+from robot_wear_monitor.audit.result import _json_clean, AuditResult, Effect
+from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
+from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, nested_test,
+                                                   periodic_scan, sinusoid)
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.params import ParameterSet
+
+FloatArray = NDArray[np.float64]
+
+#: Fewest distinct speeds per group for the five-parameter speed model (4).
+MIN_SPEEDS = 6
+
+
+def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet | None = None,
+              group: str | None = None, fdr: float = 0.01, min_gain: float = 0.01,
+              max_effects: int = 4, n_folds: int = 5, seed: int = 0,
+              estimate: bool = True) -> AuditResult:
+    """Identify ``model`` on ``table``, trace the structure of its residuals and add it.
+
+    Args:
+        table: friction levels (see :func:`robot_wear_monitor.audit.data.read_level_table`).
+        model: 'speed' (eq. 4, per ``group``), 'nominal' (eq. 5) or 'complete' (eq. 8).
+        params: parameter set whose coefficients start the nominal/complete fit, that the
+            (T, w) estimator uses and that the extended set extends; the packaged set when
+            None.
+        group: column whose every value gets its own speed model (e.g. ``joint``).
+        fdr: false-discovery rate of the Benjamini-Hochberg control over each step's
+            candidates.
+        min_gain: minimum relative reduction of the held-out error for an effect to be kept.
+        max_effects: at most this many effects are added.
+        n_folds: cross-validation folds (by ``experiment`` when that column exists).
+        seed: seed of the fold assignment.
+        estimate: also report how the (T, w) estimates change (nominal/complete model with an
+            ``experiment`` column; runs the wear estimator twice per experiment).
+
+    Returns:
+        The :class:`~robot_wear_monitor.audit.result.AuditResult`.
+
+    """
+    if model not in MODELS:
+        raise InputError(f'unknown model {model!r} (expected one of {", ".join(MODELS)})')
+    missing = [c for c in REQUIRED_COLUMNS[model] if c not in table.numeric]
+    if missing:
+        raise InputError(f'{table.source}: column {missing[0]!r} is missing (the {model} '
+                         f'model needs {", ".join(REQUIRED_COLUMNS[model])})')
+    if group is not None and group not in table.columns:
+        raise InputError(f'{table.source}: group column {group!r} is missing')
+    if group is not None and model != 'speed':
+        raise InputError('--group applies to the speed model only')
+    if params is None and model != 'speed':
+        from robot_wear_monitor.model.params import load_parameter_set
+        params = load_parameter_set()
+    if params is not None and params.model.extension is not None and model != 'speed':
+        params = _without_extension(params)
+    table = with_experiment_order(table)
+    table, excluded = _enough_speeds(table, group, model)
+    base = (_speed_base(table, group) if model == 'speed'
+            else _nominal_base(table, params.model, model == 'complete'))
+    n = table.n_rows
+    if n < len(base.theta0) + 3 * _n_linear(base, table) // 2 + 5:
+        raise InputError(f'{table.source}: {n} friction levels are too few to audit the '
+                         f'{model} model')
+    variables = make_variables(table, candidate_columns(table, model=model, group=group))
+    group_variable = make_variable(table, group) if group is not None else None
+    folds, fold_text = _folds(table, n_folds, seed)
+
+    fit = _fit(base, table, [], base.theta0)
+    fit_before = fit
+    cv_before, _ = _cv_rms(base, table, [], fit.theta, folds)
+    cv_now = cv_before
+    terms: list[Term] = []
+    effects: list[Effect] = []
+    steps: list[dict] = []
+    stop = 'maximum number of effects reached'
+    for _ in range(max_effects):
+        step = _step(table, base, fit, terms, variables, group_variable, fdr)
+        steps.append(step['report'])
+        if step['term'] is None:
+            stop = step['report']['decision']
+            break
+        trial_terms = terms + [step['term']]
+        trial_fit = _fit(base, table, trial_terms, fit.theta)
+        cv_trial, _ = _cv_rms(base, table, trial_terms, trial_fit.theta, folds)
+        step['report']['rms_cv_with_term'] = cv_trial
+        if cv_trial > cv_now * (1.0 - min_gain):
+            step['report']['decision'] = (f'rejected: held-out error {cv_now:.4g} -> '
+                                          f'{cv_trial:.4g} (needs {min_gain:.0%} gain)')
+            stop = 'the most significant effect does not lower the held-out error'
+            break
+        step['report']['decision'] = 'added'
+        change = trial_fit.prediction - fit.prediction
+        term = step['term']
+        effects.append(Effect(term.name, term.shape, term.variables, term.df, step['log10_p'],
+                              cv_now, cv_trial, float(np.sqrt(np.mean(change ** 2))),
+                              float(np.ptp(change)), dict(term.info),
+                              step['report']['chosen']['candidate'],
+                              tuple(step['report']['chosen']['confounded_with'])))
+        terms, fit, cv_now = trial_terms, trial_fit, cv_trial
+    n_params = _orthonormal(_design(base, fit.theta, table, terms)).shape[1] + len(base.theta0)
+    floor_vars = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
+                              ('speed', 'friction')] + [v.name for v in variables]
+    if group is not None:
+        floor_vars.append(group)
+    floor, floor_method = noise_floor(table=table, residual=fit.residual, n_parameters=n_params,
+                                      variables=list(dict.fromkeys(floor_vars)))
+    extended, offline, changes = None, {}, None
+    if model != 'speed':
+        extended = extended_parameter_set(params, base, fit, table, terms)
+        offline = offline_defaults(table, added_terms(base, fit, table, terms))
+        if estimate:
+            before = params.with_overrides(model=base_model(
+                params, base.describe(fit_before.theta, fit_before.coef)))
+            changes = estimate_changes(table, model, before, extended)
+    elif estimate:
+        changes = estimate_changes(table, model, None, None)
+    return AuditResult(
+        model=model, n_levels=n, group=group, candidates=tuple(v.name for v in variables),
+        rms_before=cv_before, rms_after=cv_now,
+        fit_rms_before=float(np.sqrt(np.mean(fit_before.residual ** 2))),
+        fit_rms_after=float(np.sqrt(np.mean(fit.residual ** 2))),
+        noise_floor=floor, noise_floor_method=floor_method, folds=fold_text,
+        effects=tuple(effects), steps=tuple(steps), residual_before=fit_before.residual,
+        residual_after=fit.residual,
+        parameters_before=_json_clean(base.describe(fit_before.theta, fit_before.coef)),
+        parameters_after=_json_clean(base.describe(fit.theta, fit.coef)),
+        estimate_changes=changes, stop_reason=stop, excluded=excluded,
+        extended_params=extended, offline=offline)
+
+
+def _without_extension(params: ParameterSet) -> ParameterSet:
+    """Return the set without added terms (the audit re-identifies the paper's model)."""
+    from dataclasses import replace
+    return replace(params, model=replace(params.model, extension=None))
+
+
+def _distinct_speeds(speed: FloatArray) -> int:
+    """Return the number of distinct speed levels (equal within 2 %)."""
+    return len(np.unique(np.round(np.log(speed) / 0.02)))
+
+
+def _enough_speeds(table: AuditTable, group: str | None,
+                   model: str) -> tuple[AuditTable, tuple[str, ...]]:
+    """Drop the groups with fewer than MIN_SPEEDS distinct speeds (speed model only).
+
+    The speed model (4) has five parameters per group; with fewer distinct speeds it
+    interpolates its training speeds exactly and the held-out error is meaningless.
+    """
+    if model != 'speed':
+        return table, ()
+    speed = table.numeric['speed']
+    if group is None:
+        if _distinct_speeds(speed) < MIN_SPEEDS:
+            raise InputError(f'{table.source}: {_distinct_speeds(speed)} distinct speeds; the '
+                             f'speed model (4) needs at least {MIN_SPEEDS}')
+        return table, ()
+    keys, codes = _group_codes(table, group)
+    keep = np.ones(table.n_rows, dtype=bool)
+    excluded = []
+    for i, key in enumerate(keys):
+        rows = codes == i
+        count = _distinct_speeds(speed[rows])
+        if count < MIN_SPEEDS:
+            keep &= ~rows
+            excluded.append(f'{group} {key}: {count} distinct speeds (< {MIN_SPEEDS})')
+    if not keep.any():
+        raise InputError(f'{table.source}: no {group} has {MIN_SPEEDS} or more distinct speeds')
+    return table.subset(keep), tuple(excluded)
+
+
+def _n_linear(base: _Base, table: AuditTable) -> int:
+    return base.columns(base.theta0, table.subset(np.arange(1))).shape[1]
+
+
+def _theta_jacobian(base: _Base, table: AuditTable, terms: Sequence[Term],
+                    fit: _Fit) -> FloatArray:
+    """Jacobian of the prediction in theta at the fit (finite differences), shape (n, p)."""
+    cols = []
+    for j in range(len(fit.theta)):
+        step = 1e-6 * max(abs(fit.theta[j]), 1e-3)
+        theta = fit.theta.copy()
+        theta[j] += step
+        x = _design(base, theta, table, terms)
+        cols.append((x @ fit.coef - fit.prediction) / step)
+    return np.column_stack(cols) if cols else np.zeros((table.n_rows, 0))
+
+
+def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
+          variables: Sequence[Variable], group_variable: Variable | None,
+          fdr: float) -> dict:
+    """Test every candidate family against the current model; choose the effect to add."""
+    x0 = _design(base, fit.theta, table, terms)
+    # the linearised model: its columns and its Jacobian in the nonlinear parameters
+    q0 = _orthonormal(np.column_stack([x0, _theta_jacobian(base, table, terms, fit)]))
+    by_name = {v.name: v for v in variables}
+    rows = []
+    for family in families(table, variables, group_variable):
+        period = None
+        if family.periodic:
+            x = table.numeric[family.variables[0]]
+            log_p, period = periodic_scan(x, periodic_frequencies(by_name[family.variables[0]]),
+                                          q0, fit.residual)
+            basis, df1 = sinusoid(x, 1.0 / period), 2
+        else:
+            basis = family.columns(table)
+            log_p, df1 = nested_test(q0, fit.residual, basis)
+        if df1 == 0:
+            continue
+        rows.append({'candidate': family.key, 'variables': family.variables, 'log_p': log_p,
+                     'df': df1, 'period': period, 'basis': basis})
+    report: dict = {'n_candidates': len(rows)}
+    if not rows:
+        report['decision'] = 'no candidate variables to test'
+        return {'term': None, 'report': report, 'log10_p': 0.0}
+    log_p = np.array([r['log_p'] for r in rows])
+    adjusted = benjamini_hochberg(log_p)
+    order = np.argsort(log_p)
+    report['best'] = [{'candidate': rows[i]['candidate'],
+                       'log10_p': float(log_p[i] / math.log(10)),
+                       'q_value': float(adjusted[i]), 'df': rows[i]['df']}
+                      for i in order[:6]]
+    significant = adjusted <= fdr
+    if not significant.any():
+        report['decision'] = (f'no significant structure (smallest BH q-value '
+                              f'{adjusted.min():.3g} > {fdr})')
+        return {'term': None, 'report': report, 'log10_p': 0.0}
+    best = rows[int(order[0])]
+    periods = {r['variables'][0]: r['period'] for r, ok in zip(rows, significant)
+               if ok and r['period'] is not None}
+    builder = ShapeBuilder(table, variables, group_variable, base, fit.theta)
+    term = choose_shape(builder.shapes(best['variables'], periods), q0, fit.residual, table)
+    chosen = set(best['variables'])
+    others = [(r['candidate'], r['basis']) for r, ok in zip(rows, significant)
+              if ok and not (set(r['variables']) <= chosen or chosen <= set(r['variables']))]
+    report['chosen'] = {'candidate': best['candidate'], 'term': term.name,
+                        'variables': list(term.variables),
+                        'confounded_with': confounded(q0, fit.residual, best['basis'], others,
+                                                      fdr)}
+    report['decision'] = 'candidate'
+    return {'term': term, 'report': report, 'log10_p': float(best['log_p'] / math.log(10))}

@@ -1,0 +1,104 @@
+"""The tests: is there structure in the residual along a candidate basis.
+
+Nested F-tests at the fitted model, linearised: the model's design columns and its Jacobian in
+the nonlinear parameters (Stribeck speeds, alpha, T_V0) span the null space that is projected out
+of every candidate basis, so a candidate in one of the model's own variables is tested only in
+the shapes the model lacks.  The p-values of one step are controlled together by
+Benjamini-Hochberg; a sinusoid's period is scanned and its p-value Bonferroni-corrected for the
+number of independent frequencies.  When several candidates are significant, the others are
+re-tested given the best one: those left without evidence are confounded with it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import optimize, stats
+
+from robot_wear_monitor.audit.fitting import _orthonormal
+
+FloatArray = NDArray[np.float64]
+
+
+def nested_test(q0: FloatArray, residual: FloatArray, basis: FloatArray,
+                n_theta: int = 0) -> tuple[float, int]:
+    """F-test of adding ``basis`` to the linear model spanned by q0 (orthonormal).
+
+    Returns (natural log of the p-value, numerator degrees of freedom); (0, 0) when nothing new
+    is spanned.
+    """
+    perp = basis - q0 @ (q0.T @ basis)
+    q1 = _orthonormal(perp, tol=1e-5)
+    df1 = q1.shape[1]
+    n = len(residual)
+    df2 = n - q0.shape[1] - df1 - n_theta
+    if df1 == 0 or df2 <= 0:
+        return 0.0, 0
+    rss0 = float(residual @ residual)
+    gain = float(np.sum((q1.T @ residual) ** 2))
+    rss1 = max(rss0 - gain, 1e-300)
+    f_value = (gain / df1) / (rss1 / df2)
+    return float(stats.f.logsf(f_value, df1, df2)), df1
+
+
+def sinusoid(x: FloatArray, frequency: float) -> FloatArray:
+    """Return [sin, cos] of 2 pi f x, shape (n, 2)."""
+    return np.column_stack([np.sin(2 * np.pi * frequency * x), np.cos(2 * np.pi * frequency * x)])
+
+
+def periodic_scan(x: FloatArray, frequencies: FloatArray, q0: FloatArray,
+                  residual: FloatArray) -> tuple[float, float]:
+    """Scan the period of a sinusoid in x; return (log p, period).
+
+    The grid's best frequency is refined by a bounded scalar search; the p-value is
+    Bonferroni-corrected for the number of whole periods the scan spans.
+    """
+    best = (math.inf, 1.0 / frequencies[0])
+    for f in frequencies:
+        log_p, _ = nested_test(q0, residual, sinusoid(x, f))
+        if log_p < best[0]:
+            best = (log_p, 1.0 / f)
+    step = float(frequencies[1] - frequencies[0]) if len(frequencies) > 1 else 0.1 / best[1]
+    f0 = 1.0 / best[1]
+    refined = optimize.minimize_scalar(lambda f: nested_test(q0, residual, sinusoid(x, f))[0],
+                                       bounds=(f0 - step, f0 + step), method='bounded',
+                                       options={'xatol': 1e-4 * step})
+    if refined.fun < best[0]:
+        best = (float(refined.fun), 1.0 / float(refined.x))
+    n_independent = max(2.0, float(frequencies[-1] / frequencies[0]))
+    return min(0.0, best[0] + math.log(n_independent)), best[1]
+
+
+def benjamini_hochberg(log_p: Sequence[float]) -> FloatArray:
+    """Return the Benjamini-Hochberg adjusted p-values (q-values) of natural-log p-values."""
+    return stats.false_discovery_control(np.exp(np.asarray(log_p, dtype=float)), method='bh')
+
+
+def confounded(q0: FloatArray, residual: FloatArray, chosen: FloatArray,
+               others: Sequence[tuple[str, FloatArray]], level: float) -> list[dict]:
+    """Re-test candidates given the chosen basis; return those left without evidence.
+
+    Args:
+        q0: orthonormal null space (the model).
+        residual: the model's residual.
+        chosen: basis of the named effect.
+        others: (candidate key, basis) of the other significant candidates.
+        level: p-value above which a candidate has no evidence of its own.
+
+    Returns:
+        [{'candidate', 'log10_p_alone', 'log10_p_given_chosen'}] of the confounded ones.
+
+    """
+    q_with = _orthonormal(np.column_stack([q0, chosen]))
+    residual_with = residual - q_with @ (q_with.T @ residual)
+    out = []
+    for key, basis in others:
+        alone, _ = nested_test(q0, residual, basis)
+        given, df = nested_test(q_with, residual_with, basis)
+        if df == 0 or given > math.log(level):
+            out.append({'candidate': key, 'log10_p_alone': alone / math.log(10),
+                        'log10_p_given_chosen': given / math.log(10)})
+    return out
