@@ -11,6 +11,8 @@ setup(
     name=PACKAGE_NAME,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
+    # the interval calibrations that ship (estimation/intervals.py, SHIPPED_CALIBRATIONS)
+    package_data={PACKAGE_NAME + '.estimation': ['calibrations.json']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
@@ -27,6 +29,7 @@ setup(
         'tqdm>=4.60',
         'rosbags>=0.10',
         'mcap>=1.1',  # reads recordings cut off by a crash, record by record
+        'threadpoolctl>=3.1',  # one BLAS thread: the linear algebra is small (blas_threads.py)
     ],
     extras_require={
         # The nodes on a pip-only host: ROS 2 Jazzy's rclpy with Fast DDS and the message

@@ -10,6 +10,7 @@ skips in CI.
 import itertools
 import os
 from pathlib import Path
+import tempfile
 
 import pytest
 
@@ -18,6 +19,9 @@ os.environ['ROS_DOMAIN_ID'] = str(_DOMAIN_BASE)
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 _NEXT_DOMAIN = itertools.count(_DOMAIN_BASE + 1)
+# the interval calibrations of this session (and its subprocesses) are stored apart from the
+# user's cache, so a test never reads a calibration that an older version stored
+os.environ['ROBOT_WEAR_MONITOR_CACHE'] = tempfile.mkdtemp(prefix='rwm_calibrations_')
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DIR = REPO_ROOT.parent / 'shared'

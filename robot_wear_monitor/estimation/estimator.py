@@ -31,7 +31,7 @@ from typing import Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special, stats
+from scipy import special
 from scipy.linalg import solve_triangular
 
 from robot_wear_monitor.model import friction as fm
@@ -256,6 +256,7 @@ class _WhitenedProblem:
         self.whiten = solve_triangular(factor, np.eye(speeds.size), lower=True)
         self.t_min = params.temperature_min_degc
         self.t_max = params.temperature_max_degc
+        self._grid_cache: tuple | None = None
 
     def model_w(self, t: ArrayLike, w: ArrayLike) -> FloatArray:
         """Return the whitened model prediction at load_mean, (..., N)."""
@@ -310,14 +311,10 @@ class _WhitenedProblem:
         residual = data_w - self.apply(f)
         return np.einsum('bn,bn->b', residual, residual)
 
-    def grid_starts(self, data_w: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Return K starting points (T, w) for every fit, each of shape (B, K).
-
-        The cost is evaluated on the (T, w) grid, minimised over T at every grid w (the profile
-        in w), and the K = _STARTS best local minima of the profile (best grid points fill in
-        when there are fewer) are the starts of the local refinement.  Several starts guard
-        against a narrow valley of the global optimum that the grid resolves only at its rim.
-        """
+    def _grid(self) -> tuple:
+        """Return the (T, w) grid, its whitened model and norms (data-independent, kept)."""
+        if self._grid_cache is not None:
+            return self._grid_cache
         mid_t = 0.5 * (self.t_min + self.t_max)
 
         def along_t(t: FloatArray) -> FloatArray:
@@ -337,6 +334,18 @@ class _WhitenedProblem:
         # |d - g|^2 = |d|^2 - 2 d.g + |g|^2; the first term does not change the argmin
         norm2 = np.einsum('kn,kn->k', model_w, model_w)
         minus_2g = -2.0 * model_w.T
+        self._grid_cache = (tt, ww, n_t, n_w, norm2, minus_2g)
+        return self._grid_cache
+
+    def grid_starts(self, data_w: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Return K starting points (T, w) for every fit, each of shape (B, K).
+
+        The cost is evaluated on the (T, w) grid, minimised over T at every grid w (the profile
+        in w), and the K = _STARTS best local minima of the profile (best grid points fill in
+        when there are fewer) are the starts of the local refinement.  Several starts guard
+        against a narrow valley of the global optimum that the grid resolves only at its rim.
+        """
+        tt, ww, n_t, n_w, norm2, minus_2g = self._grid()
         starts = np.empty((data_w.shape[0], _STARTS), dtype=int)
         chunk = max(1, min(_BATCH_CHUNK, _GRID_CHUNK_CELLS // norm2.size))
         for start in range(0, data_w.shape[0], chunk):
@@ -356,6 +365,27 @@ class _WhitenedProblem:
     def project(self, t: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Project onto the box T_min <= T <= T_max, w >= 0."""
         return np.clip(t, self.t_min, self.t_max), np.maximum(w, 0.0)
+
+
+_PROBLEMS: dict[tuple[bytes, int], _WhitenedProblem] = {}
+_PROBLEMS_KEPT = 16
+
+
+def _problem(speeds: FloatArray, params: ParameterSet) -> _WhitenedProblem:
+    """Return the problem of these speeds and this parameter set, built once and kept.
+
+    A monitor estimates experiment after experiment at the same speeds: the whitening and the
+    start grid (a few ms) do not depend on the data.  Kept per parameter-set object (a new
+    object, e.g. a reloaded file, builds anew); the last ``_PROBLEMS_KEPT`` are kept.
+    """
+    key = (speeds.tobytes(), id(params))
+    problem = _PROBLEMS.get(key)
+    if problem is None or problem.params is not params:
+        problem = _WhitenedProblem(speeds.copy(), params)
+        if len(_PROBLEMS) >= _PROBLEMS_KEPT:
+            _PROBLEMS.pop(next(iter(_PROBLEMS)))
+        _PROBLEMS[key] = problem
+    return problem
 
 
 def _newton_step(jacobian: FloatArray, hessian: FloatArray, residual: FloatArray,
@@ -477,12 +507,12 @@ def _inverse_2x2(matrix: FloatArray) -> FloatArray:
 
 def _p_value(chi2: FloatArray, dof: NDArray[np.int64]) -> FloatArray:
     with np.errstate(invalid='ignore'):
-        return np.where(dof > 0, stats.chi2.sf(chi2, np.maximum(dof, 1)), np.nan)
+        return np.where(dof > 0, special.chdtrc(np.maximum(dof, 1), chi2), np.nan)
 
 
 def _estimate_multi_level(speeds: FloatArray, values: FloatArray,
                           params: ParameterSet) -> WearEstimates:
-    problem = _WhitenedProblem(speeds, params)
+    problem = _problem(speeds, params)
     data_w = problem.apply(values)
     t, w = _global_refine(problem, data_w)
     residual, jacobian, chi2 = problem.evaluate(data_w, t, w)

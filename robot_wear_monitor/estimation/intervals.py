@@ -33,13 +33,17 @@ same profile evaluated at arbitrary w or T, so they do not depend on the grid st
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import lru_cache
+import hashlib
+import json
+import os
+from pathlib import Path
 from typing import Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
+from scipy import special
 from scipy.linalg import solve_triangular
 
 from robot_wear_monitor.estimation.estimator import (estimate_wear, MarginalModel,
@@ -276,6 +280,27 @@ class _Profile:
         return _parabola_min(cost, self.grid)[0]
 
 
+_PROFILES: dict[tuple[bytes, int, bytes], _Profile] = {}
+_PROFILES_KEPT = 16
+
+
+def _profile(speeds: FloatArray, params: ParameterSet, grid: FloatArray) -> _Profile:
+    """Return the profile of these speeds, parameter set and grid, built once and kept.
+
+    Everything in a :class:`_Profile` is data-independent (whitening, model on the grids);
+    a monitor evaluates experiment after experiment at the same speeds.  Kept per
+    parameter-set object; the last ``_PROFILES_KEPT`` are kept.
+    """
+    key = (speeds.tobytes(), id(params), grid.tobytes())
+    profile = _PROFILES.get(key)
+    if profile is None or profile.params is not params:
+        profile = _Profile(speeds.copy(), params, grid.copy())
+        if len(_PROFILES) >= _PROFILES_KEPT:
+            _PROFILES.pop(next(iter(_PROFILES)))
+        _PROFILES[key] = profile
+    return profile
+
+
 class _SingleLevel:
     """Marginal log-likelihood (17) of one level, exact and tabulated."""
 
@@ -304,6 +329,21 @@ class _SingleLevel:
         return self.tabulated(y[:, None] - wear[None, :])
 
 
+_SINGLE_LEVELS: dict[tuple[float, int], _SingleLevel] = {}
+
+
+def _single_level(speed: float, params: ParameterSet) -> _SingleLevel:
+    """Return the tabulated marginal of one speed and parameter set, built once and kept."""
+    key = (speed, id(params))
+    single = _SINGLE_LEVELS.get(key)
+    if single is None or single.params is not params:
+        single = _SingleLevel(speed, params)
+        if len(_SINGLE_LEVELS) >= _PROFILES_KEPT:
+            _SINGLE_LEVELS.pop(next(iter(_SINGLE_LEVELS)))
+        _SINGLE_LEVELS[key] = single
+    return single
+
+
 class _WearLikelihood:
     """The wear log-likelihood of a batch: rows on a grid, the maximum and exact values.
 
@@ -323,11 +363,11 @@ class _WearLikelihood:
         if want_t and target > grid[-1]:
             count = int(min(np.ceil((target - grid[-1]) / _COARSE_STEP), 200))
             extended = np.concatenate([grid, np.linspace(grid[-1], target, count + 1)[1:]])
-        self.profile = profile = _Profile(speeds, params, extended)
+        self.profile = profile = _profile(speeds, params, extended)
         self.data = data = profile.whitened(values)
         self.single = None
         if speeds.size == 1:
-            self.single = _SingleLevel(float(speeds[0]), params)
+            self.single = _single_level(float(speeds[0]), params)
             self.y = values[:, 0]
             cost_w, self.cost_t = (profile.grid_profiles(data, want_t=True) if want_t
                                    else (None, None))
@@ -409,10 +449,13 @@ def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: f
     truth at the stated level on average over the temperature range (the Neyman construction
     with the likelihood-ratio ordering, Feldman and Cousins 1998, the nuisance T averaged).
 
-    The speeds are rounded to 0.1 rad/s, and results are cached per (rounded speeds, parameter
-    set, level, runs, seed), so the measured speeds of repeated experiments of one design share
-    a calibration; one calibration takes about
-    1-2 s (18 000 experiments on 2 cores).
+    The speeds are rounded to 0.1 rad/s, and results are kept per (rounded speeds, parameter
+    set values, level, runs, seed), so the measured speeds of repeated experiments of one design
+    share a calibration.  One calibration takes about 1-2 s (18 000 experiments on 2 cores); it
+    is kept in the process, stored in the cache folder (:func:`calibration_cache_dir`, one JSON
+    file per calibration, written atomically) for the next process, and the packaged parameter
+    set's calibration at the default design ships with the package
+    (:data:`SHIPPED_CALIBRATIONS`, rebuilt by :func:`write_shipped_calibrations`).
 
     Args:
         speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
@@ -430,15 +473,134 @@ def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: f
         raise InputError(f'level: must be in (0, 1), got {level}')
     if int(runs) < 100:
         raise InputError(f'runs: must be >= 100, got {runs}')
+    return _calibrate(_rounded_speeds(speeds), params, float(level), int(runs), int(seed))
+
+
+def _rounded_speeds(speeds: FloatArray) -> tuple:
+    """Return the speeds rounded to the calibration step (at least one step), a tuple."""
     key = tuple(round(float(v) / _CALIBRATION_SPEED_STEP) * _CALIBRATION_SPEED_STEP
                 for v in speeds)
-    return _calibrate(tuple(max(v, _CALIBRATION_SPEED_STEP) for v in key), params,
-                      float(level), int(runs), int(seed))
+    return tuple(max(v, _CALIBRATION_SPEED_STEP) for v in key)
+
+
+#: Version of the calibration's computation; part of every stored calibration's key.
+CALIBRATION_VERSION = 1
+#: Calibrations shipped with the package (the packaged parameter set at the default design).
+SHIPPED_CALIBRATIONS = Path(__file__).with_name('calibrations.json')
+#: Designs whose calibration ships for the packaged parameter set: Table V, N = 4 (the default
+#: experiment of the node configuration and the simulator).
+SHIPPED_DESIGNS = ((2.1, 28.5, 35.1, 41.7),)
+#: Environment variable naming the calibration cache folder ('' disables the cache).
+CACHE_ENV = 'ROBOT_WEAR_MONITOR_CACHE'
+
+
+def calibration_key(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
+                    seed: int) -> str:
+    """Return the key of a calibration: a hash of everything its numbers depend on.
+
+    The parameter set enters by its values (model, sigma, load, temperature range, wear
+    range), not its name or file, so a copy of a set elsewhere shares the calibration.
+    """
+    values = [(f.name, repr(getattr(params, f.name))) for f in fields(params)
+              if f.name not in ('name', 'source')]
+    text = json.dumps([CALIBRATION_VERSION, [repr(float(v)) for v in speeds_t], values,
+                       repr(float(level)), int(runs), int(seed), list(CALIBRATION_WEAR)])
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def calibration_cache_dir() -> Path | None:
+    """Return the folder of stored calibrations, or None when the cache is disabled.
+
+    ``$ROBOT_WEAR_MONITOR_CACHE`` if set ('' disables), else
+    ``$XDG_CACHE_HOME/robot_wear_monitor`` (default ``~/.cache/robot_wear_monitor``).
+    """
+    folder = os.environ.get(CACHE_ENV)
+    if folder is not None:
+        return Path(folder) if folder else None
+    base = os.environ.get('XDG_CACHE_HOME') or os.path.join(os.path.expanduser('~'), '.cache')
+    return Path(base) / 'robot_wear_monitor'
+
+
+def _calibration_from_json(item: dict) -> CutoffCalibration:
+    return CutoffCalibration(wear=np.asarray(item['wear'], dtype=float),
+                             cutoff=np.asarray(item['cutoff'], dtype=float),
+                             chi2_cutoff=float(item['chi2_cutoff']), level=float(item['level']),
+                             runs=int(item['runs']))
+
+
+def calibration_to_json(calibration: CutoffCalibration) -> dict:
+    """Return the calibration as a JSON object (exact floats)."""
+    return {'wear': calibration.wear.tolist(), 'cutoff': calibration.cutoff.tolist(),
+            'chi2_cutoff': calibration.chi2_cutoff, 'level': calibration.level,
+            'runs': calibration.runs}
+
+
+def _stored_calibration(key: str) -> CutoffCalibration | None:
+    """Return the calibration of ``key`` from the shipped table or the cache, if there."""
+    sources = [SHIPPED_CALIBRATIONS]
+    folder = calibration_cache_dir()
+    if folder is not None:
+        sources.append(folder / f'cutoffs-{key}.json')
+    for source in sources:
+        try:
+            table = json.loads(source.read_text())
+            item = table.get(key) if source == SHIPPED_CALIBRATIONS else table
+            if item is not None:
+                return _calibration_from_json(item)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            continue  # absent, unreadable or damaged: calibrate anew
+    return None
+
+
+def _store_calibration(key: str, calibration: CutoffCalibration) -> None:
+    """Write the calibration to the cache (atomically); skip a cache that cannot be written."""
+    folder = calibration_cache_dir()
+    if folder is None:
+        return
+    from robot_wear_monitor.atomic_files import write_json_atomic
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(folder / f'cutoffs-{key}.json', calibration_to_json(calibration))
+    except OSError:
+        pass
 
 
 @lru_cache(maxsize=32)
 def _calibrate(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
                seed: int) -> CutoffCalibration:
+    key = calibration_key(speeds_t, params, level, runs, seed)
+    stored = _stored_calibration(key)
+    if stored is not None:
+        return stored
+    calibration = simulate_cutoffs(speeds_t, params=params, level=level, runs=runs, seed=seed)
+    _store_calibration(key, calibration)
+    return calibration
+
+
+def write_shipped_calibrations(path: str | os.PathLike = SHIPPED_CALIBRATIONS) -> Path:
+    """Calibrate the packaged parameter set at the default design and write the shipped table.
+
+    Rebuild after a change of the calibration or the packaged parameter set:
+    ``python3 -c "from robot_wear_monitor.estimation.intervals import
+    write_shipped_calibrations as w; w()"`` (a test checks that the table is current).
+    """
+    from robot_wear_monitor.atomic_files import write_json_atomic
+    from robot_wear_monitor.model.params import load_parameter_set
+    params = load_parameter_set(None)
+    table = {}
+    for speeds in SHIPPED_DESIGNS:
+        rounded = _rounded_speeds(validate_speeds(speeds))
+        key = calibration_key(rounded, params, 0.95, CALIBRATION_RUNS, CALIBRATION_SEED)
+        table[key] = {'speeds_rad_s': list(rounded), 'parameter_set': params.name,
+                      **calibration_to_json(simulate_cutoffs(
+                          rounded, params=params, level=0.95, runs=CALIBRATION_RUNS,
+                          seed=CALIBRATION_SEED))}
+    return write_json_atomic(path, table)
+
+
+def simulate_cutoffs(speeds_t: tuple, *, params: ParameterSet, level: float, runs: int,
+                     seed: int) -> CutoffCalibration:
+    """Run the calibration of :func:`calibrate_cutoffs` (no cache; speeds already rounded)."""
     speeds = np.asarray(speeds_t)
     wear = np.asarray([w for w in CALIBRATION_WEAR if w <= params.wear_max] + [params.wear_max])
     wear = np.unique(wear)
@@ -460,7 +622,7 @@ def _calibrate(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
                                                      np.arange(runs)))
         cutoff[i] = np.quantile(np.maximum(statistic, 0.0), level)
     return CutoffCalibration(wear=wear, cutoff=np.maximum(cutoff, _MIN_CUTOFF),
-                             chi2_cutoff=float(stats.chi2.ppf(level, 1)), level=level,
+                             chi2_cutoff=float(special.chdtri(1, 1.0 - level)), level=level,
                              runs=runs)
 
 
@@ -498,8 +660,8 @@ def profile_log_likelihood(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
     speeds, values = _validate(speeds_rad_s, friction)
     grid = _validate_grid(wear_grid)
     if speeds.size == 1:
-        return _SingleLevel(float(speeds[0]), params).rows(values[:, 0], grid)
-    profile = _Profile(speeds, params, grid)
+        return _single_level(float(speeds[0]), params).rows(values[:, 0], grid)
+    profile = _profile(speeds, params, grid)
     cost, _ = profile.grid_profiles(profile.whitened(values), want_t=False)
     return profile.const - 0.5 * cost
 
@@ -630,7 +792,7 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
     est = estimates if estimates is not None else estimate_wear(speeds, values, params=params)
     if len(est) != values.shape[0]:
         raise InputError('estimates: batch size does not match friction')
-    half_q = 0.5 * float(stats.chi2.ppf(level, 1))
+    half_q = 0.5 * float(special.chdtri(1, 1.0 - level))
     w_hat = np.asarray(est.wear, dtype=float)
     like = _WearLikelihood(speeds, values, params, grid, w_hat, est.temperature_degc,
                            want_t=True)

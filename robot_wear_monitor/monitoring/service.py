@@ -345,8 +345,13 @@ EstimateFunction = Callable[..., Any]
 
 def _default_estimate(speeds_rad_s: np.ndarray, frictions: np.ndarray, *,
                       params: ParameterSet) -> Any:
+    return _estimate_batch(speeds_rad_s, frictions, params=params)[0]
+
+
+def _estimate_batch(speeds_rad_s: np.ndarray, frictions: np.ndarray, *,
+                    params: ParameterSet) -> Any:
     from robot_wear_monitor.estimation.estimator import estimate_wear
-    return estimate_wear(speeds_rad_s, frictions, params=params)[0]
+    return estimate_wear(speeds_rad_s, frictions, params=params)
 
 
 class WearEstimatorService:
@@ -500,14 +505,20 @@ class WearEstimatorService:
             self.reject('already_in_history', f'the experiment ending at {levels.stamp_s:.6f} '
                                               f's is estimate {known} of the history; skipped')
             return None
+        batch = None
         try:
-            estimate = self._estimate(speeds, frictions, params=self.config.params)
+            if self._estimate is _default_estimate:  # keep the batch for the interval
+                batch = _estimate_batch(speeds, frictions, params=self.config.params)
+                estimate = batch[0]
+            else:
+                estimate = self._estimate(speeds, frictions, params=self.config.params)
         except (InputError, ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             self.reject('estimation_failed', str(error).splitlines()[0] if str(error) else '')
             return None
         wear = float(estimate.wear)
         wear_std = float(estimate.wear_std)
-        interval, trend = self._interval_and_trend(speeds, frictions, stamp_s=levels.stamp_s)
+        interval, trend = self._interval_and_trend(speeds, frictions, stamp_s=levels.stamp_s,
+                                                   estimates=batch)
         raised = self.latch.update(
             wear=wear, wear_std=wear_std,
             probability_above_threshold=(math.nan if trend is None
@@ -557,12 +568,17 @@ class WearEstimatorService:
                 f'{_fmt(self.latch.evidence, 3)}')
 
     def _interval_and_trend(self, speeds: np.ndarray, frictions: np.ndarray, *,
-                            stamp_s: float) -> tuple[Any, Any]:
-        """Return the 95 % intervals of (w, T) and the updated trend (None where they fail)."""
+                            stamp_s: float, estimates: Any = None) -> tuple[Any, Any]:
+        """Return the 95 % intervals of (w, T) and the updated trend (None where they fail).
+
+        ``estimates``: the estimator's batch result for these levels, if the default estimator
+        made it (the interval needs the ML estimate; it is not computed twice).
+        """
         from robot_wear_monitor.estimation.intervals import wear_intervals
         interval = trend = None
         try:
-            interval = wear_intervals(speeds, frictions, params=self.config.params)[0]
+            interval = wear_intervals(speeds, frictions, params=self.config.params,
+                                      estimates=estimates)[0]
         except (InputError, ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             self.reject('interval_failed', str(error).splitlines()[0] if str(error) else '')
         try:

@@ -125,7 +125,8 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     All nodes share one SingleThreadedExecutor: rclpy's MultiThreadedExecutor costs more per
     callback than it saves here, and lost /joint_states messages at 1 kHz (measured).  An
     estimate (15-60 ms, after the estimator's warm-up) holds the 1 kHz callbacks back by at
-    most that long, well within the /joint_states queue (1 s).
+    most that long, well within the /joint_states queue (1 s).  BLAS runs on one thread
+    (:mod:`robot_wear_monitor.blas_threads`).
     ``args`` are the process arguments (``--ros-args ...`` included) as for ``rclpy.init``.
     Returns 0 after a normal shutdown and 2 when a node refuses its parameters (nothing is
     spun then; the nodes already built are destroyed).
@@ -133,8 +134,10 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
+    from robot_wear_monitor.blas_threads import use_single_blas_thread
     from robot_wear_monitor.errors import InputError
 
+    use_single_blas_thread()
     rclpy.init(args=args)
     nodes: list[Any] = []
     try:
