@@ -450,47 +450,136 @@ def segment_batch(*, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s:
     if not isinstance(config, SegmenterConfig):
         raise InputError(f'segment_batch: expected a SegmenterConfig, '
                          f'got {type(config).__name__}')
-    t = _as_1d(time_s, 'time_s')
-    q = _as_1d(position_rad, 'position_rad')
-    v = _as_1d(velocity_rad_s, 'velocity_rad_s')
-    e = _as_1d(effort, 'effort')
-    if not t.size == q.size == v.size == e.size:
-        raise InputError(f'segment_batch: arrays differ in length: time_s {t.size}, '
-                         f'position_rad {q.size}, velocity_rad_s {v.size}, effort {e.size}')
-    rejections: Counter = Counter()
-    pairer = _Pairer(config, rejections)
-    levels: list[FrictionLevel] = []
-    if t.size == 0:
-        return SegmentationResult(levels=levels, rejections=rejections)
+    segmenter = ChunkSegmenter(config)
+    levels = segmenter.add(time_s=time_s, position_rad=position_rad,
+                           velocity_rad_s=velocity_rad_s, effort=effort)
+    levels += segmenter.finish()
+    return SegmentationResult(levels=levels, rejections=segmenter.rejections)
 
-    finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
-    finite_time = np.where(finite, t, -np.inf)
-    previous_max = np.concatenate(([-np.inf], np.maximum.accumulate(finite_time)[:-1]))
-    accepted = finite & (t > previous_max)
-    _count(rejections, 'non_finite', np.count_nonzero(~finite))
-    _count(rejections, 'time_not_increasing', np.count_nonzero(finite & ~accepted))
 
-    index = np.flatnonzero(accepted)
-    ta = t[index]
-    gap = np.diff(ta) > config.max_gap_s
-    _count(rejections, 'time_gap', np.count_nonzero(gap))
-    speed = config.gear_ratio * v[index]
-    sign = np.where(speed > config.standstill_speed_rad_s, 1,
-                    np.where(speed < -config.standstill_speed_rad_s, -1, 0)).astype(np.int8)
-    # A new move starts where the sign changes, after a gap or after rejected samples.
-    breaks = np.flatnonzero(gap | (np.diff(index) > 1) | (np.diff(sign) != 0)) + 1
-    starts = np.concatenate(([0], breaks))
-    stops = np.concatenate((breaks, [index.size]))
-    moving = sign[starts] != 0
-    qa, ea = q[index], e[index] / config.torque_scale
-    for start, stop in zip(starts[moving], stops[moving]):
-        part = slice(start, stop)
-        found = _analyse_move(ta[part], qa[part], speed[part], ea[part], int(sign[start]),
-                              config, rejections)
-        if found is not None:
-            levels += pairer.add(found)
-    pairer.finish()
-    return SegmentationResult(levels=levels, rejections=rejections)
+class ChunkSegmenter:
+    """Segment one joint's recording chunk by chunk with numpy (the replay of a long bag).
+
+    Feeding a recording in chunks of any sizes, then calling :meth:`finish`, gives the same
+    levels and rejection counts as :func:`segment_batch` on the whole recording, and as the
+    :class:`StreamingSegmenter` fed sample by sample (tested).  Between chunks only the move in
+    progress (its samples since the last sign change) and a few scalars are kept, so memory
+    does not grow with the recording.
+
+    Attributes:
+        config: the settings.
+        rejections: counter reason -> count of rejected samples and passes.
+
+    """
+
+    def __init__(self, config: SegmenterConfig) -> None:
+        """Start with no samples."""
+        if not isinstance(config, SegmenterConfig):
+            raise InputError(f'ChunkSegmenter: expected a SegmenterConfig, '
+                             f'got {type(config).__name__}')
+        self.config = config
+        self.rejections: Counter = Counter()
+        self._pairer = _Pairer(config, self.rejections)
+        self._time_max = -math.inf           # largest finite time seen (accepted or not)
+        self._last_time = -math.inf          # time of the last accepted sample
+        self._rejected_since = False         # a rejected sample after the last accepted one
+        self._sign = 0                       # sign of the move in progress
+        self._move: tuple[FloatArray, ...] = ()  # (t, q, motor speed, torque) of that move
+
+    def add(self, *, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
+            effort: ArrayLike) -> list[FrictionLevel]:
+        """Add the next chunk of samples; return the levels it completes.
+
+        Arrays: shape (n,), time [s], joint position [rad], joint speed [rad/s], effort (unit
+        of ``config.torque_scale``).
+
+        Raises:
+            InputError: the arrays are not one-dimensional or differ in length.
+
+        """
+        config = self.config
+        t = _as_1d(time_s, 'time_s')
+        q = _as_1d(position_rad, 'position_rad')
+        v = _as_1d(velocity_rad_s, 'velocity_rad_s')
+        e = _as_1d(effort, 'effort')
+        if not t.size == q.size == v.size == e.size:
+            raise InputError(f'segment_batch: arrays differ in length: time_s {t.size}, '
+                             f'position_rad {q.size}, velocity_rad_s {v.size}, '
+                             f'effort {e.size}')
+        if t.size == 0:
+            return []
+        rejections = self.rejections
+        finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
+        finite_time = np.where(finite, t, -np.inf)
+        running = np.maximum.accumulate(finite_time)
+        before = np.maximum(running[:-1], self._time_max)
+        previous_max = np.concatenate(([self._time_max], before))
+        self._time_max = max(self._time_max, float(running[-1]))
+        accepted = finite & (t > previous_max)
+        _count(rejections, 'non_finite', np.count_nonzero(~finite))
+        _count(rejections, 'time_not_increasing', np.count_nonzero(finite & ~accepted))
+
+        index = np.flatnonzero(accepted)
+        if index.size == 0:
+            self._rejected_since = True
+            return []
+        ta = t[index]
+        gap = np.diff(ta, prepend=self._last_time) > config.max_gap_s
+        gap[0] = gap[0] and self._last_time > -math.inf
+        _count(rejections, 'time_gap', np.count_nonzero(gap))
+        speed = config.gear_ratio * v[index]
+        sign = np.where(speed > config.standstill_speed_rad_s, 1,
+                        np.where(speed < -config.standstill_speed_rad_s, -1, 0)).astype(np.int8)
+        skipped = np.diff(index, prepend=-1) > 1  # rejected samples before this one
+        skipped[0] = index[0] > 0 or self._rejected_since
+        # A new move starts where the sign changes, after a gap or after rejected samples.
+        new_move = gap | skipped | (np.diff(sign, prepend=self._sign) != 0)
+        starts = np.flatnonzero(new_move)
+        levels: list[FrictionLevel] = []
+        if starts.size and starts[0] == 0:
+            levels += self._close_move()  # the move in progress ends before this chunk
+        else:
+            starts = np.concatenate(([0], starts))
+        stops = np.concatenate((starts[1:], [index.size]))
+        qa, ea = q[index], e[index] / config.torque_scale
+        for start, stop in zip(starts[:-1], stops[:-1]):
+            levels += self._extend_and_close(ta, qa, speed, ea, int(sign[start]), start, stop)
+        last = int(starts[-1])
+        self._extend(ta, qa, speed, ea, int(sign[last]), last, index.size)
+        self._last_time = float(ta[-1])
+        self._rejected_since = bool(index[-1] < t.size - 1)
+        return levels
+
+    def finish(self) -> list[FrictionLevel]:
+        """End of the recording: analyse the move in progress; return the levels it completes."""
+        levels = self._close_move()
+        self._pairer.finish()
+        return levels
+
+    def _extend(self, t: FloatArray, q: FloatArray, speed: FloatArray, torque: FloatArray,
+                sign: int, start: int, stop: int) -> None:
+        """Append samples start:stop to the move in progress (which has this sign)."""
+        self._sign = sign
+        if sign == 0:
+            self._move = ()
+            return
+        part = (t[start:stop], q[start:stop], speed[start:stop], torque[start:stop])
+        self._move = part if not self._move else tuple(
+            np.concatenate((old, new)) for old, new in zip(self._move, part))
+
+    def _extend_and_close(self, t: FloatArray, q: FloatArray, speed: FloatArray,
+                          torque: FloatArray, sign: int, start: int, stop: int
+                          ) -> list[FrictionLevel]:
+        self._extend(t, q, speed, torque, sign, start, stop)
+        return self._close_move()
+
+    def _close_move(self) -> list[FrictionLevel]:
+        move, sign = self._move, self._sign
+        self._move, self._sign = (), 0
+        if sign == 0 or not move:
+            return []
+        found = _analyse_move(*move, sign, self.config, self.rejections)
+        return self._pairer.add(found) if found is not None else []
 
 
 def _count(counter: Counter, reason: str, count: int) -> None:

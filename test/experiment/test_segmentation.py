@@ -167,3 +167,43 @@ def test_assembler_without_speeds_splits_on_idle_and_repeat():
     assert list(second.speeds_rad_s) == [10.0]
     (last,) = assembler.flush()
     assert list(last.speeds_rad_s) == [30.0]
+
+
+@pytest.mark.parametrize('seed', [1, 2])
+def test_chunks_of_any_size_give_the_streaming_levels(seed):
+    """The chunked replay path equals the live one on an independent recording with faults."""
+    import independent_robot as robot
+    from robot_wear_monitor.experiment.segmentation import ChunkSegmenter
+    recording = robot.generate_wear_test(n_experiments=3, seed=seed, rate_hz=500.0)
+    column = recording.joint_index
+    t = recording.stamps_s.copy()
+    q = recording.position[:, column].copy()
+    v = recording.velocity[:, column].copy()
+    e = recording.effort[:, column].copy()
+    rng = np.random.default_rng(seed)
+    bad = rng.choice(t.size, 12, replace=False)
+    e[bad[:4]] = np.nan
+    v[bad[4:7]] = np.inf
+    t[bad[7:11]] -= 0.3
+    t[bad[11]:] += 0.5  # a gap
+    config = SegmenterConfig(joint=recording.joint, gear_ratio=recording.gear_ratio,
+                             torque_scale=recording.torque_scale)
+    streaming = StreamingSegmenter(config)
+    expected = []
+    for sample in zip(t, q, v, e):
+        expected += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
+                                         velocity_rad_s=sample[2], effort=sample[3])
+    expected += streaming.finish()
+    assert len(expected) >= 6
+    cuts = np.unique(np.concatenate([rng.integers(0, t.size, 40), bad[:8], bad[:8] + 1,
+                                     [1, 2, 3, t.size - 1]]))
+    edges = np.concatenate(([0], cuts, [t.size]))
+    chunked = ChunkSegmenter(config)
+    levels = []
+    for start, stop in zip(edges[:-1], edges[1:]):
+        levels += chunked.add(time_s=t[start:stop], position_rad=q[start:stop],
+                              velocity_rad_s=v[start:stop], effort=e[start:stop])
+    levels += chunked.finish()
+    assert levels == expected
+    assert chunked.rejections == streaming.rejections
+    assert chunked.rejections['non_finite'] == 7 and chunked.rejections['time_gap'] >= 1
