@@ -770,7 +770,8 @@ class _MultiDecoder:
                     if receive is None:
                         receive = np.asarray(receive_ns, dtype=np.int64)
                     self.zero_stamps += int(np.count_nonzero(zero))
-                    stamp[zero] = receive[where][zero] * 1e-9
+                    seconds, nanoseconds = np.divmod(receive[where][zero], 1_000_000_000)
+                    stamp[zero] = seconds + nanoseconds * 1e-9
                 time_s[where] = stamp
                 names = [name for name in known.index
                          if self.requested is None or name in self.requested]

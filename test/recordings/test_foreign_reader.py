@@ -1,0 +1,225 @@
+"""The multi-joint bag reader on foreign recordings, item by item of issue 8 point 5.
+
+Recordings come from ``test/foreign_recordings.py`` (an independent generator: its own
+trajectory, noise, protocol and rosbags writing).  Every test compares what the reader returns
+with what the generator wrote: the samples per joint (bit for bit), the stamps, the message
+count and the rejections per joint and reason.
+"""
+
+import numpy as np
+import pytest
+
+import foreign_recordings as fr
+from robot_wear_monitor.experiment.segmentation import segment_batch, SegmenterConfig
+from robot_wear_monitor.recordings.bags import (BagError, iter_joint_chunks, JOINT_STATE_TYPE,
+                                                read_joint_samples, READER_REASONS, TYPESTORE)
+
+SCHEDULE = ('shoulder', 'wrist_3', 'elbow', 'shoulder')
+
+
+def _recording(seed=0, schedule=SCHEDULE, **imperfections):
+    return fr.generate(schedule=list(schedule), seed=seed,
+                       imperfections=fr.Imperfections(**imperfections))
+
+
+def _read_all(bag, joints=None, **options):
+    stream = iter_joint_chunks(bag, joints=joints, **options)
+    parts = {}
+    chunks = 0
+    for chunk in stream:
+        chunks += 1
+        for joint, samples in chunk.items():
+            parts.setdefault(joint, []).append(samples)
+    arrays = {joint: {field: np.concatenate([getattr(p, field) for p in pieces])
+                      for field in ('time_s', 'position_rad', 'velocity_rad_s', 'effort')}
+              for joint, pieces in parts.items()}
+    return stream, arrays, chunks
+
+
+def _check(recording, stream, arrays, joints=None):
+    """Assert the reader returned what the generator wrote, per joint, and counted the rest."""
+    assert stream.message_count == len(recording)
+    for joint in joints or recording.joint_names:
+        expected = recording.expected_samples(joint)
+        got = arrays[joint]
+        assert got['time_s'].size == expected['time_s'].size, joint
+        for field in ('position_rad', 'velocity_rad_s', 'effort'):
+            assert np.array_equal(got[field], expected[field]), (joint, field)
+        assert np.array_equal(got['time_s'], expected['time_s']), joint
+        assert dict(stream.rejections[joint]) == recording.expected_rejections(joint), joint
+        assert set(stream.rejections[joint]) <= set(READER_REASONS)
+
+
+@pytest.mark.parametrize('rate_hz', [100.0, 1000.0])
+def test_rates_jitter_and_dropped_messages(tmp_path, rate_hz):
+    recording = _recording(rate_hz=rate_hz, stamp_jitter_fraction=0.2, drop_fraction=0.05,
+                           schedule=('shoulder', 'wrist_3'))
+    assert recording.dropped > 0
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream, arrays, _ = _read_all(bag)
+    _check(recording, stream, arrays)
+    # the stamps are the jittered header stamps, not the receive times and not a grid
+    time_s = arrays['shoulder']['time_s']
+    steps = np.diff(time_s)
+    period = 1.0 / rate_hz
+    assert np.all(steps > 0) and np.std(steps[steps < 1.5 * period]) > 0.05 * period
+    assert np.count_nonzero(steps > 1.5 * period) >= 0.5 * recording.dropped
+    assert stream.stamp_source == 'header' and stream.notes == [] and stream.zero_stamps == 0
+
+
+def test_joint_order_differs_between_messages(tmp_path):
+    recording = _recording(shuffle_order=True)
+    assert len({tuple(row) for row in recording.order[:500]}) > 100
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream, arrays, _ = _read_all(bag)
+    _check(recording, stream, arrays)
+    assert not any(stream.rejections[j] for j in recording.joint_names)
+
+
+def test_joints_absent_from_some_messages(tmp_path):
+    recording = _recording(absent_fraction=0.05, shuffle_order=True)
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream, arrays, _ = _read_all(bag)
+    _check(recording, stream, arrays)
+    for joint in recording.joint_names:
+        assert stream.rejections[joint]['joint_missing'] == \
+            np.count_nonzero(~recording.present(joint)) > 0
+
+
+def test_effort_empty_in_some_messages(tmp_path):
+    recording = _recording(effort_empty_fraction=0.03)
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream, arrays, _ = _read_all(bag, joints=['shoulder', 'wrist_3'])
+    _check(recording, stream, arrays, joints=['shoulder', 'wrist_3'])
+    assert set(arrays) == {'shoulder', 'wrist_3'} and set(stream.rejections) == set(arrays)
+    assert stream.rejections['shoulder'] == {
+        'missing_effort': int(np.count_nonzero(recording.effort_empty))}
+
+
+@pytest.mark.parametrize('fraction', [1.0, 0.1])
+def test_zero_header_stamps_fall_back_to_the_receive_time(tmp_path, fraction):
+    recording = _recording(zero_stamp_fraction=fraction, schedule=('elbow',))
+    zero = int(np.count_nonzero(recording.stamp_ns == 0))
+    assert zero > 0
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream, arrays, chunks = _read_all(bag, chunk_messages=997)
+    assert chunks > 2
+    _check(recording, stream, arrays)
+    assert stream.zero_stamps == zero
+    assert stream.stamp_source == ('receive_time' if fraction == 1.0 else 'mixed')
+    assert len(stream.notes) == 1 and f'{zero} of {len(recording)}' in stream.notes[0]
+    assert 'receive time' in stream.notes[0] and str(bag) in stream.notes[0]
+    samples = read_joint_samples(bag, joint='elbow')
+    assert samples.zero_stamps == zero and samples.notes == stream.notes
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+@pytest.mark.parametrize('split_files', [1, 3])
+def test_storages_and_bags_split_in_files(tmp_path, storage, split_files):
+    recording = _recording(shuffle_order=True, absent_fraction=0.01, schedule=('elbow',),
+                           rate_hz=250.0)
+    bag = fr.write_bag(recording, tmp_path / 'bag', storage=storage, split_files=split_files)
+    suffix = '.mcap' if storage == 'mcap' else '.db3'
+    assert len(list(bag.glob('*' + suffix))) == split_files
+    stream, arrays, _ = _read_all(bag)
+    _check(recording, stream, arrays)
+    assert stream.total_messages == len(recording)
+
+
+def test_everything_at_once_and_the_experiments_are_found(tmp_path):
+    """All of point 5 in one bag; the segmenter on the reader's samples finds the truth."""
+    recording = fr.generate(
+        schedule=['shoulder', 'elbow', 'wrist_3', 'shoulder', 'elbow'], seed=4,
+        window_drift_rad=0.04,
+        imperfections=fr.Imperfections(rate_hz=400.0, stamp_jitter_fraction=0.1,
+                                       drop_fraction=0.01, shuffle_order=True,
+                                       absent_fraction=0.005, effort_empty_fraction=0.005,
+                                       zero_stamp_fraction=0.02, interrupt_experiment=1))
+    bag = fr.write_bag(recording, tmp_path / 'bag', storage='sqlite3', split_files=2)
+    stream, arrays, _ = _read_all(bag)
+    _check(recording, stream, arrays)
+    assert recording.joints['wrist_3'].gear_ratio == 1.0
+    for joint in ('shoulder', 'elbow', 'wrist_3'):
+        spec = recording.joints[joint]
+        got = arrays[joint]
+        result = segment_batch(**got, config=SegmenterConfig(
+            joint=joint, gear_ratio=spec.gear_ratio, torque_scale=spec.torque_scale))
+        truth = [level for e in recording.experiments_of(joint) for level in e.levels
+                 if level.complete]
+        assert len(result.levels) == len(truth), joint
+        for found, level in zip(result.levels, truth):
+            assert found.speed_rad_s == pytest.approx(level.speed_rad_s, rel=0.01)
+            assert found.friction == pytest.approx(level.tau_f, abs=2e-3)
+            assert level.forward_s[0] - 0.1 <= found.start_time_s <= level.backward_s[1]
+    broken = [e for e in recording.experiments if e.interrupted]
+    assert len(broken) == 1 and broken[0].joint == 'elbow'
+    assert [lv.complete for lv in broken[0].levels] == [True, False]
+    truth = recording.truth_dict()
+    assert truth['format'] == 'foreign_recordings/1' and len(truth['experiments']) == 5
+
+
+def test_joints_appear_in_the_order_first_seen(tmp_path):
+    recording = _recording(schedule=('wrist_3',))
+    # the first messages name the joints backwards, later ones forwards
+    recording.order[:50] = recording.order[:50, ::-1]
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream = iter_joint_chunks(bag)
+    first = next(iter(stream))
+    assert list(first) == list(reversed(recording.joint_names))
+    assert stream.joints_seen == list(reversed(recording.joint_names))
+
+
+def test_chunks_are_bounded_and_concatenate_to_read_joint_samples(tmp_path):
+    recording = _recording(shuffle_order=True, schedule=('shoulder',))
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    seen = []
+    stream = iter_joint_chunks(bag, joints=['shoulder'], chunk_messages=1000,
+                               progress=lambda read, total: seen.append((read, total)))
+    sizes = []
+    for chunk in stream:
+        assert list(chunk) == ['shoulder']
+        sizes.append(len(chunk['shoulder']))
+    assert max(sizes) <= 1000 and len(sizes) == -(-len(recording) // 1000)
+    assert seen[-1] == (len(recording), len(recording)) and len(seen) == len(sizes)
+    samples = read_joint_samples(bag, joint='shoulder')
+    expected = recording.expected_samples('shoulder')
+    assert np.array_equal(samples.effort, expected['effort'])
+    assert np.array_equal(samples.time_s, expected['time_s'])
+    assert samples.message_count == len(recording) and not samples.rejections
+
+
+def test_errors_name_the_bag_and_list_what_there_is(tmp_path):
+    recording = _recording(schedule=('shoulder',))
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    with pytest.raises(BagError, match=r'no topic /js \(topics: /joint_states\)'):
+        iter_joint_chunks(bag, topic='/js')
+    stream = iter_joint_chunks(bag, joints=['shoulder', 'knee'])
+    with pytest.raises(BagError) as error:
+        for _ in stream:
+            pass
+    message = str(error.value)
+    assert str(bag) in message and "'knee'" in message and '\n' not in message
+    assert 'joints seen: ' + ', '.join(recording.joint_names) in message
+    stream = iter_joint_chunks(bag, joints=['shoulder', 'knee'], require_joints=False)
+    chunks = list(stream)
+    assert stream.joints_missing == ['knee'] and all(len(c['knee']) == 0 for c in chunks)
+    assert stream.rejections['knee'] == {'joint_missing': len(recording)}
+
+
+def test_malformed_messages_are_counted_for_every_joint(tmp_path):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    recording = _recording(schedule=('shoulder',))
+    writer = Writer(tmp_path / 'bag', version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.open()
+    connection = writer.add_connection('/joint_states', JOINT_STATE_TYPE, typestore=TYPESTORE)
+    rows = range(300)
+    for row in rows:
+        writer.write(connection, int(recording.receive_ns[row]), fr._serialize(recording, row))
+    for k in range(3):
+        writer.write(connection, int(recording.receive_ns[300 + k]), b'\x00\x01\x00\x00junk')
+    writer.close()
+    stream, arrays, _ = _read_all(tmp_path / 'bag')
+    assert stream.message_count == 303
+    for joint in recording.joint_names:
+        assert stream.rejections[joint] == {'malformed': 3}
+        assert arrays[joint]['time_s'].size == 300
