@@ -16,6 +16,7 @@ what the audit adds is what the model evaluates.
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 import re
 from typing import Sequence
 
@@ -76,10 +77,14 @@ class Variable:
         """Return a natural cubic spline in the variable (linear beyond the outer knots).
 
         Knots at quantiles of the audited table; with fewer than 3, a polynomial of degree up
-        to 3.  Categories: the indicators minus the first.
+        to 3.  Speed: the spline is in log speed (the levels are spread logarithmically).
+        Categories: the indicators minus the first.
         """
         if self.kind == 'categorical':
             return self.linear()
+        if self.name == 'speed' and len(self.knots) >= 3:
+            return (Factor('speed', 'log_spline', log_lower=math.log(self.lo),
+                           log_upper=math.log(self.hi), knots=self.knots),), False
         if len(self.knots) >= 3:
             return (Factor(self.name, 'spline', lower=self.lo, upper=self.hi,
                            knots=self.knots),), False
@@ -113,8 +118,12 @@ def make_variable(table: AuditTable, name: str, *, ordered: bool = False) -> Var
             and len(unique) <= min(CATEGORICAL_MAX_LEVELS, len(x) // 4)):
         return Variable(name, 'categorical', levels=tuple(f'{u:g}' for u in unique))
     lo, hi = float(unique[0]), float(unique[-1])
-    z = (x - lo) / (hi - lo)
-    n_knots = int(min(6, len(unique) // 3))
+    if name == 'speed' and lo > 0:
+        z = np.log(x / lo) / math.log(hi / lo)
+        n_knots = int(min(6, len(unique) // 2))
+    else:
+        z = (x - lo) / (hi - lo)
+        n_knots = int(min(6, len(unique) // 3))
     quantiles = np.quantile(z, np.linspace(0.05, 0.95, max(n_knots, 1)))
     knots = tuple(float(k) for k in np.unique(quantiles)) if n_knots >= 3 else ()
     return Variable(name, 'continuous', lo, hi, knots, n_unique=len(unique))

@@ -264,9 +264,16 @@ def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
                if ok and r['period'] is not None}
     builder = ShapeBuilder(table, variables, group_variable, base, fit.theta)
     term = choose_shape(builder.shapes(best['variables'], periods), q0, fit.residual, table)
-    chosen = set(best['variables'])
-    others = [(r['candidate'], r['basis']) for r, ok in zip(rows, significant)
-              if ok and not (set(r['variables']) <= chosen or chosen <= set(r['variables']))]
+    # the strongest single-variable rivals (alone or with speed, Bonferroni-significant) that
+    # share no variable with the chosen effect: are they confounded with it?
+    chosen = set(best['variables']) - {'speed'}
+    rivals: dict = {}
+    for r in sorted(rows, key=lambda r: r['log_p']):
+        own = set(r['variables']) - {'speed'}
+        if (len(own) == 1 and not own & chosen and r['period'] is None
+                and r['log_p'] <= math.log(fdr / len(rows)) and not own & set(rivals)):
+            rivals[own.pop()] = r
+    others = [(r['candidate'], r['basis']) for r in rivals.values()]
     report['chosen'] = {'candidate': best['candidate'], 'term': term.name,
                         'variables': list(term.variables),
                         'confounded_with': confounded(q0, fit.residual, best['basis'], others,

@@ -102,7 +102,7 @@ class ShapeBuilder:
         smooth, drop = var.smooth()
         if int(np.prod([f.size for f in smooth])) > 1:
             out.append(Term(f'smooth in {name}', 'smooth', (name,), smooth, drop))
-        if period is not None and period > 0:
+        if period is not None and 0 < period <= 0.5 * (var.hi - var.lo):  # 2 periods seen
             out.append(Term(f'periodic in {name} (period {period:.4g}, ripple)', 'periodic',
                             (name,), (Factor(name, 'periodic', period=period),),
                             info={'period': period}))

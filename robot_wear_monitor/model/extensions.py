@@ -7,9 +7,9 @@ times fixed coefficients::
 
 The bases are the ones the audit names its shapes with: a linear (centred) variable, a
 polynomial or natural cubic spline of the variable scaled to its audited range, a sinusoid of a
-period, a Stribeck decay exp(-|x/phi|^alpha), a polynomial in log speed, the variable itself or
-the indicators of categories.  A term may drop the first column of its tensor product (the
-constant that the model already has).
+period, a Stribeck decay exp(-|x/phi|^alpha), a polynomial or natural spline in log speed, the
+variable itself or the indicators of categories.  A term may drop the first column of its tensor
+product (the constant that the model already has).
 
 Variables: ``speed`` [rad/s, motor side], ``temperature`` [degC], ``load`` (normalised) and
 ``wear`` [-] are what the estimator evaluates; every other variable (position, experiment order,
@@ -44,6 +44,7 @@ BASES = {
     'periodic': ('period',),
     'stribeck': ('stribeck_speed', 'alpha'),
     'log_polynomial': ('log_lower', 'log_upper', 'degree'),
+    'log_spline': ('log_lower', 'log_upper', 'knots'),
     'categories': ('levels',),
 }
 
@@ -63,7 +64,7 @@ class Factor:
     Attributes:
         variable: the variable (table column) it is evaluated on.
         basis: 'linear', 'identity', 'polynomial', 'spline', 'periodic', 'stribeck',
-            'log_polynomial' or 'categories'.
+            'log_polynomial', 'log_spline' or 'categories'.
         centre: linear: the value subtracted from the variable (its unit).
         lower: polynomial/spline: the variable's value mapped to 0 (its unit).
         upper: polynomial/spline: the variable's value mapped to 1 (its unit).
@@ -73,8 +74,9 @@ class Factor:
         period: periodic: the period (the variable's unit).
         stribeck_speed: stribeck: phi [the variable's unit, rad/s for speed].
         alpha: stribeck: the exponent.
-        log_lower: log_polynomial: log of the value mapped to -0.5.
-        log_upper: log_polynomial: log of the value mapped to +0.5.
+        log_lower: log_polynomial/log_spline: log of the value mapped to -0.5 (polynomial) or
+            0 (spline, whose knots are on that scale).
+        log_upper: log_polynomial/log_spline: log of the value mapped to +0.5 or 1.
         levels: categories: the category names (one indicator column each).
 
     """
@@ -101,7 +103,7 @@ class Factor:
             return 1
         if self.basis == 'polynomial':
             return self.degree + (1 if self.constant else 0)
-        if self.basis == 'spline':
+        if self.basis in ('spline', 'log_spline'):
             return len(self.knots) - 1
         if self.basis == 'periodic':
             return 2
@@ -142,12 +144,14 @@ class Factor:
                 decay = np.exp(-power)
                 slope = np.where(x != 0, -self.alpha * power / x * decay, 0.0)
             return np.nan_to_num(decay)[..., None], np.nan_to_num(slope)[..., None]
-        # log_polynomial
+        # log_polynomial, log_spline: in log x scaled by the range [log_lower, log_upper]
         span = self.log_upper - self.log_lower
         with np.errstate(divide='ignore', invalid='ignore'):
-            s = (np.log(x) - self.log_lower) / span - 0.5
+            s = (np.log(x) - self.log_lower) / span
             ds = 1.0 / (x * span)
-        return _powers(s, ds, 0, self.degree)
+        if self.basis == 'log_spline':
+            return _natural_spline(s, ds, self.knots)
+        return _powers(s - 0.5, ds, 0, self.degree)
 
 
 def _powers(s: FloatArray, ds: FloatArray, first: int, degree: int) -> tuple:
@@ -392,12 +396,13 @@ def _factor_from_mapping(item: Any, where: str) -> Factor:
     checks = (
         (basis not in ('polynomial', 'spline') or factor.upper > factor.lower, 'upper',
          'must be > lower'),
-        (basis != 'log_polynomial' or factor.log_upper > factor.log_lower, 'log_upper',
-         'must be > log_lower'),
         (basis != 'periodic' or factor.period > 0, 'period', 'must be > 0'),
         (basis != 'stribeck' or factor.stribeck_speed > 0, 'stribeck_speed', 'must be > 0'),
         (basis != 'stribeck' or factor.alpha > 0, 'alpha', 'must be > 0'),
-        (basis not in ('log_polynomial', 'stribeck') or factor.variable == 'speed', 'variable',
+        (basis not in ('log_polynomial', 'log_spline') or factor.log_upper > factor.log_lower,
+         'log_upper', 'must be > log_lower'),
+        (basis not in ('log_polynomial', 'log_spline', 'stribeck') or factor.variable == 'speed',
+         'variable',
          f'basis {basis!r} applies to speed only'),
     )
     for ok, key, rule in checks:
