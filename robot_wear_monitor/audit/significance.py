@@ -41,7 +41,20 @@ def nested_test(q0: FloatArray, residual: FloatArray, basis: FloatArray,
     gain = float(np.sum((q1.T @ residual) ** 2))
     rss1 = max(rss0 - gain, 1e-300)
     f_value = (gain / df1) / (rss1 / df2)
-    return float(stats.f.logsf(f_value, df1, df2)), df1
+    return _log_f_tail(f_value, df1, df2), df1
+
+
+def _log_f_tail(f_value: float, df1: int, df2: int) -> float:
+    """Return log P(F > f) of the F(df1, df2) distribution, finite far in the tail.
+
+    Where scipy's value underflows (-inf), the leading term of the chi-square tail of
+    df1 x F is used, so that candidates far in the tail are still ranked by their evidence.
+    """
+    value = float(stats.f.logsf(f_value, df1, df2))
+    if math.isfinite(value):
+        return value
+    x = 0.5 * df1 * f_value
+    return -x + (0.5 * df1 - 1.0) * math.log(x) - math.lgamma(0.5 * df1)
 
 
 def sinusoid(x: FloatArray, frequency: float) -> FloatArray:
