@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections import Counter
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import lru_cache
 import gc
 import os
 from pathlib import Path
@@ -627,6 +628,20 @@ def _padded(raw: bytes | memoryview) -> NDArray[np.uint64]:
     return np.frombuffer(data, dtype='<u8')
 
 
+@lru_cache(maxsize=256)
+def _identifying_words(size: int, arrays: tuple[tuple[int, int], ...]) -> NDArray[np.int64]:
+    """Return the words of a record that are neither the stamp nor a float (read-only)."""
+    skip = {1}
+    for offset, count in arrays:
+        if count:
+            first = (offset + 4) // 8
+            skip.update(range(first, first + count))
+    words = np.array([w for w in range(_record_size(size) // 8) if w not in skip],
+                     dtype=np.int64)
+    words.setflags(write=False)
+    return words
+
+
 class _Known:
     """A parsed layout: the words that identify it, its joints and its message tally.
 
@@ -635,17 +650,12 @@ class _Known:
     stamp is word 1 and every float is one word.  The other words identify the layout.
     """
 
-    __slots__ = ('layout', 'words', 'reference', 'reason', 'index', 'count', 'end')
+    __slots__ = ('layout', 'words', 'reference', 'reason', 'index', 'count', 'end',
+                 'signature')
 
     def __init__(self, layout: _Layout, raw: bytes | memoryview) -> None:
         self.layout = layout
-        skip = {1}
-        for offset, count in layout.arrays:
-            if count:
-                first = (offset + 4) // 8
-                skip.update(range(first, first + count))
-        self.words = np.array([w for w in range(_record_size(layout.size) // 8)
-                               if w not in skip], dtype=np.int64)
+        self.words = _identifying_words(layout.size, layout.arrays)
         self.reference = _padded(raw)[self.words]
         self.reason = _layout_reason(layout)
         self.index: dict[str, int] = {}
@@ -653,6 +663,8 @@ class _Known:
             self.index.setdefault(name, i)
         self.count = 0
         self.end = '<' if layout.little else '>'
+        #: what layouts read together share: byte order and the first word of each array
+        self.signature = (self.end, tuple((offset + 4) // 8 for offset, _ in layout.arrays))
 
     def key(self) -> tuple[int, bytes, bytes]:
         """Return the identity of the layout: size, identifying words and their bytes."""
@@ -740,6 +752,8 @@ class _MultiDecoder:
         self.messages += count
         time_s = np.zeros(count)
         receive = None
+        before = len(self.seen)
+        first_rows: dict[str, int] = {}
         sizes = np.fromiter(map(len, raws), dtype=np.int64, count=count)
         columns: dict[str, tuple[FloatArray, NDArray[np.bool_]]] = {}
         order = np.argsort(sizes, kind='stable')
@@ -750,44 +764,30 @@ class _MultiDecoder:
             after = bytes(record - 4 - size)
             data = bytes(4) + (after + bytes(4)).join([raws[i] for i in rows.tolist()]) + after
             words = np.frombuffer(data, dtype='<u8').reshape(rows.size, record // 8)
-            for known, mine in self._match(raws, rows, words, size):
-                known.count += int(mine.size)
-                if known.reason is not None:
-                    continue
-                end = known.end
-                # the common case, every message of the chunk in one layout: slices, no copies
-                if mine.size == rows.size:
-                    mine = slice(None)
-                    where = slice(None) if rows.size == count else rows
-                else:
-                    where = rows[mine]
-                ints = np.frombuffer(data, dtype=end + 'u4').reshape(rows.size, record // 4)
-                sec = ints[mine, 2].view(end + 'i4')
-                nanosec = ints[mine, 3]
-                stamp = sec + nanosec * 1e-9
-                zero = (sec == 0) & (nanosec == 0)
-                if zero.any():
-                    if receive is None:
-                        receive = np.asarray(receive_ns, dtype=np.int64)
-                    self.zero_stamps += int(np.count_nonzero(zero))
-                    seconds, nanoseconds = np.divmod(receive[where][zero], 1_000_000_000)
-                    stamp[zero] = seconds + nanoseconds * 1e-9
-                time_s[where] = stamp
-                names = [name for name in known.index
-                         if self.requested is None or name in self.requested]
-                if not names:
-                    continue
-                floats = np.frombuffer(data, dtype=end + 'f8').reshape(rows.size, record // 8)
-                firsts = [(offset + 4) // 8 for offset, _ in known.layout.arrays]
-                for name in names:
-                    if name not in columns:
-                        columns[name] = (np.full((3, count), np.nan),
-                                         np.zeros(count, dtype=bool))
-                    values, used = columns[name]
-                    j = known.index[name]
-                    for k in range(3):
-                        values[k, where] = floats[mine, firsts[k] + j]
-                    used[where] = True
+            layouts, assign = self._match(raws, rows, words, size)
+            tally = np.bincount(assign[assign >= 0], minlength=len(layouts))
+            for known, number in zip(layouts, tally.tolist()):
+                known.count += number
+            if len(self.seen) > before:
+                for i, known in enumerate(layouts):
+                    if tally[i]:
+                        row = int(rows[int(np.argmax(assign == i))])
+                        for name in known.index:
+                            first_rows[name] = min(first_rows.get(name, row), row)
+            # layouts with the same byte order and float offsets are read together
+            groups: dict[tuple, list[int]] = {}
+            for i, known in enumerate(layouts):
+                if known.reason is None and tally[i]:
+                    groups.setdefault(known.signature, []).append(i)
+            for members in groups.values():
+                self._read(layouts, members, assign, rows, data, record, count, receive_ns,
+                           time_s, columns)
+                receive = receive_ns
+        del receive
+        if len(self.seen) > before:  # new joints in the order of their first message
+            names = list(self.seen)
+            new = sorted(names[before:], key=lambda name: first_rows.get(name, count))
+            self.seen = dict.fromkeys(names[:before] + new)
         joints = self.requested if self.requested is not None else list(self.seen)
         chunk = {}
         for name in joints:
@@ -801,17 +801,79 @@ class _MultiDecoder:
                                          velocity_rad_s=np.zeros(0), effort=np.zeros(0))
         return chunk
 
+    def _read(self, layouts: list[_Known], members: list[int], assign: NDArray[np.int64],
+              rows: NDArray[np.int64], data: bytes, record: int, count: int,
+              receive_ns: list[int], time_s: FloatArray,
+              columns: dict[str, tuple[FloatArray, NDArray[np.bool_]]]) -> None:
+        """Read the stamps and the joints of the messages of layouts sharing float offsets."""
+        first = layouts[members[0]]
+        end = first.end
+        # the common case, every message of the chunk in one layout: slices, no copies
+        if len(members) == 1 and np.all(assign == members[0]):
+            mine: Any = slice(None)
+            where: Any = slice(None) if rows.size == count else rows
+        else:
+            mine = np.flatnonzero(np.isin(assign, members))
+            where = rows[mine]
+        ints = np.frombuffer(data, dtype=end + 'u4').reshape(rows.size, record // 4)
+        sec = ints[mine, 2].view(end + 'i4')
+        nanosec = ints[mine, 3]
+        stamp = sec + nanosec * 1e-9
+        zero = (sec == 0) & (nanosec == 0)
+        if zero.any():
+            self.zero_stamps += int(np.count_nonzero(zero))
+            received = np.asarray(receive_ns, dtype=np.int64)[where][zero]
+            seconds, nanoseconds = np.divmod(received, 1_000_000_000)
+            stamp[zero] = seconds + nanoseconds * 1e-9
+        time_s[where] = stamp
+        names = list(dict.fromkeys(name for i in members for name in layouts[i].index))
+        if self.requested is not None:
+            names = [name for name in names if name in self.requested]
+        if not names:
+            return
+        floats = np.frombuffer(data, dtype=end + 'f8').reshape(rows.size, record // 8)
+        firsts = first.signature[1]
+        lookup = np.full(len(layouts), -1, dtype=np.int64)
+        for name in names:
+            if name not in columns:
+                columns[name] = (np.full((3, count), np.nan), np.zeros(count, dtype=bool))
+            values, used = columns[name]
+            for i in members:
+                lookup[i] = layouts[i].index.get(name, -1)
+            if isinstance(mine, slice):
+                column = int(lookup[members[0]])
+                for k in range(3):
+                    values[k, where] = floats[:, firsts[k] + column]
+                used[where] = True
+                continue
+            column_of = lookup[assign[mine]]
+            has = column_of >= 0
+            source, target, column_of = mine[has], where[has], column_of[has]
+            for k in range(3):
+                values[k, target] = floats[source, firsts[k] + column_of]
+            used[target] = True
+
     def _match(self, raws: list, rows: NDArray[np.int64], words: NDArray[np.uint64],
-               size: int) -> Iterator[tuple[_Known, NDArray[np.int64]]]:
-        """Yield (layout, indices into ``rows``) for the messages of one size."""
+               size: int) -> tuple[list[_Known], NDArray[np.int64]]:
+        """Return the layouts of the messages of one size and each message's (-1: malformed)."""
+        layouts: list[_Known] = []
+        local: dict[int, int] = {}
+
+        def number(known: _Known) -> int:
+            if id(known) not in local:
+                local[id(known)] = len(layouts)
+                layouts.append(known)
+            return local[id(known)]
+
+        assign = np.full(rows.size, -1, dtype=np.int64)
         pending = np.ones(rows.size, dtype=bool)
         for known in list(self.by_size.get(size, ())):  # the recent layouts of this size
             same = np.all(words[:, known.words] == known.reference, axis=1) & pending
             if same.any():
+                assign[same] = number(known)
                 pending &= ~same
-                yield known, np.flatnonzero(same)
                 if not pending.any():
-                    return
+                    return layouts, assign
         while pending.any():
             first = int(np.argmax(pending))
             known = self._lookup(raws[int(rows[first])])
@@ -824,23 +886,31 @@ class _MultiDecoder:
             groups = keys.view(np.dtype((np.void, 8 * keys.shape[1]))).ravel()
             _, firsts, inverse = np.unique(groups, return_index=True, return_inverse=True)
             inverse = inverse.ravel()
-            # the first pending message's group first; at most 256 more groups per round (a
-            # bag of same-size messages of other layouts waits for later rounds)
-            for g in [int(inverse[0])] + [g for g in range(min(firsts.size, 257))
-                                          if g != inverse[0]][:256]:
-                member = left[inverse == g]
-                found = self.by_key.get((size, known.words.tobytes(),
-                                         keys[firsts[g]].tobytes()))
+            found_of = np.full(firsts.size, -1, dtype=np.int64)
+            found_of[inverse[0]] = number(known)
+            prefix = known.words.tobytes()
+            parsed = 0
+            for g in range(firsts.size):
+                if found_of[g] >= 0:
+                    continue
+                found = self.by_key.get((size, prefix, keys[firsts[g]].tobytes()))
                 if found is None:
-                    found = self._lookup(raws[int(rows[member[0]])])
+                    if parsed >= 256:
+                        continue  # a bag of same-size messages of other layouts: next round
+                    parsed += 1
+                    found = self._lookup(raws[int(rows[left[firsts[g]]])])
                     if found is None:
                         self.malformed += 1
-                        pending[member[0]] = False
+                        pending[left[firsts[g]]] = False
                         continue
                     if not np.array_equal(found.words, known.words):
                         continue  # another layout of the same size: a later round
-                pending[member] = False
-                yield found, member
+                found_of[g] = number(found)
+            chosen = found_of[inverse]
+            done = chosen >= 0
+            assign[left[done]] = chosen[done]
+            pending[left[done]] = False
+        return layouts, assign
 
 
 class JointStream:
