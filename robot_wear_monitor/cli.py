@@ -487,14 +487,18 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, metavar='OUT_BAG', help='output bag directory')
     parser.add_argument('--json', metavar='SUMMARY', help='write the JSON summary here')
     parser.add_argument('--plot', metavar='PNG', help='draw the wear trend (like Fig. 11)')
-    parser.add_argument('--joint', help='joint to monitor (default: from the node config)')
+    parser.add_argument('--joint', nargs='+', metavar='NAME',
+                        help='joint(s) to monitor, or "all" (every joint of the recording); '
+                             'several joints put their outputs under <joint>/ (default: the '
+                             'node config\'s joint)')
     parser.add_argument('--gear-ratio', type=float, metavar='R',
                         help='motor speed / joint speed (default: from the node config)')
     parser.add_argument('--torque-scale', type=float, metavar='S',
                         help='effort per normalised torque (default: from the node config)')
     _add_params_argument(parser)
     parser.add_argument('--config', metavar='YAML',
-                        help='node parameter file (default: the packaged wear_monitor.yaml)')
+                        help='node parameter file (default: the packaged wear_monitor.yaml; '
+                             'per-joint values as <joint>: {gear_ratio: ...})')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='storage of OUT_BAG (default mcap)')
     parser.add_argument('--history', metavar='FILE', help='also keep the SQLite wear history')
@@ -517,8 +521,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     if Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     truth = read_truth_json(args.truth) if args.truth else None
+    joint, joints = _joint_selection(args.joint)
     experiment, estimator = replay_parameters(
-        config_file=args.config, joint=args.joint, gear_ratio=args.gear_ratio,
+        config_file=args.config, joint=joint, joints=joints, gear_ratio=args.gear_ratio,
         torque_scale=args.torque_scale, params_file=args.params)
     result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
                         estimator_parameters=estimator, storage=args.storage,
@@ -532,13 +537,13 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     for partial in result.removed_partials:
         print(f'removed {partial}: the unfinished output of a replay that was killed',
               file=sys.stderr)
+    for note in result.notes:
+        print(f'note: {args.bag}: {note}', file=sys.stderr)
     summary = result.summary()
     if args.json:
         write_json_atomic(args.json, summary)
     if args.plot:
-        from robot_wear_monitor.reporting.report import plot_wear_trend
-        plot_wear_trend(result, args.plot, threshold=estimator['wear_threshold'],
-                        title=f'Wear estimate, {Path(args.bag).name}, joint {result.joint}')
+        _plot_replay(result, args.plot, bag=args.bag, threshold=estimator['wear_threshold'])
     first = summary['first_alarm']
     skipped = result.rejections.get('friction_levels_already_in_history', 0)
     print(f'{len(result.updates)} experiments from {result.message_count} messages; '
@@ -547,7 +552,58 @@ def _cmd_replay(args: argparse.Namespace) -> int:
           + ('no alarm' if first is None else
              f'alarm at experiment {first["index"]} (w-hat {first["wear"]:.1f})')
           + f'; wrote {args.out}')
+    if joints:
+        for entry in result.joints:
+            _print_joint_summary(entry)
     return 0
+
+
+def _joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str] | None]:
+    """Return (joint, joints) of ``--joint``: one name keeps the single-joint layout."""
+    if not names:
+        return None, None
+    if len(names) == 1 and names[0] != 'all':
+        return names[0], None
+    if 'all' in names and len(names) > 1:
+        raise InputError('--joint: "all" stands alone')
+    return None, list(names)
+
+
+def _print_joint_summary(entry: dict) -> None:
+    """Print one line per joint: what the segmentation found, or why nothing."""
+    speeds = ', '.join(f'{k} rad/s x{v}' for k, v in entry['levels_per_speed_rad_s'].items())
+    other = entry['levels_at_other_speeds_rad_s']
+    alarm = entry['first_alarm']
+    line = (f'  {entry["joint"]}: {entry["samples"]} samples, {entry["passes"]} passes, '
+            f'{entry["levels"]} levels' + (f' ({speeds})' if speeds else '')
+            + f', {entry["experiments"]} experiments, {entry["estimates"]} estimates'
+            + (f', alarm at experiment {alarm["index"]}' if alarm else ''))
+    if other:
+        line += ('; levels at no configured speed: '
+                 + ', '.join(f'{k} rad/s x{v}' for k, v in other.items()))
+    if entry['no_experiment']:
+        line += f'; no experiment: {entry["no_experiment"]}'
+    print(line)
+
+
+def _plot_replay(result, path: str, *, bag: str, threshold: float) -> None:
+    """Draw the wear trend of the replay, one figure per joint with estimates."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from robot_wear_monitor.reporting.report import plot_wear_trend
+    joints = [entry['joint'] for entry in result.joints if entry['estimates']]
+    if len(joints) <= 1:
+        plot_wear_trend(result, path, threshold=threshold,
+                        title=f'Wear estimate, {Path(bag).name}, joint {result.joint}')
+        return
+    target = Path(path)
+    for joint in joints:
+        part = replace(result, updates=[u for u in result.updates if u.joint == joint],
+                       joint=joint)
+        plot_wear_trend(part, target.with_name(f'{target.stem}_{joint}{target.suffix}'),
+                        threshold=threshold,
+                        title=f'Wear estimate, {Path(bag).name}, joint {joint}')
 
 
 def _add_demo_arguments(parser: argparse.ArgumentParser) -> None:
@@ -677,14 +733,22 @@ def _add_audit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--max-effects', type=int, default=4,
                         help='add at most this many effects (default 4)')
     parser.add_argument('--folds', type=int, default=5, help='cross-validation folds (default 5)')
+    parser.add_argument('--out-params', metavar='FILE',
+                        help='write the parameter set extended by the added terms (YAML, '
+                             'section added_terms; nominal and complete models) for estimate, '
+                             'replay, design and the nodes (--params FILE)')
     _add_level_source_arguments(parser)
 
 
 def _cmd_audit(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.audit.model_audit import load_audit_data, MODELS, run_audit
+    from robot_wear_monitor.audit.data import load_audit_data, MODELS
+    from robot_wear_monitor.audit.run import run_audit
 
     if args.model not in MODELS:
         raise InputError(f'unknown --model {args.model!r} (expected {", ".join(MODELS)})')
+    if args.out_params and args.model == 'speed':
+        raise InputError('--out-params needs --model nominal or complete (a parameter set holds '
+                         'model (5) and (7), not the speed model (4))')
     if not 0 < args.fdr < 1:
         raise InputError(f'--fdr must be between 0 and 1, got {args.fdr}')
     if args.max_effects < 0 or args.folds < 2:
@@ -699,6 +763,11 @@ def _cmd_audit(args: argparse.Namespace) -> int:
     result = run_audit(table=table, model=args.model, params=params, group=group,
                        fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds)
     report = result.to_dict()
+    if args.out_params:
+        from robot_wear_monitor.audit.export import write_parameter_set
+        write_parameter_set(args.out_params, result.extended_params,
+                            header=_audit_params_header(args, result))
+        report['out_params'] = args.out_params
     if args.plots:
         from robot_wear_monitor.audit.report import plot_audit
         report['figures'] = [str(p) for p in plot_audit(result=result, table=table,
@@ -707,6 +776,9 @@ def _cmd_audit(args: argparse.Namespace) -> int:
         _print_json(report)
         return 0
     print(result.summary())
+    if args.out_params:
+        print(f'extended parameter set written to {args.out_params} (use: {PROG} estimate '
+              f'--params {args.out_params} ...)')
     if args.json_report:
         try:
             with open(args.json_report, 'w', encoding='utf-8') as stream:
@@ -715,6 +787,23 @@ def _cmd_audit(args: argparse.Namespace) -> int:
         except OSError as error:
             raise InputError(f'{args.json_report}: cannot write: {error.strerror}') from None
     return 0
+
+
+def _audit_params_header(args: argparse.Namespace, result) -> str:
+    """Return the comment lines of an ``audit --out-params`` file (provenance, defaults)."""
+    lines = [f'Parameter set extended by {PROG} audit {args.data} --model {args.model}.',
+             f'Base: {result.extended_params.name} from '
+             f'{args.params or "the packaged set"}; model ({5 if args.model == "nominal" else 8})'
+             ' re-identified jointly with the added terms on '
+             f'{result.n_levels} levels;',
+             f'held-out RMS error {result.rms_before:.4g} -> {result.rms_after:.4g} '
+             f'(noise floor {result.noise_floor:.4g}).']
+    lines += [f'Added: {e.name} [{", ".join(e.variables)}]' for e in result.effects]
+    if not result.effects:
+        lines.append('No effect added: the set is the re-identified model alone.')
+    lines += [f'Not measured online: {name}, evaluated at {value!r} ({how}).'
+              for name, (value, how) in result.offline.items()]
+    return '\n'.join(lines)
 
 
 # --------------------------------------------------------------------------- history (history.py)
@@ -954,6 +1043,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if ros_args and args.command not in ('live', 'play'):
         parser.error(f'--ros-args is only for live and play, not {args.command}')
     args.ros_args = ros_args
+    from robot_wear_monitor.blas_threads import use_single_blas_thread
+    use_single_blas_thread()
     try:
         return int(args.handler(args) or 0)
     except InputError as error:

@@ -280,8 +280,10 @@ class _Pairer:
         self._config = config
         self._rejections = rejections
         self._pending: _Pass | None = None
+        self.passes = 0  # constant-speed passes found (paired or not)
 
     def add(self, new: _Pass) -> list[FrictionLevel]:
+        self.passes += 1
         old, self._pending = self._pending, new
         if old is None:
             return []
@@ -349,6 +351,13 @@ class StreamingSegmenter:
         self._last_time = -math.inf
         self._sign = 0
         self._buffer: tuple[list, list, list, list] = ([], [], [], [])
+        self.fastest_speed_rad_s = 0.0  # of the accepted samples, motor side
+        self.last_motion_s = -math.inf  # time of the last accepted sample in motion
+
+    @property
+    def passes(self) -> int:
+        """Return the number of constant-speed passes found so far (paired or not)."""
+        return self._pairer.passes
 
     def add_joint_state(self, *, stamp_s: float, name: Sequence[str], position: Any,
                         velocity: Any, effort: Any) -> list[FrictionLevel]:
@@ -388,8 +397,12 @@ class StreamingSegmenter:
             levels = self._close_move()
         self._last_time = t
         speed = config.gear_ratio * v
+        if abs(speed) > self.fastest_speed_rad_s:
+            self.fastest_speed_rad_s = abs(speed)
         sign = 1 if speed > config.standstill_speed_rad_s else (
             -1 if speed < -config.standstill_speed_rad_s else 0)
+        if sign != 0:
+            self.last_motion_s = t
         if sign != self._sign:
             levels += self._close_move()
             self._sign = sign
@@ -484,7 +497,14 @@ class ChunkSegmenter:
         self._last_time = -math.inf          # time of the last accepted sample
         self._rejected_since = False         # a rejected sample after the last accepted one
         self._sign = 0                       # sign of the move in progress
+        self.fastest_speed_rad_s = 0.0       # of the accepted samples, motor side
+        self.last_motion_s = -math.inf       # time of the last accepted sample in motion
         self._move: tuple[FloatArray, ...] = ()  # (t, q, motor speed, torque) of that move
+
+    @property
+    def passes(self) -> int:
+        """Return the number of constant-speed passes found so far (paired or not)."""
+        return self._pairer.passes
 
     def add(self, *, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
             effort: ArrayLike) -> list[FrictionLevel]:
@@ -528,8 +548,12 @@ class ChunkSegmenter:
         gap[0] = gap[0] and self._last_time > -math.inf
         _count(rejections, 'time_gap', np.count_nonzero(gap))
         speed = config.gear_ratio * v[index]
+        self.fastest_speed_rad_s = max(self.fastest_speed_rad_s, float(np.max(np.abs(speed))))
         sign = np.where(speed > config.standstill_speed_rad_s, 1,
                         np.where(speed < -config.standstill_speed_rad_s, -1, 0)).astype(np.int8)
+        moving = np.flatnonzero(sign)
+        if moving.size:
+            self.last_motion_s = float(ta[moving[-1]])
         skipped = np.diff(index, prepend=-1) > 1  # rejected samples before this one
         skipped[0] = index[0] > 0 or self._rejected_since
         # A new move starts where the sign changes, after a gap or after rejected samples.
@@ -632,12 +656,16 @@ class ExperimentAssembler:
     and is returned with one level per speed, in the configured order.  A pause longer than
     ``idle_gap_s`` between levels abandons an incomplete experiment (counted in ``abandoned``).
 
-    Without speeds, an experiment ends when the joint idles for more than ``idle_gap_s``
-    between levels or when a speed already in the experiment comes again; its levels are
-    returned in the order they were measured.
+    Without speeds (discovery), the speeds are those of the levels themselves: an experiment
+    ends when the joint idles for more than ``idle_gap_s`` between levels or when a speed
+    already in the experiment comes again after another speed (the speed set starts to
+    repeat); a level at the same speed as the one just before (within the tolerance) is merged
+    with it.  Its levels are returned in the order they were measured.
 
     Attributes:
         ignored: levels at no configured speed.
+        ignored_speeds: their speeds rounded to 0.1 rad/s -> count (reported, never silently
+            dropped).
         abandoned: incomplete experiments dropped.
 
     """
@@ -667,6 +695,7 @@ class ExperimentAssembler:
         self._slots: list[int] = []
         self._last_end = -math.inf
         self.ignored = 0
+        self.ignored_speeds: Counter = Counter()
         self.abandoned = 0
 
     def add(self, level: FrictionLevel) -> list[FrictionExperiment]:
@@ -679,14 +708,18 @@ class ExperimentAssembler:
             slot = int(np.argmin(distance))
             if distance[slot] > self._tolerance:
                 self.ignored += 1
+                self.ignored_speeds[round(float(level.speed_rad_s), 1)] += 1
                 return done
         else:
             speeds = [group[0].speed_rad_s for group in self._current]
             repeat = [i for i, s in enumerate(speeds)
                       if abs(s - level.speed_rad_s) <= self._tolerance]
-            if repeat:
-                done += self._close(idle=False)
-            slot = len(self._current)
+            if repeat and repeat[-1] == len(speeds) - 1 and self._slots:
+                slot = self._slots[-1]  # the same speed again at once: more of that level
+            else:
+                if repeat:
+                    done += self._close(idle=False)
+                slot = len(self._current)
         self._last_end = max(self._last_end, level.end_time_s)
         if slot in self._slots:
             self._current[self._slots.index(slot)].append(level)

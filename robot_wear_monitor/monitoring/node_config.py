@@ -111,15 +111,39 @@ def _speeds(values: tuple) -> Optional[str]:
     return None
 
 
+def _joint_list(values: tuple) -> Optional[str]:
+    if not all(v.strip() for v in values):
+        return 'names must not be empty'
+    if len(set(values)) != len(values):
+        return 'names must be distinct'
+    if ALL_JOINTS in values and len(values) > 1:
+        return f'"{ALL_JOINTS}" stands alone'
+    return None
+
+
+#: ``joints: [all]``: every joint that appears in /joint_states.
+ALL_JOINTS = 'all'
+
 _JOINT = ParameterSpec('joint', 'string', 'joint_2',
-                       'name of the monitored joint in /joint_states', _non_empty)
+                       'name of the monitored joint in /joint_states (when joints is empty)',
+                       _non_empty)
+_JOINTS = ParameterSpec(
+    'joints', 'string_array', (),
+    'monitored joints (names in /joint_states), or ["all"]: every joint that appears; each '
+    'gets its own segmentation, estimator, alarm and history rows, its outputs under the '
+    'namespace <joint>/ and its own /diagnostics status; per-joint values as <joint>.<name> '
+    '(e.g. joint_3.gear_ratio). Empty: the one joint of "joint", outputs on the plain topics',
+    _joint_list)
 _SPEEDS = ParameterSpec(
-    'experiment_speeds_rad_s', 'double_array', DEFAULT_EXPERIMENT_SPEEDS_RAD_S,
-    'motor-side speed levels of one friction experiment [rad/s] (default: N = 4 optimum of '
-    'Table V); empty: an experiment ends at an idle gap', _speeds)
+    'experiment_speeds_rad_s', 'double_array', (),
+    'motor-side speed levels of one friction experiment [rad/s]; empty (default): found in '
+    'the data (the levels\' own speeds; an experiment ends at an idle gap or when its speeds '
+    'start to repeat); set: only levels within experiment_speed_tolerance_rad_s of these '
+    'speeds are kept (the others are counted and reported with their speeds)', _speeds)
 
 FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINT,
+    _JOINTS,
     ParameterSpec('gear_ratio', 'double', 150.0,
                   'motor-side speed = joint-side velocity * gear_ratio [-]', _positive),
     ParameterSpec('torque_scale', 'double', 10.0,
@@ -128,8 +152,9 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('experiment_speed_tolerance_rad_s', 'double', 1.0,
                   'a level belongs to an experiment speed within this tolerance, motor side '
                   '[rad/s]', _positive),
-    ParameterSpec('idle_gap_s', 'double', 30.0,
-                  'a pause longer than this between levels ends an experiment [s]', _positive),
+    ParameterSpec('idle_gap_s', 'double', 3.0,
+                  'a pause longer than this between two friction levels ends an experiment '
+                  '[s] (levels of one experiment come about 1 s apart)', _positive),
     ParameterSpec('standstill_speed_rad_s', 'double', 0.1,
                   'motor-side speed at or below which the joint stands still [rad/s]',
                   _non_negative),
@@ -163,6 +188,7 @@ SEGMENTER_FIELDS = ('joint', 'gear_ratio', 'torque_scale', 'standstill_speed_rad
 
 WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINT,
+    _JOINTS,
     ParameterSpec('parameter_set_file', 'string', '',
                   'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
     ParameterSpec('wear_threshold', 'double', 35.0,
@@ -260,6 +286,18 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   'next [s]', _non_negative),
 )
 
+#: Parameters a joint can override as ``<joint>.<name>`` (with ``joints``), per node.
+PER_JOINT_PARAMETERS: dict[str, tuple[str, ...]] = {
+    FRICTION_EXPERIMENT_NODE: ('gear_ratio', 'torque_scale', 'experiment_speeds_rad_s',
+                               'experiment_speed_tolerance_rad_s', 'idle_gap_s',
+                               'standstill_speed_rad_s', 'speed_tolerance_fraction',
+                               'speed_tolerance_rad_s', 'min_duration_s', 'trim_s',
+                               'min_samples', 'min_window_rad', 'max_gap_s'),
+    WEAR_ESTIMATOR_NODE: ('parameter_set_file', 'wear_threshold', 'wear_warning', 'wear_healthy',
+                          'alarm_evidence', 'alarm_rule', 'alarm_probability',
+                          'min_fit_p_value', 'experiment_speeds_rad_s'),
+}
+
 NODE_PARAMETERS: dict[str, tuple[ParameterSpec, ...]] = {
     FRICTION_EXPERIMENT_NODE: FRICTION_EXPERIMENT_PARAMETERS,
     WEAR_ESTIMATOR_NODE: WEAR_ESTIMATOR_PARAMETERS,
@@ -343,14 +381,20 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
     wear_warning <= wear_threshold.
     """
     specs = {spec.name: spec for spec in _specs(node_name)}
-    unknown = sorted(set(values) - set(specs))
+    per_joint = PER_JOINT_PARAMETERS.get(node_name, ())
+    unknown = sorted(name for name in set(values) - set(specs)
+                     if name.rpartition('.')[2] not in per_joint or '.' not in name)
     if unknown:
+        hint = (f'; per joint: <joint>.<{"|".join(per_joint)}>' if per_joint else '')
         raise ParameterError(f'{source}: {node_name}: unknown parameter {unknown[0]!r} '
-                             f'(known: {", ".join(specs)})')
+                             f'(known: {", ".join(specs)}{hint})')
     result = {name: coerce_value(spec, spec.default, source='<defaults>')
               for name, spec in specs.items()}
     for name, value in values.items():
-        result[name] = coerce_value(specs[name], value, source=source)
+        spec = specs.get(name) or specs[name.rpartition('.')[2]]
+        coerced = coerce_value(spec, value, source=f'{source}: {name.rpartition(".")[0]}'
+                               if name not in specs else source)
+        result[name] = coerced
     if node_name == WEAR_ESTIMATOR_NODE:
         if not result['wear_healthy'] < result['wear_threshold']:
             raise ParameterError(f'{source}: wear_healthy: must be < wear_threshold, got '
@@ -359,6 +403,55 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
             raise ParameterError(f'{source}: wear_warning: must be <= wear_threshold, got '
                                  f'{result["wear_warning"]} > {result["wear_threshold"]}')
     return result
+
+
+def monitored_joints(values: Mapping[str, Any]) -> Optional[tuple[str, ...]]:
+    """Return the joints a node monitors: ``joints``, or ``(joint,)``; None for ``[all]``."""
+    joints = tuple(values.get('joints') or ())
+    if not joints:
+        return (values['joint'],)
+    return None if joints == (ALL_JOINTS,) else joints
+
+
+def per_joint_outputs(values: Mapping[str, Any]) -> bool:
+    """Return True when the outputs go under per-joint namespaces (``joints`` is set)."""
+    return bool(values.get('joints'))
+
+
+def joint_parameters(node_name: str, values: Mapping[str, Any], joint: str, *,
+                     source: str = '<parameters>') -> dict[str, Any]:
+    """Return the parameters of one monitored joint: ``<joint>.<name>`` over the node's values.
+
+    ``joint`` is set to the joint; the result is validated as a whole (e.g. the estimator's
+    wear_healthy < wear_threshold per joint) and has no dotted names left.
+    """
+    merged = {k: v for k, v in values.items() if '.' not in k}
+    prefix = joint + '.'
+    merged.update({k[len(prefix):]: v for k, v in values.items() if k.startswith(prefix)})
+    merged['joint'] = joint
+    merged['joints'] = ()
+    return validate_parameters(node_name, merged, source=f'{source} (joint {joint})')
+
+
+def joint_namespace(joint: str) -> str:
+    """Return the topic namespace token of a joint name (invalid characters become ``_``).
+
+    ROS 2 name tokens hold letters, digits and underscores and do not start with a digit.
+    """
+    token = ''.join(c if c.isascii() and (c.isalnum() or c == '_') else '_' for c in joint)
+    return token if token and not token[0].isdigit() else f'joint_{token}'
+
+
+def _flatten(parameters: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
+    """Flatten nested mappings to dotted names, as rclpy reads a parameter file."""
+    flat: dict[str, Any] = {}
+    for key, value in parameters.items():
+        name = f'{prefix}{key}'
+        if isinstance(value, Mapping):
+            flat.update(_flatten(value, name + '.'))
+        else:
+            flat[name] = value
+    return flat
 
 
 def default_node_config_file() -> Path:
@@ -391,7 +484,7 @@ def read_ros_parameters_file(path: str | os.PathLike, node_name: str) -> dict[st
         parameters = entry['ros__parameters']
         if not isinstance(parameters, Mapping):
             raise ParameterError(f'{source}: {key}.ros__parameters: expected a mapping')
-        merged.update(parameters)
+        merged.update(_flatten(parameters))
     return merged
 
 
@@ -408,7 +501,7 @@ def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, 
     document = yaml.safe_load(file.read_text(encoding='utf-8')) or {}
     for key in (node_name, '/' + node_name):
         if key in document:
-            own.update(document[key]['ros__parameters'])
+            own.update(_flatten(document[key]['ros__parameters']))
     known = {spec.name for spec in _specs(node_name)}
     values = {k: v for k, v in raw.items() if k in known or k in own}
     values.update(overrides or {})

@@ -1,11 +1,17 @@
 """Replay a recorded ROS 2 bag through the monitoring service, writing the nodes' outputs.
 
-The replay drives the very objects the nodes drive: :class:`FrictionExperimentService` gets
-every sample of the joint from /joint_states, each completed experiment becomes the same
-``friction_levels`` JointState the node publishes, and :class:`WearEstimatorService` consumes
-that message and produces ``temperature``, ``wear``, ``wear_alarm`` and ``/diagnostics``.  All
-five topics are written into OUT_BAG (MCAP by default) with the node types, stamped at the end
-of each experiment, so ``ros2 bag play``, Foxglove or PlotJuggler show them.
+The replay drives the very objects the nodes drive (:mod:`~robot_wear_monitor.monitoring.joints`:
+one :class:`FrictionExperimentService` and one :class:`WearEstimatorService` per monitored
+joint): every sample of a joint from /joint_states goes to its segmentation, each completed
+experiment becomes the same ``friction_levels`` JointState the node publishes, and the joint's
+estimator consumes that message and produces ``temperature``, ``wear``, ``wear_alarm``,
+``wear_trend`` and ``/diagnostics``.  All topics are written into OUT_BAG (MCAP by default) with
+the node types and the node topic names (per-joint namespaces with ``joints``), stamped at the
+end of each experiment, so ``ros2 bag play``, Foxglove or PlotJuggler show them.
+
+The bag is read in chunks (:func:`~robot_wear_monitor.recordings.bags.iter_joint_chunks`) and
+segmented chunk by chunk (the same levels as sample by sample), so memory does not grow with
+the length of the recording.
 
 OUT_BAG is written atomically (``bags.atomic_bag_writer``); a bad input bag raises
 :class:`~robot_wear_monitor.recordings.bags.BagError` before anything is written.
@@ -18,18 +24,16 @@ import os
 from pathlib import Path
 from typing import Any, Mapping, Optional
 
-import numpy as np
-
-from robot_wear_monitor.recordings.bags import atomic_bag_writer, read_joint_samples, TYPESTORE
+from robot_wear_monitor.recordings.bags import atomic_bag_writer, iter_joint_chunks, TYPESTORE
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.model.params import load_parameter_set
-from robot_wear_monitor.monitoring.service import (EstimatorConfig, FRICTION_LEVELS_TOPIC,
+from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
+from robot_wear_monitor.monitoring.service import (FRICTION_LEVELS_TOPIC,
                                                    FrictionExperimentService, json_number,
-                                                   OUTPUT_TOPICS, WearEstimatorService, WearUpdate)
+                                                   OUTPUT_TOPICS, WearUpdate)
 
 KIT = rosbags_kit(TYPESTORE)
 
@@ -56,6 +60,8 @@ class ReplayResult:
     truth: Optional[list] = None
     removed_partials: list[Path] = field(default_factory=list)
     recovery: Optional[Any] = None
+    joints: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def first_alarm(self) -> Optional[WearUpdate]:
@@ -97,18 +103,28 @@ class ReplayResult:
                 'files': list(self.recovery.files), 'messages': self.recovery.messages,
                 'last_stamp_s': self.recovery.last_stamp_s,
                 'complete': self.recovery.complete, 'reason': self.recovery.reason},
+            'joints': self.joints,
+            'notes': list(self.notes),
         }
 
 
 def replay_parameters(*, config_file: str | os.PathLike | None = None,
                       joint: str | None = None, gear_ratio: float | None = None,
-                      torque_scale: float | None = None, params_file: str | None = None
+                      torque_scale: float | None = None, params_file: str | None = None,
+                      joints: Optional[list[str]] = None
                       ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Return the validated parameters of both nodes, with the CLI overrides applied."""
+    """Return the validated parameters of both nodes, with the CLI overrides applied.
+
+    ``joint``: the one monitored joint (plain topics); ``joints``: several, or ``['all']``
+    (per-joint topics); the CLI's ``--gear-ratio``, ``--torque-scale`` and ``--params`` apply
+    to every joint unless the config file gives a joint its own ``<joint>.<name>``.
+    """
     experiment: dict[str, Any] = {}
     estimator: dict[str, Any] = {'history_file': ':memory:'}
     if joint is not None:
         experiment['joint'] = estimator['joint'] = joint
+    if joints:
+        experiment['joints'] = estimator['joints'] = tuple(joints)
     if gear_ratio is not None:
         experiment['gear_ratio'] = float(gear_ratio)
     if torque_scale is not None:
@@ -124,102 +140,160 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                estimator_parameters: Mapping[str, Any], storage: str = 'mcap',
                history_file: str | os.PathLike | None = None, overwrite: bool = False,
                progress: bool = False, truth: Optional[list] = None,
-               recover: bool = True) -> ReplayResult:
-    """Replay ``bag`` through the service; write the node outputs to ``out_bag`` if given.
+               recover: bool = True, chunk_messages: int = 32768) -> ReplayResult:
+    """Replay ``bag`` through the services; write the node outputs to ``out_bag`` if given.
 
-    An unfinished recording (MCAP files without ``metadata.yaml``, or an MCAP file given
-    directly) is read up to its last complete message (``recover``; the result's ``recovery``
-    says where it stops); its complete experiments are estimated.
+    The monitored joints are those of the parameters (``joint``, or ``joints``, or every joint
+    of the recording with ``joints: [all]``).  An unfinished recording (MCAP files without
+    ``metadata.yaml``, or an MCAP file given directly) is read up to its last complete message
+    (``recover``; the result's ``recovery`` says where it stops); its complete experiments are
+    estimated.
 
     Raises:
-        BagError: the input bag is missing, corrupt, truncated, lacks the topic or the joint,
-            or has the wrong type, or is unfinished and ``recover`` is false (raised before
-            OUT_BAG is touched).
-        NoExperimentError: no experiment was found (none already in the history either);
-            its message says why, and no OUT_BAG is written.
+        BagError: the input bag is missing, corrupt, truncated, lacks the topic or has the
+            wrong type, or is unfinished and ``recover`` is false (raised before OUT_BAG is
+            touched).
+        NoExperimentError: no experiment was found in any monitored joint (none already in the
+            history either); its message says why, per joint, and no OUT_BAG is written.
         ParameterError: invalid parameters or parameter set.
 
     """
-    experiments_service = FrictionExperimentService.from_node_parameters(experiment_parameters)
-    params = load_parameter_set(estimator_parameters.get('parameter_set_file') or None)
-    config = EstimatorConfig.from_node_parameters(estimator_parameters, params=params)
+    experiments = FrictionExperimentFleet(experiment_parameters, source='replay parameters')
     from tqdm import tqdm
-    with tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}',
-              disable=not progress, mininterval=0.5) as bar:
-        def advance(done: int, total: int) -> None:
-            bar.total = total
-            bar.update(done - bar.n)
+    bar = tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}',
+               disable=not progress, mininterval=0.5)
 
-        samples = read_joint_samples(bag, joint=experiments_service.joint, progress=advance,
-                                     recover=recover)
+    def advance(done: int, total: int) -> None:
+        bar.total = max(total, done)
+        bar.update(done - bar.n)
+
+    stream = iter_joint_chunks(bag, joints=experiments.selection, progress=advance,
+                               recover=recover, require_joints=False,
+                               chunk_messages=chunk_messages)
     history = WearHistory(history_file if history_file is not None else ':memory:')
-    estimator = WearEstimatorService(config, history=history)
+    estimators = WearEstimatorFleet(estimator_parameters, history=history,
+                                    source='replay parameters')
     updates: list[WearUpdate] = []
-    result = ReplayResult(updates=updates, joint=config.joint,
-                          message_count=samples.message_count, sample_count=samples.time_s.size,
-                          truth=truth, recovery=samples.recovery)
+    result = ReplayResult(updates=updates, joint=', '.join(experiments.selection or ('all',)),
+                          message_count=0, sample_count=0, truth=truth)
 
     def run(writer: Any) -> None:
-        def publish(experiment: Any) -> None:
-            msg = experiments_service.friction_levels_message(KIT, experiment)
+        def publish(service: FrictionExperimentService, experiment: Any) -> None:
+            msg = service.friction_levels_message(KIT, experiment)
             stamp_ns = stamp_to_nanoseconds(experiment.end_time_s)
             if writer is not None:
                 writer.write(bag_topic(FRICTION_LEVELS_TOPIC), msg, stamp_ns)
-            update = estimator.handle_friction_levels(msg)
+            estimator, update = estimators.handle_friction_levels(msg)
             if update is None:
                 return
             updates.append(update)
             if writer is not None:
-                for topic, out in estimator.output_messages(KIT, update):
+                types = {mapped: OUTPUT_TOPICS[base] for base, mapped
+                         in estimators.topics(estimator.config.joint).items()}
+                for topic, out in estimators.output_messages(KIT, estimator, update):
+                    writer.add_topic(bag_topic(topic), types[topic])
                     writer.write(bag_topic(topic), out, stamp_ns)
 
-        experiments = experiments_service.add_recording(
-            time_s=samples.time_s, position_rad=samples.position_rad,
-            velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)
-        for experiment in tqdm(experiments, unit='experiment', desc='estimate',
-                               disable=not progress, mininterval=0.5):
-            publish(experiment)
-        for experiment in experiments_service.finish():
-            publish(experiment)
+        for chunk in stream:
+            for joint, samples in chunk.items():
+                if not len(samples) and joint in experiments.services:
+                    continue
+                service = experiments.service(joint)
+                for experiment in service.add_recording(
+                        time_s=samples.time_s, position_rad=samples.position_rad,
+                        velocity_rad_s=samples.velocity_rad_s, effort=samples.effort):
+                    publish(service, experiment)
+        for service, experiment in experiments.finish():
+            publish(service, experiment)
 
     try:
-        if out_bag is None:
-            run(None)
-            _require_experiments(updates, estimator, experiments_service, samples)
-        else:
-            with atomic_bag_writer(out_bag, storage=storage, overwrite=overwrite) as writer:
-                result.removed_partials = list(writer.removed_stale)
-                for topic, msgtype in OUTPUT_TOPICS.items():
-                    writer.add_topic(bag_topic(topic), msgtype)
-                run(writer)
-                _require_experiments(updates, estimator, experiments_service, samples)
-            result.out_bag = Path(out_bag)
+        with bar:
+            if out_bag is None:
+                run(None)
+                _require_experiments(updates, estimators, experiments, stream)
+            else:
+                with atomic_bag_writer(out_bag, storage=storage, overwrite=overwrite) as writer:
+                    result.removed_partials = list(writer.removed_stale)
+                    writer.add_topic(bag_topic(FRICTION_LEVELS_TOPIC),
+                                     OUTPUT_TOPICS[FRICTION_LEVELS_TOPIC])
+                    run(writer)
+                    _require_experiments(updates, estimators, experiments, stream)
+                result.out_bag = Path(out_bag)
     finally:
         history.close()
-    rejections = dict(samples.rejections)
-    for reason, count in experiments_service.all_rejections().items():
-        rejections[f'segmentation_{reason}'] = count
-    for reason, count in estimator.rejections.items():
-        rejections[f'friction_levels_{reason}'] = count
-    result.rejections = rejections
+    result.message_count = stream.message_count
+    result.recovery = stream.recovery
+    result.notes = list(stream.notes)
+    result.sample_count = sum(s.messages for s in experiments.services.values())
+    result.joints = [_joint_summary(joint, service, estimators, stream, updates)
+                     for joint, service in experiments.services.items()]
+    result.rejections = _rejections(experiments, estimators, stream)
     return result
 
 
-def explain_no_experiment(*, samples: Any, service: FrictionExperimentService) -> str:
+def _rejections(experiments: FrictionExperimentFleet, estimators: WearEstimatorFleet,
+                stream: Any) -> dict[str, int]:
+    """Return every rejection of the replay by reason, summed over the joints."""
+    total: dict[str, int] = {}
+
+    def add(reason: str, count: int) -> None:
+        total[reason] = total.get(reason, 0) + int(count)
+    for joint in experiments.services:
+        for reason, count in stream.rejections.get(joint, {}).items():
+            add(reason, count)
+    for service in experiments.services.values():
+        for reason, count in service.all_rejections().items():
+            add(f'segmentation_{reason}', count)
+    for service in estimators.services.values():
+        for reason, count in service.rejections.items():
+            add(f'friction_levels_{reason}', count)
+    for reason, count in estimators.rejections.items():
+        add(f'friction_levels_{reason}', count)
+    return total
+
+
+def _joint_summary(joint: str, service: FrictionExperimentService,
+                   estimators: WearEstimatorFleet, stream: Any,
+                   updates: list[WearUpdate]) -> dict[str, Any]:
+    """Return what the replay found for one joint (JSON-ready)."""
+    mine = [u for u in updates if u.joint == joint]
+    first = next((u for u in mine if u.alarm_raised), None)
+    summary = service.summary()
+    summary['rejected'] = {**{f'reader_{k}': v for k, v in
+                              sorted(stream.rejections.get(joint, {}).items())},
+                           **summary['rejected']}
+    summary['estimates'] = len(mine)
+    summary['first_alarm'] = None if first is None else {
+        'index': first.index, 'stamp_s': first.stamp_s, 'wear': json_number(first.wear)}
+    summary['no_experiment'] = (None if service.experiments else explain_no_experiment(
+        service=service, reader_rejections=stream.rejections.get(joint, {}),
+        seen=joint in stream.joints_seen, joints_seen=stream.joints_seen,
+        topic=stream.topic))
+    return summary
+
+
+def explain_no_experiment(*, service: FrictionExperimentService,
+                          reader_rejections: Mapping[str, int], seen: bool = True,
+                          joints_seen: Optional[list[str]] = None,
+                          topic: str = '/joint_states') -> str:
     """Return one sentence on why a recording of the joint gave no friction experiment.
 
-    Checked in order: no usable sample of the joint, no motion (motor speed never above the
-    standstill speed), no constant-speed plateau (every pass too short), passes found but
-    never paired forward/backward over a common window, and levels whose speeds match none of
-    the configured experiment speeds (the recorded speeds are listed).
+    Checked in order: a joint name that is in no message (the names seen are listed), no
+    usable sample of the joint, no motion (motor speed never above the standstill speed), no
+    constant-speed plateau (every pass too short), passes found but never paired
+    forward/backward over a common window, and levels whose speeds match none of the
+    configured experiment speeds (the recorded speeds are listed).
     """
     config = service.segmenter_config
     joint = service.joint
-    if samples.time_s.size == 0:
-        reasons = ', '.join(f'{k} {v}' for k, v in sorted(samples.rejections.items()))
+    if not seen:
+        names = list(joints_seen or ())
+        shown = ', '.join(names[:12]) + (', ...' if len(names) > 12 else '')
+        return f'joint {joint!r} is in no message on {topic} (joints seen: {shown or "none"})'
+    if service.messages == 0:
+        reasons = ', '.join(f'{k} {v}' for k, v in sorted(reader_rejections.items()))
         return f'no usable sample of joint {joint!r} ({reasons or "none"})'
-    speed = np.abs(np.asarray(samples.velocity_rad_s)) * config.gear_ratio
-    fastest = float(np.nanmax(speed)) if speed.size else 0.0
+    fastest = service.fastest_speed_rad_s
     if not fastest > config.standstill_speed_rad_s:
         return (f'joint {joint!r} never moves: its motor speed stays at or below '
                 f'{fastest:.3g} rad/s (standstill {config.standstill_speed_rad_s:g} rad/s at '
@@ -227,29 +301,40 @@ def explain_no_experiment(*, samples: Any, service: FrictionExperimentService) -
     rejections = service.all_rejections()
     if not service.levels:
         if rejections.get('pass_unpaired', 0) or rejections.get('pass_no_common_window', 0):
-            return (f'joint {joint!r} has constant-speed passes, but none was paired with a '
-                    f'pass the other way over a common position window (unpaired '
-                    f'{rejections.get("pass_unpaired", 0)}, no common window '
+            return (f'joint {joint!r} has {service.passes} constant-speed passes, but none '
+                    f'was paired with a pass the other way over a common position window '
+                    f'(unpaired {rejections.get("pass_unpaired", 0)}, no common window '
                     f'{rejections.get("pass_no_common_window", 0)}): eq. (3) needs back-and-'
                     f'forth moves at one speed')
         return (f'joint {joint!r} moves (up to {fastest:.3g} rad/s motor side) but has no '
                 f'constant-speed plateau of {config.min_duration_s:g} s or more '
                 f'({rejections.get("pass_too_short", 0)} passes too short)')
-    found = sorted({round(float(level.speed_rad_s), 1) for level in service.levels})
+    found = sorted(service.levels_per_speed())
     shown = ', '.join(f'{v:g}' for v in found[:12]) + (', ...' if len(found) > 12 else '')
+    if not service.experiment_speeds_rad_s:
+        return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s '
+                f'formed no experiment')
     configured = ', '.join(f'{v:g}' for v in service.experiment_speeds_rad_s)
     return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s, but '
             f'none formed an experiment of the configured speeds [{configured}] rad/s '
             f'(tolerance {service.speed_tolerance_rad_s:g} rad/s): set '
-            f'experiment_speeds_rad_s in --config to the recorded speeds')
+            f'experiment_speeds_rad_s in --config to the recorded speeds, or leave it unset '
+            f'to take the speeds found in the recording')
 
 
-def _require_experiments(updates: list, estimator: WearEstimatorService,
-                         service: FrictionExperimentService, samples: Any) -> None:
+def _require_experiments(updates: list, estimators: WearEstimatorFleet,
+                         experiments: FrictionExperimentFleet, stream: Any) -> None:
     """Raise NoExperimentError when the recording gave nothing (and nothing was skipped)."""
-    if updates or estimator.rejections:
+    if updates or estimators.rejections or any(s.rejections for s in
+                                               estimators.services.values()):
         return
-    if service.experiments:
+    if any(s.experiments for s in experiments.services.values()):
         return
-    raise NoExperimentError(f'no friction experiment: '
-                            f'{explain_no_experiment(samples=samples, service=service)}')
+    if not experiments.services:
+        raise NoExperimentError(f'no friction experiment: no joint in the JointState messages '
+                                f'of {stream.path} ({stream.message_count} messages)')
+    reasons = [explain_no_experiment(service=s, reader_rejections=stream.rejections.get(j, {}),
+                                     seen=j in stream.joints_seen, joints_seen=stream.joints_seen,
+                                     topic=stream.topic)
+               for j, s in experiments.services.items()]
+    raise NoExperimentError('no friction experiment: ' + '; '.join(reasons))

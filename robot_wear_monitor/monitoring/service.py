@@ -243,7 +243,7 @@ class WearUpdate:
     def to_json(self) -> dict[str, Any]:
         """Return a JSON-safe summary (NaN and inf become None)."""
         return {
-            'index': self.index, 'stamp_s': self.stamp_s,
+            'index': self.index, 'joint': self.joint, 'stamp_s': self.stamp_s,
             'speeds_rad_s': [float(v) for v in self.speeds_rad_s],
             'frictions': [float(f) for f in self.frictions],
             'temperature_degc': json_number(self.temperature_degc),
@@ -845,6 +845,7 @@ class FrictionExperimentService:
         self.last_error = ''
         self._status_total = 0
         self._segmenter = StreamingSegmenter(self.segmenter_config)
+        self._chunks = None
         self._assembler = ExperimentAssembler(
             speeds_rad_s=list(self.experiment_speeds_rad_s) or None,
             speed_tolerance_rad_s=self.speed_tolerance_rad_s, idle_gap_s=self.idle_gap_s)
@@ -908,19 +909,75 @@ class FrictionExperimentService:
     def add_recording(self, *, time_s: Sequence[float], position_rad: Sequence[float],
                       velocity_rad_s: Sequence[float], effort: Sequence[float]
                       ) -> list[FrictionExperiment]:
-        """Segment a whole recording of the joint at once (the replay) and assemble it.
+        """Segment a chunk of a recording of the joint at once (the replay) and assemble it.
 
-        The batch segmenter gives the same levels and rejection counts as the streaming one
-        that ``add_sample`` feeds (tested), at numpy speed; the levels then go through the same
-        experiment assembler as on the robot.  Use it on a fresh service, then ``finish()``.
-        Arrays: shape (n,), time [s], joint position [rad], joint speed [rad/s], effort.
+        Chunks are the consecutive parts of one recording (a whole recording is one chunk);
+        the chunked batch segmenter gives the same levels and rejection counts as the
+        streaming one that ``add_sample`` feeds (tested), at numpy speed, and keeps only the
+        move in progress between chunks; the levels then go through the same experiment
+        assembler as on the robot.  Use it on a fresh service (not mixed with ``add_sample``
+        or ``add_joint_state``), then ``finish()``.  Arrays: shape (n,), time [s], joint
+        position [rad], joint speed [rad/s], effort.
         """
-        from robot_wear_monitor.experiment.segmentation import segment_batch
-        result = segment_batch(time_s=time_s, position_rad=position_rad,
-                               velocity_rad_s=velocity_rad_s, effort=effort,
-                               config=self.segmenter_config)
-        self.rejections.update(result.rejections)
-        return self._assemble(result.levels)
+        from robot_wear_monitor.experiment.segmentation import ChunkSegmenter
+        if self._chunks is None:
+            self._chunks = ChunkSegmenter(self.segmenter_config)
+            self._segmenter = self._chunks
+        self.messages += len(time_s)
+        experiments = self._assemble(self._chunks.add(
+            time_s=time_s, position_rad=position_rad, velocity_rad_s=velocity_rad_s,
+            effort=effort))
+        if len(time_s):
+            experiments += self._idle(float(time_s[-1]))
+        return experiments
+
+    def _idle(self, now_s: float) -> list[FrictionExperiment]:
+        """Close the assembler's experiment once the joint has stood still for idle_gap_s.
+
+        Standing still, not merely no new level: a level at a slow speed takes its time.
+        """
+        if now_s - self._segmenter.last_motion_s <= self.idle_gap_s:
+            return []
+        return self._completed(self._assembler.idle(now_s=now_s))
+
+    @property
+    def fastest_speed_rad_s(self) -> float:
+        """Return the fastest motor-side speed of the accepted samples so far [rad/s]."""
+        return self._segmenter.fastest_speed_rad_s
+
+    @property
+    def passes(self) -> int:
+        """Return the constant-speed passes found so far (paired or not)."""
+        return self._segmenter.passes
+
+    def levels_per_speed(self) -> dict[float, int]:
+        """Return the friction levels found per speed (rounded to 0.1 rad/s, motor side)."""
+        counts = Counter(round(float(level.speed_rad_s), 1) for level in self.levels)
+        return dict(sorted(counts.items()))
+
+    @property
+    def levels_at_other_speeds(self) -> dict[float, int]:
+        """Return the levels at no configured speed, per speed (0.1 rad/s): reported, unused."""
+        return dict(sorted(self._assembler.ignored_speeds.items()))
+
+    def summary(self) -> dict[str, Any]:
+        """Return what the segmentation found, for a report (JSON-ready).
+
+        Keys: ``joint``, ``samples`` (read), ``rejected`` (reason -> count),
+        ``passes``, ``levels``, ``levels_per_speed_rad_s`` (speed -> count),
+        ``levels_at_other_speeds_rad_s`` (speed -> count), ``experiments``,
+        ``experiments_abandoned``, ``speeds_configured_rad_s`` (empty: discovered).
+        """
+        return {'joint': self.joint, 'samples': self.messages,
+                'rejected': dict(sorted(self.all_rejections().items())),
+                'passes': self.passes, 'levels': len(self.levels),
+                'levels_per_speed_rad_s': {f'{k:g}': v
+                                           for k, v in self.levels_per_speed().items()},
+                'levels_at_other_speeds_rad_s': {
+                    f'{k:g}': v for k, v in self.levels_at_other_speeds.items()},
+                'experiments': self.experiments,
+                'experiments_abandoned': self._assembler.abandoned,
+                'speeds_configured_rad_s': list(self.experiment_speeds_rad_s)}
 
     def _assemble(self, new_levels: Sequence[FrictionLevel]) -> list[FrictionExperiment]:
         experiments: list[FrictionExperiment] = []
@@ -944,10 +1001,17 @@ class FrictionExperimentService:
 
     def _after_sample(self, stamp_s: float, experiments: list[FrictionExperiment]
                       ) -> list[FrictionExperiment]:
-        """Close the event experiment whose ``end`` stamp the samples have reached."""
+        """Close the event experiment whose ``end`` stamp the samples have reached.
+
+        Also closes the assembler's experiment when the joint has idled for ``idle_gap_s``
+        since its last level (with discovered speeds nothing else would close it until the
+        next experiment starts).
+        """
         stamp_s = float(stamp_s)
         if math.isfinite(stamp_s) and stamp_s > self._latest_stamp_s:
             self._latest_stamp_s = stamp_s
+            if self._open is None:
+                experiments = experiments + self._idle(stamp_s)
         if self._open is not None and self._latest_stamp_s >= self._open.end_s:
             experiments = experiments + self._completed(self._close_event_experiment())
         return experiments
@@ -1093,7 +1157,7 @@ class FrictionExperimentService:
         """
         experiments = self._assemble(self._segmenter.finish() or [])
         experiments.extend(self._completed(self._close_event_experiment()))
-        experiments.extend(self._assembler.flush() or [])
+        experiments.extend(self._completed(self._assembler.flush() or []))
         return experiments
 
     def friction_levels_message(self, kit: MessageKit, experiment: FrictionExperiment) -> Any:

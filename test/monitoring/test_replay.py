@@ -355,15 +355,41 @@ def independent_bags(tmp_path_factory):
 @pytest.mark.parametrize('bag, extra, reason', [
     ('table_v', ['--joint', 'joint_1'], 'never moves'),
     ('table_v', ['--joint', 'joint_9'], "joints seen: joint_1, joint_2"),
-    ('other_speeds', [], 'at 35.8, 40.8 rad/s, but none formed an experiment of the '
-                         'configured speeds [2.1, 28.5, 35.1, 41.7]'),
+    ('other_speeds', ['--config', 'TABLE_V_CONFIG'],
+     'at 35.8, 40.8 rad/s, but none formed an experiment of the configured speeds '
+     '[2.1, 28.5, 35.1, 41.7]'),
     ('no_plateau', [], 'no constant-speed plateau of 0.2 s'),
 ])
 def test_a_recording_without_experiments_exits_2_and_says_why(
         independent_bags, tmp_path, capsys, bag, extra, reason):
     out = tmp_path / 'out'
+    if 'TABLE_V_CONFIG' in extra:  # speeds configured: a filter
+        config = tmp_path / 'table_v.yaml'
+        config.write_text('friction_experiment_node:\n  ros__parameters:\n'
+                          '    experiment_speeds_rad_s: [2.1, 28.5, 35.1, 41.7]\n')
+        extra = [str(config) if e == 'TABLE_V_CONFIG' else e for e in extra]
     code = cli.main(['replay', str(independent_bags[bag]), '--out', str(out), '--json',
                      str(tmp_path / 's.json'), '--no-progress', *extra])
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and reason in err, err
     assert not out.exists() and not (tmp_path / 's.json').exists()
+
+
+def test_unconfigured_speeds_are_found_in_the_recording(independent_bags, tmp_path, capsys):
+    """The issue's case: a design the config does not know is found and estimated."""
+    import independent_robot as robot
+    recording = robot.generate_wear_test(n_experiments=2, seed=2, rate_hz=250.0,
+                                         speeds_rad_s=(35.84, 40.84))
+    summary_path = tmp_path / 's.json'
+    code = cli.main(['replay', str(independent_bags['other_speeds']), '--out',
+                     str(tmp_path / 'out'), '--json', str(summary_path), '--no-progress'])
+    assert code == 0, capsys.readouterr().err
+    summary = json.loads(summary_path.read_text())
+    assert len(summary['experiments']) == len(recording.truth) == 2
+    for entry, truth in zip(summary['experiments'], recording.truth):
+        assert entry['speeds_rad_s'] == pytest.approx(truth.speeds_rad_s, abs=0.05)
+        assert entry['frictions'] == pytest.approx(truth.friction_true, abs=3e-3)
+    joint = summary['joints'][0]
+    assert joint['levels_per_speed_rad_s'] == {'35.8': 2, '40.8': 2}
+    assert joint['experiments'] == 2 and joint['no_experiment'] is None
+    assert joint['speeds_configured_rad_s'] == []

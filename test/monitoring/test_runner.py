@@ -254,7 +254,7 @@ TRUTH = {'joint_2': JointTruth(gear_ratio=150.0, load=0.45, temperature_degc=38.
                                gravity=0.3)}
 
 
-def run_session(commands, *, events=True, event_lag_s=0.0, seed=4):
+def run_session(commands, *, events=True, event_lag_s=0.0, seed=4, idle_gap_s=3.0):
     """Simulate the runner driving the arm; feed a FrictionExperimentService of joint_2.
 
     ``commands``: (time from the session start [s], 'start' | 'abort').  Events are applied
@@ -264,7 +264,10 @@ def run_session(commands, *, events=True, event_lag_s=0.0, seed=4):
     """
     runner = make_runner()
     arm = SimulatedArm(NAMES, POSTURE, tested=TRUTH, seed=seed)
-    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    # the configured speeds: the assembler without events completes (or abandons) on them
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE,
+                                              overrides={'experiment_speeds_rad_s': SPEEDS,
+                                                         'idle_gap_s': idle_gap_s})
     service = FrictionExperimentService.from_node_parameters(values)
     t0 = 1_700_000_000.0
     commands = sorted(commands)
@@ -340,14 +343,20 @@ def test_events_give_exactly_the_planned_experiments_near_the_truth(session):
 
 
 def test_without_events_the_aborted_levels_spoil_the_next_experiment(session):
-    service, emitted, _, _ = run_session(SESSION, events=False)
-    # The idle-gap assembler still finds two complete experiments, but the second one merges
-    # the aborted run's first levels with the next run's: the events keep them apart.
+    service, emitted, _, _ = run_session(SESSION, events=False, idle_gap_s=30.0)
+    # With a long idle gap the assembler still finds two complete experiments, but the second
+    # one merges the aborted run's first levels with the next run's: the events keep them
+    # apart, and so does the default idle gap (3 s of standstill drop the aborted run).
     assert len(emitted) == 2
     spoiled = emitted[1][1]
     with_events = session[1][1][1]
     assert spoiled.levels[0].n_forward > 1.5 * with_events.levels[0].n_forward
     assert spoiled.start_time_s < with_events.start_time_s - 4.0
+    _, clean, _, _ = run_session(SESSION, events=False)
+    assert len(clean) == 2
+    assert clean[1][1].levels[0].n_forward == pytest.approx(with_events.levels[0].n_forward,
+                                                            abs=2)
+    assert clean[1][1].start_time_s == pytest.approx(with_events.start_time_s, abs=0.01)
 
 
 def test_events_ahead_of_the_samples_close_at_the_first_sample_at_the_end_stamp():
@@ -360,7 +369,9 @@ def test_events_ahead_of_the_samples_close_at_the_first_sample_at_the_end_stamp(
 
 
 def test_a_start_without_end_is_closed_by_the_next_start_and_unmatched_events_are_counted():
-    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    # the configured speeds: the assembler without events completes (or abandons) on them
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE,
+                                              overrides={'experiment_speeds_rad_s': SPEEDS})
     service = FrictionExperimentService.from_node_parameters(values)
     event = messages.ExperimentEvent
     assert service.add_experiment_event(event('end', 'joint_2', 5, SPEEDS, 4.0, '', 1.0)) == []
@@ -383,7 +394,9 @@ def test_a_start_without_end_is_closed_by_the_next_start_and_unmatched_events_ar
 def test_an_unfinished_experiment_is_emitted_with_the_levels_it_has():
     service, emitted, runner, _ = run_session([(0.5, 'start'), (3.0, 'abort')], events=False)
     assert emitted == []  # 2 of 4 speeds: the assembler abandons it
-    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
+    # the configured speeds: the assembler without events completes (or abandons) on them
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE,
+                                              overrides={'experiment_speeds_rad_s': SPEEDS})
     service = FrictionExperimentService.from_node_parameters(values)
     start = messages.ExperimentEvent('start', 'joint_2', 1, SPEEDS, 4.0, '', 0.0)
     service.add_experiment_event(start)

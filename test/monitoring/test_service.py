@@ -193,8 +193,9 @@ def test_experiment_service_status_warns_only_in_a_period_with_malformed_input()
 def test_packaged_node_config_is_valid_for_both_nodes():
     experiment = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE)
     estimator = node_config.load_node_parameters(node_config.WEAR_ESTIMATOR_NODE)
-    assert experiment['experiment_speeds_rad_s'] == estimator['experiment_speeds_rad_s'] \
-        == node_config.DEFAULT_EXPERIMENT_SPEEDS_RAD_S
+    # the speeds are found in the data by default; configured, they filter the levels
+    assert experiment['experiment_speeds_rad_s'] == estimator['experiment_speeds_rad_s'] == ()
+    assert experiment['idle_gap_s'] == 3.0 and experiment['joints'] == ()
     assert estimator['wear_threshold'] == 35.0
     for specs in node_config.NODE_PARAMETERS.values():
         assert all(spec.description for spec in specs)

@@ -1,0 +1,219 @@
+"""Several monitored joints: one segmentation and one estimator per joint.
+
+The nodes and the replay share these objects.  A node (or a replay) monitors the joints of
+its ``joints`` parameter, or every joint that appears with ``joints: [all]``, or the one
+``joint`` when ``joints`` is empty (the single-joint layout of the first version, unchanged).
+Each joint gets its own
+:class:`~robot_wear_monitor.monitoring.service.FrictionExperimentService` and
+:class:`~robot_wear_monitor.monitoring.service.WearEstimatorService`, built from the node's
+parameters with the joint's ``<joint>.<name>`` values over them
+(:func:`~robot_wear_monitor.monitoring.node_config.joint_parameters`); the estimators share one
+history (rows keyed by joint).
+
+Topic mapping (:func:`output_topic`): ``friction_levels`` stays one topic (its
+``header.frame_id`` names the joint) and ``/diagnostics`` carries one status per joint; with
+``joints`` set, ``temperature``, ``wear``, ``wear_alarm`` and ``wear_trend`` of a joint go
+under its namespace, ``<joint>/wear`` etc. (relative to the node's namespace; characters that
+a ROS name cannot hold become ``_``), and the alarm reset service is ``~/<joint>/reset_alarm``.
+Without ``joints`` they keep their plain names.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping, Optional, Sequence
+
+from robot_wear_monitor.experiment.levels import FrictionExperiment
+from robot_wear_monitor.monitoring.history import WearHistory
+from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE, joint_namespace,
+                                                       joint_parameters, monitored_joints,
+                                                       per_joint_outputs, WEAR_ESTIMATOR_NODE)
+from robot_wear_monitor.monitoring.service import (EstimatorConfig, FRICTION_LEVELS_TOPIC,
+                                                   FrictionExperimentService, RESET_SERVICE,
+                                                   WearEstimatorService, WearUpdate)
+from robot_wear_monitor.recordings.messages import MessageKit
+
+ParametersFor = Callable[[str], Mapping[str, Any]]
+
+
+def output_topic(topic: str, joint: str, *, per_joint: bool) -> str:
+    """Return the topic of one joint's output ``topic`` (see the module docstring)."""
+    if not per_joint or topic.startswith('/') or topic == FRICTION_LEVELS_TOPIC:
+        return topic
+    if topic.startswith('~/'):
+        return f'~/{joint_namespace(joint)}/{topic[2:]}'
+    return f'{joint_namespace(joint)}/{topic}'
+
+
+def reset_service_name(joint: str, *, per_joint: bool) -> str:
+    """Return the name of a joint's alarm reset service (``~/reset_alarm`` or per joint)."""
+    return output_topic(RESET_SERVICE, joint, per_joint=per_joint)
+
+
+def merge_diagnostics(arrays: Sequence[Any]) -> Any:
+    """Return one DiagnosticArray holding the statuses of several (the first one's header)."""
+    merged = arrays[0]
+    merged.status = [status for array in arrays for status in array.status]
+    return merged
+
+
+class FrictionExperimentFleet:
+    """The friction-experiment services of the monitored joints (see the module docstring).
+
+    Attributes:
+        services: joint -> service, in the order the joints were configured or first seen.
+        selection: the configured joints, or None for every joint that appears.
+        per_joint: outputs under per-joint namespaces.
+
+    """
+
+    def __init__(self, values: Mapping[str, Any], *,
+                 parameters_for: Optional[ParametersFor] = None,
+                 source: str = '<parameters>') -> None:
+        """Build the services of the configured joints (validated node ``values``).
+
+        ``parameters_for(joint)`` returns a joint's validated parameters (the node declares
+        ``<joint>.<name>`` first); default: :func:`joint_parameters` over ``values``.
+        """
+        self.values = values
+        self.selection = monitored_joints(values)
+        self.per_joint = per_joint_outputs(values)
+        self._parameters_for = parameters_for or (lambda joint: joint_parameters(
+            FRICTION_EXPERIMENT_NODE, values, joint, source=source))
+        self.services: dict[str, FrictionExperimentService] = {}
+        for joint in self.selection or ():
+            self.service(joint)
+
+    def service(self, joint: str) -> FrictionExperimentService:
+        """Return the service of ``joint``, built on first use."""
+        service = self.services.get(joint)
+        if service is None:
+            service = FrictionExperimentService.from_node_parameters(self._parameters_for(joint))
+            self.services[joint] = service
+        return service
+
+    def wants(self, joint: str) -> bool:
+        """Return True when ``joint`` is monitored."""
+        return self.selection is None or joint in self.selection
+
+    def add_joint_state(self, *, stamp_s: float, name: Sequence[str], position: Sequence[float],
+                        velocity: Sequence[float], effort: Sequence[float]
+                        ) -> list[tuple[FrictionExperimentService, FrictionExperiment]]:
+        """Add one JointState to every monitored joint; return the experiments it completes."""
+        if self.selection is None:
+            for joint in name:
+                if isinstance(joint, str) and joint and joint not in self.services:
+                    self.service(joint)
+        done = []
+        for service in self.services.values():
+            done += [(service, experiment) for experiment in service.add_joint_state(
+                stamp_s=stamp_s, name=name, position=position, velocity=velocity,
+                effort=effort)]
+        return done
+
+    def handle_experiment_event_msg(self, msg: Any
+                                    ) -> list[tuple[FrictionExperimentService,
+                                                    FrictionExperiment]]:
+        """Apply one runner event to every joint's service (each takes its own joint's)."""
+        done = []
+        for service in self.services.values():
+            done += [(service, e) for e in service.handle_experiment_event_msg(msg)]
+        return done
+
+    def finish(self) -> list[tuple[FrictionExperimentService, FrictionExperiment]]:
+        """Flush every joint at the end of the stream."""
+        return [(service, e) for service in self.services.values() for e in service.finish()]
+
+    def diagnostics_message(self, kit: MessageKit, *, stamp_s: float) -> Any:
+        """Return one DiagnosticArray with the status of every joint (None without joints)."""
+        arrays = [s.diagnostics_message(kit, stamp_s=stamp_s) for s in self.services.values()]
+        return merge_diagnostics(arrays) if arrays else None
+
+
+class WearEstimatorFleet:
+    """The wear estimators of the monitored joints, sharing one history.
+
+    ``friction_levels`` messages are routed by their joint (``header.frame_id``); levels of a
+    joint that is not monitored are counted in ``rejections`` (``other_joint``).
+
+    Attributes:
+        services: joint -> estimator service.
+        selection: the configured joints, or None for every joint that comes.
+        per_joint: outputs under per-joint namespaces.
+        rejections: counts of messages no joint's estimator took, by reason.
+
+    """
+
+    def __init__(self, values: Mapping[str, Any], *, history: WearHistory,
+                 parameters_for: Optional[ParametersFor] = None, warm_up: bool = False,
+                 source: str = '<parameters>',
+                 on_new_service: Optional[Callable[[WearEstimatorService], None]] = None
+                 ) -> None:
+        """Build the estimators of the configured joints (validated node ``values``).
+
+        ``warm_up``: run each new estimator once (imports, caches, the calibration of its
+        configured design) before its first experiment.  ``on_new_service(service)`` is called
+        for every estimator built (a node advertises its topics there).
+        """
+        self.values = values
+        self.history = history
+        self.selection = monitored_joints(values)
+        self.per_joint = per_joint_outputs(values)
+        self.warm_up = warm_up
+        self.on_new_service = on_new_service
+        self._parameters_for = parameters_for or (lambda joint: joint_parameters(
+            WEAR_ESTIMATOR_NODE, values, joint, source=source))
+        self.services: dict[str, WearEstimatorService] = {}
+        self.rejections: dict[str, int] = {}
+        self.last_rejection = ''
+        for joint in self.selection or ():
+            self.service(joint)
+
+    def service(self, joint: str) -> WearEstimatorService:
+        """Return the estimator of ``joint``, built (and restored from history) on first use."""
+        service = self.services.get(joint)
+        if service is None:
+            config = EstimatorConfig.from_node_parameters(self._parameters_for(joint))
+            service = WearEstimatorService(config, history=self.history)
+            if self.warm_up:
+                service.warm_up()
+            self.services[joint] = service
+            if self.on_new_service is not None:
+                self.on_new_service(service)
+        return service
+
+    def handle_friction_levels(self, msg: Any
+                               ) -> tuple[Optional[WearEstimatorService], Optional[WearUpdate]]:
+        """Route one ``friction_levels`` message to its joint's estimator; return its update.
+
+        Returns (None, None) when no monitored joint takes it (counted).
+        """
+        joint = str(getattr(getattr(msg, 'header', None), 'frame_id', '') or '')
+        if not joint and len(self.services) == 1 and self.selection is not None:
+            joint = next(iter(self.services))  # an unnamed joint: the only one monitored
+        if not joint or not (self.selection is None or joint in self.selection):
+            self._reject('other_joint', f'levels of joint {joint!r}, monitored: '
+                                        f'{", ".join(self.services) or "none"}')
+            return None, None
+        service = self.service(joint)
+        return service, service.handle_friction_levels(msg)
+
+    def _reject(self, reason: str, detail: str) -> None:
+        self.rejections[reason] = self.rejections.get(reason, 0) + 1
+        self.last_rejection = f'{reason}: {detail}'
+
+    def output_messages(self, kit: MessageKit, service: WearEstimatorService,
+                        update: WearUpdate) -> list[tuple[str, Any]]:
+        """Return (topic, message) of one joint's outputs, topics mapped per joint."""
+        return [(output_topic(topic, service.config.joint, per_joint=self.per_joint), msg)
+                for topic, msg in service.output_messages(kit, update)]
+
+    def diagnostics_message(self, kit: MessageKit, *, stamp_s: float) -> Any:
+        """Return one DiagnosticArray with every joint's current status (None without one)."""
+        arrays = [s.diagnostics_message(kit, stamp_s=stamp_s) for s in self.services.values()]
+        return merge_diagnostics(arrays) if arrays else None
+
+    def topics(self, joint: str) -> dict[str, str]:
+        """Return base topic -> the joint's topic for every estimator output."""
+        from robot_wear_monitor.monitoring.service import OUTPUT_TOPICS
+        return {topic: output_topic(topic, joint, per_joint=self.per_joint)
+                for topic in OUTPUT_TOPICS if topic != FRICTION_LEVELS_TOPIC}
