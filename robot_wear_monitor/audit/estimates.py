@@ -5,7 +5,9 @@ experiment share T and w) twice: with the audit's model alone, and with the exte
 set, whose model functions evaluate the added terms (see
 :mod:`robot_wear_monitor.model.extensions`).  On the table's own experiments the offline
 variables of the terms are known, so the extended set is evaluated at each experiment's values
-(the file's defaults are for the service).  Units: temperature [degC], wear w [-].
+(the file's defaults are for the service): terms in offline variables only are subtracted
+level by level, the other terms are evaluated at each experiment's mean value.  Units:
+temperature [degC], wear w [-].
 """
 
 from __future__ import annotations
@@ -23,6 +25,30 @@ FloatArray = NDArray[np.float64]
 
 def _rms(x: FloatArray) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _split(params: ParameterSet, table: AuditTable) -> tuple[ParameterSet, FloatArray]:
+    """Return the set without its offline-only terms, and their value at every level.
+
+    A term in offline variables only (a ripple in position, a drift) is known level by level
+    on the table: it is subtracted from the levels instead of evaluated at one value per
+    experiment.
+    """
+    extension = params.model.extension
+    if extension is None:
+        return params, np.zeros(table.n_rows)
+    offline = set(extension.offline_variables)
+    values = {**table.numeric, **table.text}
+    known = np.zeros(table.n_rows)
+    kept = []
+    for term in extension.terms:
+        if set(term.variables) <= offline:
+            known = known + term.evaluate(values)[0]
+        else:
+            kept.append(term)
+    model = replace(params.model, extension=replace(extension, terms=tuple(kept))
+                    if kept else None)
+    return replace(params, model=model), known
 
 
 def _at_experiment(params: ParameterSet, table: AuditTable, rows: NDArray) -> ParameterSet:
@@ -56,6 +82,7 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
     from robot_wear_monitor.estimation.estimator import estimate_wear
 
     y = table.numeric['friction']
+    after, known = _split(after, table)
     experiments = _as_text(table, 'experiment')
     results: dict[str, list] = {'before': [], 'after': []}
     truth_t, truth_w = [], []
@@ -65,8 +92,9 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
             if rows.sum() < 2:
                 continue
             speeds = table.numeric['speed'][rows]
-            for label, params in (('before', before), ('after', after)):
-                estimate = estimate_wear(speeds, y[rows],
+            for label, params, levels in (('before', before, y[rows]),
+                                          ('after', after, y[rows] - known[rows])):
+                estimate = estimate_wear(speeds, levels,
                                          params=_at_experiment(params, table, rows))[0]
                 results[label].append((estimate.temperature_degc, estimate.wear))
             truth_t.append(float(np.mean(table.numeric['temperature'][rows])))

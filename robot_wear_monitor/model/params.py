@@ -292,5 +292,5 @@ def parameter_set_yaml_text(params: ParameterSet, *, header: str = '') -> str:
     """Return a parameter set as YAML text (``header`` lines are written as comments first)."""
     comments = ''.join(f'# {line}\n' if line else '#\n' for line in header.splitlines())
     body = yaml.safe_dump(parameter_set_to_mapping(params), sort_keys=False,
-                          default_flow_style=None, width=99)
+                          default_flow_style=False, width=99)
     return comments + body
