@@ -753,7 +753,7 @@ class _MultiDecoder:
         time_s = np.zeros(count)
         receive = None
         before = len(self.seen)
-        first_rows: dict[str, int] = {}
+        first_rows: dict[str, tuple[int, int]] = {}  # new joint -> (message, column)
         sizes = np.fromiter(map(len, raws), dtype=np.int64, count=count)
         columns: dict[str, tuple[FloatArray, NDArray[np.bool_]]] = {}
         order = np.argsort(sizes, kind='stable')
@@ -772,8 +772,9 @@ class _MultiDecoder:
                 for i, known in enumerate(layouts):
                     if tally[i]:
                         row = int(rows[int(np.argmax(assign == i))])
-                        for name in known.index:
-                            first_rows[name] = min(first_rows.get(name, row), row)
+                        for name, column in known.index.items():
+                            place = (row, column)
+                            first_rows[name] = min(first_rows.get(name, place), place)
             # layouts with the same byte order and float offsets are read together
             groups: dict[tuple, list[int]] = {}
             for i, known in enumerate(layouts):
@@ -786,7 +787,7 @@ class _MultiDecoder:
         del receive
         if len(self.seen) > before:  # new joints in the order of their first message
             names = list(self.seen)
-            new = sorted(names[before:], key=lambda name: first_rows.get(name, count))
+            new = sorted(names[before:], key=lambda name: first_rows.get(name, (count, 0)))
             self.seen = dict.fromkeys(names[:before] + new)
         joints = self.requested if self.requested is not None else list(self.seen)
         chunk = {}
@@ -1130,6 +1131,39 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
                        progress=progress, recover=recover, require_joints=require_joints)
 
 
+def _concatenate(stream: JointStream, parts: list[JointChunk], joint: str) -> JointSamples:
+    return JointSamples(
+        time_s=np.concatenate([p.time_s for p in parts]),
+        position_rad=np.concatenate([p.position_rad for p in parts]),
+        velocity_rad_s=np.concatenate([p.velocity_rad_s for p in parts]),
+        effort=np.concatenate([p.effort for p in parts]), message_count=stream.message_count,
+        rejections=stream.rejections[joint], recovery=stream.recovery,
+        zero_stamps=stream.zero_stamps, notes=stream.notes)
+
+
+def read_joints(path: str | os.PathLike, *, joints: Sequence[str] | None = None,
+                topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
+                progress: Callable[[int, int], None] | None = None, recover: bool = True,
+                require_joints: bool = True) -> dict[str, JointSamples]:
+    """Read several joints' samples at once: joint -> :class:`JointSamples` (whole arrays).
+
+    The chunks of :func:`iter_joint_chunks` concatenated per joint (every joint seen with
+    ``joints=None``, in the order first seen); each entry carries the stream's message count,
+    recovery, zero-stamp count and notes, and its own rejections.  Arguments and errors are
+    those of :func:`iter_joint_chunks`.
+    """
+    stream = iter_joint_chunks(path, joints=joints, topic=topic, chunk_messages=chunk_messages,
+                               progress=progress, recover=recover,
+                               require_joints=require_joints)
+    parts: dict[str, list[JointChunk]] = {}
+    for chunk in stream:
+        for joint, samples in chunk.items():
+            parts.setdefault(joint, []).append(samples)
+    names = stream.joints if stream.joints is not None else stream.joints_seen
+    empty = [JointChunk(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))]
+    return {joint: _concatenate(stream, parts.get(joint, empty), joint) for joint in names}
+
+
 def read_joint_samples(path: str | os.PathLike, *, joint: str,
                        topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                        progress: Callable[[int, int], None] | None = None,
@@ -1153,14 +1187,7 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
     stream = iter_joint_chunks(path, joints=[joint], topic=topic,
                                chunk_messages=chunk_messages, progress=progress,
                                recover=recover)
-    parts = [chunk[joint] for chunk in stream]
-    return JointSamples(
-        time_s=np.concatenate([p.time_s for p in parts]),
-        position_rad=np.concatenate([p.position_rad for p in parts]),
-        velocity_rad_s=np.concatenate([p.velocity_rad_s for p in parts]),
-        effort=np.concatenate([p.effort for p in parts]), message_count=stream.message_count,
-        rejections=stream.rejections[joint], recovery=stream.recovery,
-        zero_stamps=stream.zero_stamps, notes=stream.notes)
+    return _concatenate(stream, [chunk[joint] for chunk in stream], joint)
 
 
 def iter_joint_states(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPIC

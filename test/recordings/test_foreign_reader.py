@@ -12,7 +12,8 @@ import pytest
 import foreign_recordings as fr
 from robot_wear_monitor.experiment.segmentation import segment_batch, SegmenterConfig
 from robot_wear_monitor.recordings.bags import (BagError, iter_joint_chunks, JOINT_STATE_TYPE,
-                                                read_joint_samples, READER_REASONS, TYPESTORE)
+                                                read_joint_samples, read_joints, READER_REASONS,
+                                                TYPESTORE)
 
 SCHEDULE = ('shoulder', 'wrist_3', 'elbow', 'shoulder')
 
@@ -223,3 +224,51 @@ def test_malformed_messages_are_counted_for_every_joint(tmp_path):
     for joint in recording.joint_names:
         assert stream.rejections[joint] == {'malformed': 3}
         assert arrays[joint]['time_s'].size == 300
+
+
+def test_new_joints_are_ordered_by_their_first_message_whatever_its_size(tmp_path):
+    recording = _recording(schedule=('wrist_3',))
+    wrist_3 = recording.joint_names.index('wrist_3')
+    # the first messages lack wrist_3; later, smaller ones carry it but lack two other joints
+    recording.order[:100, wrist_3] = -1
+    recording.order[100:200, :2] = -1
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream = iter_joint_chunks(bag)
+    first = next(iter(stream))
+    assert list(first) == list(recording.joint_names) == stream.joints_seen
+    for _ in stream:
+        pass
+    _check(recording, stream, {j: {f: getattr(c, f) for f in ('time_s', 'position_rad',
+                                                              'velocity_rad_s', 'effort')}
+                               for j, c in first.items()})
+
+
+def test_big_endian_messages(tmp_path):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    recording = _recording(schedule=('shoulder',), shuffle_order=True)
+    writer = Writer(tmp_path / 'bag', version=9, storage_plugin=StoragePlugin.SQLITE3)
+    writer.open()
+    connection = writer.add_connection('/joint_states', JOINT_STATE_TYPE, typestore=TYPESTORE)
+    for row in range(len(recording)):
+        message = TYPESTORE.deserialize_cdr(fr._serialize(recording, row), JOINT_STATE_TYPE)
+        raw = TYPESTORE.serialize_cdr(message, JOINT_STATE_TYPE, little_endian=row % 3 != 0)
+        writer.write(connection, int(recording.receive_ns[row]), bytes(raw))
+    writer.close()
+    stream, arrays, _ = _read_all(tmp_path / 'bag')
+    _check(recording, stream, arrays)
+
+
+def test_read_joints_concatenates_the_chunks(tmp_path):
+    recording = _recording(absent_fraction=0.02, effort_empty_fraction=0.01,
+                           zero_stamp_fraction=0.01, schedule=('elbow',))
+    bag = fr.write_bag(recording, tmp_path / 'bag', storage='sqlite3')
+    samples = read_joints(bag, chunk_messages=1234)
+    assert list(samples) == list(recording.joint_names)
+    for joint, read in samples.items():
+        expected = recording.expected_samples(joint)
+        for field in ('time_s', 'position_rad', 'velocity_rad_s', 'effort'):
+            assert np.array_equal(getattr(read, field), expected[field])
+        assert dict(read.rejections) == recording.expected_rejections(joint)
+        assert read.message_count == len(recording) and len(read.notes) == 1
+    chosen = read_joints(bag, joints=['elbow', 'nowhere'], require_joints=False)
+    assert list(chosen) == ['elbow', 'nowhere'] and chosen['nowhere'].time_s.size == 0
