@@ -9,15 +9,21 @@ removed, so nothing half-written is left).  JointState messages are encoded to C
 (:func:`encode_joint_states`), one template per name order, checked against rosbags'
 ``serialize_cdr`` in the tests.
 
-Reading: :func:`read_joint_samples` iterates the raw messages with rosbags and decodes the fields
-it needs with numpy: messages are grouped by layout (same length and same bytes apart from the
-stamp and the float arrays: same frame_id, names and array lengths), each layout is parsed once,
-and the stamps and the joint's position/velocity/effort of all messages of a layout are read as
-columns of one array.  Messages that fit no layout are parsed one by one.  Message-level
-problems are counted like the streaming segmenter counts them (see
-:func:`robot_wear_monitor.experiment.segmentation.pick_joint`).
+Reading: :func:`iter_joint_chunks` streams the samples of several joints (or all) chunk by
+chunk, so memory stays flat; :func:`read_joints` and :func:`read_joint_samples` concatenate the
+chunks.  Raw messages come from rosbags (MCAP or sqlite3, a bag split into several files, or an
+unfinished MCAP recording read record by record) and are decoded with numpy: the messages of a
+chunk are grouped by layout (same length and same bytes apart from the stamp and the float
+arrays: same frame_id, names, name order and array lengths), matched word by word against the
+recent layouts and otherwise grouped with ``np.unique``; each new layout is parsed once, and
+the stamps and every requested joint's position/velocity/effort of all messages sharing float
+offsets are read with one gather.  A message is rejected for a joint, counted by reason
+(:data:`READER_REASONS`, the message reasons of
+:func:`robot_wear_monitor.experiment.segmentation.pick_joint` plus ``malformed``), when it lacks
+the joint or an array, or an array's length differs from the names.
 
-Times are the header stamps (sec + nanosec) in seconds.
+Times are the header stamps (sec + nanosec) in seconds; a message whose header stamp is zero is
+given its bag receive time instead (counted, and said once in the stream's notes).
 """
 
 from __future__ import annotations
@@ -577,7 +583,7 @@ def _iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: 
 #: counts them as ``non_finite``).
 READER_REASONS = ('malformed', 'joint_missing', 'missing_position', 'missing_velocity',
                   'missing_effort', 'length_mismatch')
-#: Layouts remembered by one stream (cleared when exceeded: a bag whose every message differs).
+#: Layouts remembered by one stream (forgotten between chunks when exceeded; tallies are kept).
 _MAX_LAYOUTS = 4096
 
 
@@ -701,8 +707,6 @@ class _MultiDecoder:
         known = _Known(layout, raw)
         found = self.by_key.get(known.key())
         if found is None:
-            if len(self.known) >= _MAX_LAYOUTS:
-                self._forget()
             found = known
             self.known.append(known)
             self.by_key[known.key()] = known
@@ -748,6 +752,8 @@ class _MultiDecoder:
 
     def decode(self, raws: list, receive_ns: list[int]) -> dict[str, JointChunk]:
         """Decode one chunk; return joint -> its samples of the chunk, in bag order."""
+        if len(self.known) > _MAX_LAYOUTS:
+            self._forget()  # between chunks, so that no tally of this chunk is lost
         count = len(raws)
         self.messages += count
         time_s = np.zeros(count)

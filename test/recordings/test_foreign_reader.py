@@ -272,3 +272,14 @@ def test_read_joints_concatenates_the_chunks(tmp_path):
         assert read.message_count == len(recording) and len(read.notes) == 1
     chosen = read_joints(bag, joints=['elbow', 'nowhere'], require_joints=False)
     assert list(chosen) == ['elbow', 'nowhere'] and chosen['nowhere'].time_s.size == 0
+
+
+def test_layouts_forgotten_between_chunks_keep_their_tallies(tmp_path, monkeypatch):
+    from robot_wear_monitor.recordings import bags
+    monkeypatch.setattr(bags, '_MAX_LAYOUTS', 20)
+    recording = _recording(shuffle_order=True, absent_fraction=0.05, effort_empty_fraction=0.02,
+                           schedule=('elbow',))
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    stream, arrays, chunks = _read_all(bag, chunk_messages=500)
+    assert chunks > 3 and len(stream._decoder.known) < 600
+    _check(recording, stream, arrays)
