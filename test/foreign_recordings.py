@@ -66,7 +66,7 @@ whole experiment truth as JSON-ready data (``format: 'foreign_recordings/1'``).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 import math
 import os
 from pathlib import Path
@@ -278,6 +278,17 @@ class ForeignRecording:
         """Return the experiments of one joint, in order."""
         return [e for e in self.experiments if e.joint == joint]
 
+    def first_experiment_over(self, joint: str, wear: float) -> ExperimentTruth | None:
+        """Return the joint's first experiment whose true wear is >= ``wear`` (None: none)."""
+        return next((e for e in self.experiments_of(joint) if e.wear >= wear), None)
+
+    def write_truth(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`truth_dict` as JSON to ``path`` (never beside a bag by default)."""
+        import json
+        target = Path(path)
+        target.write_text(json.dumps(self.truth_dict(), indent=1) + '\n', encoding='utf-8')
+        return target
+
     def truth_dict(self) -> dict:
         """Return the experiment truth as JSON-ready data (``format: foreign_recordings/1``)."""
         return {
@@ -340,13 +351,10 @@ class _Path:
         q = np.full(t.shape, rest_rad)
         v = np.zeros(t.shape)
         a = np.zeros(t.shape)
-        last_q = rest_rad
         for t0, t1, kind, q0, params in self.pieces:
             inside = (t >= t0) & (t < t1)
             # after this piece (until the next one) the joint rests where it ended
-            end_q = self._end(kind, q0, params)
-            q[t >= t1] = end_q
-            last_q = end_q
+            q[t >= t1] = self._end(kind, q0, params)
             if not inside.any():
                 continue
             s = t[inside] - t0
@@ -376,7 +384,6 @@ class _Path:
                                np.where(down, -speed / ramp * (6 * y - 6 * y ** 2), 0.0))
                 vs[flat] = speed
                 q[inside], v[inside], a[inside] = q0 + qs, vs, acc
-        del last_q
         return q, v, a
 
     @staticmethod
@@ -398,7 +405,8 @@ def _gravity(q: np.ndarray, amplitude: float) -> np.ndarray:
 
 def generate(*, schedule: Sequence[str], joints: dict[str, JointSpec] | None = None,
              protocol: Protocol = Protocol(), imperfections: Imperfections = Imperfections(),
-             window_drift_rad: float = 0.0, seed: int = 0) -> ForeignRecording:
+             window_drift_rad: float = 0.0, hold_s: float = 0.0,
+             seed: int = 0) -> ForeignRecording:
     """Generate a recording: one experiment per entry of ``schedule`` (the tested joint).
 
     Args:
@@ -407,6 +415,8 @@ def generate(*, schedule: Sequence[str], joints: dict[str, JointSpec] | None = N
         protocol: timing and noise.
         imperfections: what makes the recording real (see :class:`Imperfections`).
         window_drift_rad: shift of a joint's window centre per experiment of that joint [rad].
+        hold_s: standstill added at the end [s] (with an empty schedule: a bag in which no
+            joint moves).
         seed: random seed (noise, drops, orders, absences, stamps).
 
     """
@@ -474,7 +484,7 @@ def generate(*, schedule: Sequence[str], joints: dict[str, JointSpec] | None = N
             gear_ratio=spec.gear_ratio, torque_scale=spec.torque_scale,
             interrupted=interrupted, levels=tuple(levels)))
         clock = path.t + protocol.idle_gap_s
-    end = clock
+    end = clock + hold_s
 
     # sampling: nominal grid, drops, jitter of the header stamps, receive times
     period = 1.0 / imperfections.rate_hz
@@ -488,7 +498,7 @@ def generate(*, schedule: Sequence[str], joints: dict[str, JointSpec] | None = N
         else np.zeros(n)
     true_time = nominal + jitter
     stamp_ns = np.round(true_time * 1e9).astype(np.int64)
-    true_time = stamp_ns * 1e-9 - 0.0  # the time the sample was taken, as stamped
+    true_time = stamp_ns * 1e-9  # when the sample was taken, as stamped
     receive_ns = np.round((nominal + period * (0.1 + 0.2 * rng.random(n))) * 1e9).astype(
         np.int64)
     rel = (stamp_ns - int(EPOCH_S * 1e9)) * 1e-9   # time since EPOCH_S (precise)
@@ -572,12 +582,12 @@ def _serialize(recording: ForeignRecording, row: int) -> bytes:
 
 
 def _write_part(folder: Path, recording: ForeignRecording, rows: range,
-                storage: str) -> Path:
+                storage: str, topic: str) -> Path:
     plugin = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}[storage]
     writer = Writer(folder, version=9, storage_plugin=plugin)
     writer.open()
     try:
-        connection = writer.add_connection(TOPIC, MSGTYPE, typestore=_TYPES)
+        connection = writer.add_connection(topic, MSGTYPE, typestore=_TYPES)
         for row in rows:
             writer.write(connection, int(recording.receive_ns[row]),
                          _serialize(recording, row))
@@ -587,8 +597,10 @@ def _write_part(folder: Path, recording: ForeignRecording, rows: range,
 
 
 def write_bag(recording: ForeignRecording, path: str | os.PathLike, *,
-              storage: str = 'mcap', split_files: int = 1) -> Path:
+              storage: str = 'mcap', split_files: int = 1, topic: str = TOPIC) -> Path:
     """Write the recording as a bag folder (MCAP or sqlite3), optionally split in files.
+
+    ``topic`` is the JointState topic (another name makes a bag without ``/joint_states``).
 
     With ``split_files`` > 1 the messages are cut into that many consecutive parts, each
     written by rosbags' Writer, and the files are gathered in one folder under one
@@ -600,7 +612,7 @@ def write_bag(recording: ForeignRecording, path: str | os.PathLike, *,
         raise FileExistsError(target)
     n = len(recording)
     if split_files <= 1:
-        return _write_part(target, recording, range(n), storage)
+        return _write_part(target, recording, range(n), storage, topic)
     bounds = np.linspace(0, n, split_files + 1).round().astype(int)
     staging = target.with_name(target.name + '.parts')
     staging.mkdir()
@@ -608,7 +620,7 @@ def write_bag(recording: ForeignRecording, path: str | os.PathLike, *,
     yaml = YAML(typ='safe')
     for k in range(split_files):
         part = _write_part(staging / f'{target.name}_{k}', recording,
-                           range(int(bounds[k]), int(bounds[k + 1])), storage)
+                           range(int(bounds[k]), int(bounds[k + 1])), storage, topic)
         metas.append((part, yaml.load((part / 'metadata.yaml').read_text())
                       ['rosbag2_bagfile_information']))
     target.mkdir()
@@ -639,8 +651,3 @@ def write_bag(recording: ForeignRecording, path: str | os.PathLike, *,
         YAML(typ='safe', pure=True).dump({'rosbag2_bagfile_information': merged}, stream)
     shutil.rmtree(staging)
     return target
-
-
-def with_imperfections(base: Imperfections, **changes) -> Imperfections:
-    """Return ``base`` with some items changed (a shorthand for tests)."""
-    return replace(base, **changes)

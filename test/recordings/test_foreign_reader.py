@@ -127,12 +127,13 @@ def test_storages_and_bags_split_in_files(tmp_path, storage, split_files):
     assert stream.total_messages == len(recording)
 
 
-def test_everything_at_once_and_the_experiments_are_found(tmp_path):
+@pytest.mark.parametrize('rate_hz', [100.0, 400.0, 1000.0])
+def test_everything_at_once_and_the_experiments_are_found(tmp_path, rate_hz):
     """All of point 5 in one bag; the segmenter on the reader's samples finds the truth."""
     recording = fr.generate(
         schedule=['shoulder', 'elbow', 'wrist_3', 'shoulder', 'elbow'], seed=4,
         window_drift_rad=0.04,
-        imperfections=fr.Imperfections(rate_hz=400.0, stamp_jitter_fraction=0.1,
+        imperfections=fr.Imperfections(rate_hz=rate_hz, stamp_jitter_fraction=0.1,
                                        drop_fraction=0.01, shuffle_order=True,
                                        absent_fraction=0.005, effort_empty_fraction=0.005,
                                        zero_stamp_fraction=0.02, interrupt_experiment=1))
@@ -283,3 +284,23 @@ def test_layouts_forgotten_between_chunks_keep_their_tallies(tmp_path, monkeypat
     stream, arrays, chunks = _read_all(bag, chunk_messages=500)
     assert chunks > 3 and len(stream._decoder.known) < 600
     _check(recording, stream, arrays)
+
+
+def test_truth_file_bags_without_motion_and_without_the_topic(tmp_path):
+    import json
+    recording = _recording(schedule=('shoulder', 'shoulder', 'shoulder'))
+    truth = json.loads(recording.write_truth(tmp_path / 'truth.json').read_text())
+    assert [e['wear'] for e in truth['experiments']] == \
+        [e.wear for e in recording.experiments]
+    assert truth['experiments'][0]['levels'][0]['tau_f'] == \
+        recording.experiments[0].levels[0].tau_f
+    over = recording.first_experiment_over('shoulder', 20.0)
+    assert over is not None and over.wear >= 20.0 and over.joint_experiment == 1
+    still = fr.generate(schedule=[], hold_s=5.0)
+    bag = fr.write_bag(still, tmp_path / 'still')
+    stream, arrays, _ = _read_all(bag)
+    _check(still, stream, arrays)
+    assert not any(np.any(arrays[j]['velocity_rad_s']) for j in still.joint_names)
+    other = fr.write_bag(still, tmp_path / 'other', topic='/arm/joint_states')
+    with pytest.raises(BagError, match=r'no topic /joint_states \(topics: /arm/joint_states\)'):
+        iter_joint_chunks(other)
