@@ -304,3 +304,30 @@ def test_truth_file_bags_without_motion_and_without_the_topic(tmp_path):
     other = fr.write_bag(still, tmp_path / 'other', topic='/arm/joint_states')
     with pytest.raises(BagError, match=r'no topic /joint_states \(topics: /arm/joint_states\)'):
         iter_joint_chunks(other)
+
+
+def test_an_unfinished_recording_gives_a_prefix_of_every_joint(tmp_path):
+    # big enough for several MCAP chunks: a cut keeps the complete chunks before it
+    recording = _recording(shuffle_order=True, absent_fraction=0.01, rate_hz=1000.0,
+                           schedule=('elbow', 'shoulder', 'wrist_3'))
+    bag = fr.write_bag(recording, tmp_path / 'bag')
+    (source,) = bag.glob('*.mcap')
+    cut = tmp_path / 'cut'
+    cut.mkdir()
+    data = source.read_bytes()
+    (cut / source.name).write_bytes(data[:int(len(data) * 0.7)])
+    stream, arrays, _ = _read_all(cut)
+    recovery = stream.recovery
+    assert recovery is not None and not recovery.complete
+    assert 0 < recovery.messages == stream.message_count < len(recording)
+    assert recovery.last_stamp_s == recording.receive_ns[recovery.messages - 1] * 1e-9
+    kept = recovery.messages
+    for joint in recording.joint_names:
+        expected = recording.expected_samples(joint)
+        got = arrays[joint]
+        size = got['time_s'].size
+        assert size == np.count_nonzero(recording.present(joint)[:kept])
+        for field in ('time_s', 'position_rad', 'velocity_rad_s', 'effort'):
+            assert np.array_equal(got[field], expected[field][:size])
+    with pytest.raises(BagError, match='refused'):
+        list(iter_joint_chunks(cut, recover=False))
