@@ -30,14 +30,14 @@ from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
 from robot_wear_monitor.audit.estimates import estimate_changes
 from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
                                              offline_defaults)
-from robot_wear_monitor.audit.fitting import (_Base, _design, _fit, _Fit, _group_codes,
+from robot_wear_monitor.audit.fitting import (_as_text, _Base, _design, _fit, _Fit, _group_codes,
                                               _nominal_base, _orthonormal, _speed_base,
                                               AuditTable)
 from robot_wear_monitor.audit.noise import noise_floor
 from robot_wear_monitor.audit.result import _json_clean, AuditResult, Effect
 from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
-from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, nested_test,
-                                                   periodic_scan, sinusoid)
+from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, periodic_scan,
+                                                   sinusoid, Tester)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -45,6 +45,8 @@ FloatArray = NDArray[np.float64]
 
 #: Fewest distinct speeds per group for the five-parameter speed model (4).
 MIN_SPEEDS = 6
+#: Candidates tried per step (in order of significance) before the held-out error stops it.
+MAX_TRIES = 3
 
 
 def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet | None = None,
@@ -109,19 +111,28 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     steps: list[dict] = []
     stop = 'maximum number of effects reached'
     for _ in range(max_effects):
-        step = _step(table, base, fit, terms, variables, group_variable, fdr)
-        steps.append(step['report'])
-        if step['term'] is None:
-            stop = step['report']['decision']
-            break
-        trial_terms = terms + [step['term']]
-        trial_fit = _fit(base, table, trial_terms, fit.theta)
-        cv_trial, _ = _cv_rms(base, table, trial_terms, trial_fit.theta, folds)
-        step['report']['rms_cv_with_term'] = cv_trial
-        if cv_trial > cv_now * (1.0 - min_gain):
+        rejected: list[str] = []
+        accepted = None
+        while len(rejected) < MAX_TRIES:
+            step = _step(table, base, fit, terms, variables, group_variable, fdr,
+                         frozenset(rejected))
+            steps.append(step['report'])
+            if step['term'] is None:
+                stop = step['report']['decision']
+                break
+            trial_terms = terms + [step['term']]
+            trial_fit = _fit(base, table, trial_terms, fit.theta)
+            cv_trial, _ = _cv_rms(base, table, trial_terms, trial_fit.theta, folds)
+            step['report']['rms_cv_with_term'] = cv_trial
+            if cv_trial <= cv_now * (1.0 - min_gain):
+                accepted = step
+                break
             step['report']['decision'] = (f'rejected: held-out error {cv_now:.4g} -> '
                                           f'{cv_trial:.4g} (needs {min_gain:.0%} gain)')
-            stop = 'the most significant effect does not lower the held-out error'
+            rejected.append(step['report']['tried'])
+            stop = (f'the {len(rejected)} most significant effect(s) do not lower the held-out '
+                    'error')
+        if accepted is None:
             break
         step['report']['decision'] = 'added'
         change = trial_fit.prediction - fit.prediction
@@ -222,23 +233,35 @@ def _theta_jacobian(base: _Base, table: AuditTable, terms: Sequence[Term],
 
 def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
           variables: Sequence[Variable], group_variable: Variable | None,
-          fdr: float) -> dict:
-    """Test every candidate family against the current model; choose the effect to add."""
+          fdr: float, exclude: frozenset = frozenset()) -> dict:
+    """Test every candidate family against the current model; choose the effect to add.
+
+    ``exclude``: candidates already tried in this step whose effect did not lower the held-out
+    error; the most significant other candidate is chosen.
+    """
     x0 = _design(base, fit.theta, table, terms)
     # the linearised model: its columns and its Jacobian in the nonlinear parameters
     q0 = _orthonormal(np.column_stack([x0, _theta_jacobian(base, table, terms, fit)]))
     by_name = {v.name: v for v in variables}
+    # from the second effect on, experiment-level structure left by the effects already added
+    # counts with the experiments' scatter, not as independent levels (see Tester); so do
+    # the rivals of the named effect (confounding)
+    experiments = (np.unique(_as_text(table, 'experiment'), return_inverse=True)[1].ravel()
+                   if 'experiment' in table.columns else None)
+    robust = Tester(q0, fit.residual, experiments)
+    tester = robust if terms else Tester(q0, fit.residual, None)
     rows = []
     for family in families(table, variables, group_variable):
         period = None
         if family.periodic:
             x = table.numeric[family.variables[0]]
-            log_p, period = periodic_scan(x, periodic_frequencies(by_name[family.variables[0]]),
-                                          q0, fit.residual)
+            log_p, period = periodic_scan(
+                lambda f: sinusoid(x, f), periodic_frequencies(by_name[family.variables[0]]),
+                tester.test)
             basis, df1 = sinusoid(x, 1.0 / period), 2
         else:
             basis = family.columns(table)
-            log_p, df1 = nested_test(q0, fit.residual, basis)
+            log_p, df1 = tester.test(basis)
         if df1 == 0:
             continue
         rows.append({'candidate': family.key, 'variables': family.variables, 'log_p': log_p,
@@ -259,24 +282,49 @@ def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
         report['decision'] = (f'no significant structure (smallest BH q-value '
                               f'{adjusted.min():.3g} > {fdr})')
         return {'term': None, 'report': report, 'log10_p': 0.0}
-    best = rows[int(order[0])]
+    left = [int(i) for i in order if significant[i] and rows[i]['candidate'] not in exclude]
+    if not left:
+        report['decision'] = 'no other significant candidate'
+        return {'term': None, 'report': report, 'log10_p': 0.0}
+    top = rows[left[0]]
+    report['tried'] = top['candidate']
+    best = _marginal(top, rows, tester, fdr)
     periods = {r['variables'][0]: r['period'] for r, ok in zip(rows, significant)
                if ok and r['period'] is not None}
     builder = ShapeBuilder(table, variables, group_variable, base, fit.theta)
     term = choose_shape(builder.shapes(best['variables'], periods), q0, fit.residual, table)
-    # the strongest single-variable rivals (alone or with speed, Bonferroni-significant) that
-    # share no variable with the chosen effect: are they confounded with it?
+    # the strongest single-variable rivals (alone or with speed, Bonferroni-significant with
+    # the experiments as random effects) that share no variable with the chosen effect: are
+    # they confounded with it?
     chosen = set(best['variables']) - {'speed'}
     rivals: dict = {}
     for r in sorted(rows, key=lambda r: r['log_p']):
         own = set(r['variables']) - {'speed'}
         if (len(own) == 1 and not own & chosen and r['period'] is None
-                and r['log_p'] <= math.log(fdr / len(rows)) and not own & set(rivals)):
+                and not own & set(rivals) and r['log_p'] <= math.log(fdr / len(rows))
+                and robust.test(r['basis'])[0] <= math.log(fdr / len(rows))):
             rivals[own.pop()] = r
     others = [(r['candidate'], r['basis']) for r in rivals.values()]
     report['chosen'] = {'candidate': best['candidate'], 'term': term.name,
                         'variables': list(term.variables),
-                        'confounded_with': confounded(q0, fit.residual, best['basis'], others,
-                                                      fdr)}
+                        'confounded_with': confounded(robust, best['basis'], others, fdr)}
+    if best is not top:
+        report['chosen']['instead_of'] = top['candidate']
     report['decision'] = 'candidate'
     return {'term': term, 'report': report, 'log10_p': float(best['log_p'] / math.log(10))}
+
+
+def _marginal(best: dict, rows: Sequence[dict], tester: Tester, fdr: float) -> dict:
+    """Return the single-variable family to name instead of an interaction, if one suffices.
+
+    Marginality: an interaction (a pair, or a variable with speed) is named only when it has
+    evidence beyond the smooth term of each of its variables alone; otherwise the most
+    significant of those single-variable families that explain it is named.
+    """
+    if len(best['variables']) < 2:
+        return best
+    singles = [r for r in rows if len(r['variables']) == 1 and r['period'] is None
+               and r['variables'][0] in best['variables'] and r['log_p'] <= math.log(fdr)]
+    enough = [r for r in singles
+              if tester.test(best['basis'], r['basis'])[0] > math.log(fdr)]
+    return min(enough, key=lambda r: r['log_p']) if enough else best

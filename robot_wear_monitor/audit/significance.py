@@ -6,13 +6,14 @@ of every candidate basis, so a candidate in one of the model's own variables is 
 the shapes the model lacks.  The p-values of one step are controlled together by
 Benjamini-Hochberg; a sinusoid's period is scanned and its p-value Bonferroni-corrected for the
 number of independent frequencies.  When several candidates are significant, the others are
-re-tested given the best one: those left without evidence are confounded with it.
+re-tested given the best one: those left without evidence are confounded with it.  Bases
+are tested with the experiments as random effects (:class:`Tester`).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,21 +63,22 @@ def sinusoid(x: FloatArray, frequency: float) -> FloatArray:
     return np.column_stack([np.sin(2 * np.pi * frequency * x), np.cos(2 * np.pi * frequency * x)])
 
 
-def periodic_scan(x: FloatArray, frequencies: FloatArray, q0: FloatArray,
-                  residual: FloatArray) -> tuple[float, float]:
-    """Scan the period of a sinusoid in x; return (log p, period).
+def periodic_scan(basis_of: Callable[[float], FloatArray], frequencies: FloatArray,
+                  test: Callable[[FloatArray], tuple[float, int]]) -> tuple[float, float]:
+    """Scan the frequency of a sinusoid; return (log p, period).
 
-    The grid's best frequency is refined by a bounded scalar search; the p-value is
-    Bonferroni-corrected for the number of whole periods the scan spans.
+    ``basis_of(f)`` gives the [sin, cos] columns at frequency f and ``test(basis)`` its
+    (log p, df).  The grid's best frequency is refined by a bounded scalar search; the p-value
+    is Bonferroni-corrected for the number of whole periods the scan spans.
     """
     best = (math.inf, 1.0 / frequencies[0])
     for f in frequencies:
-        log_p, _ = nested_test(q0, residual, sinusoid(x, f))
+        log_p, _ = test(basis_of(f))
         if log_p < best[0]:
             best = (log_p, 1.0 / f)
     step = float(frequencies[1] - frequencies[0]) if len(frequencies) > 1 else 0.1 / best[1]
     f0 = 1.0 / best[1]
-    refined = optimize.minimize_scalar(lambda f: nested_test(q0, residual, sinusoid(x, f))[0],
+    refined = optimize.minimize_scalar(lambda f: test(basis_of(f))[0],
                                        bounds=(f0 - step, f0 + step), method='bounded',
                                        options={'xatol': 1e-4 * step})
     if refined.fun < best[0]:
@@ -85,18 +87,80 @@ def periodic_scan(x: FloatArray, frequencies: FloatArray, q0: FloatArray,
     return min(0.0, best[0] + math.log(n_independent)), best[1]
 
 
+class Tester:
+    """Nested F-tests of candidate bases against the model, with experiments as random effects.
+
+    The levels of one experiment share its operating point; structure the model leaves at the
+    experiment level (an effect of some per-experiment variable) makes the levels of an
+    experiment correlated, and a level-by-level F-test would then count them as independent
+    evidence for any per-experiment candidate that happens to correlate with it.  The tests are
+    therefore generalised least squares with a random experiment offset (random-effects
+    "quasi-demeaning"): every column and the residual become x - (1 - lambda) mean_e(x), with
+    lambda^2 = s_within^2 / s_between^2 (clipped to 1) estimated from the model's residual.
+    Without such structure lambda = 1 and the test is the ordinary one; with it, evidence
+    between experiments counts with the experiments' own scatter.  Without experiments (or with
+    one level each) every basis is tested level by level.
+    """
+
+    def __init__(self, q0: FloatArray, residual: FloatArray, experiments: NDArray | None):
+        """Prepare the tests against the orthonormal model span q0 and its residual.
+
+        ``experiments``: the experiment index of every level, or None for level-by-level tests.
+        """
+        self.codes = experiments
+        if experiments is not None and np.bincount(experiments).max() < 2:
+            self.codes = None
+        self.shrink = 1.0
+        if self.codes is not None:
+            self.counts = np.bincount(self.codes).astype(float)
+            n, n_groups = len(residual), len(self.counts)
+            means = self._means(residual[:, None])[:, 0]
+            between = float(np.sum(self.counts * means ** 2))
+            within = float(np.sum((residual - means[self.codes]) ** 2))
+            rank = q0.shape[1]
+            s2_between = between / max(n_groups - min(rank, n_groups - 1), 1)
+            s2_within = within / max(n - n_groups - rank, 1)
+            self.shrink = 1.0 - math.sqrt(min(1.0, s2_within / max(s2_between, 1e-300)))
+        self.q0 = _orthonormal(self.transform(q0), tol=1e-5)
+        r = self.transform(residual[:, None])[:, 0]
+        self.residual = r - self.q0 @ (self.q0.T @ r)
+
+    def _means(self, x: FloatArray) -> FloatArray:
+        sums = np.zeros((len(self.counts), x.shape[1]))
+        np.add.at(sums, self.codes, x)
+        return sums / self.counts[:, None]
+
+    @property
+    def lambda_(self) -> float:
+        """Return lambda: 1 without experiment-level structure, smaller with it."""
+        return 1.0 - self.shrink
+
+    def transform(self, x: FloatArray) -> FloatArray:
+        """Return x - (1 - lambda) x its experiment means, column by column, shape (n, k)."""
+        if self.codes is None or self.shrink == 0.0:
+            return x
+        return x - self.shrink * self._means(x)[self.codes]
+
+    def test(self, basis: FloatArray, given: FloatArray | None = None) -> tuple[float, int]:
+        """Return (log p, df) of adding ``basis`` to the model (plus ``given`` columns)."""
+        q0, residual = self.q0, self.residual
+        if given is not None:
+            q0 = _orthonormal(np.column_stack([q0, self.transform(given)]))
+            residual = residual - q0 @ (q0.T @ residual)
+        return nested_test(q0, residual, self.transform(basis))
+
+
 def benjamini_hochberg(log_p: Sequence[float]) -> FloatArray:
     """Return the Benjamini-Hochberg adjusted p-values (q-values) of natural-log p-values."""
     return stats.false_discovery_control(np.exp(np.asarray(log_p, dtype=float)), method='bh')
 
 
-def confounded(q0: FloatArray, residual: FloatArray, chosen: FloatArray,
-               others: Sequence[tuple[str, FloatArray]], level: float) -> list[dict]:
+def confounded(tester: Tester, chosen: FloatArray, others: Sequence[tuple[str, FloatArray]],
+               level: float) -> list[dict]:
     """Re-test candidates given the chosen basis; return those left without evidence.
 
     Args:
-        q0: orthonormal null space (the model).
-        residual: the model's residual.
+        tester: the tests against the model.
         chosen: basis of the named effect.
         others: (candidate key, basis) of the other significant candidates.
         level: p-value above which a candidate has no evidence of its own.
@@ -105,12 +169,10 @@ def confounded(q0: FloatArray, residual: FloatArray, chosen: FloatArray,
         [{'candidate', 'log10_p_alone', 'log10_p_given_chosen'}] of the confounded ones.
 
     """
-    q_with = _orthonormal(np.column_stack([q0, chosen]))
-    residual_with = residual - q_with @ (q_with.T @ residual)
     out = []
     for key, basis in others:
-        alone, _ = nested_test(q0, residual, basis)
-        given, df = nested_test(q_with, residual_with, basis)
+        alone, _ = tester.test(basis)
+        given, df = tester.test(basis, chosen)
         if df == 0 or given > math.log(level):
             out.append({'candidate': key, 'log10_p_alone': alone / math.log(10),
                         'log10_p_given_chosen': given / math.log(10)})
