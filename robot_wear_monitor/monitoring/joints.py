@@ -188,8 +188,9 @@ class WearEstimatorFleet:
         Returns (None, None) when no monitored joint takes it (counted).
         """
         joint = str(getattr(getattr(msg, 'header', None), 'frame_id', '') or '')
-        if not joint and len(self.services) == 1 and self.selection is not None:
-            joint = next(iter(self.services))  # an unnamed joint: the only one monitored
+        if not self.per_joint:  # the single-joint layout: its service checks and counts
+            service = next(iter(self.services.values()))
+            return service, service.handle_friction_levels(msg)
         if not joint or not (self.selection is None or joint in self.selection):
             self._reject('other_joint', f'levels of joint {joint!r}, monitored: '
                                         f'{", ".join(self.services) or "none"}')

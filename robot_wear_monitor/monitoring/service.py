@@ -931,6 +931,18 @@ class FrictionExperimentService:
             experiments += self._idle(float(time_s[-1]))
         return experiments
 
+    def close_idle(self) -> list[FrictionExperiment]:
+        """Close the assembler's experiment because the stream has stopped (no samples).
+
+        The live node calls it when no JointState has come for ``idle_gap_s`` (wall time): a
+        recording or a robot that stops publishing after an experiment must not hold that
+        experiment back until the next one.  The segmentation is not flushed (a move in
+        progress goes on if the stream comes back).
+        """
+        if self._open is not None:
+            return []
+        return self._completed(self._assembler.flush() or [])
+
     def _idle(self, now_s: float) -> list[FrictionExperiment]:
         """Close the assembler's experiment once the joint has stood still for idle_gap_s.
 

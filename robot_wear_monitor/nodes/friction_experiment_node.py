@@ -1,28 +1,32 @@
 """friction_experiment_node: /joint_states -> friction_levels, one message per experiment.
 
-Segments the configured joint into constant-speed friction levels (eq. (3)) and experiments
-with :class:`robot_wear_monitor.monitoring.service.FrictionExperimentService`, and publishes
-each completed experiment on ``friction_levels`` (sensor_msgs/JointState: ``velocity`` =
-speed levels [rad/s],
-``effort`` = friction levels, ``header.frame_id`` = joint).  Every second it publishes its
-counts and the rejected inputs by reason on ``/diagnostics`` (``friction_experiment: <joint>``);
-rejected inputs are also logged, at most once per 10 s.  The friction_experiment_runner's events
+Segments the monitored joint(s) into constant-speed friction levels (eq. (3)) and experiments
+with one :class:`robot_wear_monitor.monitoring.service.FrictionExperimentService` per joint
+(:class:`~robot_wear_monitor.monitoring.joints.FrictionExperimentFleet`: ``joint``, or
+``joints``, or ``joints: [all]`` for every joint that appears; per-joint values as
+``<joint>.<name>`` parameters), and publishes each completed experiment on ``friction_levels``
+(sensor_msgs/JointState: ``velocity`` = speed levels [rad/s], ``effort`` = friction levels,
+``header.frame_id`` = joint).  Every second it publishes its counts and the rejected inputs by
+reason on ``/diagnostics``, one status per joint (``friction_experiment: <joint>``); rejected
+inputs are also logged, at most once per 10 s.  The friction_experiment_runner's events
 (``experiment_events_topic``, default ``friction_experiment/events``; empty: not subscribed)
 give the experiments' exact boundaries: an ``end`` event publishes the experiment at once.
 """
 
 import sys
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
 from robot_wear_monitor.recordings.messages import stamp_to_seconds
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
                                                        validate_parameters)
-from robot_wear_monitor.nodes import (declare_parameters, log_rejection_report, message_kit,
-                                      node_time_s, spin_node)
+from robot_wear_monitor.nodes import (declare_joint_parameters, declare_parameters,
+                                      log_rejection_report, message_kit, node_time_s, spin_node)
 from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
                                           FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
 from robot_wear_monitor.monitoring.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
@@ -38,7 +42,7 @@ def _rounded(values, digits: int) -> list:
 
 
 class FrictionExperimentNode(Node):
-    """Segment /joint_states of one joint and publish each completed experiment."""
+    """Segment /joint_states of the monitored joints and publish each completed experiment."""
 
     def __init__(self, **kwargs):
         """Declare and validate the parameters, then subscribe and advertise.
@@ -49,7 +53,10 @@ class FrictionExperimentNode(Node):
         raw = declare_parameters(self, FRICTION_EXPERIMENT_PARAMETERS)
         self.parameters = validate_parameters(FRICTION_EXPERIMENT_NODE, raw,
                                               source=f'{self.get_name()} parameters')
-        self.service = FrictionExperimentService.from_node_parameters(self.parameters)
+        self.fleet = FrictionExperimentFleet(
+            self.parameters, parameters_for=lambda joint: declare_joint_parameters(
+                self, FRICTION_EXPERIMENT_NODE, FRICTION_EXPERIMENT_PARAMETERS, self.parameters,
+                joint))
         self.kit = message_kit()
         self.rejection_log = RejectionLog(what='joint_states inputs',
                                           period_s=REJECTION_LOG_PERIOD_S)
@@ -66,22 +73,45 @@ class FrictionExperimentNode(Node):
                 self.on_experiment_event, EXPERIMENT_EVENTS_QOS)
         self.timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
         self._rejected = 0
-        speeds = _rounded(self.parameters['experiment_speeds_rad_s'], 3)
+        self._internal_errors = 0
+        self._last_error = ''
+        self._last_message_monotonic = None
+        joints = ('every joint of /joint_states' if self.fleet.selection is None else
+                  ', '.join(f'{s.joint!r} (gear ratio {s.segmenter_config.gear_ratio:g}, '
+                            f'torque scale {s.segmenter_config.torque_scale:g}, speeds '
+                            f'{_rounded(s.experiment_speeds_rad_s, 3) or "found in the data"})'
+                            for s in self.fleet.services.values()))
         self.get_logger().info(
-            f'segmenting joint {self.service.joint!r} of '
-            f'{self.subscription.topic_name} (gear ratio {self.parameters["gear_ratio"]}, '
-            f'torque scale {self.parameters["torque_scale"]}), experiment speeds '
-            f'{speeds or "any"} rad/s; publishing on {self.publisher.topic_name}; '
+            f'segmenting {joints} of {self.subscription.topic_name}; publishing on '
+            f'{self.publisher.topic_name}; '
             + (f'experiment boundaries from {self.events_subscription.topic_name}'
                if self.events_subscription is not None else 'no experiment events'))
 
+    @property
+    def service(self) -> FrictionExperimentService:
+        """Return the service of the first monitored joint (the only one without joints)."""
+        return next(iter(self.fleet.services.values()))
+
+    def _all_rejections(self):
+        """Return the rejections of every joint by reason (prefixed by the joint if several)."""
+        total = {}
+        several = len(self.fleet.services) > 1
+        for joint, service in self.fleet.services.items():
+            for reason, count in service.all_rejections().items():
+                key = f'{joint}: {reason}' if several else reason
+                total[key] = total.get(key, 0) + count
+        if self._internal_errors:
+            total['internal_error'] = self._internal_errors
+        return total
+
     def on_joint_state(self, msg):
         """Feed one JointState to the segmentation; publish the experiments it completes."""
+        self._last_message_monotonic = time.monotonic()
         stamp_s = stamp_to_seconds(msg.header.stamp)
         if stamp_s == 0.0:  # unstamped publisher: use the reception time
             stamp_s = node_time_s(self)
         self._publish_all(self._guarded(
-            self.service.add_joint_state, stamp_s=stamp_s, name=msg.name,
+            self.fleet.add_joint_state, stamp_s=stamp_s, name=msg.name,
             position=msg.position, velocity=msg.velocity, effort=msg.effort))
         self._log_new_rejections()
 
@@ -90,51 +120,82 @@ class FrictionExperimentNode(Node):
         try:
             return call(*args, **kwargs)
         except Exception as error:  # noqa: BLE001 - the node must outlive any one input
-            self.service.rejections['internal_error'] += 1
-            self.service.last_error = f'{type(error).__name__}: {error}'
+            text = f'{type(error).__name__}: {error}'
+            if self.fleet.services:  # shown in the first joint's diagnostics
+                self.service.rejections['internal_error'] += 1
+                self.service.last_error = text
+            else:
+                self._internal_errors += 1
+                self._last_error = text
             return []
 
     def _publish_all(self, experiments):
-        for experiment in experiments:
-            self.publish_experiment(experiment)
+        for service, experiment in experiments:
+            self.publish_experiment(experiment, service=service)
+
+    def _rejected_total(self):
+        return self._internal_errors + sum(s.rejected_total
+                                           for s in self.fleet.services.values())
 
     def _log_new_rejections(self):
-        if self.service.rejected_total > self._rejected:
-            self._rejected = self.service.rejected_total
+        total = self._rejected_total()
+        if total > self._rejected:
+            self._rejected = total
             self.log_rejections()
 
     def on_experiment_event(self, msg):
         """Apply one friction_experiment_runner event; publish the experiment it ends."""
-        open_before = self.service.open_experiment_id
-        aborted_before = self.service.rejections['aborted_experiment']
-        self._publish_all(self._guarded(self.service.handle_experiment_event_msg, msg))
-        open_after = self.service.open_experiment_id
-        if open_after is not None and open_after != open_before:
-            self.get_logger().info(f'runner started friction experiment #{open_after} of '
-                                   f'{self.service.joint!r}')
-        elif self.service.rejections['aborted_experiment'] > aborted_before:
-            self.get_logger().info(f'runner aborted friction experiment #{open_before} of '
-                                   f'{self.service.joint!r}: its friction levels are dropped')
+        services = list(self.fleet.services.values())
+        open_before = [s.open_experiment_id for s in services]
+        aborted_before = [s.rejections['aborted_experiment'] for s in services]
+        self._publish_all(self._guarded(self.fleet.handle_experiment_event_msg, msg))
+        for service, was_open, aborted in zip(services, open_before, aborted_before):
+            open_after = service.open_experiment_id
+            if open_after is not None and open_after != was_open:
+                self.get_logger().info(f'runner started friction experiment #{open_after} of '
+                                       f'{service.joint!r}')
+            elif service.rejections['aborted_experiment'] > aborted:
+                self.get_logger().info(f'runner aborted friction experiment #{was_open} of '
+                                       f'{service.joint!r}: its friction levels are dropped')
         self._log_new_rejections()
 
-    def publish_experiment(self, experiment):
+    def publish_experiment(self, experiment, *, service=None):
         """Publish one completed experiment on ``friction_levels`` and log it."""
-        self.publisher.publish(self.service.friction_levels_message(self.kit, experiment))
+        service = service or self.service
+        self.publisher.publish(service.friction_levels_message(self.kit, experiment))
         self.get_logger().info(
-            f'experiment {self.service.experiments}: speeds '
+            f'experiment {service.experiments} of {service.joint!r}: speeds '
             f'{_rounded(experiment.speeds_rad_s, 2)} rad/s, friction '
             f'{_rounded(experiment.frictions, 5)}')
 
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
+        detail = self._last_error or next(
+            (s.last_error for s in self.fleet.services.values() if s.last_error), '')
         log_rejection_report(self.get_logger(), self.rejection_log.report(
-            self.service.all_rejections(), now_s=node_time_s(self),
-            detail=self.service.last_error))
+            self._all_rejections(), now_s=node_time_s(self), detail=detail))
+
+    def close_if_stream_stopped(self):
+        """Publish the experiments in progress when /joint_states has stopped for idle_gap_s.
+
+        Measured on the monotonic clock since the last message (not on the message stamps,
+        which stop too): the experiment of a robot that stops publishing after it is not held
+        back until the next one.
+        """
+        if self._last_message_monotonic is None:
+            return
+        silent_s = time.monotonic() - self._last_message_monotonic
+        for service in self.fleet.services.values():
+            if silent_s > service.idle_gap_s:
+                self._publish_all(self._guarded(
+                    lambda s=service: [(s, e) for e in s.close_idle()]))
 
     def publish_diagnostics(self):
-        """Publish the counts and rejections on /diagnostics (periodic)."""
-        self.diagnostics_publisher.publish(
-            self.service.diagnostics_message(self.kit, stamp_s=node_time_s(self)))
+        """Publish the counts and rejections on /diagnostics, one status per joint."""
+        self.close_if_stream_stopped()
+        msg = self.fleet.diagnostics_message(self.kit, stamp_s=node_time_s(self))
+        if msg is not None:
+            self.diagnostics_publisher.publish(msg)
         self.log_rejections()
 
 

@@ -1,10 +1,12 @@
 """wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagnostics.
 
-A thin shell over :class:`robot_wear_monitor.monitoring.service.WearEstimatorService`: every
-completed experiment gives an estimate of (T, w); the alarm is latched (reliable +
-transient-local, so a
-late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger); the SQLite
-history restores the trend and the alarm after a restart.
+A thin shell over :class:`robot_wear_monitor.monitoring.service.WearEstimatorService`, one per
+monitored joint (:class:`~robot_wear_monitor.monitoring.joints.WearEstimatorFleet`; the
+``friction_levels`` of a joint go to its estimator by ``header.frame_id``): every completed
+experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
+late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger; with
+``joints``: ``~/<joint>/reset_alarm``); the SQLite history restores the trend and the alarm
+after a restart.  With ``joints`` the outputs of a joint are under ``<joint>/``.
 """
 
 import sys
@@ -16,18 +18,20 @@ from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
 from robot_wear_monitor.monitoring.history import WearHistory
+from robot_wear_monitor.monitoring.joints import (output_topic, reset_service_name,
+                                                  WearEstimatorFleet)
 from robot_wear_monitor.recordings.messages import alarm_to_msg
-from robot_wear_monitor.monitoring.node_config import (expand_history_path, validate_parameters,
-                                                       WEAR_ESTIMATOR_NODE,
+from robot_wear_monitor.monitoring.node_config import (expand_history_path, per_joint_outputs,
+                                                       validate_parameters, WEAR_ESTIMATOR_NODE,
                                                        WEAR_ESTIMATOR_PARAMETERS)
-from robot_wear_monitor.nodes import (declare_parameters, log_rejection_report, message_kit,
-                                      node_time_s, spin_node)
+from robot_wear_monitor.nodes import (declare_joint_parameters, declare_parameters,
+                                      log_rejection_report, message_kit, node_time_s, spin_node)
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
-from robot_wear_monitor.monitoring.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC, EstimatorConfig,
+from robot_wear_monitor.monitoring.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                    FRICTION_LEVELS_TOPIC, RejectionLog,
-                                                   RESET_SERVICE, TEMPERATURE_TOPIC, TREND_TOPIC,
-                                                   WEAR_TOPIC, WearEstimatorService)
+                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC,
+                                                   WearEstimatorService)
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0
@@ -50,70 +54,117 @@ class WearEstimatorNode(Node):
         raw = declare_parameters(self, WEAR_ESTIMATOR_PARAMETERS)
         self.parameters = validate_parameters(WEAR_ESTIMATOR_NODE, raw,
                                               source=f'{self.get_name()} parameters')
-        config = EstimatorConfig.from_node_parameters(self.parameters)
         self.history = WearHistory(expand_history_path(self.parameters['history_file']))
-        self.service = WearEstimatorService(config, history=self.history)
-        self.service.warm_up()
         self.kit = message_kit()
         self.rejection_log = RejectionLog(what='friction_levels inputs',
                                           period_s=REJECTION_LOG_PERIOD_S)
-        self.publishers_by_topic = {topic: self.create_publisher(_TYPES[topic], topic,
-                                                                 _QOS[topic])
-                                    for topic in _TYPES}
+        self.publishers_by_joint = {}
+        self.reset_services = {}
+        # the shared diagnostics topic first: a joint's advertisement may publish on it
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC,
+                                                           _QOS[DIAGNOSTICS_TOPIC])
+        self.fleet = WearEstimatorFleet(
+            self.parameters, history=self.history, warm_up=True,
+            parameters_for=lambda joint: declare_joint_parameters(
+                self, WEAR_ESTIMATOR_NODE, WEAR_ESTIMATOR_PARAMETERS, self.parameters, joint),
+            on_new_service=self._advertise)
         self.subscription = self.create_subscription(JointState, FRICTION_LEVELS_TOPIC,
                                                      self.on_friction_levels,
                                                      FRICTION_LEVELS_QOS)
-        self.reset_service = self.create_service(Trigger, RESET_SERVICE, self.on_reset_alarm)
         self.timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
-        self.publish_alarm()
-        self.get_logger().info(
-            f'joint {config.joint!r}, parameter set {config.params.name!r}, alarm at '
-            f'w >= {config.alarm.threshold}; history {self.history.path}: '
-            f'{self.service.restored_estimates} estimates restored, alarm '
-            f'{"LATCHED" if self.service.latch.active else "clear"}')
+        if self.fleet.selection is None:
+            self.get_logger().info(f'estimating every joint that comes on '
+                                   f'{self.subscription.topic_name}; history '
+                                   f'{self.history.path}')
 
-    def publish_alarm(self):
-        """Publish the latched alarm state."""
-        self.publishers_by_topic[ALARM_TOPIC].publish(
-            alarm_to_msg(self.kit, active=self.service.latch.active))
+    @property
+    def service(self) -> WearEstimatorService:
+        """Return the estimator of the first monitored joint (the only one without joints)."""
+        return next(iter(self.fleet.services.values()))
+
+    @property
+    def publishers_by_topic(self):
+        """Return base topic -> publisher of the first joint (the only one without joints)."""
+        return self.publishers_by_joint[self.service.config.joint]
+
+    def _advertise(self, service):
+        """Create the publishers and the reset service of a new joint; publish its alarm."""
+        joint = service.config.joint
+        per_joint = per_joint_outputs(self.parameters)
+        publishers = {DIAGNOSTICS_TOPIC: self.diagnostics_publisher}
+        for topic in (TEMPERATURE_TOPIC, WEAR_TOPIC, ALARM_TOPIC, TREND_TOPIC):
+            publishers[topic] = self.create_publisher(
+                _TYPES[topic], output_topic(topic, joint, per_joint=per_joint), _QOS[topic])
+        self.publishers_by_joint[joint] = publishers
+        self.reset_services[joint] = self.create_service(
+            Trigger, reset_service_name(joint, per_joint=per_joint),
+            lambda request, response: self.on_reset_alarm(request, response, joint=joint))
+        publishers[ALARM_TOPIC].publish(alarm_to_msg(self.kit, active=service.latch.active))
+        config = service.config
+        self.get_logger().info(
+            f'joint {joint!r}, parameter set {config.params.name!r}, alarm at '
+            f'w >= {config.alarm.threshold}; history {self.history.path}: '
+            f'{service.restored_estimates} estimates restored, alarm '
+            f'{"LATCHED" if service.latch.active else "clear"}')
+
+    def publish_alarm(self, joint=None):
+        """Publish the latched alarm state of a joint (default: every joint)."""
+        for name in ([joint] if joint is not None else list(self.fleet.services)):
+            self.publishers_by_joint[name][ALARM_TOPIC].publish(
+                alarm_to_msg(self.kit, active=self.fleet.services[name].latch.active))
 
     def publish_diagnostics(self):
-        """Publish the current diagnostics (periodic, like diagnostic_updater)."""
-        self.publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
-            self.service.diagnostics_message(self.kit, stamp_s=node_time_s(self)))
+        """Publish every joint's current diagnostics (periodic, like diagnostic_updater)."""
+        msg = self.fleet.diagnostics_message(self.kit, stamp_s=node_time_s(self))
+        if msg is not None:
+            self.diagnostics_publisher.publish(msg)
         self.log_rejections()
 
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
+        counts = dict(self.fleet.rejections)
+        several = len(self.fleet.services) > 1
+        detail = self.fleet.last_rejection
+        for joint, service in self.fleet.services.items():
+            for reason, count in service.rejections.items():
+                key = f'{joint}: {reason}' if several else reason
+                counts[key] = counts.get(key, 0) + count
+            detail = service.last_rejection or detail
         log_rejection_report(self.get_logger(), self.rejection_log.report(
-            self.service.rejections, now_s=node_time_s(self), detail=self.service.last_rejection))
+            counts, now_s=node_time_s(self), detail=detail))
 
     def on_friction_levels(self, msg):
         """Estimate from one experiment and publish every output."""
         try:
-            update = self.service.handle_friction_levels(msg)
+            service, update = self.fleet.handle_friction_levels(msg)
         except Exception as error:  # noqa: BLE001 - the node must outlive any one input
-            self.service.reject('internal_error', f'{type(error).__name__}: {error}')
+            target = self.service if self.fleet.services else None
+            if target is not None:
+                target.reject('internal_error', f'{type(error).__name__}: {error}')
             self.get_logger().error(f'friction_levels not processed: {type(error).__name__}: '
                                     f'{error}')
             return
         if update is None:
             self.log_rejections()
             return
-        for topic, out in self.service.output_messages(self.kit, update):
-            self.publishers_by_topic[topic].publish(out)
+        publishers = self.publishers_by_joint[service.config.joint]
+        for topic, out in service.output_messages(self.kit, update):
+            publishers[topic].publish(out)
         # One call site per severity: rclpy refuses a call site that changes its severity.
         if update.alarm_raised:
-            self.get_logger().error(f'WEAR ALARM raised by experiment {update.index}: '
-                                    f'{update.status.message}')
+            self.get_logger().error(f'WEAR ALARM raised by experiment {update.index} of '
+                                    f'{update.joint!r}: {update.status.message}')
         else:
-            self.get_logger().info(f'experiment {update.index}: {update.status.message}')
+            self.get_logger().info(f'experiment {update.index} of {update.joint!r}: '
+                                   f'{update.status.message}')
 
-    def on_reset_alarm(self, request, response):
-        """Clear the latched alarm after maintenance (std_srvs/Trigger)."""
-        response.success, response.message = self.service.reset_alarm(stamp_s=node_time_s(self))
-        self.get_logger().warning(f'reset_alarm: {response.message}')
-        self.publish_alarm()
+    def on_reset_alarm(self, request, response, *, joint=None):
+        """Clear the latched alarm of a joint after maintenance (std_srvs/Trigger)."""
+        joint = joint if joint is not None else self.service.config.joint
+        service = self.fleet.services[joint]
+        response.success, response.message = service.reset_alarm(stamp_s=node_time_s(self))
+        self.get_logger().warning(f'reset_alarm of {joint!r}: {response.message}')
+        self.publish_alarm(joint)
         self.publish_diagnostics()
         return response
 
