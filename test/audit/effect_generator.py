@@ -25,6 +25,15 @@ SIGMA = 4.23e-3
 DECOYS = ('pressure', 'shift', 'oil_hours')
 
 
+def model_friction(columns: dict, params=PARAMS) -> np.ndarray:
+    """Return the model's friction at the levels: (8) with a ``wear`` column, else (5)."""
+    if 'wear' in columns:
+        return friction(columns['speed'], columns['load'], columns['temperature'],
+                        columns['wear'], params.model)
+    return nominal_friction(columns['speed'], columns['load'], columns['temperature'],
+                            params.model)
+
+
 def levels(*, seed: int, n_experiments: int = 42, wear: bool = False,
            params=PARAMS) -> dict:
     """Return the columns of ``n_experiments`` x 12 friction levels without any effect."""
@@ -47,12 +56,7 @@ def levels(*, seed: int, n_experiments: int = 42, wear: bool = False,
     columns['experiment'] = e.astype(float)
     columns['position'] = rng.uniform(-1.5, 1.5, e.size)
     columns['shift'] = rng.uniform(0, 100, e.size)
-    if wear:
-        clean = friction(columns['speed'], columns['load'], columns['temperature'],
-                         columns['wear'], params.model)
-    else:
-        clean = nominal_friction(columns['speed'], columns['load'], columns['temperature'],
-                                 params.model)
+    clean = model_friction(columns, params)
     columns['clean'] = clean
     columns['friction'] = clean + rng.normal(0, SIGMA, clean.size)
     return columns

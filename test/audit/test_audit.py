@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
+from effect_generator import model_friction
 from robot_wear_monitor.audit.model_audit import (AuditTable, load_audit_data, read_level_table,
                                                   run_audit, table_from_columns)
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.model.friction import friction, nominal_friction
 from robot_wear_monitor.model.params import load_parameter_set
 
 PARAMS = load_parameter_set()
@@ -41,12 +41,7 @@ def make_columns(effect=None, *, seed=0, n_experiments=40, repeats=2, wear=False
     columns = {k: v[e] for k, v in per_experiment.items()}
     columns['speed'] = np.tile(np.repeat(SPEEDS, repeats), n_experiments)
     columns['experiment'] = e
-    if wear:
-        clean = friction(columns['speed'], columns['load'], columns['temperature'],
-                         columns['wear'], PARAMS.model)
-    else:
-        clean = nominal_friction(columns['speed'], columns['load'], columns['temperature'],
-                                 PARAMS.model)
+    clean = model_friction(columns, PARAMS)
     columns['friction'] = clean + rng.normal(0, SIGMA, clean.size)
     if effect is not None:
         columns['friction'] = columns['friction'] + effect(columns)
