@@ -408,75 +408,135 @@ def _add_segment_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('data', metavar='DATA',
                         help='ROS 2 bag folder, or a raw CSV(.gz) with t_s,q_rad,dq_rad_s,'
                              'tau_measured_Nm columns (KUKA runs)')
-    parser.add_argument('--joint', default='joint_2', help='joint name in the bag (joint_2)')
+    parser.add_argument('--joint', nargs='+', metavar='NAME',
+                        help='joint(s) in the bag, or "all" (default: the node config\'s '
+                             'joint, joint_2)')
     parser.add_argument('--topic', default='/joint_states', help='JointState topic')
     parser.add_argument('--gear-ratio', type=float, default=None,
-                        help='motor speed / joint speed (bag default 150, CSV default 1)')
+                        help='motor speed / joint speed (bag default: the node config, 150; '
+                             'CSV default 1)')
     parser.add_argument('--torque-scale', type=float, default=None,
-                        help='effort per normalised torque (bag default 10, CSV default 1)')
+                        help='effort per normalised torque (bag default: the node config, 10; '
+                             'CSV default 1)')
+    parser.add_argument('--config', metavar='YAML',
+                        help='node parameter file for a bag (default: the packaged '
+                             'wear_monitor.yaml; per-joint values as <joint>: {...})')
     parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
-                        help='group levels into experiments at these motor speeds [rad/s]')
+                        help='experiments at these motor speeds only [rad/s] (default: the '
+                             'speeds found in the data)')
     parser.add_argument('--out', metavar='CSV', help='write the levels here (default stdout)')
+
+
+_SEGMENT_COLUMNS = ['speed', 'friction', 'friction_std_error', 'tau_forward', 'tau_backward',
+                    'n_forward', 'n_backward', 'position_min_rad', 'position_max_rad',
+                    'start_time_s', 'end_time_s', 'experiment', 'joint']
 
 
 def _cmd_segment(args: argparse.Namespace) -> int:
     import csv
+    import io
     from pathlib import Path
-    from robot_wear_monitor.recordings.bags import read_joint_samples
-    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_raw_csv
-    from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, segment_batch,
-                                                            SegmenterConfig)
-    from robot_wear_monitor.experiment.simulation import JointSimConfig, segmenter_config_for
+
+    from robot_wear_monitor.atomic_files import write_text_atomic
     path = Path(args.data)
     if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
-        t, q, v, e = read_raw_csv(path)
-        overrides = {k: val for k, val in (('gear_ratio', args.gear_ratio),
-                                           ('torque_scale', args.torque_scale))
-                     if val is not None}
-        config: SegmenterConfig = kuka_segmenter_config(**overrides)
-        read_rejections: dict = {}
+        rows, report = _segment_raw_csv(args, path)
     else:
-        samples = read_joint_samples(path, joint=args.joint, topic=args.topic)
-        t, q, v, e = (samples.time_s, samples.position_rad, samples.velocity_rad_s,
-                      samples.effort)
-        sim = JointSimConfig(joint=args.joint if args.joint in JointSimConfig().joint_names
-                             else 'joint_2')
-        config = segmenter_config_for(sim, joint=args.joint,
-                                      gear_ratio=args.gear_ratio or sim.gear_ratio,
-                                      torque_scale=args.torque_scale or sim.torque_scale)
-        read_rejections = dict(samples.rejections)
+        rows, report = _segment_bag(args, path)
+    text = io.StringIO()
+    writer = csv.writer(text)
+    writer.writerow(_SEGMENT_COLUMNS)
+    for level, k, joint in rows:
+        writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
+                         f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
+                         f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
+                         f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
+                         f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k, joint])
+    if args.out:
+        write_text_atomic(args.out, text.getvalue())
+    else:
+        sys.stdout.write(text.getvalue())
+    for line in report:
+        print(line, file=sys.stderr)
+    return 0
+
+
+def _segment_raw_csv(args: argparse.Namespace, path) -> tuple[list, list[str]]:
+    """Segment one KUKA-style raw run (the raw-run settings); levels without experiments."""
+    from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
+    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_raw_csv
+    t, q, v, e = read_raw_csv(path)
+    overrides = {k: val for k, val in (('gear_ratio', args.gear_ratio),
+                                       ('torque_scale', args.torque_scale)) if val is not None}
+    config = kuka_segmenter_config(**overrides)
     result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
-    experiment_of: dict[int, int] = {}
+    rows = [(level, '', config.joint) for level in result.levels]
     if args.speeds:
         assembler = ExperimentAssembler(speeds_rad_s=args.speeds)
         done = [x for level in result.levels for x in assembler.add(level)] + assembler.flush()
-        for k, experiment in enumerate(done):
-            for level in experiment.levels:
-                experiment_of[id(level)] = k
-        rows = [(level, experiment_of[id(level)]) for x in done for level in x.levels]
-    else:
-        rows = [(level, '') for level in result.levels]
-    columns = ['speed', 'friction', 'friction_std_error', 'tau_forward', 'tau_backward',
-               'n_forward', 'n_backward', 'position_min_rad', 'position_max_rad',
-               'start_time_s', 'end_time_s', 'experiment']
-    stream = open(args.out, 'w', newline='', encoding='utf-8') if args.out else sys.stdout
-    try:
-        writer = csv.writer(stream)
-        writer.writerow(columns)
-        for level, k in rows:
-            writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
-                             f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
-                             f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
-                             f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
-                             f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k])
-    finally:
-        if args.out:
-            stream.close()
-    rejected = {**read_rejections, **dict(result.rejections)}
-    print(f'{len(result.levels)} friction levels; rejected: '
-          + (', '.join(f'{k} {n}' for k, n in sorted(rejected.items())) or 'none'),
-          file=sys.stderr)
-    return 0
+        rows = [(level, k, config.joint) for k, x in enumerate(done) for level in x.levels]
+    rejected = dict(result.rejections)
+    return rows, [f'{len(result.levels)} friction levels; rejected: '
+                  + (', '.join(f'{k} {n}' for k, n in sorted(rejected.items())) or 'none')]
+
+
+def _segment_bag(args: argparse.Namespace, path) -> tuple[list, list[str]]:
+    """Segment the joints of a bag as the replay does (discovery, chunks, per-joint report)."""
+    from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
+    from robot_wear_monitor.monitoring.replay import (explain_no_experiment, NoExperimentError,
+                                                      replay_parameters)
+    from robot_wear_monitor.recordings.bags import iter_joint_chunks
+    joint, joints = _joint_selection(args.joint)
+    experiment, _ = replay_parameters(config_file=args.config, joint=joint, joints=joints,
+                                      gear_ratio=args.gear_ratio,
+                                      torque_scale=args.torque_scale)
+    if args.speeds:
+        from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
+                                                               validate_parameters)
+        experiment = validate_parameters(
+            FRICTION_EXPERIMENT_NODE, {**experiment, 'experiment_speeds_rad_s': args.speeds},
+            source='--speeds')
+    fleet = FrictionExperimentFleet(experiment, source='segment parameters')
+    stream = iter_joint_chunks(path, joints=fleet.selection, topic=args.topic,
+                               require_joints=False)
+    found: dict[str, list] = {}
+    for chunk in stream:
+        for name, samples in chunk.items():
+            service = fleet.service(name)
+            found.setdefault(name, []).extend(service.add_recording(
+                time_s=samples.time_s, position_rad=samples.position_rad,
+                velocity_rad_s=samples.velocity_rad_s, effort=samples.effort))
+    for service, done in fleet.finish():
+        found.setdefault(service.joint, []).append(done)
+    rows, report = [], list(stream.notes)
+    for name, service in fleet.services.items():
+        experiments = found.get(name, [])
+        for level in service.levels:
+            k = next((i for i, x in enumerate(experiments)
+                      if x.start_time_s <= level.start_time_s
+                      and level.end_time_s <= x.end_time_s), '')
+            rows.append((level, k, name))
+        summary = service.summary()
+        summary['rejected'] = {**{f'reader_{k}': v for k, v in
+                                  sorted(stream.rejections.get(name, {}).items())},
+                               **summary['rejected']}
+        summary.update(estimates=0, first_alarm=None, no_experiment=None if experiments else
+                       explain_no_experiment(service=service,
+                                             reader_rejections=stream.rejections.get(name, {}),
+                                             seen=name in stream.joints_seen,
+                                             joints_seen=stream.joints_seen,
+                                             topic=stream.topic))
+        report.append(_joint_summary_line(summary, estimates=False))
+        if summary['rejected']:
+            report.append('    rejected: ' + ', '.join(
+                f'{k} {n}' for k, n in summary['rejected'].items()))
+    if not rows:
+        reasons = '; '.join(explain_no_experiment(
+            service=s, reader_rejections=stream.rejections.get(j, {}),
+            seen=j in stream.joints_seen, joints_seen=stream.joints_seen, topic=stream.topic)
+            for j, s in fleet.services.items()) or 'no joint in the JointState messages'
+        raise NoExperimentError(f'no friction level: {reasons}')
+    return rows, report
 
 
 # --------------------------------------------------------------------------- replay / demo
@@ -571,19 +631,25 @@ def _joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str]
 
 def _print_joint_summary(entry: dict) -> None:
     """Print one line per joint: what the segmentation found, or why nothing."""
+    print(_joint_summary_line(entry))
+
+
+def _joint_summary_line(entry: dict, *, estimates: bool = True) -> str:
+    """Return one line on a joint: samples, passes, levels per speed, experiments, or why not."""
     speeds = ', '.join(f'{k} rad/s x{v}' for k, v in entry['levels_per_speed_rad_s'].items())
     other = entry['levels_at_other_speeds_rad_s']
     alarm = entry['first_alarm']
     line = (f'  {entry["joint"]}: {entry["samples"]} samples, {entry["passes"]} passes, '
             f'{entry["levels"]} levels' + (f' ({speeds})' if speeds else '')
-            + f', {entry["experiments"]} experiments, {entry["estimates"]} estimates'
+            + f', {entry["experiments"]} experiments'
+            + (f', {entry["estimates"]} estimates' if estimates else '')
             + (f', alarm at experiment {alarm["index"]}' if alarm else ''))
     if other:
         line += ('; levels at no configured speed: '
                  + ', '.join(f'{k} rad/s x{v}' for k, v in other.items()))
     if entry['no_experiment']:
         line += f'; no experiment: {entry["no_experiment"]}'
-    print(line)
+    return line
 
 
 def _plot_replay(result, path: str, *, bag: str, threshold: float) -> None:

@@ -211,6 +211,12 @@ def _longest_run(mask: NDArray[np.bool_]) -> tuple[int, int]:
     return int(starts[best]), int(stops[best])
 
 
+#: Time comparisons (trims, durations) allow this much [s]: stamps far from zero (a ROS epoch)
+#: are rounded to ~0.2 us, and a sample exactly at a threshold must fall on the same side
+#: whatever the time origin (a bag of a run gives the levels of the run itself).
+_TIME_EPS_S = 1e-6
+
+
 def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: FloatArray,
                   torque: FloatArray, direction: int, config: SegmenterConfig,
                   rejections: Counter) -> _Pass | None:
@@ -219,7 +225,7 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
     ``speed_rad_s`` is the signed motor speed; moves shorter than ``min_duration_s`` in total
     are standstill jitter and are ignored without being counted.
     """
-    if time_s.size < 3 or time_s[-1] - time_s[0] < config.min_duration_s:
+    if time_s.size < 3 or time_s[-1] - time_s[0] < config.min_duration_s - _TIME_EPS_S:
         return None
     speed = np.abs(speed_rad_s)
     # The speed level is where the speeds are densest: the value with the most samples within
@@ -238,10 +244,12 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
     start, stop = _longest_run(np.abs(speed - level) <= _tolerance(level, config))
     if config.trim_s > 0 and stop > start:
         run = time_s[start:stop]
-        stop = start + int(np.searchsorted(run, run[-1] - config.trim_s, side='right'))
-        start += int(np.searchsorted(run, run[0] + config.trim_s, side='left'))
+        stop = start + int(np.searchsorted(run, run[-1] - config.trim_s + _TIME_EPS_S,
+                                           side='right'))
+        start += int(np.searchsorted(run, run[0] + config.trim_s - _TIME_EPS_S, side='left'))
     keep = slice(start, stop)
-    if stop - start < 3 or time_s[stop - 1] - time_s[start] < config.min_duration_s:
+    if stop - start < 3 or \
+            time_s[stop - 1] - time_s[start] < config.min_duration_s - _TIME_EPS_S:
         rejections['pass_too_short'] += 1
         return None
     t, q, v, e = time_s[keep], position_rad[keep], speed_rad_s[keep], torque[keep]
