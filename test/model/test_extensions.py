@@ -129,3 +129,22 @@ def test_invalid_sections_name_the_field(tmp_path, change, message):
     with pytest.raises(ParameterError, match='extended.yaml') as error:
         load_parameter_set(write_set(tmp_path, section))
     assert message in str(error.value)
+
+
+def test_estimator_intervals_and_design_run_the_extended_model(tmp_path):
+    """Without any change of theirs: levels of the extended model are estimated right by it."""
+    from robot_wear_monitor.estimation.design import design_cost
+    from robot_wear_monitor.estimation.estimator import estimate_wear
+    from robot_wear_monitor.estimation.intervals import wear_intervals
+    params = load_parameter_set(write_set(tmp_path))
+    speeds = np.array([2.1, 8.7, 15.3, 28.5, 41.7, 82.2, 133.5, 236.2])
+    levels = fm.friction(speeds, params.load_mean, 41.0, 30.0, params.model)
+    extended = estimate_wear(speeds, levels, params=params)[0]
+    paper = estimate_wear(speeds, levels, params=PARAMS)[0]
+    assert abs(extended.wear - 30.0) < 0.5 and abs(extended.temperature_degc - 41.0) < 0.2
+    assert abs(paper.wear - 30.0) > 2.0  # the paper's model misreads the added terms
+    interval = wear_intervals(speeds, levels, params=params)[0]
+    assert interval.wear_low <= 30.0 <= interval.wear_high
+    cost = design_cost(speeds_rad_s=speeds[:3], params=params)
+    assert np.isfinite(cost).all() and cost != design_cost(speeds_rad_s=speeds[:3],
+                                                           params=PARAMS)
