@@ -17,5 +17,9 @@ def use_single_blas_thread() -> None:
     global _LIMITER
     if _LIMITER is not None:
         return
+    # the limit reaches the libraries loaded when it is set: scipy.linalg brings its own
+    # OpenBLAS, so load it first
+    import numpy  # noqa: F401
+    import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_limits
     _LIMITER = threadpool_limits(limits=1, user_api='blas')
