@@ -1,0 +1,362 @@
+"""Two joints on a live ROS 2 graph, as processes: per-joint topics, alarm, reset and replay.
+
+``friction_experiment_node`` (``joints: [all]``: every joint of ``/joint_states``, its
+``<joint>.*`` parameters declared when first seen) and ``wear_estimator_node`` (``joints:
+[shoulder, wrist_3]``) start from their console scripts with a params file written here
+(per-joint gear ratio and torque scale); ``robot-wear-monitor play`` plays a bag of the
+independent generator ``test/foreign_recordings.py`` in which ``shoulder`` (gear 120) and the
+direct-drive ``wrist_3`` (gear 1) run friction experiments in turn, the shoulder wearing out
+(its alarm is raised) and the wrist staying healthy.  A subscriber checks: one
+``<joint>/wear`` per experiment of that joint (none on the other joint's topic, nothing on the
+plain topics), values equal to the offline ``robot-wear-monitor replay --joint all --config``
+of the same bag, the alarm latched on the shoulder only, one ``/diagnostics`` status per joint,
+``~/shoulder/reset_alarm`` clearing the shoulder's alarm only, and a clean SIGINT exit.
+"""
+
+import dataclasses
+import json
+import os
+from pathlib import Path
+import signal
+import sqlite3
+import subprocess
+import sys
+import threading
+import time
+
+from conftest import next_ros_domain_id, require_rclpy
+import foreign_recordings as foreign
+import pytest
+
+rclpy = require_rclpy()
+
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from sensor_msgs.msg import JointState, Temperature  # noqa: E402
+from std_msgs.msg import Bool, Float64  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+
+from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS,  # noqa: E402
+                                          ESTIMATE_QOS, FRICTION_LEVELS_QOS)
+from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
+
+BIN = Path(sys.executable).parent
+WORN, HEALTHY = 'shoulder', 'wrist_3'
+JOINTS = (WORN, HEALTHY)
+SCHEDULE = [WORN, HEALTHY, WORN, HEALTHY, WORN]
+NODES = ('friction_experiment_node', 'wear_estimator_node')
+PLAY_RATE = 2.0
+
+PARAMS_YAML = """\
+friction_experiment_node:
+  ros__parameters:
+    joints: [all]
+    experiment_events_topic: ""
+    idle_gap_s: 1.5
+    shoulder: {gear_ratio: 120.0, torque_scale: 2000.0}
+    wrist_3: {gear_ratio: 1.0, torque_scale: 20.0}
+wear_estimator_node:
+  ros__parameters:
+    joints: [shoulder, wrist_3]
+    history_file: ":memory:"
+"""
+
+
+def _script(name):
+    path = BIN / name
+    return str(path) if path.exists() else name
+
+
+def _recording():
+    """Return the two-joint recording: shoulder wear 10 -> 60 (alarm), wrist_3 at wear 5."""
+    arm = foreign.default_joints()
+    arm[WORN] = dataclasses.replace(arm[WORN], wear_start=10.0, wear_end=60.0)
+    arm[HEALTHY] = dataclasses.replace(arm[HEALTHY], wear_start=5.0, wear_end=5.0)
+    protocol = foreign.Protocol(plateau_s=0.5, ramp_s=0.15, dwell_s=0.2, bump_s=0.4,
+                                idle_gap_s=2.0, lead_in_s=0.5)
+    return foreign.generate(schedule=SCHEDULE, joints=arm, protocol=protocol, seed=5)
+
+
+class Graph:
+    """Node processes and a probe subscribed to both joints' outputs on a fresh domain."""
+
+    def __init__(self, tmp_path):
+        """Start a context on its own domain and subscribe to every output."""
+        self.tmp_path = tmp_path
+        self.env = {**os.environ, 'ROS_DOMAIN_ID': str(next_ros_domain_id()),
+                    'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1',
+                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+        self.processes = {}
+        self.lock = threading.Lock()
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=int(self.env['ROS_DOMAIN_ID']))
+        self.node = rclpy.create_node('user_probe', context=self.context)
+        self.wear = {j: [] for j in JOINTS}
+        self.alarm = {j: [] for j in JOINTS}
+        self.temperature = {j: [] for j in JOINTS}
+        self.plain = []  # anything on the single-joint topics (there must be nothing)
+        self.levels = []  # (frame_id, speeds, frictions)
+        self.diagnostics = {}  # full status name -> [(level, message, values)]
+        for joint in JOINTS:
+            self.node.create_subscription(
+                Float64, f'/{joint}/wear',
+                lambda m, j=joint: self._add(self.wear[j], m.data), ESTIMATE_QOS)
+            self.node.create_subscription(
+                Bool, f'/{joint}/wear_alarm',
+                lambda m, j=joint: self._add(self.alarm[j], m.data), ALARM_QOS)
+            self.node.create_subscription(
+                Temperature, f'/{joint}/temperature',
+                lambda m, j=joint: self._add(self.temperature[j], m.temperature), ESTIMATE_QOS)
+        self.node.create_subscription(Float64, '/wear',
+                                      lambda m: self._add(self.plain, ('wear', m.data)), 10)
+        self.node.create_subscription(Bool, '/wear_alarm',
+                                      lambda m: self._add(self.plain, ('alarm', m.data)),
+                                      ALARM_QOS)
+        self.node.create_subscription(
+            JointState, '/friction_levels',
+            lambda m: self._add(self.levels, (m.header.frame_id, list(m.velocity),
+                                              list(m.effort))), FRICTION_LEVELS_QOS)
+        self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
+                                      DIAGNOSTICS_QOS)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.spinner = threading.Thread(target=self._spin, daemon=True)
+        self.spinner.start()
+
+    def _spin(self):
+        while self.context.ok():
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception:  # noqa: BLE001 - the context is shut down under the loop
+                return
+
+    def _add(self, target, value):
+        with self.lock:
+            target.append(value)
+
+    def _on_diagnostics(self, msg):
+        for level, name, message, values in diagnostics_from_msg(msg):
+            self._add(self.diagnostics.setdefault(name, []), (level, message, values))
+
+    def start(self, name, *args):
+        log = open(self.tmp_path / f'{name}.log', 'ab')
+        self.processes[name] = subprocess.Popen([_script(args[0]), *args[1:]], env=self.env,
+                                                stdout=log, stderr=subprocess.STDOUT)
+        log.close()
+        return self.processes[name]
+
+    def log(self, name):
+        return (self.tmp_path / f'{name}.log').read_text(errors='replace')
+
+    def logs(self):
+        return '\n'.join(f'--- {name}\n{self.log(name)[-3000:]}' for name in self.processes)
+
+    def wait(self, predicate, timeout_s):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            with self.lock:
+                if predicate():
+                    return True
+            time.sleep(0.05)
+        with self.lock:
+            return predicate()
+
+    def snapshot(self, value):
+        with self.lock:
+            return json.loads(json.dumps(value))
+
+    def call_reset(self, joint, timeout_s=10.0):
+        client = self.node.create_client(Trigger, f'/wear_estimator_node/{joint}/reset_alarm')
+        try:
+            assert client.wait_for_service(timeout_sec=timeout_s), f'no reset service of {joint}'
+            future = client.call_async(Trigger.Request())
+            deadline = time.monotonic() + timeout_s
+            while not future.done() and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert future.done(), f'reset_alarm of {joint} did not answer'
+            return future.result()
+        finally:
+            self.node.destroy_client(client)
+
+    def close(self):
+        for process in self.processes.values():
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        self.spinner.join(timeout=2.0)
+
+
+@pytest.fixture
+def graph(tmp_path):
+    g = Graph(tmp_path)
+    yield g
+    g.close()
+
+
+def _offline_replay(bag, config, tmp_path):
+    summary = tmp_path / 'replay.json'
+    done = subprocess.run([_script('robot-wear-monitor'), 'replay', str(bag), '--out',
+                           str(tmp_path / 'replayed'), '--json', str(summary), '--joint', 'all',
+                           '--config', str(config), '--no-progress'],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    return json.loads(summary.read_text())
+
+
+def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(graph,
+                                                                                tmp_path):
+    recording = _recording()
+    bag = foreign.write_bag(recording, tmp_path / 'two_joints')
+    config = tmp_path / 'params.yaml'
+    config.write_text(PARAMS_YAML)
+    history = tmp_path / 'history.sqlite3'
+    for name in NODES:  # the nodes start (and warm up) while the replay runs
+        graph.start(name, name, '--ros-args', '--params-file', str(config),
+                    *(['-p', f'history_file:={history}'] if name == 'wear_estimator_node'
+                      else []))
+
+    offline = _offline_replay(bag, config, tmp_path)
+    expected = {j: [e for e in offline['experiments'] if e['joint'] == j] for j in JOINTS}
+    assert {j: len(e) for j, e in expected.items()} == {j: SCHEDULE.count(j) for j in JOINTS}
+    assert [e['alarm'] for e in expected[WORN]][-1] is True
+    assert not any(e['alarm'] for e in expected[HEALTHY])
+    truth = {j: [e.wear for e in recording.experiments_of(j)] for j in JOINTS}
+    assert [e['wear'] for e in expected[WORN]] == pytest.approx(truth[WORN], abs=8.0)
+
+    assert graph.wait(lambda: all(graph.alarm[j] == [False] for j in JOINTS)
+                      and {f'wear_monitor: {j}' for j in JOINTS} <= set(graph.diagnostics),
+                      40.0), 'the nodes did not come up:\n' + graph.logs()
+    player = graph.start('player', 'robot-wear-monitor', 'play', str(bag), '--topics',
+                         '/joint_states', '--wait-for-subscribers', '1', '--rate',
+                         str(PLAY_RATE))
+    assert player.wait(timeout=60) == 0, graph.logs()
+    assert f'played {len(recording)} messages' in graph.log('player')
+    assert graph.wait(lambda: all(len(graph.wear[j]) >= len(expected[j]) for j in JOINTS),
+                      20.0), graph.logs()
+    time.sleep(1.5)  # nothing more may come
+
+    wear = graph.snapshot(graph.wear)
+    for joint in JOINTS:  # one estimate per experiment of the joint, on its own topic only
+        assert wear[joint] == pytest.approx([e['wear'] for e in expected[joint]], abs=1e-6)
+        assert len(graph.temperature[joint]) == len(expected[joint])
+    assert graph.plain == []
+    levels = graph.snapshot(graph.levels)
+    assert [frame for frame, _, _ in levels] == SCHEDULE  # one friction_levels per experiment
+    for frame, speeds, _ in levels:  # the per-joint gear ratios reached each joint
+        nominal = dict(foreign.default_joints())[frame].speeds_rad_s
+        assert sorted(speeds) == pytest.approx(sorted(nominal), rel=0.02), frame
+
+    # the alarm latches on the worn joint only: the first message is the latched False
+    alarm = graph.snapshot(graph.alarm)
+    assert alarm[WORN] == [False] + [e['alarm'] for e in expected[WORN]]
+    assert alarm[WORN][-1] is True
+    assert alarm[HEALTHY] == [False] * (1 + len(expected[HEALTHY]))
+    assert 'WEAR ALARM raised by experiment 3 of \'shoulder\'' in graph.log('wear_estimator_node')
+
+    # /diagnostics: one status per joint from each node (every joint of /joint_states for the
+    # friction node under [all]); the worn joint in ERROR, the healthy one not
+    graph.diagnostics.clear()
+    assert graph.wait(lambda: {f'friction_experiment: {j}' for j in foreign.JOINT_NAMES}
+                      | {f'wear_monitor: {j}' for j in JOINTS} <= set(graph.diagnostics), 5.0)
+    diagnostics = graph.snapshot(graph.diagnostics)
+    assert not [n for n in diagnostics if n.startswith('wear_monitor:')
+                and n.split(': ', 1)[1] not in JOINTS]
+    assert diagnostics[f'wear_monitor: {WORN}'][-1][0] == 2
+    assert diagnostics[f'wear_monitor: {HEALTHY}'][-1][0] < 2
+    for joint in JOINTS:
+        _, _, counts = diagnostics[f'friction_experiment: {joint}'][-1]
+        assert counts['joint'] == joint
+        assert counts['joint_states'] == str(len(recording))  # no message lost
+        assert counts['experiments'] == str(SCHEDULE.count(joint))
+        _, _, estimator = diagnostics[f'wear_monitor: {joint}'][-1]
+        assert estimator['experiments'] == str(SCHEDULE.count(joint))
+
+    # ~/shoulder/reset_alarm clears the shoulder's alarm, and only it
+    response = graph.call_reset(WORN)
+    assert response.success, response.message
+    assert graph.wait(lambda: graph.alarm[WORN][-1] is False, 5.0)
+    time.sleep(0.5)
+    assert graph.alarm[HEALTHY] == alarm[HEALTHY]
+    assert graph.alarm[WORN] == alarm[WORN] + [False]
+    late = {j: [] for j in JOINTS}  # a late subscriber gets each joint's current state
+    for joint in JOINTS:
+        graph.node.create_subscription(Bool, f'/{joint}/wear_alarm',
+                                       lambda m, j=joint: graph._add(late[j], m.data), ALARM_QOS)
+    assert graph.wait(lambda: all(late[j] == [False] for j in JOINTS), 5.0), late
+    with sqlite3.connect(history) as conn:  # one history, rows keyed by joint
+        for joint in JOINTS:
+            stored = [row[0] for row in conn.execute(
+                'SELECT wear FROM estimates WHERE joint = ? ORDER BY id', (joint,))]
+            assert stored == pytest.approx([e['wear'] for e in expected[joint]], abs=1e-6)
+        events = conn.execute('SELECT joint, event FROM alarm_events ORDER BY id').fetchall()
+    assert events == [(WORN, 'raised'), (WORN, 'reset')]
+
+    for name in NODES:
+        assert graph.processes[name].poll() is None, f'{name} died:\n' + graph.log(name)
+    started = time.monotonic()
+    for name in NODES:
+        graph.processes[name].send_signal(signal.SIGINT)
+    for name in NODES:
+        assert graph.processes[name].wait(timeout=10.0) == 0, graph.log(name)
+    assert time.monotonic() - started < 10.0
+    for name in (*NODES, 'player'):
+        assert 'Traceback' not in graph.log(name), graph.log(name)
+
+
+ALL_YAML = """\
+wear_estimator_node:
+  ros__parameters:
+    joints: [all]
+    history_file: ":memory:"
+    shoulder: {wear_threshold: 50.0, wear_warning: 45.0}
+"""
+
+
+def test_estimator_under_all_serves_joints_as_they_come_with_their_own_parameters(graph,
+                                                                                  tmp_path):
+    """``joints: [all]``: a joint's topics, reset and ``<joint>.*`` values come when first seen.
+
+    The first estimate of a joint reaches a subscriber that was waiting for it.
+    """
+    config = tmp_path / 'all.yaml'
+    config.write_text(ALL_YAML)
+    estimator = graph.start('wear_estimator_node', 'wear_estimator_node', '--ros-args',
+                            '--params-file', str(config))
+    publisher = graph.node.create_publisher(JointState, '/friction_levels', FRICTION_LEVELS_QOS)
+    # the probe's own subscription and the estimator's
+    assert graph.wait(lambda: publisher.get_subscription_count() >= 2, 40.0), graph.logs()
+    time.sleep(1.0)  # both ends matched
+    assert graph.alarm == {j: [] for j in JOINTS}  # no joint yet
+    recording = _recording()
+    truth = {j: [] for j in JOINTS}
+    for experiment in recording.experiments:  # the true levels, as friction_experiment_node
+        msg = JointState()
+        msg.header.stamp.sec = int(experiment.end_s)
+        msg.header.frame_id = experiment.joint
+        msg.name = [f'{experiment.joint}/level_{i}' for i in range(len(experiment.levels))]
+        msg.velocity = [level.speed_rad_s for level in experiment.levels]
+        msg.effort = [level.tau_f for level in experiment.levels]
+        publisher.publish(msg)
+        truth[experiment.joint].append(experiment.wear)
+        assert graph.wait(lambda: len(graph.wear[experiment.joint])
+                          == len(truth[experiment.joint]), 30.0), graph.logs()
+    time.sleep(1.0)
+    wear = graph.snapshot(graph.wear)
+    assert {j: len(w) for j, w in wear.items()} == {j: SCHEDULE.count(j) for j in JOINTS}
+    assert wear[WORN] == pytest.approx(truth[WORN], abs=8.0)
+    assert graph.plain == []
+    log = graph.log('wear_estimator_node')
+    assert "joint 'shoulder', parameter set 'abb_irb6620_joint2', alarm at w >= 50.0" in log
+    assert "joint 'wrist_3', parameter set 'abb_irb6620_joint2', alarm at w >= 35.0" in log
+    assert graph.alarm[WORN][0] is False and graph.alarm[WORN][-1] is True
+    assert True not in graph.alarm[HEALTHY]
+    response = graph.call_reset(WORN)
+    assert response.success, response.message
+    assert graph.wait(lambda: graph.alarm[WORN][-1] is False, 5.0)
+    assert True not in graph.alarm[HEALTHY]
+    estimator.send_signal(signal.SIGINT)
+    assert estimator.wait(timeout=10.0) == 0, graph.log('wear_estimator_node')
+    assert 'Traceback' not in graph.log('wear_estimator_node')
