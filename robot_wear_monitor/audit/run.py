@@ -288,7 +288,7 @@ def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
         return {'term': None, 'report': report, 'log10_p': 0.0}
     top = rows[left[0]]
     report['tried'] = top['candidate']
-    best = _marginal(top, rows, tester, fdr)
+    best = _marginal(top, rows, robust, fdr)
     periods = {r['variables'][0]: r['period'] for r, ok in zip(rows, significant)
                if ok and r['period'] is not None}
     builder = ShapeBuilder(table, variables, group_variable, base, fit.theta)
@@ -318,8 +318,9 @@ def _marginal(best: dict, rows: Sequence[dict], tester: Tester, fdr: float) -> d
     """Return the single-variable family to name instead of an interaction, if one suffices.
 
     Marginality: an interaction (a pair, or a variable with speed) is named only when it has
-    evidence beyond the smooth term of each of its variables alone; otherwise the most
-    significant of those single-variable families that explain it is named.
+    evidence beyond the smooth term of each of its variables alone (tested with the experiments
+    as random effects); otherwise the most significant of those single-variable families that
+    explain it is named.
     """
     if len(best['variables']) < 2:
         return best
