@@ -7,12 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 import math
-from typing import Any, Mapping
+from typing import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robot_wear_monitor.model.extensions import extension_to_mapping
+from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
 
@@ -124,7 +125,7 @@ class AuditResult:
     estimate_changes: dict | None
     stop_reason: str
     excluded: tuple[str, ...] = ()
-    extended_params: Any = None
+    extended_params: ParameterSet | None = None
     offline: Mapping[str, tuple] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -145,9 +146,9 @@ class AuditResult:
                                   for k, (v, how) in self.offline.items()]})
 
     def _added_terms(self) -> dict | None:
-        extension = getattr(self.extended_params, 'model', None)
-        extension = getattr(extension, 'extension', None)
-        return extension_to_mapping(extension) if extension is not None else None
+        if self.extended_params is None or self.extended_params.model.extension is None:
+            return None
+        return extension_to_mapping(self.extended_params.model.extension)
 
     def summary(self) -> str:
         """Return a short plain-text report."""

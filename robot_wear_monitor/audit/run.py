@@ -15,16 +15,16 @@ and w estimates before and after (:mod:`.estimates`).
 
 from __future__ import annotations
 
+from dataclasses import replace
 import math
 from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robot_wear_monitor.audit.candidates import (families, make_variable, make_variables,
-                                                 periodic_frequencies, Variable,
+from robot_wear_monitor.audit.candidates import (candidate_columns, families, make_variable,
+                                                 make_variables, periodic_frequencies, Variable,
                                                  with_experiment_order)
-from robot_wear_monitor.audit.candidates import candidate_columns
 from robot_wear_monitor.audit.cross_validation import _cv_rms, _folds
 from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
 from robot_wear_monitor.audit.estimates import estimate_changes
@@ -176,7 +176,6 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
 
 def _without_extension(params: ParameterSet) -> ParameterSet:
     """Return the set without added terms (the audit re-identifies the paper's model)."""
-    from dataclasses import replace
     return replace(params, model=replace(params.model, extension=None))
 
 
