@@ -6,11 +6,13 @@
 (per-joint gear ratio and torque scale); ``robot-wear-monitor play`` plays a bag of the
 independent generator ``test/foreign_recordings.py`` in which ``shoulder`` (gear 120) and the
 direct-drive ``wrist_3`` (gear 1) run friction experiments in turn, the shoulder wearing out
-(its alarm is raised) and the wrist staying healthy.  A subscriber checks: one
-``<joint>/wear`` per experiment of that joint (none on the other joint's topic, nothing on the
-plain topics), values equal to the offline ``robot-wear-monitor replay --joint all --config``
-of the same bag, the alarm latched on the shoulder only, one ``/diagnostics`` status per joint,
-``~/shoulder/reset_alarm`` clearing the shoulder's alarm only, and a clean SIGINT exit.
+(its alarm is raised) and the wrist staying healthy; the bag ends before the last experiment's
+idle gap, so that experiment is published after the wall-clock silence of /joint_states.
+A subscriber checks: one ``<joint>/wear`` per experiment of that joint (none on the other
+joint's topic, nothing on the plain topics), values equal to the offline ``robot-wear-monitor
+replay --joint all --config`` of the same bag, the alarm latched on the shoulder only, one
+``/diagnostics`` status per joint, ``~/shoulder/reset_alarm`` clearing the shoulder's alarm
+only, and a clean SIGINT exit.  A second test starts the estimator under ``joints: [all]``.
 """
 
 import dataclasses
@@ -52,7 +54,7 @@ friction_experiment_node:
   ros__parameters:
     joints: [all]
     experiment_events_topic: ""
-    idle_gap_s: 1.5
+    idle_gap_s: 2.5
     shoulder: {gear_ratio: 120.0, torque_scale: 2000.0}
     wrist_3: {gear_ratio: 1.0, torque_scale: 20.0}
 wear_estimator_node:
@@ -234,6 +236,9 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
                          str(PLAY_RATE))
     assert player.wait(timeout=60) == 0, graph.logs()
     assert f'played {len(recording)} messages' in graph.log('player')
+    # the bag ends 2.2 s after the shoulder's last move (< idle_gap_s): only the wall-clock
+    # silence of /joint_states publishes that last experiment
+    assert len(graph.snapshot(graph.levels)) < len(SCHEDULE)
     assert graph.wait(lambda: all(len(graph.wear[j]) >= len(expected[j]) for j in JOINTS),
                       20.0), graph.logs()
     time.sleep(1.5)  # nothing more may come
@@ -267,7 +272,8 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     assert diagnostics[f'wear_monitor: {WORN}'][-1][0] == 2
     assert diagnostics[f'wear_monitor: {HEALTHY}'][-1][0] < 2
     for joint in JOINTS:
-        _, _, counts = diagnostics[f'friction_experiment: {joint}'][-1]
+        level, _, counts = diagnostics[f'friction_experiment: {joint}'][-1]
+        assert level == 0  # the repositioning moves are routine rejections
         assert counts['joint'] == joint
         assert counts['joint_states'] == str(len(recording))  # no message lost
         assert counts['experiments'] == str(SCHEDULE.count(joint))
@@ -360,3 +366,34 @@ def test_estimator_under_all_serves_joints_as_they_come_with_their_own_parameter
     estimator.send_signal(signal.SIGINT)
     assert estimator.wait(timeout=10.0) == 0, graph.log('wear_estimator_node')
     assert 'Traceback' not in graph.log('wear_estimator_node')
+
+
+@pytest.mark.xfail(strict=True, reason='several joints: the rejection log prefixes each reason '
+                   'with its joint ("shoulder: pass_too_short"), so RejectionLog.report no '
+                   'longer finds it in ROUTINE_REJECTIONS and logs routine rejections as WARN')
+def test_routine_rejections_of_several_joints_are_logged_as_info(graph, tmp_path):
+    """A repositioning move is a routine rejection (INFO), also when several joints are set."""
+    config = tmp_path / 'params.yaml'
+    config.write_text(PARAMS_YAML.replace('joints: [all]', 'joints: [shoulder, wrist_3]'))
+    node = graph.start('friction_experiment_node', 'friction_experiment_node', '--ros-args',
+                       '--params-file', str(config))
+    bag = foreign.write_bag(foreign.generate(schedule=[WORN], joints=None,
+                                             protocol=foreign.Protocol(
+                                                 plateau_s=0.5, ramp_s=0.15, dwell_s=0.2,
+                                                 bump_s=0.4, idle_gap_s=1.0, lead_in_s=0.5),
+                                             seed=2), tmp_path / 'one')
+    player = graph.start('player', 'robot-wear-monitor', 'play', str(bag), '--topics',
+                         '/joint_states', '--wait-for-subscribers', '1', '--wait-timeout', '40',
+                         '--rate', '2')
+    assert player.wait(timeout=60) == 0, graph.logs()
+    assert graph.wait(lambda: [frame for frame, _, _ in graph.levels] == [WORN], 10.0), \
+        graph.logs()
+    assert graph.wait(lambda: 'pass_too_short' in graph.log('friction_experiment_node'), 5.0)
+    diagnostics = graph.snapshot(graph.diagnostics)
+    for joint in JOINTS:  # the diagnostics count them as routine
+        assert diagnostics[f'friction_experiment: {joint}'][-1][0] == 0
+    node.send_signal(signal.SIGINT)
+    assert node.wait(timeout=10.0) == 0
+    lines = [line for line in graph.log('friction_experiment_node').splitlines()
+             if 'pass_too_short' in line]
+    assert lines and all(line.startswith('[INFO]') for line in lines), lines
