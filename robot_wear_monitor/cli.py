@@ -598,7 +598,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         print(f'removed {partial}: the unfinished output of a replay that was killed',
               file=sys.stderr)
     for note in result.notes:
-        print(f'note: {args.bag}: {note}', file=sys.stderr)
+        print(f'note: {note}', file=sys.stderr)
     summary = result.summary()
     if args.json:
         write_json_atomic(args.json, summary)

@@ -654,6 +654,45 @@ def merge_levels(levels: Sequence[FrictionLevel]) -> FrictionLevel:
         end_time_s=max(lv.end_time_s for lv in levels))
 
 
+class SpeedTally:
+    """Count friction levels per speed, a speed being a cluster of measured speeds.
+
+    A level within ``tolerance_rad_s`` of a speed's mean belongs to it (a measured speed varies
+    by a few mrad/s around the commanded one).  ``counts()`` gives mean speed rounded to
+    0.1 rad/s -> levels, in increasing speed.
+    """
+
+    def __init__(self, tolerance_rad_s: float = 1.0) -> None:
+        """Start with no speed."""
+        self.tolerance_rad_s = float(tolerance_rad_s)
+        self._sums: list[float] = []
+        self._counts: list[int] = []
+
+    def add(self, speed_rad_s: float) -> None:
+        """Count one level at ``speed_rad_s`` (motor side)."""
+        speed = float(speed_rad_s)
+        if self._sums:
+            means = np.asarray(self._sums) / np.asarray(self._counts)
+            nearest = int(np.argmin(np.abs(means - speed)))
+            if abs(means[nearest] - speed) <= self.tolerance_rad_s:
+                self._sums[nearest] += speed
+                self._counts[nearest] += 1
+                return
+        self._sums.append(speed)
+        self._counts.append(1)
+
+    def counts(self) -> dict[float, int]:
+        """Return {mean speed rounded to 0.1 rad/s: levels}, in increasing speed."""
+        tally: Counter = Counter()
+        for total, count in zip(self._sums, self._counts):
+            tally[round(total / count, 1)] += count
+        return dict(sorted(tally.items()))
+
+    def __bool__(self) -> bool:
+        """Return True when a level was counted."""
+        return bool(self._counts)
+
+
 class ExperimentAssembler:
     """Group consecutive friction levels into experiments (one run of the friction experiment).
 
@@ -672,7 +711,7 @@ class ExperimentAssembler:
 
     Attributes:
         ignored: levels at no configured speed.
-        ignored_speeds: their speeds rounded to 0.1 rad/s -> count (reported, never silently
+        ignored_speeds: a :class:`SpeedTally` of their speeds (reported, never silently
             dropped).
         abandoned: incomplete experiments dropped.
 
@@ -703,7 +742,7 @@ class ExperimentAssembler:
         self._slots: list[int] = []
         self._last_end = -math.inf
         self.ignored = 0
-        self.ignored_speeds: Counter = Counter()
+        self.ignored_speeds = SpeedTally(speed_tolerance_rad_s)
         self.abandoned = 0
 
     def add(self, level: FrictionLevel) -> list[FrictionExperiment]:
@@ -716,7 +755,7 @@ class ExperimentAssembler:
             slot = int(np.argmin(distance))
             if distance[slot] > self._tolerance:
                 self.ignored += 1
-                self.ignored_speeds[round(float(level.speed_rad_s), 1)] += 1
+                self.ignored_speeds.add(level.speed_rad_s)
                 return done
         else:
             speeds = [group[0].speed_rad_s for group in self._current]

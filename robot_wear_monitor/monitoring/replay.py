@@ -31,7 +31,7 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
-from robot_wear_monitor.monitoring.service import (FRICTION_LEVELS_TOPIC,
+from robot_wear_monitor.monitoring.service import (explain_no_experiment, FRICTION_LEVELS_TOPIC,
                                                    FrictionExperimentService, json_number,
                                                    OUTPUT_TOPICS, WearUpdate)
 
@@ -194,16 +194,21 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                     writer.add_topic(bag_topic(topic), types[topic])
                     writer.write(bag_topic(topic), out, stamp_ns)
 
+        def in_time_order(done: list) -> list:  # the joints' experiments of one chunk
+            return sorted(done, key=lambda pair: pair[1].end_time_s)
+
         for chunk in stream:
+            done = []
             for joint, samples in chunk.items():
                 if not len(samples) and joint in experiments.services:
                     continue
                 service = experiments.service(joint)
-                for experiment in service.add_recording(
-                        time_s=samples.time_s, position_rad=samples.position_rad,
-                        velocity_rad_s=samples.velocity_rad_s, effort=samples.effort):
-                    publish(service, experiment)
-        for service, experiment in experiments.finish():
+                done += [(service, experiment) for experiment in service.add_recording(
+                    time_s=samples.time_s, position_rad=samples.position_rad,
+                    velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)]
+            for service, experiment in in_time_order(done):
+                publish(service, experiment)
+        for service, experiment in in_time_order(experiments.finish()):
             publish(service, experiment)
 
     try:
@@ -221,6 +226,9 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                 result.out_bag = Path(out_bag)
     finally:
         history.close()
+    # in time order across joints (an experiment is published when its joint's stream closes
+    # it, which can come a chunk after another joint's later one)
+    updates.sort(key=lambda update: update.stamp_s)
     result.message_count = stream.message_count
     result.recovery = stream.recovery
     result.notes = list(stream.notes)
@@ -270,56 +278,6 @@ def _joint_summary(joint: str, service: FrictionExperimentService,
         seen=joint in stream.joints_seen, joints_seen=stream.joints_seen,
         topic=stream.topic))
     return summary
-
-
-def explain_no_experiment(*, service: FrictionExperimentService,
-                          reader_rejections: Mapping[str, int], seen: bool = True,
-                          joints_seen: Optional[list[str]] = None,
-                          topic: str = '/joint_states') -> str:
-    """Return one sentence on why a recording of the joint gave no friction experiment.
-
-    Checked in order: a joint name that is in no message (the names seen are listed), no
-    usable sample of the joint, no motion (motor speed never above the standstill speed), no
-    constant-speed plateau (every pass too short), passes found but never paired
-    forward/backward over a common window, and levels whose speeds match none of the
-    configured experiment speeds (the recorded speeds are listed).
-    """
-    config = service.segmenter_config
-    joint = service.joint
-    if not seen:
-        names = list(joints_seen or ())
-        shown = ', '.join(names[:12]) + (', ...' if len(names) > 12 else '')
-        return f'joint {joint!r} is in no message on {topic} (joints seen: {shown or "none"})'
-    if service.messages == 0:
-        reasons = ', '.join(f'{k} {v}' for k, v in sorted(reader_rejections.items()))
-        return f'no usable sample of joint {joint!r} ({reasons or "none"})'
-    fastest = service.fastest_speed_rad_s
-    if not fastest > config.standstill_speed_rad_s:
-        return (f'joint {joint!r} never moves: its motor speed stays at or below '
-                f'{fastest:.3g} rad/s (standstill {config.standstill_speed_rad_s:g} rad/s at '
-                f'gear ratio {config.gear_ratio:g}); check the joint name and the gear ratio')
-    rejections = service.all_rejections()
-    if not service.levels:
-        if rejections.get('pass_unpaired', 0) or rejections.get('pass_no_common_window', 0):
-            return (f'joint {joint!r} has {service.passes} constant-speed passes, but none '
-                    f'was paired with a pass the other way over a common position window '
-                    f'(unpaired {rejections.get("pass_unpaired", 0)}, no common window '
-                    f'{rejections.get("pass_no_common_window", 0)}): eq. (3) needs back-and-'
-                    f'forth moves at one speed')
-        return (f'joint {joint!r} moves (up to {fastest:.3g} rad/s motor side) but has no '
-                f'constant-speed plateau of {config.min_duration_s:g} s or more '
-                f'({rejections.get("pass_too_short", 0)} passes too short)')
-    found = sorted(service.levels_per_speed())
-    shown = ', '.join(f'{v:g}' for v in found[:12]) + (', ...' if len(found) > 12 else '')
-    if not service.experiment_speeds_rad_s:
-        return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s '
-                f'formed no experiment')
-    configured = ', '.join(f'{v:g}' for v in service.experiment_speeds_rad_s)
-    return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s, but '
-            f'none formed an experiment of the configured speeds [{configured}] rad/s '
-            f'(tolerance {service.speed_tolerance_rad_s:g} rad/s): set '
-            f'experiment_speeds_rad_s in --config to the recorded speeds, or leave it unset '
-            f'to take the speeds found in the recording')
 
 
 def _require_experiments(updates: list, estimators: WearEstimatorFleet,

@@ -846,6 +846,8 @@ class FrictionExperimentService:
         self._status_total = 0
         self._segmenter = StreamingSegmenter(self.segmenter_config)
         self._chunks = None
+        from robot_wear_monitor.experiment.segmentation import SpeedTally
+        self._speed_tally = SpeedTally(self.speed_tolerance_rad_s)
         self._assembler = ExperimentAssembler(
             speeds_rad_s=list(self.experiment_speeds_rad_s) or None,
             speed_tolerance_rad_s=self.speed_tolerance_rad_s, idle_gap_s=self.idle_gap_s)
@@ -963,14 +965,13 @@ class FrictionExperimentService:
         return self._segmenter.passes
 
     def levels_per_speed(self) -> dict[float, int]:
-        """Return the friction levels found per speed (rounded to 0.1 rad/s, motor side)."""
-        counts = Counter(round(float(level.speed_rad_s), 1) for level in self.levels)
-        return dict(sorted(counts.items()))
+        """Return the friction levels found per speed (motor side, the speed's mean to 0.1)."""
+        return self._speed_tally.counts()
 
     @property
     def levels_at_other_speeds(self) -> dict[float, int]:
         """Return the levels at no configured speed, per speed (0.1 rad/s): reported, unused."""
-        return dict(sorted(self._assembler.ignored_speeds.items()))
+        return self._assembler.ignored_speeds.counts()
 
     def summary(self) -> dict[str, Any]:
         """Return what the segmentation found, for a report (JSON-ready).
@@ -995,6 +996,7 @@ class FrictionExperimentService:
         experiments: list[FrictionExperiment] = []
         for level in new_levels:
             self.levels.append(level)
+            self._speed_tally.add(level.speed_rad_s)
             if self._open is None:
                 experiments.extend(self._assembler.add(level))
             elif self._open.start_s <= level.start_time_s and \
@@ -1123,10 +1125,22 @@ class FrictionExperimentService:
         summary = (f'{self.messages} joint_states, {len(self.levels)} friction levels, '
                    f'{self.experiments} experiments')
         values = [('joint', self.joint), ('joint_states', str(self.messages)),
+                  ('passes', str(self.passes)),
                   ('friction_levels', str(len(self.levels))),
+                  ('levels_per_speed_rad_s', ','.join(
+                      f'{k:g}:{v}' for k, v in self.levels_per_speed().items())),
                   ('experiments', str(self.experiments)),
+                  ('speeds_rad_s', ','.join(f'{v:g}' for v in self.experiment_speeds_rad_s)
+                   or 'found in the data'),
                   ('levels_at_other_speeds', str(self._assembler.ignored + self._event_ignored)),
+                  ('levels_at_other_speeds_rad_s', ','.join(
+                      f'{k:g}:{v}' for k, v in self.levels_at_other_speeds.items())),
                   ('experiments_abandoned', str(self._assembler.abandoned))]
+        if not self.experiments and self.messages:
+            rejected = self.all_rejections()
+            values.append(('no_experiment_yet', explain_no_experiment(
+                service=self, reader_rejections={},
+                seen=rejected.get('joint_missing', 0) < self.messages)))
         if self.event_counts:
             open_id = self.open_experiment_id
             values += [('experiment_events', str(sum(self.event_counts[k] for k in (
@@ -1177,3 +1191,55 @@ class FrictionExperimentService:
         return messages.friction_levels_to_msg(
             kit, stamp_s=experiment.end_time_s, joint=self.joint,
             speeds_rad_s=experiment.speeds_rad_s, frictions=experiment.frictions)
+
+
+def explain_no_experiment(*, service: FrictionExperimentService,
+                          reader_rejections: Mapping[str, int], seen: bool = True,
+                          joints_seen: Optional[list[str]] = None,
+                          topic: str = '/joint_states') -> str:
+    """Return one sentence on why a recording of the joint gave no friction experiment.
+
+    Checked in order: a joint name that is in no message (the names seen are listed), no
+    usable sample of the joint, no motion (motor speed never above the standstill speed), no
+    constant-speed plateau (every pass too short), passes found but never paired
+    forward/backward over a common window, and levels whose speeds match none of the
+    configured experiment speeds (the recorded speeds are listed).
+    """
+    config = service.segmenter_config
+    joint = service.joint
+    if not seen and joints_seen is None:
+        return f'joint {joint!r} is in no message on {topic}'
+    if not seen:
+        names = list(joints_seen)
+        shown = ', '.join(names[:12]) + (', ...' if len(names) > 12 else '')
+        return f'joint {joint!r} is in no message on {topic} (joints seen: {shown or "none"})'
+    if service.messages == 0:
+        reasons = ', '.join(f'{k} {v}' for k, v in sorted(reader_rejections.items()))
+        return f'no usable sample of joint {joint!r} ({reasons or "none"})'
+    fastest = service.fastest_speed_rad_s
+    if not fastest > config.standstill_speed_rad_s:
+        return (f'joint {joint!r} never moves: its motor speed stays at or below '
+                f'{fastest:.3g} rad/s (standstill {config.standstill_speed_rad_s:g} rad/s at '
+                f'gear ratio {config.gear_ratio:g}); check the joint name and the gear ratio')
+    rejections = service.all_rejections()
+    if not service.levels:
+        if rejections.get('pass_unpaired', 0) or rejections.get('pass_no_common_window', 0):
+            return (f'joint {joint!r} has {service.passes} constant-speed passes, but none '
+                    f'was paired with a pass the other way over a common position window '
+                    f'(unpaired {rejections.get("pass_unpaired", 0)}, no common window '
+                    f'{rejections.get("pass_no_common_window", 0)}): eq. (3) needs back-and-'
+                    f'forth moves at one speed')
+        return (f'joint {joint!r} moves (up to {fastest:.3g} rad/s motor side) but has no '
+                f'constant-speed plateau of {config.min_duration_s:g} s or more '
+                f'({rejections.get("pass_too_short", 0)} passes too short)')
+    found = sorted(service.levels_per_speed())
+    shown = ', '.join(f'{v:g}' for v in found[:12]) + (', ...' if len(found) > 12 else '')
+    if not service.experiment_speeds_rad_s:
+        return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s '
+                f'formed no experiment')
+    configured = ', '.join(f'{v:g}' for v in service.experiment_speeds_rad_s)
+    return (f'{len(service.levels)} friction levels of joint {joint!r} at {shown} rad/s, but '
+            f'none formed an experiment of the configured speeds [{configured}] rad/s '
+            f'(tolerance {service.speed_tolerance_rad_s:g} rad/s): set '
+            f'experiment_speeds_rad_s in --config to the recorded speeds, or leave it unset '
+            f'to take the speeds found in the recording')

@@ -307,9 +307,6 @@ def test_zero_header_stamps_are_said_once(point5, name):
     assert clean.summary['notes'] == [] and 'note:' not in clean.stderr
 
 
-@pytest.mark.xfail(strict=True, reason='cli._cmd_replay prefixes each note with the bag path, '
-                                       'which the reader note already names: "note: BAG: BAG: '
-                                       '..." (cli.py: print(f"note: {args.bag}: {note}"))')
 def test_the_zero_stamp_note_names_the_bag_once(point5):
     """The note line on stderr names the bag once."""
     run = point5('zero_stamps_all')
@@ -410,10 +407,6 @@ def test_the_alarm_comes_at_the_right_experiment_per_joint(arm):
         [(stamp, index) for stamp, index, _ in raised]
 
 
-@pytest.mark.xfail(strict=True, reason='ReplayResult.first_alarm is the first alarm in '
-                                       'processing order (chunk by chunk, joint by joint in '
-                                       'replay_bag.run), not in time: on this bag the elbow '
-                                       'alarm (later) is reported before the shoulder one')
 def test_the_summary_first_alarm_is_the_earliest_in_time(arm):
     """With several joints, the summary's first alarm is the earliest alarm raised."""
     run, _ = arm
@@ -493,10 +486,6 @@ def test_an_explicit_joint_list_monitors_those_joints_only(arm):
         [e.joint for e in recording.experiments if e.joint in chosen]
 
 
-@pytest.mark.xfail(strict=True, reason='levels_per_speed_rad_s rounds each level\'s measured '
-                                       'speed to 0.1 rad/s (service.py levels_per_speed: '
-                                       'Counter(round(speed, 1))) instead of counting per '
-                                       'discovered speed: 40.84 rad/s shows as 40.8 x3, 40.9 x3')
 def test_levels_per_speed_has_one_key_per_speed(arm):
     """Each speed run gets one key in levels_per_speed_rad_s, with all its levels."""
     run, _ = arm
