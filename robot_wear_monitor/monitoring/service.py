@@ -322,7 +322,8 @@ class RejectionLog:
         """Return (text, defective) of the rejections not yet reported, or None.
 
         None when nothing is new or the last report is less than ``period_s`` old;
-        ``defective`` is True when a reason other than :data:`ROUTINE_REJECTIONS` is new.
+        ``defective`` is True when a reason other than :data:`ROUTINE_REJECTIONS` is new
+        (a reason may be prefixed by its joint, ``"<joint>: <reason>"``).
         """
         if now_s - self._last_s < self.period_s:
             return None
@@ -336,7 +337,8 @@ class RejectionLog:
         by_reason = ', '.join(f'{reason} {count}' for reason, count in sorted(new.items()))
         text = (f'rejected {sum(new.values())} {self.what} ({by_reason}); '
                 f'{sum(counts.values())} since start')
-        defective = any(reason not in ROUTINE_REJECTIONS for reason in new)
+        # a node of several joints names each reason "<joint>: <reason>"
+        defective = any(reason.rpartition(': ')[2] not in ROUTINE_REJECTIONS for reason in new)
         return (f'{text}; last: {detail}' if detail and defective else text), defective
 
 
