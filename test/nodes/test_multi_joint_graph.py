@@ -34,8 +34,9 @@ rclpy = require_rclpy()
 
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Bool, Float64  # noqa: E402
+from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS,  # noqa: E402
@@ -96,8 +97,11 @@ class Graph:
         self.wear = {j: [] for j in JOINTS}
         self.alarm = {j: [] for j in JOINTS}
         self.temperature = {j: [] for j in JOINTS}
+        self.trend = {j: [] for j in JOINTS}
         self.plain = []  # anything on the single-joint topics (there must be nothing)
         self.levels = []  # (frame_id, speeds, frictions)
+        self.levels_received = []  # time.monotonic() of each friction_levels
+        self.joint_states_received = None  # time.monotonic() of the last /joint_states
         self.diagnostics = {}  # full status name -> [(level, message, values)]
         for joint in JOINTS:
             self.node.create_subscription(
@@ -109,6 +113,9 @@ class Graph:
             self.node.create_subscription(
                 Temperature, f'/{joint}/temperature',
                 lambda m, j=joint: self._add(self.temperature[j], m.temperature), ESTIMATE_QOS)
+            self.node.create_subscription(
+                Float64MultiArray, f'/{joint}/wear_trend',
+                lambda m, j=joint: self._add(self.trend[j], list(m.data)), ESTIMATE_QOS)
         self.node.create_subscription(Float64, '/wear',
                                       lambda m: self._add(self.plain, ('wear', m.data)), 10)
         self.node.create_subscription(Bool, '/wear_alarm',
@@ -118,6 +125,9 @@ class Graph:
             JointState, '/friction_levels',
             lambda m: self._add(self.levels, (m.header.frame_id, list(m.velocity),
                                               list(m.effort))), FRICTION_LEVELS_QOS)
+        self.node.create_subscription(
+            JointState, '/friction_levels',
+            lambda m: self._add(self.levels_received, time.monotonic()), FRICTION_LEVELS_QOS)
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
                                       DIAGNOSTICS_QOS)
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -135,6 +145,13 @@ class Graph:
     def _add(self, target, value):
         with self.lock:
             target.append(value)
+
+    def watch_joint_states(self):
+        """Also note when /joint_states last came (best effort: never slows the player)."""
+        def on_joint_states(msg):
+            self.joint_states_received = time.monotonic()
+        self.node.create_subscription(JointState, '/joint_states', on_joint_states,
+                                      qos_profile_sensor_data)
 
     def _on_diagnostics(self, msg):
         for level, name, message, values in diagnostics_from_msg(msg):
@@ -231,14 +248,12 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     assert graph.wait(lambda: all(graph.alarm[j] == [False] for j in JOINTS)
                       and {f'wear_monitor: {j}' for j in JOINTS} <= set(graph.diagnostics),
                       40.0), 'the nodes did not come up:\n' + graph.logs()
+    graph.watch_joint_states()  # the player waits for it and the friction node
     player = graph.start('player', 'robot-wear-monitor', 'play', str(bag), '--topics',
-                         '/joint_states', '--wait-for-subscribers', '1', '--rate',
-                         str(PLAY_RATE))
+                         '/joint_states', '--wait-for-subscribers', '2', '--wait-timeout', '40',
+                         '--rate', str(PLAY_RATE))
     assert player.wait(timeout=60) == 0, graph.logs()
     assert f'played {len(recording)} messages' in graph.log('player')
-    # the bag ends 2.2 s after the shoulder's last move (< idle_gap_s): only the wall-clock
-    # silence of /joint_states publishes that last experiment
-    assert len(graph.snapshot(graph.levels)) < len(SCHEDULE)
     assert graph.wait(lambda: all(len(graph.wear[j]) >= len(expected[j]) for j in JOINTS),
                       20.0), graph.logs()
     time.sleep(1.5)  # nothing more may come
@@ -247,9 +262,14 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     for joint in JOINTS:  # one estimate per experiment of the joint, on its own topic only
         assert wear[joint] == pytest.approx([e['wear'] for e in expected[joint]], abs=1e-6)
         assert len(graph.temperature[joint]) == len(expected[joint])
+        assert len(graph.trend[joint]) == len(expected[joint])
     assert graph.plain == []
     levels = graph.snapshot(graph.levels)
     assert [frame for frame, _, _ in levels] == SCHEDULE  # one friction_levels per experiment
+    # the bag ends 2.2 s after the shoulder's last move (< idle_gap_s 2.5 s): that experiment
+    # is published after 2.5 s of wall-clock silence of /joint_states (timer: every 1 s)
+    silence_s = graph.levels_received[-1] - graph.joint_states_received
+    assert 2.2 < silence_s < 6.0, silence_s
     for frame, speeds, _ in levels:  # the per-joint gear ratios reached each joint
         nominal = dict(foreign.default_joints())[frame].speeds_rad_s
         assert sorted(speeds) == pytest.approx(sorted(nominal), rel=0.02), frame
@@ -368,9 +388,6 @@ def test_estimator_under_all_serves_joints_as_they_come_with_their_own_parameter
     assert 'Traceback' not in graph.log('wear_estimator_node')
 
 
-@pytest.mark.xfail(strict=True, reason='several joints: the rejection log prefixes each reason '
-                   'with its joint ("shoulder: pass_too_short"), so RejectionLog.report no '
-                   'longer finds it in ROUTINE_REJECTIONS and logs routine rejections as WARN')
 def test_routine_rejections_of_several_joints_are_logged_as_info(graph, tmp_path):
     """A repositioning move is a routine rejection (INFO), also when several joints are set."""
     config = tmp_path / 'params.yaml'
