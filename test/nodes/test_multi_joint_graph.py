@@ -11,8 +11,9 @@ idle gap, so that experiment is published after the wall-clock silence of /joint
 A subscriber checks: one ``<joint>/wear`` per experiment of that joint (none on the other
 joint's topic, nothing on the plain topics), values equal to the offline ``robot-wear-monitor
 replay --joint all --config`` of the same bag, the alarm latched on the shoulder only, one
-``/diagnostics`` status per joint, ``~/shoulder/reset_alarm`` clearing the shoulder's alarm
-only, and a clean SIGINT exit.  A second test starts the estimator under ``joints: [all]``.
+``/diagnostics`` status per joint, an estimator restart on the same history restoring each
+joint's state, ``~/shoulder/reset_alarm`` clearing the shoulder's alarm only, and a clean
+SIGINT exit.  A second test starts the estimator under ``joints: [all]``.
 """
 
 import dataclasses
@@ -232,10 +233,12 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     config = tmp_path / 'params.yaml'
     config.write_text(PARAMS_YAML)
     history = tmp_path / 'history.sqlite3'
-    for name in NODES:  # the nodes start (and warm up) while the replay runs
-        graph.start(name, name, '--ros-args', '--params-file', str(config),
-                    *(['-p', f'history_file:={history}'] if name == 'wear_estimator_node'
-                      else []))
+    estimator_args = ('wear_estimator_node', '--ros-args', '--params-file', str(config),
+                      '-p', f'history_file:={history}')
+    # the nodes start (and warm up) while the replay runs
+    graph.start('friction_experiment_node', 'friction_experiment_node', '--ros-args',
+                '--params-file', str(config))
+    graph.start('wear_estimator_node', *estimator_args)
 
     offline = _offline_replay(bag, config, tmp_path)
     expected = {j: [e for e in offline['experiments'] if e['joint'] == j] for j in JOINTS}
@@ -300,13 +303,28 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
         _, _, estimator = diagnostics[f'wear_monitor: {joint}'][-1]
         assert estimator['experiments'] == str(SCHEDULE.count(joint))
 
+    # a restart on the same history restores each joint's own state (its latched alarm)
+    estimator = graph.processes['wear_estimator_node']
+    estimator.send_signal(signal.SIGINT)
+    assert estimator.wait(timeout=10.0) == 0, graph.log('wear_estimator_node')
+    graph.diagnostics.clear()
+    graph.start('wear_estimator_node', *estimator_args)
+    assert graph.wait(lambda: all(len(graph.alarm[j]) == len(alarm[j]) + 1 for j in JOINTS)
+                      and {f'wear_monitor: {j}' for j in JOINTS} <= set(graph.diagnostics),
+                      40.0), graph.logs()
+    assert graph.alarm[WORN][-1] is True and graph.alarm[HEALTHY][-1] is False
+    for joint in JOINTS:
+        level, message, values = graph.diagnostics[f'wear_monitor: {joint}'][-1]
+        assert values['experiments'] == str(SCHEDULE.count(joint)), (joint, message)
+        assert level == (2 if joint == WORN else 0), (joint, message)
+
     # ~/shoulder/reset_alarm clears the shoulder's alarm, and only it
     response = graph.call_reset(WORN)
     assert response.success, response.message
     assert graph.wait(lambda: graph.alarm[WORN][-1] is False, 5.0)
     time.sleep(0.5)
-    assert graph.alarm[HEALTHY] == alarm[HEALTHY]
-    assert graph.alarm[WORN] == alarm[WORN] + [False]
+    assert graph.alarm[HEALTHY] == alarm[HEALTHY] + [False]
+    assert graph.alarm[WORN] == alarm[WORN] + [True, False]
     late = {j: [] for j in JOINTS}  # a late subscriber gets each joint's current state
     for joint in JOINTS:
         graph.node.create_subscription(Bool, f'/{joint}/wear_alarm',
