@@ -13,7 +13,9 @@ joint's topic, nothing on the plain topics), values equal to the offline ``robot
 replay --joint all --config`` of the same bag, the alarm latched on the shoulder only, one
 ``/diagnostics`` status per joint, an estimator restart on the same history restoring each
 joint's state, ``~/shoulder/reset_alarm`` clearing the shoulder's alarm only, and a clean
-SIGINT exit.  A second test starts the estimator under ``joints: [all]``.
+SIGINT exit.  A second test starts the estimator under ``joints: [all]`` (topics, reset and
+``<joint>.*`` values of a joint come when first seen); a third checks that the routine
+rejections of several joints are logged as INFO.
 """
 
 import dataclasses
