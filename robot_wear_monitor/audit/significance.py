@@ -107,6 +107,7 @@ class Tester:
 
         ``experiments``: the experiment index of every level, or None for level-by-level tests.
         """
+        self.raw = (q0, residual, experiments)
         self.codes = experiments
         if experiments is not None and np.bincount(experiments).max() < 2:
             self.codes = None
@@ -124,6 +125,12 @@ class Tester:
         self.q0 = _orthonormal(self.transform(q0), tol=1e-5)
         r = self.transform(residual[:, None])[:, 0]
         self.residual = r - self.q0 @ (self.q0.T @ r)
+
+    def with_columns(self, basis: FloatArray) -> 'Tester':
+        """Return the tester of the model plus ``basis`` (lambda estimated anew)."""
+        q0, residual, experiments = self.raw
+        q = _orthonormal(np.column_stack([q0, basis]))
+        return Tester(q, residual - q @ (q.T @ residual), experiments)
 
     def _means(self, x: FloatArray) -> FloatArray:
         sums = np.zeros((len(self.counts), x.shape[1]))
