@@ -8,7 +8,7 @@ variable of the audit (drift over the experiments).
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,16 +34,21 @@ def _folds(table: AuditTable, n_folds: int, seed: int) -> tuple[NDArray[np.int_]
     return rng.permutation(n) % k, 'rows (no experiment column)'
 
 
-def _cv_rms(base: _Base, table: AuditTable, terms: Sequence, theta: FloatArray,
+def _cv_rms(base: _Base, table: AuditTable, terms: Sequence | Callable, theta: FloatArray,
             folds: NDArray[np.int_], nonnegative: bool = False) -> tuple[float, FloatArray]:
-    """Held-out RMS error over the folds and the held-out residual of every row."""
+    """Held-out RMS error over the folds and the held-out residual of every row.
+
+    ``terms``: the added terms, or a function of the training table that returns them (for a
+    term whose shape constant, such as a period, is chosen on the training levels only).
+    """
     y = table.numeric['friction']
     held_out = np.zeros_like(y)
     for k in np.unique(folds):
         test = folds == k
         train = ~test
-        fit = _fit(base, table.subset(train), terms, theta, max_nfev=40,
+        fold_terms = terms(table.subset(train)) if callable(terms) else terms
+        fit = _fit(base, table.subset(train), fold_terms, theta, max_nfev=40,
                    nonnegative=nonnegative)
-        x = _design(base, fit.theta, table.subset(test), terms)
+        x = _design(base, fit.theta, table.subset(test), fold_terms)
         held_out[test] = y[test] - x @ fit.coef
     return float(np.sqrt(np.mean(held_out ** 2))), held_out

@@ -39,6 +39,7 @@ from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
 from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, periodic_scan,
                                                    sinusoid, Tester)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.extensions import Factor
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
@@ -122,7 +123,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                 break
             trial_terms = terms + [step['term']]
             trial_fit = _fit(base, table, trial_terms, fit.theta)
-            cv_trial, _ = _cv_rms(base, table, trial_terms, trial_fit.theta, folds)
+            cv_trial, _ = _cv_rms(base, table, _fold_terms(base, terms, step['term'], fit.theta),
+                                  trial_fit.theta, folds)
             step['report']['rms_cv_with_term'] = cv_trial
             if cv_trial <= cv_now * (1.0 - min_gain):
                 accepted = step
@@ -172,6 +174,32 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         parameters_after=_json_clean(base.describe(fit.theta, fit.coef)),
         estimate_changes=changes, stop_reason=stop, excluded=excluded,
         extended_params=extended, offline=offline)
+
+
+def _fold_terms(base: _Base, terms: Sequence[Term], term: Term, theta: FloatArray):
+    """Return the terms of a trial for cross-validation.
+
+    A sinusoid's period is scanned again on every fold's training levels (over the same range
+    of periods), so that the held-out error does not profit from a period chosen on the
+    held-out levels.  Other terms are fixed bases.
+    """
+    if term.shape != 'periodic':
+        return list(terms) + [term]
+    name = term.variables[0]
+
+    def for_training(train: AuditTable) -> list[Term]:
+        fit = _fit(base, train, terms, theta, max_nfev=40)
+        q0 = _orthonormal(_design(base, fit.theta, train, terms))
+        x = train.numeric[name]
+        variable = make_variable(train, name)
+        if variable is None or variable.kind != 'continuous':
+            return list(terms) + [term]
+        tester = Tester(q0, fit.residual, None)
+        _, period = periodic_scan(lambda f: sinusoid(x, f), periodic_frequencies(variable),
+                                  tester.test)
+        return list(terms) + [replace(term, factors=(
+            Factor(name, 'periodic', period=period),), info={'period': period})]
+    return for_training
 
 
 def _without_extension(params: ParameterSet) -> ParameterSet:
