@@ -34,10 +34,9 @@ def test_speed_model_misses_the_window_and_gravity_load_effects(kuka_audit):
     assert result.effects, 'the speed-only model leaves significant structure'
     named = {v for effect in result.effects for v in effect.variables}
     assert named & {'position_span', 'load_torque', 'position_centre'}
-    # one effect since issue 10 (the run-level scatter counts in the tests of later effects):
-    # 0.139 -> 0.115 N.m; the candidates of the second step do not lower the held-out error
-    assert result.rms_after < 0.85 * result.rms_before
-    assert all(s['decision'].startswith('rejected') for s in result.steps[1:])
+    assert result.rms_after < 0.8 * result.rms_before
+    # issue 10: a candidate whose effect raises the held-out error is rejected, the next tried
+    assert any(s['decision'].startswith('rejected') for s in result.steps)
     assert result.noise_floor < result.rms_after  # the audit does not reach the floor here
     json.dumps(result.to_dict(), allow_nan=False)
 
