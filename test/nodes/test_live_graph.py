@@ -10,7 +10,6 @@ its own ROS_DOMAIN_ID and localhost-only discovery.
 """
 
 import json
-import os
 from pathlib import Path
 import signal
 import sqlite3
@@ -19,14 +18,15 @@ import sys
 import threading
 import time
 
-from conftest import next_ros_domain_id, require_rclpy
+from conftest import require_rclpy
 import independent_robot as robot
 import pytest
 
 rclpy = require_rclpy()
 
+from process_graph import console_script, ProcessGraph  # noqa: E402
+
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Bool, Float64  # noqa: E402
 
@@ -38,24 +38,12 @@ N_EXPERIMENTS = 8
 BIN = Path(sys.executable).parent
 
 
-def _script(name):
-    path = BIN / name
-    return str(path) if path.exists() else name
-
-
-class Graph:
+class Graph(ProcessGraph):
     """Processes and a subscriber on one ROS domain; everything is stopped at the end."""
 
     def __init__(self, tmp_path):
         """Start a context on a fresh domain and subscribe to every output."""
-        self.tmp_path = tmp_path
-        self.env = {**os.environ, 'ROS_DOMAIN_ID': str(next_ros_domain_id()),
-                    'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1',
-                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
-        self.processes = {}
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=int(self.env['ROS_DOMAIN_ID']))
-        self.node = rclpy.create_node('user_probe', context=self.context)
+        super().__init__(tmp_path, probe='user_probe')
         self.wear, self.alarm, self.temperature = [], [], []
         self.levels, self.diagnostics = [], {}
         self.lock = threading.Lock()
@@ -70,55 +58,12 @@ class Graph:
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
                                       DIAGNOSTICS_QOS)
         self.levels_publisher = self.node.create_publisher(JointState, 'friction_levels', 10)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.spinner = threading.Thread(target=self._spin, daemon=True)
-        self.spinner.start()
-
-    def _spin(self):
-        while self.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=0.05)
-            except Exception:  # noqa: BLE001 - the context is shut down under the loop
-                return
-
-    def _add(self, target, value):
-        with self.lock:
-            target.append(value)
+        self.spin()
 
     def _on_diagnostics(self, msg):
         for level, name, message, values in diagnostics_from_msg(msg):
             self._add(self.diagnostics.setdefault(name.split(':')[0], []),
                       (level, message, values))
-
-    def start(self, name, *args):
-        log = open(self.tmp_path / f'{name}.log', 'ab')
-        self.processes[name] = subprocess.Popen([_script(args[0]), *args[1:]], env=self.env,
-                                                stdout=log, stderr=subprocess.STDOUT)
-        return self.processes[name]
-
-    def log(self, name):
-        return (self.tmp_path / f'{name}.log').read_text(errors='replace')
-
-    def wait(self, predicate, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            with self.lock:
-                if predicate():
-                    return True
-            time.sleep(0.05)
-        with self.lock:
-            return predicate()
-
-    def close(self):
-        for process in self.processes.values():
-            if process.poll() is None:
-                process.kill()
-                process.wait()
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-        self.spinner.join(timeout=2.0)
 
 
 @pytest.fixture
@@ -130,7 +75,7 @@ def graph(tmp_path):
 
 def _offline_replay(bag, tmp_path):
     summary = tmp_path / 'replay.json'
-    done = subprocess.run([_script('robot-wear-monitor'), 'replay', str(bag), '--out',
+    done = subprocess.run([console_script('robot-wear-monitor'), 'replay', str(bag), '--out',
                            str(tmp_path / 'replayed'), '--json', str(summary),
                            '--no-progress'], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
@@ -240,8 +185,8 @@ def test_live_command_runs_both_nodes_in_one_process(graph, tmp_path):
 def test_live_command_refuses_a_bad_params_file(tmp_path):
     bad = tmp_path / 'bad.yaml'
     bad.write_text('friction_experiment_node:\n  ros__parameters:\n    gear_ratio: 150\n')
-    done = subprocess.run([_script('robot-wear-monitor'), 'live', '--params-file', str(bad)],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run([console_script('robot-wear-monitor'), 'live', '--params-file',
+                           str(bad)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert 'gear_ratio: expected a double, got integer 150' in done.stderr
     assert 'Traceback' not in done.stderr

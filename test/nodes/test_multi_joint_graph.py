@@ -20,23 +20,22 @@ rejections of several joints are logged as INFO.
 
 import dataclasses
 import json
-import os
 from pathlib import Path
 import signal
 import sqlite3
 import subprocess
 import sys
-import threading
 import time
 
-from conftest import next_ros_domain_id, require_rclpy
+from conftest import require_rclpy
 import foreign_recordings as foreign
 import pytest
 
 rclpy = require_rclpy()
 
+from process_graph import console_script, ProcessGraph  # noqa: E402
+
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
@@ -68,11 +67,6 @@ wear_estimator_node:
 """
 
 
-def _script(name):
-    path = BIN / name
-    return str(path) if path.exists() else name
-
-
 def _recording():
     """Return the two-joint recording: shoulder wear 10 -> 60 (alarm), wrist_3 at wear 5."""
     arm = foreign.default_joints()
@@ -83,20 +77,12 @@ def _recording():
     return foreign.generate(schedule=SCHEDULE, joints=arm, protocol=protocol, seed=5)
 
 
-class Graph:
+class Graph(ProcessGraph):
     """Node processes and a probe subscribed to both joints' outputs on a fresh domain."""
 
     def __init__(self, tmp_path):
         """Start a context on its own domain and subscribe to every output."""
-        self.tmp_path = tmp_path
-        self.env = {**os.environ, 'ROS_DOMAIN_ID': str(next_ros_domain_id()),
-                    'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1',
-                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
-        self.processes = {}
-        self.lock = threading.Lock()
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=int(self.env['ROS_DOMAIN_ID']))
-        self.node = rclpy.create_node('user_probe', context=self.context)
+        super().__init__(tmp_path, probe='user_probe')
         self.wear = {j: [] for j in JOINTS}
         self.alarm = {j: [] for j in JOINTS}
         self.temperature = {j: [] for j in JOINTS}
@@ -133,21 +119,7 @@ class Graph:
             lambda m: self._add(self.levels_received, time.monotonic()), FRICTION_LEVELS_QOS)
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
                                       DIAGNOSTICS_QOS)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.spinner = threading.Thread(target=self._spin, daemon=True)
-        self.spinner.start()
-
-    def _spin(self):
-        while self.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=0.05)
-            except Exception:  # noqa: BLE001 - the context is shut down under the loop
-                return
-
-    def _add(self, target, value):
-        with self.lock:
-            target.append(value)
+        self.spin()
 
     def watch_joint_states(self):
         """Also note when /joint_states last came (best effort: never slows the player)."""
@@ -159,29 +131,6 @@ class Graph:
     def _on_diagnostics(self, msg):
         for level, name, message, values in diagnostics_from_msg(msg):
             self._add(self.diagnostics.setdefault(name, []), (level, message, values))
-
-    def start(self, name, *args):
-        log = open(self.tmp_path / f'{name}.log', 'ab')
-        self.processes[name] = subprocess.Popen([_script(args[0]), *args[1:]], env=self.env,
-                                                stdout=log, stderr=subprocess.STDOUT)
-        log.close()
-        return self.processes[name]
-
-    def log(self, name):
-        return (self.tmp_path / f'{name}.log').read_text(errors='replace')
-
-    def logs(self):
-        return '\n'.join(f'--- {name}\n{self.log(name)[-3000:]}' for name in self.processes)
-
-    def wait(self, predicate, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            with self.lock:
-                if predicate():
-                    return True
-            time.sleep(0.05)
-        with self.lock:
-            return predicate()
 
     def snapshot(self, value):
         with self.lock:
@@ -200,16 +149,6 @@ class Graph:
         finally:
             self.node.destroy_client(client)
 
-    def close(self):
-        for process in self.processes.values():
-            if process.poll() is None:
-                process.kill()
-                process.wait()
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-        self.spinner.join(timeout=2.0)
-
 
 @pytest.fixture
 def graph(tmp_path):
@@ -220,7 +159,7 @@ def graph(tmp_path):
 
 def _offline_replay(bag, config, tmp_path):
     summary = tmp_path / 'replay.json'
-    done = subprocess.run([_script('robot-wear-monitor'), 'replay', str(bag), '--out',
+    done = subprocess.run([console_script('robot-wear-monitor'), 'replay', str(bag), '--out',
                            str(tmp_path / 'replayed'), '--json', str(summary), '--joint', 'all',
                            '--config', str(config), '--no-progress'],
                           capture_output=True, text=True, timeout=120)

@@ -13,22 +13,20 @@ joint_3's events are counted and produce nothing.  Own ROS_DOMAIN_ID, localhost 
 """
 
 import json
-import os
 from pathlib import Path
-import signal
-import subprocess
 import sys
 import threading
 import time
 
-from conftest import next_ros_domain_id, require_rclpy
+from conftest import require_rclpy
 import numpy as np
 import pytest
 
 rclpy = require_rclpy()
 
+from process_graph import console_script, ProcessGraph  # noqa: E402
+
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
@@ -52,28 +50,16 @@ NODES = ('simulated_arm', 'friction_experiment_runner', 'friction_experiment_nod
          'wear_estimator_node')
 
 
-def _script(name):
-    path = BIN / name
-    return str(path) if path.exists() else name
-
-
 def _array(values):
     return '[' + ','.join(str(v) for v in values) + ']'
 
 
-class Graph:
+class Graph(ProcessGraph):
     """The processes and a probe node on one ROS domain; everything is stopped at the end."""
 
     def __init__(self, tmp_path):
         """Start a context on a fresh domain and subscribe like a user."""
-        self.tmp_path = tmp_path
-        self.env = {**os.environ, 'ROS_DOMAIN_ID': str(next_ros_domain_id()),
-                    'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1',
-                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
-        self.processes = {}
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=int(self.env['ROS_DOMAIN_ID']))
-        self.node = rclpy.create_node('closed_loop_probe', context=self.context)
+        super().__init__(tmp_path, probe='closed_loop_probe')
         self.lock = threading.Lock()
         self.levels, self.wear, self.events, self.status = [], [], [], {}
         self.node.create_subscription(JointState, 'friction_levels', self._on_levels, 10)
@@ -85,21 +71,7 @@ class Graph:
                                       DIAGNOSTICS_QOS)
         self.clients = {name: self.node.create_client(
             Trigger, f'/friction_experiment_runner/{name}') for name in ('start', 'abort')}
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.spinner = threading.Thread(target=self._spin, daemon=True)
-        self.spinner.start()
-
-    def _spin(self):
-        while self.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=0.05)
-            except Exception:  # noqa: BLE001 - the context is shut down under the loop
-                return
-
-    def _add(self, target, value):
-        with self.lock:
-            target.append(value)
+        self.spin()
 
     def _on_levels(self, msg):
         self._add(self.levels, (time.monotonic(), stamp_to_seconds(msg.header.stamp),
@@ -112,27 +84,6 @@ class Graph:
         for _, name, message, values in diagnostics_from_msg(msg):
             with self.lock:
                 self.status[name] = (message, values)
-
-    def start(self, name, command):
-        log = open(self.tmp_path / f'{name}.log', 'ab')
-        self.processes[name] = subprocess.Popen(command, env=self.env, stdout=log,
-                                                stderr=subprocess.STDOUT)
-
-    def log(self, name):
-        return (self.tmp_path / f'{name}.log').read_text(errors='replace')
-
-    def logs(self):
-        return '\n'.join(f'--- {name}\n{self.log(name)[-3000:]}' for name in self.processes)
-
-    def wait(self, predicate, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            with self.lock:
-                if predicate():
-                    return True
-            time.sleep(0.05)
-        with self.lock:
-            return predicate()
 
     def call(self, name):
         client = self.clients[name]
@@ -147,26 +98,11 @@ class Graph:
     def kinds(self, joint):
         return [(e.event, e.experiment_id) for _, e in self.events if e.joint == joint]
 
-    def stop(self, name):
-        """SIGINT, then kill: return the exit code (None when it had to be killed)."""
-        process = self.processes[name]
-        if process.poll() is None:
-            process.send_signal(signal.SIGINT)
-            try:
-                return process.wait(timeout=5.0)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
-                return None
-        return process.returncode
-
     def close(self):
+        """Stop every process with SIGINT first (a node's clean exit), then as the base does."""
         for name in self.processes:
             self.stop(name)
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-        self.spinner.join(timeout=2.0)
+        super().close()
 
 
 @pytest.fixture
@@ -179,16 +115,16 @@ def graph(tmp_path):
 def test_runner_drives_the_arm_and_the_monitor_finds_exactly_the_planned_experiments(
         graph, tmp_path):
     arm = {'names': NAMES, 'posture': POSTURE, 'tested': TRUTH, 'rate_hz': 250.0, 'seed': 5}
-    graph.start('simulated_arm', [sys.executable, str(ARM_SCRIPT), json.dumps(arm)])
-    graph.start('friction_experiment_node', [
-        _script('friction_experiment_node'), '--ros-args', '-p', 'joint:=joint_2',
+    graph.start('simulated_arm', *[sys.executable, str(ARM_SCRIPT), json.dumps(arm)])
+    graph.start('friction_experiment_node', *[
+        console_script('friction_experiment_node'), '--ros-args', '-p', 'joint:=joint_2',
         '-p', 'gear_ratio:=150.0', '-p', 'torque_scale:=10.0',
         '-p', f'experiment_speeds_rad_s:={_array(SPEEDS)}', '-p', 'idle_gap_s:=300.0'])
-    graph.start('wear_estimator_node', [
-        _script('wear_estimator_node'), '--ros-args', '-p', 'joint:=joint_2',
+    graph.start('wear_estimator_node', *[
+        console_script('wear_estimator_node'), '--ros-args', '-p', 'joint:=joint_2',
         '-p', f'history_file:={tmp_path / "history.sqlite3"}'])
-    graph.start('friction_experiment_runner', [
-        _script('friction_experiment_runner'), '--ros-args',
+    graph.start('friction_experiment_runner', *[
+        console_script('friction_experiment_runner'), '--ros-args',
         '-p', f'joint_names:={_array(NAMES)}', '-p', f'posture_rad:={_array(POSTURE)}',
         '-p', 'joints:=[joint_2,joint_3]', '-p', 'gear_ratios:=[150.0,120.0]',
         '-p', 'half_ranges_rad:=[0.1,0.1]', '-p', f'speeds_rad_s:={_array(SPEEDS)}',
