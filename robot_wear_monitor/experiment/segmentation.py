@@ -605,6 +605,15 @@ class ChunkSegmenter:
         self._extend(t, q, speed, torque, sign, start, stop)
         return self._close_move()
 
+    @property
+    def last_time_s(self) -> float:
+        """Return the time of the last accepted sample [s] (-inf before the first)."""
+        return self._last_time
+
+    def discard_move(self) -> None:
+        """Drop the move in progress without analysing it (a recording cut in it)."""
+        self._move, self._sign = (), 0
+
     def _close_move(self) -> list[FrictionLevel]:
         move, sign = self._move, self._sign
         self._move, self._sign = (), 0
@@ -786,6 +795,13 @@ class ExperimentAssembler:
     def flush(self) -> list[FrictionExperiment]:
         """End of data: return the experiment in progress if it is complete (or speeds unset)."""
         return self._close(idle=True) if self._current else []
+
+    def discard(self) -> int:
+        """Drop the experiment in progress (a recording cut in it); return its level count."""
+        count = sum(len(group) for group in self._current)
+        self._current, self._slots = [], []
+        self._last_end = -math.inf
+        return count
 
     def _close(self, *, idle: bool) -> list[FrictionExperiment]:
         groups, slots = self._current, self._slots

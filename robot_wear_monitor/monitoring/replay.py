@@ -208,6 +208,13 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                     velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)]
             for service, experiment in in_time_order(done):
                 publish(service, experiment)
+        if stream.recovery is not None and not stream.recovery.complete:
+            for service in experiments.services.values():
+                dropped = service.drop_interrupted()
+                if dropped:
+                    result.notes.append(
+                        f'joint {service.joint!r}: the experiment in progress at the cut '
+                        f'({dropped} complete levels) is not estimated')
         for service, experiment in in_time_order(experiments.finish()):
             publish(service, experiment)
 
@@ -231,7 +238,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     updates.sort(key=lambda update: update.stamp_s)
     result.message_count = stream.message_count
     result.recovery = stream.recovery
-    result.notes = list(stream.notes)
+    result.notes = list(stream.notes) + result.notes
     result.sample_count = sum(s.messages for s in experiments.services.values())
     result.joints = [_joint_summary(joint, service, estimators, stream, updates)
                      for joint, service in experiments.services.items()]

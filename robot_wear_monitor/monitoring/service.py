@@ -935,6 +935,25 @@ class FrictionExperimentService:
             experiments += self._idle(float(time_s[-1]))
         return experiments
 
+    def drop_interrupted(self, *, margin_s: float = 0.5) -> int:
+        """At the cut of a recording: drop the experiment the cut interrupts; return its levels.
+
+        The experiment in progress is interrupted when the joint was still moving within
+        ``margin_s`` of the last sample (a standstill of an experiment's own turns is shorter);
+        it is dropped with its move in progress (counted as ``experiment_cut``), since the
+        levels that followed are lost.  A joint that stood still before the cut keeps its
+        experiment (it ended before the cut).  Chunked path (``add_recording``) only.
+        """
+        if self._chunks is None or self._open is not None:
+            return 0
+        if self._chunks.last_motion_s < self._chunks.last_time_s - margin_s:
+            return 0
+        self._chunks.discard_move()
+        dropped = self._assembler.discard()
+        if dropped:
+            self.rejections['experiment_cut'] += 1
+        return dropped
+
     def close_idle(self) -> list[FrictionExperiment]:
         """Close the assembler's experiment because the stream has stopped (no samples).
 

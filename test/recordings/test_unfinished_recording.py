@@ -63,18 +63,19 @@ def test_a_cut_recording_gives_its_complete_experiments_and_a_warning(
     assert f'{stop_s:.3f}' in warning[0]
     # every message before the cut was read: the recovered ones are the first ones, in order
     assert recording.stamps_s[recovery['messages'] - 1] == pytest.approx(stop_s, abs=1e-6)
-    # the experiments completed before the cut are estimated; the one the cut interrupts
-    # gives the levels it completed (speeds found in the data: a shorter experiment)
+    # the experiments completed before the cut are estimated, and only those: the one the cut
+    # interrupts is not (what followed is lost), and a note says so when it had levels
     complete = [t for t in recording.truth if t.end_s < stop_s]
     entries = summary['experiments']
-    assert len(complete) <= len(entries) <= len(complete) + 1
+    assert len(entries) == len(complete)
     for entry, truth in zip(entries, complete):
         assert truth.start_s <= entry['stamp_s'] <= truth.end_s
         assert len(entry['speeds_rad_s']) == len(truth.speeds_rad_s)
-    if len(entries) > len(complete):
-        cut_one = recording.truth[len(complete)]
-        assert cut_one.start_s <= entries[-1]['stamp_s'] <= stop_s < cut_one.end_s
-        assert len(entries[-1]['speeds_rad_s']) < len(cut_one.speeds_rad_s)
+    cut_notes = [n for n in summary['notes'] if 'in progress at the cut' in n]
+    assert len(cut_notes) <= 1
+    if cut_notes:
+        assert f'note: {cut_notes[0]}' in result.stderr
+        assert summary['joints'][0]['rejected'].get('experiment_cut') == 1
     assert (tmp_path / 'out' / 'metadata.yaml').is_file()
 
 
