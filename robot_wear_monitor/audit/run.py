@@ -346,7 +346,7 @@ def _marginal(best: dict, rows: Sequence[dict], tester: Tester, fdr: float) -> d
 
     Marginality: an interaction (a pair, or a variable with speed) is named only when it has
     evidence beyond the smooth term of each of its variables alone (tested with the experiments
-    as random effects, their scatter estimated with that term in the model); otherwise the most
+    as random effects, their scatter estimated with both terms in the model); otherwise the most
     significant of those single-variable families that explain it is named.
     """
     if len(best['variables']) < 2:
@@ -354,5 +354,6 @@ def _marginal(best: dict, rows: Sequence[dict], tester: Tester, fdr: float) -> d
     singles = [r for r in rows if len(r['variables']) == 1 and r['period'] is None
                and r['variables'][0] in best['variables'] and r['log_p'] <= math.log(fdr)]
     enough = [r for r in singles
-              if tester.with_columns(r['basis']).test(best['basis'])[0] > math.log(fdr)]
+              if tester.with_columns(r['basis'], best['basis']).test(best['basis'])[0]
+              > math.log(fdr)]
     return min(enough, key=lambda r: r['log_p']) if enough else best

@@ -102,10 +102,13 @@ class Tester:
     one level each) every basis is tested level by level.
     """
 
-    def __init__(self, q0: FloatArray, residual: FloatArray, experiments: NDArray | None):
+    def __init__(self, q0: FloatArray, residual: FloatArray, experiments: NDArray | None,
+                 scatter_from: FloatArray | None = None):
         """Prepare the tests against the orthonormal model span q0 and its residual.
 
         ``experiments``: the experiment index of every level, or None for level-by-level tests.
+        ``scatter_from``: columns added to the model only to estimate lambda (the alternative
+        model of a test: its residual is what is left when the tested term is true).
         """
         self.raw = (q0, residual, experiments)
         self.codes = experiments
@@ -115,10 +118,13 @@ class Tester:
         if self.codes is not None:
             self.counts = np.bincount(self.codes).astype(float)
             n, n_groups = len(residual), len(self.counts)
-            means = self._means(residual[:, None])[:, 0]
+            rest, rank = residual, q0.shape[1]
+            if scatter_from is not None:
+                q = _orthonormal(np.column_stack([q0, scatter_from]))
+                rest, rank = residual - q @ (q.T @ residual), q.shape[1]
+            means = self._means(rest[:, None])[:, 0]
             between = float(np.sum(self.counts * means ** 2))
-            within = float(np.sum((residual - means[self.codes]) ** 2))
-            rank = q0.shape[1]
+            within = float(np.sum((rest - means[self.codes]) ** 2))
             s2_between = between / max(n_groups - min(rank, n_groups - 1), 1)
             s2_within = within / max(n - n_groups - rank, 1)
             self.shrink = 1.0 - math.sqrt(min(1.0, s2_within / max(s2_between, 1e-300)))
@@ -126,11 +132,15 @@ class Tester:
         r = self.transform(residual[:, None])[:, 0]
         self.residual = r - self.q0 @ (self.q0.T @ r)
 
-    def with_columns(self, basis: FloatArray) -> 'Tester':
-        """Return the tester of the model plus ``basis`` (lambda estimated anew)."""
+    def with_columns(self, basis: FloatArray, alternative: FloatArray | None = None) -> 'Tester':
+        """Return the tester of the model plus ``basis``.
+
+        lambda is estimated anew, from the residual of the model plus ``basis`` plus
+        ``alternative`` (the term to be tested) when given.
+        """
         q0, residual, experiments = self.raw
         q = _orthonormal(np.column_stack([q0, basis]))
-        return Tester(q, residual - q @ (q.T @ residual), experiments)
+        return Tester(q, residual - q @ (q.T @ residual), experiments, alternative)
 
     def _means(self, x: FloatArray) -> FloatArray:
         sums = np.zeros((len(self.counts), x.shape[1]))
