@@ -174,11 +174,11 @@ class WearEstimatorFleet:
         if service is None:
             config = EstimatorConfig.from_node_parameters(self._parameters_for(joint))
             service = WearEstimatorService(config, history=self.history)
+            self.services[joint] = service
+            if self.on_new_service is not None:  # advertised first: subscribers discover
+                self.on_new_service(service)      # the topics during the warm-up
             if self.warm_up:
                 service.warm_up()
-            self.services[joint] = service
-            if self.on_new_service is not None:
-                self.on_new_service(service)
         return service
 
     def handle_friction_levels(self, msg: Any
