@@ -368,15 +368,17 @@ class _WhitenedProblem:
 
 
 _PROBLEMS: dict[tuple[bytes, int], _WhitenedProblem] = {}
-_PROBLEMS_KEPT = 16
+_PROBLEMS_KEPT = 4
 
 
 def _problem(speeds: FloatArray, params: ParameterSet) -> _WhitenedProblem:
     """Return the problem of these speeds and this parameter set, built once and kept.
 
-    A monitor estimates experiment after experiment at the same speeds: the whitening and the
-    start grid (a few ms) do not depend on the data.  Kept per parameter-set object (a new
-    object, e.g. a reloaded file, builds anew); the last ``_PROBLEMS_KEPT`` are kept.
+    The whitening and the start grid (a few ms) do not depend on the data: a calibration
+    estimates thousands of experiments at one design, and a batch shares them.  Kept per
+    exact speeds and parameter-set object (a new object, e.g. a reloaded file, builds anew;
+    measured speeds differ by a few mrad/s from one experiment to the next, so a monitor
+    builds one per experiment); the last ``_PROBLEMS_KEPT`` are kept.
     """
     key = (speeds.tobytes(), id(params))
     problem = _PROBLEMS.get(key)

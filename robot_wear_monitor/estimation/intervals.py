@@ -281,7 +281,7 @@ class _Profile:
 
 
 _PROFILES: dict[tuple[bytes, int, bytes], _Profile] = {}
-_PROFILES_KEPT = 16
+_PROFILES_KEPT = 4
 
 
 def _profile(speeds: FloatArray, params: ParameterSet, grid: FloatArray) -> _Profile:
