@@ -408,9 +408,9 @@ def _add_segment_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('data', metavar='DATA',
                         help='ROS 2 bag folder, or a raw CSV(.gz) with t_s,q_rad,dq_rad_s,'
                              'tau_measured_Nm columns (KUKA runs)')
-    parser.add_argument('--joint', nargs='+', metavar='NAME',
-                        help='joint(s) in the bag, or "all" (default: the node config\'s '
-                             'joint, joint_2)')
+    parser.add_argument('--joint', action='extend', type=_joint_names, metavar='NAME[,NAME]',
+                        help='joint in the bag; several as NAME,NAME or repeated --joint, or '
+                             '"all" (default: the node config\'s joint, joint_2)')
     parser.add_argument('--topic', default='/joint_states', help='JointState topic')
     parser.add_argument('--gear-ratio', type=float, default=None,
                         help='motor speed / joint speed (bag default: the node config, 150; '
@@ -547,10 +547,10 @@ def _add_replay_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, metavar='OUT_BAG', help='output bag directory')
     parser.add_argument('--json', metavar='SUMMARY', help='write the JSON summary here')
     parser.add_argument('--plot', metavar='PNG', help='draw the wear trend (like Fig. 11)')
-    parser.add_argument('--joint', nargs='+', metavar='NAME',
-                        help='joint(s) to monitor, or "all" (every joint of the recording); '
-                             'several joints put their outputs under <joint>/ (default: the '
-                             'node config\'s joint)')
+    parser.add_argument('--joint', action='extend', type=_joint_names, metavar='NAME[,NAME]',
+                        help='joint to monitor; several as NAME,NAME or repeated --joint, or '
+                             '"all" (every joint of the recording): outputs under <joint>/ '
+                             '(default: the node config\'s joint)')
     parser.add_argument('--gear-ratio', type=float, metavar='R',
                         help='motor speed / joint speed (default: from the node config)')
     parser.add_argument('--torque-scale', type=float, metavar='S',
@@ -616,6 +616,14 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         for entry in result.joints:
             _print_joint_summary(entry)
     return 0
+
+
+def _joint_names(text: str) -> list[str]:
+    """Parse one ``--joint`` value: a name or comma-separated names."""
+    names = [name.strip() for name in text.split(',')]
+    if not all(names):
+        raise argparse.ArgumentTypeError(f'empty joint name in {text!r}')
+    return names
 
 
 def _joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str] | None]:

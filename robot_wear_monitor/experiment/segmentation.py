@@ -796,6 +796,15 @@ class ExperimentAssembler:
         """End of data: return the experiment in progress if it is complete (or speeds unset)."""
         return self._close(idle=True) if self._current else []
 
+    @property
+    def last_level_end_s(self) -> float:
+        """Return the end [s] of the last level of the experiment in progress (-inf: none)."""
+        return self._last_end
+
+    def current_speeds(self) -> list[float]:
+        """Return the speeds of the experiment in progress (motor side, in measured order)."""
+        return [float(group[0].speed_rad_s) for group in self._current]
+
     def discard(self) -> int:
         """Drop the experiment in progress (a recording cut in it); return its level count."""
         count = sum(len(group) for group in self._current)

@@ -301,6 +301,11 @@ ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_comm
                                 'time_gap', 'aborted_experiment', 'already_in_history'})
 
 
+#: A standstill at least this long [s] is a pause between experiments, not a turn inside one
+#: (the planned experiment dwells 0.1-0.2 s at its turns); used at the cut of a recording.
+_PAUSE_S = 0.5
+
+
 class RejectionLog:
     """Rate-limited log text of the inputs rejected since the last report, by reason.
 
@@ -848,6 +853,7 @@ class FrictionExperimentService:
         self._status_total = 0
         self._segmenter = StreamingSegmenter(self.segmenter_config)
         self._chunks = None
+        self._last_pause_end_s = -math.inf
         from robot_wear_monitor.experiment.segmentation import SpeedTally
         self._speed_tally = SpeedTally(self.speed_tolerance_rad_s)
         self._assembler = ExperimentAssembler(
@@ -928,30 +934,63 @@ class FrictionExperimentService:
             self._chunks = ChunkSegmenter(self.segmenter_config)
             self._segmenter = self._chunks
         self.messages += len(time_s)
+        motion_before = self._chunks.last_motion_s
         experiments = self._assemble(self._chunks.add(
             time_s=time_s, position_rad=position_rad, velocity_rad_s=velocity_rad_s,
             effort=effort))
+        # a standstill of idle_gap_s inside the chunk closes the experiment as the live node
+        # does sample by sample (the levels before it are in; a level after it would close
+        # it anyway)
+        for rest_end_s in self._rests(time_s, velocity_rad_s, motion_before, self.idle_gap_s):
+            if self._open is None:
+                experiments += self._completed(self._assembler.idle(now_s=rest_end_s))
+        pauses = self._rests(time_s, velocity_rad_s, motion_before, _PAUSE_S)
+        if pauses:
+            self._last_pause_end_s = pauses[-1]
         if len(time_s):
             experiments += self._idle(float(time_s[-1]))
         return experiments
 
-    def drop_interrupted(self, *, margin_s: float = 0.5) -> int:
+    def _rests(self, time_s: Sequence[float], velocity_rad_s: Sequence[float],
+               motion_before_s: float, longer_than_s: float) -> list[float]:
+        """Return the end times [s] of the standstills longer than ``longer_than_s`` [s]."""
+        t = np.asarray(time_s, dtype=float)
+        speed = np.abs(np.asarray(velocity_rad_s, dtype=float)) * self.segmenter_config.gear_ratio
+        moving = t[np.isfinite(t) & (speed > self.segmenter_config.standstill_speed_rad_s)]
+        if moving.size == 0:
+            return []
+        starts = np.concatenate(([motion_before_s], moving[:-1]))
+        return [float(end) for end in moving[moving - starts > longer_than_s]]
+
+    def drop_interrupted(self) -> int:
         """At the cut of a recording: drop the experiment the cut interrupts; return its levels.
 
-        The experiment in progress is interrupted when the joint was still moving within
-        ``margin_s`` of the last sample (a standstill of an experiment's own turns is shorter);
-        it is dropped with its move in progress (counted as ``experiment_cut``), since the
-        levels that followed are lost.  A joint that stood still before the cut keeps its
-        experiment (it ended before the cut).  Chunked path (``add_recording``) only.
+        The move in progress at the cut is dropped (a cut pass).  The experiment in progress is
+        kept when it is complete: the joint paused (0.5 s or more, longer than the turns of one
+        experiment) after its last level and was moving again at the cut (the next experiment
+        had begun), or it has the speeds of this joint's previous experiment, or the joint
+        stood still for ``idle_gap_s`` before the cut (the rule that would have closed it);
+        otherwise it is dropped (counted as ``experiment_cut``), since the levels
+        that followed are lost.  Chunked path (``add_recording``) only.
         """
         if self._chunks is None or self._open is not None:
             return 0
-        if self._chunks.last_motion_s < self._chunks.last_time_s - margin_s:
-            return 0
         self._chunks.discard_move()
+        speeds = self._assembler.current_speeds()
+        if not speeds:
+            return 0
+        moving_at_cut = self._chunks.last_time_s - self._chunks.last_motion_s <= _PAUSE_S
+        if moving_at_cut and self._last_pause_end_s > self._assembler.last_level_end_s:
+            return 0  # the joint paused after these levels, then started the next experiment
+        previous = self.last_experiment
+        if previous is not None and len(previous.speeds_rad_s) == len(speeds) and all(
+                abs(a - b) <= self.speed_tolerance_rad_s
+                for a, b in zip(sorted(previous.speeds_rad_s), sorted(speeds))):
+            return 0
+        if self._chunks.last_time_s - self._chunks.last_motion_s > self.idle_gap_s:
+            return 0
         dropped = self._assembler.discard()
-        if dropped:
-            self.rejections['experiment_cut'] += 1
+        self.rejections['experiment_cut'] += 1
         return dropped
 
     def close_idle(self) -> list[FrictionExperiment]:

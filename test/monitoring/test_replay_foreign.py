@@ -467,7 +467,7 @@ def test_an_explicit_joint_list_monitors_those_joints_only(arm):
     chosen = ['shoulder', 'wrist_3']
     config = joint_config(folder / 'two.yaml', recording, chosen)
     code, stdout, stderr = run_cli(['replay', run.bag, '--out', folder / 'two',
-                                    '--json', folder / 'two.json', '--joint', *chosen,
+                                    '--json', folder / 'two.json', '--joint', ','.join(chosen),
                                     '--config', config, '--no-progress'])
     assert code == 0, stderr
     summary = json.loads((folder / 'two.json').read_text())

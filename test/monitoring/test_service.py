@@ -311,3 +311,48 @@ def test_the_trend_rule_raises_on_the_trend_and_a_reset_starts_a_new_segment(tmp
     assert ok and 'trend reset' in message
     after = svc.process_levels(_levels_of(13, 0.0, rng))
     assert after.trend.segment == 1 and after.trend.wear < 20.0 and not after.alarm_active
+
+
+# --------------------------------------------------------------------------- a cut recording
+
+def _cut_service(recording, cut, chunk):
+    """Feed the first ``cut`` samples of the joint in chunks, then handle the cut as replay."""
+    values = node_config.load_node_parameters(node_config.FRICTION_EXPERIMENT_NODE,
+                                              overrides={'joint': recording.joint})
+    service = FrictionExperimentService.from_node_parameters(values)
+    column = recording.joint_index
+    arrays = (recording.stamps_s, recording.position[:, column],
+              recording.velocity[:, column], recording.effort[:, column])
+    found = []
+    for start in range(0, cut, chunk):
+        stop = min(cut, start + chunk)
+        t, q, v, e = (a[start:stop] for a in arrays)
+        found += service.add_recording(time_s=t, position_rad=q, velocity_rad_s=v, effort=e)
+    dropped = service.drop_interrupted()
+    return found + service.finish(), dropped, service
+
+
+@pytest.mark.parametrize('gap_s', [1.0, 5.0])
+@pytest.mark.parametrize('chunk', [700, 100_000])
+def test_a_cut_in_the_next_experiments_first_move_keeps_the_complete_one(gap_s, chunk):
+    import independent_robot as robot
+    recording = robot.generate_wear_test(n_experiments=2, seed=1, rate_hz=500.0, gap_s=gap_s)
+    first_end = recording.truth[0].end_s
+    speed = np.abs(recording.velocity[:, recording.joint_index]) * recording.gear_ratio
+    moving = np.flatnonzero((speed > 0.1) & (recording.stamps_s > first_end))
+    found, dropped, _ = _cut_service(recording, int(moving[0]) + 100, chunk)  # 0.2 s in
+    assert [len(x.levels) for x in found] == [len(recording.truth[0].speeds_rad_s)]
+    assert dropped == 0
+
+
+def test_a_cut_in_a_pause_inside_an_experiment_drops_that_experiment_only():
+    import independent_robot as robot
+    recording = robot.generate_wear_test(n_experiments=2, seed=1, rate_hz=500.0,
+                                         standstill_s=1.0)
+    whole, _, service = _cut_service(recording, recording.stamps_s.size, 100_000)
+    assert [len(x.levels) for x in whole] == [4, 4]
+    second = [level for level in service.levels if level.start_time_s > whole[0].end_time_s]
+    cut = int(np.searchsorted(recording.stamps_s, second[1].end_time_s + 0.7))
+    found, dropped, cut_service = _cut_service(recording, cut, 100_000)
+    assert [len(x.levels) for x in found] == [4] and dropped == 2
+    assert cut_service.rejections['experiment_cut'] == 1
