@@ -578,7 +578,7 @@ def _forecast_basis(flt: _GridFilter) -> FloatArray:
             + frac * np.take_along_axis(v, high, axis=1)
         rows[n + 1] = transition @ moved
     basis = rows.reshape(rows.shape[0], -1)
-    if len(_FORECAST_BASES) >= 8:
+    if len(_FORECAST_BASES) >= 4:  # 23 MB each at the default grid
         _FORECAST_BASES.clear()
     _FORECAST_BASES[key] = basis
     return basis

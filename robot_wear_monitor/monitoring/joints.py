@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Mapping, Optional, Sequence
 
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE, joint_namespace,
@@ -47,6 +48,17 @@ def output_topic(topic: str, joint: str, *, per_joint: bool) -> str:
 def reset_service_name(joint: str, *, per_joint: bool) -> str:
     """Return the name of a joint's alarm reset service (``~/reset_alarm`` or per joint)."""
     return output_topic(RESET_SERVICE, joint, per_joint=per_joint)
+
+
+def _check_joint_values(node_name: str, values: Mapping[str, Any], source: str) -> None:
+    """Validate every ``<joint>.<name>`` value given for joints not yet seen (``[all]``).
+
+    Raises:
+        ParameterError: naming the joint and the value.
+
+    """
+    for joint in sorted({key.rpartition('.')[0] for key in values if '.' in key}):
+        joint_parameters(node_name, values, joint, source=source)
 
 
 def merge_diagnostics(arrays: Sequence[Any]) -> Any:
@@ -80,16 +92,34 @@ class FrictionExperimentFleet:
         self._parameters_for = parameters_for or (lambda joint: joint_parameters(
             FRICTION_EXPERIMENT_NODE, values, joint, source=source))
         self.services: dict[str, FrictionExperimentService] = {}
+        #: joints seen under ``[all]`` whose parameters were refused: joint -> the error
+        self.refused: dict[str, str] = {}
         for joint in self.selection or ():
             self.service(joint)
+        if self.selection is None:
+            _check_joint_values(FRICTION_EXPERIMENT_NODE, values, source)
 
     def service(self, joint: str) -> FrictionExperimentService:
-        """Return the service of ``joint``, built on first use."""
+        """Return the service of ``joint``, built on first use.
+
+        Raises:
+            ParameterError: the joint's parameters are invalid.
+
+        """
         service = self.services.get(joint)
         if service is None:
             service = FrictionExperimentService.from_node_parameters(self._parameters_for(joint))
             self.services[joint] = service
         return service
+
+    def _discover(self, joint: str) -> None:
+        """Build the service of a joint first seen under ``[all]``; refuse it (once) if bad."""
+        if joint in self.refused:
+            return
+        try:
+            self.service(joint)
+        except InputError as error:  # its parameters: the other joints go on
+            self.refused[joint] = str(error).splitlines()[0]
 
     def wants(self, joint: str) -> bool:
         """Return True when ``joint`` is monitored."""
@@ -102,7 +132,7 @@ class FrictionExperimentFleet:
         if self.selection is None:
             for joint in name:
                 if isinstance(joint, str) and joint and joint not in self.services:
-                    self.service(joint)
+                    self._discover(joint)
         done = []
         for service in self.services.values():
             done += [(service, experiment) for experiment in service.add_joint_state(
@@ -165,13 +195,30 @@ class WearEstimatorFleet:
         self.services: dict[str, WearEstimatorService] = {}
         self.rejections: dict[str, int] = {}
         self.last_rejection = ''
-        for joint in self.selection or ():
+        #: joints whose parameters (or topic namespace) were refused: joint -> the error
+        self.refused: dict[str, str] = {}
+        if self.selection is None:
+            _check_joint_values(WEAR_ESTIMATOR_NODE, values, source)
+        # under [all], the joints of the history come back at once (latched alarms, resets)
+        for joint in self.selection or history.joints():
             self.service(joint)
 
     def service(self, joint: str) -> WearEstimatorService:
-        """Return the estimator of ``joint``, built (and restored from history) on first use."""
+        """Return the estimator of ``joint``, built (and restored from history) on first use.
+
+        Raises:
+            ParameterError: the joint's parameters are invalid.
+            InputError: with per-joint outputs, its topic namespace is another joint's.
+
+        """
         service = self.services.get(joint)
         if service is None:
+            if self.per_joint:
+                token = joint_namespace(joint)
+                other = next((j for j in self.services if joint_namespace(j) == token), None)
+                if other is not None:
+                    raise InputError(f'joint {joint!r}: its topics would be those of joint '
+                                     f'{other!r} (namespace {token!r}); rename one')
             config = EstimatorConfig.from_node_parameters(self._parameters_for(joint))
             service = WearEstimatorService(config, history=self.history)
             self.services[joint] = service
@@ -195,7 +242,15 @@ class WearEstimatorFleet:
             self._reject('other_joint', f'levels of joint {joint!r}, monitored: '
                                         f'{", ".join(self.services) or "none"}')
             return None, None
-        service = self.service(joint)
+        if joint in self.refused:
+            self._reject('joint_refused', f'{joint!r}: {self.refused[joint]}')
+            return None, None
+        try:
+            service = self.service(joint)
+        except InputError as error:  # its parameters or its name: the other joints go on
+            self.refused[joint] = str(error).splitlines()[0]
+            self._reject('joint_refused', f'{joint!r}: {self.refused[joint]}')
+            return None, None
         return service, service.handle_friction_levels(msg)
 
     def _reject(self, reason: str, detail: str) -> None:

@@ -503,7 +503,9 @@ def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, 
         if key in document:
             own.update(_flatten(document[key]['ros__parameters']))
     known = {spec.name for spec in _specs(node_name)}
-    values = {k: v for k, v in raw.items() if k in known or k in own}
+    per_joint = PER_JOINT_PARAMETERS.get(node_name, ())
+    values = {k: v for k, v in raw.items() if k in known or k in own
+              or ('.' in k and k.rpartition('.')[2] in per_joint)}
     values.update(overrides or {})
     return validate_parameters(node_name, values, source=str(file))
 

@@ -295,10 +295,12 @@ def _fmt(value: float, digits: int = 4) -> str:
 
 
 #: Rejections that the friction experiment itself produces (ramps too short to be a pass, a
-#: pass without its partner, a pause in the stream, an experiment the runner aborted): logged
-#: as info, not as input defects.
+#: pass without its partner, a pause in the stream, an experiment the runner aborted or a
+#: recording cut), and messages without the joint (another publisher on /joint_states, e.g. a
+#: gripper): logged as info, not as input defects.
 ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_common_window',
-                                'time_gap', 'aborted_experiment', 'already_in_history'})
+                                'time_gap', 'aborted_experiment', 'already_in_history',
+                                'joint_missing', 'experiment_cut'})
 
 
 #: A standstill at least this long [s] is a pause between experiments, not a turn inside one

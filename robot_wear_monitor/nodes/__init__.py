@@ -93,21 +93,18 @@ def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[Paramete
                              values: Mapping[str, Any], joint: str) -> dict[str, Any]:
     """Return one monitored joint's validated parameters, declaring ``<joint>.<name>`` first.
 
-    With ``joints`` set, every per-joint parameter of the node
+    Every per-joint parameter of the node
     (:data:`~robot_wear_monitor.monitoring.node_config.PER_JOINT_PARAMETERS`) is declared as
     ``<joint>.<name>`` with the node's own value as default, so a parameter file's
     ``<joint>: {gear_ratio: ...}`` (rclpy flattens it) or ``-p joint_3.gear_ratio:=120.0``
-    reaches the joint, also for a joint first seen at run time (``joints: [all]``).  Without
-    ``joints`` nothing is declared (the node's values are the joint's).
+    reaches the joint, also for a joint first seen at run time (``joints: [all]``), and with
+    ``joint`` alone as in the replay.
     """
     from dataclasses import replace
 
     from robot_wear_monitor.monitoring.node_config import (joint_parameters,
-                                                           PER_JOINT_PARAMETERS,
-                                                           per_joint_outputs)
+                                                           PER_JOINT_PARAMETERS)
     source = f'{node.get_name()} parameters'
-    if not per_joint_outputs(values):
-        return joint_parameters(node_name, values, joint, source=source)
     by_name = {spec.name: spec for spec in specs}
     joint_specs = [replace(by_name[name], name=f'{joint}.{name}', default=values[name])
                    for name in PER_JOINT_PARAMETERS[node_name]]

@@ -76,6 +76,7 @@ class FrictionExperimentNode(Node):
         self._internal_errors = 0
         self._last_error = ''
         self._last_message_monotonic = None
+        self._last_tick_monotonic = None
         joints = ('every joint of /joint_states' if self.fleet.selection is None else
                   ', '.join(f'{s.joint!r} (gear ratio {s.segmenter_config.gear_ratio:g}, '
                             f'torque scale {s.segmenter_config.torque_scale:g}, speeds '
@@ -110,9 +111,13 @@ class FrictionExperimentNode(Node):
         stamp_s = stamp_to_seconds(msg.header.stamp)
         if stamp_s == 0.0:  # unstamped publisher: use the reception time
             stamp_s = node_time_s(self)
+        refused = len(self.fleet.refused)
         self._publish_all(self._guarded(
             self.fleet.add_joint_state, stamp_s=stamp_s, name=msg.name,
             position=msg.position, velocity=msg.velocity, effort=msg.effort))
+        if len(self.fleet.refused) > refused:  # said once per joint; the others go on
+            for joint, error in list(self.fleet.refused.items())[refused:]:
+                self.get_logger().error(f'joint {joint!r} not monitored: {error}')
         self._log_new_rejections()
 
     def _guarded(self, call, *args, **kwargs):
@@ -182,9 +187,13 @@ class FrictionExperimentNode(Node):
         which stop too): the experiment of a robot that stops publishing after it is not held
         back until the next one.
         """
-        if self._last_message_monotonic is None:
-            return
-        silent_s = time.monotonic() - self._last_message_monotonic
+        now = time.monotonic()
+        blocked = (self._last_tick_monotonic is not None
+                   and now - self._last_tick_monotonic > 2.5 * DIAGNOSTICS_PERIOD_S)
+        self._last_tick_monotonic = now
+        if self._last_message_monotonic is None or blocked:
+            return  # after a blocked executor the queued messages come first
+        silent_s = now - self._last_message_monotonic
         for service in self.fleet.services.values():
             if silent_s > service.idle_gap_s:
                 self._publish_all(self._guarded(
