@@ -512,7 +512,8 @@ def calibration_cache_dir() -> Path | None:
     """Return the folder of stored calibrations, or None when the cache is disabled.
 
     ``$ROBOT_WEAR_MONITOR_CACHE`` if set ('' disables), else
-    ``$XDG_CACHE_HOME/robot_wear_monitor`` (default ``~/.cache/robot_wear_monitor``).
+    ``$XDG_CACHE_HOME/robot_wear_monitor`` (default ``~/.cache/robot_wear_monitor``).  A file
+    is named by the calibration's key and a hash of the code it comes from.
     """
     folder = os.environ.get(CACHE_ENV)
     if folder is not None:
@@ -535,12 +536,32 @@ def calibration_to_json(calibration: CutoffCalibration) -> dict:
             'runs': calibration.runs}
 
 
+@lru_cache(maxsize=1)
+def _code_fingerprint() -> str:
+    """Return a hash of the code a calibration's numbers come from (the cache's key part).
+
+    A stored calibration is used only by the same estimator, likelihood and model code, so a
+    change of that code never reads a calibration an older version stored (the shipped table
+    is checked against a fresh calibration by a test instead).
+    """
+    package = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    sources = [package / 'estimation' / 'estimator.py', package / 'estimation' / 'intervals.py',
+               *sorted((package / 'model').glob('*.py'))]
+    for source in sources:
+        try:
+            digest.update(source.read_bytes())
+        except OSError:
+            digest.update(source.name.encode())
+    return digest.hexdigest()[:12]
+
+
 def _stored_calibration(key: str) -> CutoffCalibration | None:
     """Return the calibration of ``key`` from the shipped table or the cache, if there."""
     sources = [SHIPPED_CALIBRATIONS]
     folder = calibration_cache_dir()
     if folder is not None:
-        sources.append(folder / f'cutoffs-{key}.json')
+        sources.append(folder / f'cutoffs-{key}-{_code_fingerprint()}.json')
     for source in sources:
         try:
             table = json.loads(source.read_text())
@@ -560,7 +581,8 @@ def _store_calibration(key: str, calibration: CutoffCalibration) -> None:
     from robot_wear_monitor.atomic_files import write_json_atomic
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(folder / f'cutoffs-{key}.json', calibration_to_json(calibration))
+        write_json_atomic(folder / f'cutoffs-{key}-{_code_fingerprint()}.json',
+                          calibration_to_json(calibration))
     except OSError:
         pass
 

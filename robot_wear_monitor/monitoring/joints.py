@@ -24,6 +24,7 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment
+from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE, joint_namespace,
                                                        joint_parameters, monitored_joints,
@@ -50,15 +51,9 @@ def reset_service_name(joint: str, *, per_joint: bool) -> str:
     return output_topic(RESET_SERVICE, joint, per_joint=per_joint)
 
 
-def _check_joint_values(node_name: str, values: Mapping[str, Any], source: str) -> None:
-    """Validate every ``<joint>.<name>`` value given for joints not yet seen (``[all]``).
-
-    Raises:
-        ParameterError: naming the joint and the value.
-
-    """
-    for joint in sorted({key.rpartition('.')[0] for key in values if '.' in key}):
-        joint_parameters(node_name, values, joint, source=source)
+def _joints_with_values(values: Mapping[str, Any]) -> list[str]:
+    """Return the joints that have ``<joint>.<name>`` values, in order of appearance."""
+    return list(dict.fromkeys(key.rpartition('.')[0] for key in values if '.' in key))
 
 
 def merge_diagnostics(arrays: Sequence[Any]) -> Any:
@@ -94,10 +89,9 @@ class FrictionExperimentFleet:
         self.services: dict[str, FrictionExperimentService] = {}
         #: joints seen under ``[all]`` whose parameters were refused: joint -> the error
         self.refused: dict[str, str] = {}
-        for joint in self.selection or ():
+        # under [all], the joints given their own values are built (and checked) at start
+        for joint in self.selection or _joints_with_values(values):
             self.service(joint)
-        if self.selection is None:
-            _check_joint_values(FRICTION_EXPERIMENT_NODE, values, source)
 
     def service(self, joint: str) -> FrictionExperimentService:
         """Return the service of ``joint``, built on first use.
@@ -108,7 +102,13 @@ class FrictionExperimentFleet:
         """
         service = self.services.get(joint)
         if service is None:
-            service = FrictionExperimentService.from_node_parameters(self._parameters_for(joint))
+            parameters = self._parameters_for(joint)
+            try:
+                service = FrictionExperimentService.from_node_parameters(parameters)
+            except ParameterError:
+                raise
+            except InputError as error:  # e.g. speeds closer than the tolerance allows
+                raise ParameterError(f'joint {joint!r}: {error}') from None
             self.services[joint] = service
         return service
 
@@ -197,10 +197,10 @@ class WearEstimatorFleet:
         self.last_rejection = ''
         #: joints whose parameters (or topic namespace) were refused: joint -> the error
         self.refused: dict[str, str] = {}
-        if self.selection is None:
-            _check_joint_values(WEAR_ESTIMATOR_NODE, values, source)
-        # under [all], the joints of the history come back at once (latched alarms, resets)
-        for joint in self.selection or history.joints():
+        # under [all], the joints of the history come back at once (latched alarms, resets),
+        # and the joints given their own values are built (and checked) at start
+        for joint in self.selection or dict.fromkeys(
+                (*history.joints(), *_joints_with_values(values))):
             self.service(joint)
 
     def service(self, joint: str) -> WearEstimatorService:
