@@ -483,8 +483,8 @@ def _segment_raw_csv(args: argparse.Namespace, path) -> tuple[list, list[str]]:
 def _segment_bag(args: argparse.Namespace, path) -> tuple[list, list[str]]:
     """Segment the joints of a bag as the replay does (discovery, chunks, per-joint report)."""
     from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
-    from robot_wear_monitor.monitoring.replay import (explain_no_experiment, NoExperimentError,
-                                                      replay_parameters)
+    from robot_wear_monitor.monitoring.replay import (explain_recording, joint_summary,
+                                                      NoExperimentError, replay_parameters)
     from robot_wear_monitor.recordings.bags import iter_joint_chunks
     joint, joints = _joint_selection(args.joint)
     experiment, _ = replay_parameters(config_file=args.config, joint=joint, joints=joints,
@@ -516,26 +516,13 @@ def _segment_bag(args: argparse.Namespace, path) -> tuple[list, list[str]]:
                       if x.start_time_s <= level.start_time_s
                       and level.end_time_s <= x.end_time_s), '')
             rows.append((level, k, name))
-        summary = service.summary()
-        summary['rejected'] = {**{f'reader_{k}': v for k, v in
-                                  sorted(stream.rejections.get(name, {}).items())},
-                               **summary['rejected']}
-        summary.update(estimates=0, first_alarm=None, no_experiment=None if experiments else
-                       explain_no_experiment(service=service,
-                                             reader_rejections=stream.rejections.get(name, {}),
-                                             seen=name in stream.joints_seen,
-                                             joints_seen=stream.joints_seen,
-                                             topic=stream.topic))
+        summary = joint_summary(service, stream)
         report.append(_joint_summary_line(summary, estimates=False))
         if summary['rejected']:
             report.append('    rejected: ' + ', '.join(
                 f'{k} {n}' for k, n in summary['rejected'].items()))
     if not rows:
-        reasons = '; '.join(explain_no_experiment(
-            service=s, reader_rejections=stream.rejections.get(j, {}),
-            seen=j in stream.joints_seen, joints_seen=stream.joints_seen, topic=stream.topic)
-            for j, s in fleet.services.items()) or 'no joint in the JointState messages'
-        raise NoExperimentError(f'no friction level: {reasons}')
+        raise NoExperimentError(f'no friction level: {explain_recording(fleet, stream)}')
     return rows, report
 
 
@@ -614,7 +601,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
           + f'; wrote {args.out}')
     if joints:
         for entry in result.joints:
-            _print_joint_summary(entry)
+            print(_joint_summary_line(entry))
     return 0
 
 
@@ -635,11 +622,6 @@ def _joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str]
     if 'all' in names and len(names) > 1:
         raise InputError('--joint: "all" stands alone')
     return None, list(names)
-
-
-def _print_joint_summary(entry: dict) -> None:
-    """Print one line per joint: what the segmentation found, or why nothing."""
-    print(_joint_summary_line(entry))
 
 
 def _joint_summary_line(entry: dict, *, estimates: bool = True) -> str:

@@ -30,6 +30,7 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        joint_parameters, monitored_joints,
                                                        per_joint_outputs, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.monitoring.service import (EstimatorConfig, FRICTION_LEVELS_TOPIC,
+                                                   OUTPUT_TOPICS,
                                                    FrictionExperimentService, RESET_SERVICE,
                                                    WearEstimatorService, WearUpdate)
 from robot_wear_monitor.recordings.messages import MessageKit
@@ -54,6 +55,22 @@ def reset_service_name(joint: str, *, per_joint: bool) -> str:
 def _joints_with_values(values: Mapping[str, Any]) -> list[str]:
     """Return the joints that have ``<joint>.<name>`` values, in order of appearance."""
     return list(dict.fromkeys(key.rpartition('.')[0] for key in values if '.' in key))
+
+
+def rejections_by_joint(counts: Mapping[str, Mapping[str, int]]) -> dict[str, int]:
+    """Return the rejection counts of several joints as one mapping for a rejection log.
+
+    ``counts``: joint -> reason -> count.  With one joint the reasons keep their names; with
+    several each is named ``"<joint>: <reason>"`` (:class:`RejectionLog` still tells routine
+    reasons apart).
+    """
+    several = len(counts) > 1
+    total: dict[str, int] = {}
+    for joint, reasons in counts.items():
+        for reason, count in reasons.items():
+            key = f'{joint}: {reason}' if several else reason
+            total[key] = total.get(key, 0) + count
+    return total
 
 
 def merge_diagnostics(arrays: Sequence[Any]) -> Any:
@@ -270,6 +287,5 @@ class WearEstimatorFleet:
 
     def topics(self, joint: str) -> dict[str, str]:
         """Return base topic -> the joint's topic for every estimator output."""
-        from robot_wear_monitor.monitoring.service import OUTPUT_TOPICS
         return {topic: output_topic(topic, joint, per_joint=self.per_joint)
                 for topic in OUTPUT_TOPICS if topic != FRICTION_LEVELS_TOPIC}

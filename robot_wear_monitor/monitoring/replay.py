@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
-from typing import Any, Mapping, Optional
+from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.recordings.bags import atomic_bag_writer, iter_joint_chunks, TYPESTORE
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -240,8 +240,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     result.recovery = stream.recovery
     result.notes = list(stream.notes) + result.notes
     result.sample_count = sum(s.messages for s in experiments.services.values())
-    result.joints = [_joint_summary(joint, service, estimators, stream, updates)
-                     for joint, service in experiments.services.items()]
+    result.joints = [joint_summary(service, stream, updates)
+                     for service in experiments.services.values()]
     result.rejections = _rejections(experiments, estimators, stream)
     return result
 
@@ -267,24 +267,43 @@ def _rejections(experiments: FrictionExperimentFleet, estimators: WearEstimatorF
     return total
 
 
-def _joint_summary(joint: str, service: FrictionExperimentService,
-                   estimators: WearEstimatorFleet, stream: Any,
-                   updates: list[WearUpdate]) -> dict[str, Any]:
-    """Return what the replay found for one joint (JSON-ready)."""
-    mine = [u for u in updates if u.joint == joint]
+def explain_joint(service: FrictionExperimentService, stream: Any) -> str:
+    """Return why a joint of a read bag ``stream`` gave no experiment (one sentence)."""
+    joint = service.joint
+    return explain_no_experiment(service=service,
+                                 reader_rejections=stream.rejections.get(joint, {}),
+                                 seen=joint in stream.joints_seen,
+                                 joints_seen=stream.joints_seen, topic=stream.topic)
+
+
+def joint_summary(service: FrictionExperimentService, stream: Any,
+                  updates: Sequence[WearUpdate] = ()) -> dict[str, Any]:
+    """Return what a bag gave for one joint (JSON-ready), replay and segment alike.
+
+    :meth:`FrictionExperimentService.summary` with the reader's rejections (``reader_*``),
+    the joint's ``estimates`` and ``first_alarm`` among ``updates``, and ``no_experiment``:
+    why no experiment formed (None when one did).
+    """
+    mine = [u for u in updates if u.joint == service.joint]
     first = next((u for u in mine if u.alarm_raised), None)
     summary = service.summary()
     summary['rejected'] = {**{f'reader_{k}': v for k, v in
-                              sorted(stream.rejections.get(joint, {}).items())},
+                              sorted(stream.rejections.get(service.joint, {}).items())},
                            **summary['rejected']}
     summary['estimates'] = len(mine)
     summary['first_alarm'] = None if first is None else {
         'index': first.index, 'stamp_s': first.stamp_s, 'wear': json_number(first.wear)}
-    summary['no_experiment'] = (None if service.experiments else explain_no_experiment(
-        service=service, reader_rejections=stream.rejections.get(joint, {}),
-        seen=joint in stream.joints_seen, joints_seen=stream.joints_seen,
-        topic=stream.topic))
+    summary['no_experiment'] = (None if service.experiments
+                                else explain_joint(service, stream))
     return summary
+
+
+def explain_recording(experiments: FrictionExperimentFleet, stream: Any) -> str:
+    """Return why a read bag gave nothing: one sentence per monitored joint."""
+    if not experiments.services:
+        return (f'no joint in the JointState messages of {stream.path} '
+                f'({stream.message_count} messages)')
+    return '; '.join(explain_joint(s, stream) for s in experiments.services.values())
 
 
 def _require_experiments(updates: list, estimators: WearEstimatorFleet,
@@ -295,11 +314,4 @@ def _require_experiments(updates: list, estimators: WearEstimatorFleet,
         return
     if any(s.experiments for s in experiments.services.values()):
         return
-    if not experiments.services:
-        raise NoExperimentError(f'no friction experiment: no joint in the JointState messages '
-                                f'of {stream.path} ({stream.message_count} messages)')
-    reasons = [explain_no_experiment(service=s, reader_rejections=stream.rejections.get(j, {}),
-                                     seen=j in stream.joints_seen, joints_seen=stream.joints_seen,
-                                     topic=stream.topic)
-               for j, s in experiments.services.items()]
-    raise NoExperimentError('no friction experiment: ' + '; '.join(reasons))
+    raise NoExperimentError(f'no friction experiment: {explain_recording(experiments, stream)}')

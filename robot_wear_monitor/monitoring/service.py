@@ -943,26 +943,31 @@ class FrictionExperimentService:
         # a standstill of idle_gap_s inside the chunk closes the experiment as the live node
         # does sample by sample (the levels before it are in; a level after it would close
         # it anyway)
-        for rest_end_s in self._rests(time_s, velocity_rad_s, motion_before, self.idle_gap_s):
+        ends, lengths = self._rests(time_s, velocity_rad_s, motion_before)
+        for rest_end_s in ends[lengths > self.idle_gap_s]:
             if self._open is None:
-                experiments += self._completed(self._assembler.idle(now_s=rest_end_s))
-        pauses = self._rests(time_s, velocity_rad_s, motion_before, _PAUSE_S)
-        if pauses:
-            self._last_pause_end_s = pauses[-1]
+                experiments += self._completed(self._assembler.idle(now_s=float(rest_end_s)))
+        pauses = ends[lengths > _PAUSE_S]
+        if pauses.size:
+            self._last_pause_end_s = float(pauses[-1])
         if len(time_s):
             experiments += self._idle(float(time_s[-1]))
         return experiments
 
     def _rests(self, time_s: Sequence[float], velocity_rad_s: Sequence[float],
-               motion_before_s: float, longer_than_s: float) -> list[float]:
-        """Return the end times [s] of the standstills longer than ``longer_than_s`` [s]."""
+               motion_before_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return the end times [s] and lengths [s] of the standstills between moving samples.
+
+        A standstill ends at a moving sample; it starts at the moving sample before it (or at
+        ``motion_before_s``, the last motion of the previous chunk).
+        """
         t = np.asarray(time_s, dtype=float)
         speed = np.abs(np.asarray(velocity_rad_s, dtype=float)) * self.segmenter_config.gear_ratio
         moving = t[np.isfinite(t) & (speed > self.segmenter_config.standstill_speed_rad_s)]
         if moving.size == 0:
-            return []
+            return moving, moving
         starts = np.concatenate(([motion_before_s], moving[:-1]))
-        return [float(end) for end in moving[moving - starts > longer_than_s]]
+        return moving, moving - starts
 
     def drop_interrupted(self) -> int:
         """At the cut of a recording: drop the experiment the cut interrupts; return its levels.

@@ -20,7 +20,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
+from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, rejections_by_joint
 from robot_wear_monitor.recordings.messages import stamp_to_seconds
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
@@ -95,12 +95,8 @@ class FrictionExperimentNode(Node):
 
     def _all_rejections(self):
         """Return the rejections of every joint by reason (prefixed by the joint if several)."""
-        total = {}
-        several = len(self.fleet.services) > 1
-        for joint, service in self.fleet.services.items():
-            for reason, count in service.all_rejections().items():
-                key = f'{joint}: {reason}' if several else reason
-                total[key] = total.get(key, 0) + count
+        total = rejections_by_joint({joint: service.all_rejections()
+                                     for joint, service in self.fleet.services.items()})
         if self._internal_errors:
             total['internal_error'] = self._internal_errors
         return total

@@ -18,8 +18,8 @@ from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
 from robot_wear_monitor.monitoring.history import WearHistory
-from robot_wear_monitor.monitoring.joints import (output_topic, reset_service_name,
-                                                  WearEstimatorFleet)
+from robot_wear_monitor.monitoring.joints import (output_topic, rejections_by_joint,
+                                                  reset_service_name, WearEstimatorFleet)
 from robot_wear_monitor.recordings.messages import alarm_to_msg
 from robot_wear_monitor.monitoring.node_config import (expand_history_path, per_joint_outputs,
                                                        validate_parameters, WEAR_ESTIMATOR_NODE,
@@ -122,14 +122,12 @@ class WearEstimatorNode(Node):
 
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
-        counts = dict(self.fleet.rejections)
-        several = len(self.fleet.services) > 1
-        detail = self.fleet.last_rejection
-        for joint, service in self.fleet.services.items():
-            for reason, count in service.rejections.items():
-                key = f'{joint}: {reason}' if several else reason
-                counts[key] = counts.get(key, 0) + count
-            detail = service.last_rejection or detail
+        counts = rejections_by_joint({joint: service.rejections
+                                      for joint, service in self.fleet.services.items()})
+        for reason, count in self.fleet.rejections.items():
+            counts[reason] = counts.get(reason, 0) + count
+        detail = next((s.last_rejection for s in reversed(self.fleet.services.values())
+                       if s.last_rejection), self.fleet.last_rejection)
         log_rejection_report(self.get_logger(), self.rejection_log.report(
             counts, now_s=node_time_s(self), detail=detail))
 
