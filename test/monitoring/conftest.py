@@ -8,14 +8,9 @@ path) and 'postgresql' (a URL of a new database).
 """
 
 import os
-from pathlib import Path
-import sys
 
+from postgres_server import find_postgresql_binaries, PostgresServer  # test/ is on the path
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from postgres_server import find_postgresql_binaries, PostgresServer  # noqa: E402
 
 BACKENDS = ('sqlite', 'postgresql')
 

@@ -140,7 +140,7 @@ def test_garbage_is_a_clear_error(tmp_path):
 
 def test_a_version_2_history_of_the_released_code_loads_with_its_rows_alarms_and_trend(
         tmp_path):
-    original = sqlite3.connect(f'{HISTORY_V2.as_uri()}?mode=ro', uri=True)
+    original = sqlite3.connect(f'{HISTORY_V2.as_uri()}?immutable=1', uri=True)
     assert original.execute('SELECT version FROM schema_version').fetchone()[0] == 2
     columns = ('id', 'joint', 'stamp_s', 'wear', 'wear_std', 'alarm_active', 'alarm_evidence',
                'parameter_set', *INTERVAL_COLUMNS)
@@ -257,8 +257,9 @@ def test_a_postgresql_database_with_other_tables_needs_init(postgresql_url):
     _execute(postgresql_url, 'CREATE TABLE customers (name TEXT)')
     with pytest.raises(HistoryError, match='other tables.*--init'):
         WearHistory(postgresql_url)
-    assert _execute(postgresql_url, "SELECT count(*) FROM information_schema.tables WHERE "
-                                    "table_schema = 'public'") == [(1,)]
+    tables = _execute(postgresql_url, 'SELECT table_name FROM information_schema.tables '
+                                      'WHERE table_schema = current_schema()')
+    assert tables == [('customers',)]
     _execute(postgresql_url, 'CREATE TABLE estimates (x INTEGER)')
     with pytest.raises(HistoryError, match='not a wear history of this monitor'):
         WearHistory(postgresql_url, init=True)
@@ -322,7 +323,7 @@ def test_the_fleet_view_ranks_alarms_then_crossings_then_upper_bounds(history_lo
             ('c', 'joint_2'), ('c', 'joint_1')]
 
 
-_WRITER = '''
+_WRITER = """
 import sys
 sys.path.insert(0, sys.argv[1])
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
@@ -346,7 +347,7 @@ with WearHistory(location) as history:
                                      event='raised', wear=float(k), note='n')] if raised else []
                 history.append(record, events=events)
 print('ok')
-'''
+"""
 
 
 def _content(location):
@@ -362,8 +363,8 @@ def _content(location):
         return sorted(records), sorted(events)
 
 
-def test_eight_writers_at_once_lose_nothing_and_duplicate_nothing(history_location, tmp_path,
-                                                                   request):
+def test_eight_writers_at_once_lose_nothing_and_duplicate_nothing(
+        history_location, tmp_path, request):
     if is_postgresql_url(history_location):
         sequential = request.getfixturevalue('postgresql_server').create_database()
     else:
@@ -383,7 +384,7 @@ def test_eight_writers_at_once_lose_nothing_and_duplicate_nothing(history_locati
     assert len({r[:3] for r in records}) == len(records)
 
 
-_LOCKER = '''
+_LOCKER = """
 import sys
 sys.path.insert(0, sys.argv[1])
 from robot_wear_monitor.monitoring.history import HistoryError, WearHistory
@@ -394,7 +395,7 @@ with WearHistory(sys.argv[2], robot='cell_1') as history:
                 print(joint, 'free')
         except HistoryError as error:
             print(joint, 'busy', error)
-'''
+"""
 
 
 def test_the_writer_lock_keeps_a_second_writer_of_a_joint_out(history_location):

@@ -19,7 +19,6 @@ from contextlib import contextmanager
 import hashlib
 import os
 from pathlib import Path
-import re
 import sqlite3
 import tempfile
 import time
@@ -289,7 +288,7 @@ class PostgresqlBackend:
 
     def execute(self, sql: str, params: Sequence[Any] | dict | None = ()) -> list[tuple]:
         """Run one statement (``?`` placeholders); return its rows."""
-        cursor = self.conn.execute(re.sub(r'\?', '%s', sql), params or None)
+        cursor = self.conn.execute(sql.replace('?', '%s'), params or None)
         return cursor.fetchall() if cursor.description is not None else []
 
     @contextmanager
