@@ -125,6 +125,8 @@ class WearHistory:
     def _migrate(self, *, init: Optional[bool]) -> None:
         """Bring the layout to :data:`SCHEMA_VERSION` in one transaction (or refuse it)."""
         backend = self._backend
+        if self._stored_version(backend.tables()) == SCHEMA_VERSION:
+            return  # the usual case: no write, no lock (a read-only history opens too)
         with backend.transaction():
             backend.lock_migration()
             tables = backend.tables()
