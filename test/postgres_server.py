@@ -1,4 +1,4 @@
-"""A real PostgreSQL server for the tests, in a temporary folder (initdb + pg_ctl).
+"""A real PostgreSQL server for the tests, in a temporary folder (initdb + pg_ctl), and fixtures.
 
 :func:`find_postgresql_binaries` looks for ``initdb`` and ``pg_ctl`` on PATH, in
 ``/usr/lib/postgresql/<version>/bin`` (Debian's ``postgresql`` package) and in ``/usr/local/bin``.
@@ -6,6 +6,15 @@
 of 127.0.0.1 (its unix socket in the same folder), makes databases on demand and stops and removes
 everything at the end.  PostgreSQL refuses to run as root: as root, the server runs as the
 ``postgres`` user (``runuser -u postgres --``), who is given the folder.
+
+This module is also a pytest plugin (``pytest_plugins = ('postgres_server',)`` in a test module
+or in ``test/conftest.py``) with the fixtures ``postgresql_server`` (one server for the test
+session), ``postgresql_url`` (a new empty database) and ``history_location`` (a new history,
+parametrised on 'sqlite' (a file path) and 'postgresql' (a URL)).  Without PostgreSQL (or
+psycopg) the PostgreSQL tests are skipped with the reason, except in CI (environment variable
+``CI`` set and not empty), where they fail: a PostgreSQL test never skips in CI.  (Not a
+``test/monitoring/conftest.py``: conftest files without packages share the module name
+``conftest``, and ``test/nodes`` imports helpers from the top one by that name.)
 """
 
 from __future__ import annotations
@@ -18,6 +27,8 @@ import socket
 import subprocess
 import tempfile
 from typing import Optional
+
+import pytest
 
 SERVER_USER = 'postgres'
 
@@ -115,3 +126,47 @@ class PostgresServer:
                           '-w', 'stop')
         finally:
             shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _unavailable(reason: str) -> None:
+    if os.environ.get('CI'):
+        pytest.fail(f'PostgreSQL is required in CI: {reason}', pytrace=False)
+    pytest.skip(reason)
+
+
+BACKENDS = ('sqlite', 'postgresql')
+
+
+@pytest.fixture(scope='session')
+def postgresql_server():
+    """Yield a running :class:`PostgresServer` (skip outside CI when there is none)."""
+    try:
+        import psycopg  # noqa: F401
+    except ImportError:
+        _unavailable('psycopg 3 is not installed (pip install "psycopg[binary]")')
+    binaries = find_postgresql_binaries()
+    if binaries is None:
+        _unavailable('no PostgreSQL server binaries (initdb, pg_ctl); on Debian: '
+                     'apt-get install postgresql')
+    server = PostgresServer(binaries)
+    try:
+        server.start()
+    except (RuntimeError, OSError, ValueError) as error:
+        server.stop()
+        _unavailable(f'the PostgreSQL server did not start: {error}')
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def postgresql_url(postgresql_server):
+    """Return the URL of a new empty database on the session's server."""
+    return postgresql_server.create_database()
+
+
+@pytest.fixture(params=BACKENDS)
+def history_location(request, tmp_path):
+    """Return where a new history goes: an SQLite path, or a PostgreSQL URL."""
+    if request.param == 'sqlite':
+        return str(tmp_path / 'h.sqlite3')
+    return request.getfixturevalue('postgresql_url')
