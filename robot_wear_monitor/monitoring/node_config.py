@@ -216,8 +216,13 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
                   _probability),
     _SPEEDS,
     ParameterSpec('history_file', 'string', '~/.ros/robot_wear_monitor/wear_history.sqlite3',
-                  'SQLite wear history (trend and latched alarm survive restarts); '
-                  '":memory:" keeps nothing', _non_empty),
+                  'wear history: an SQLite file, or a PostgreSQL URL '
+                  'postgresql://USER@HOST:PORT/DB shared by a fleet (trend and latched alarm '
+                  'survive restarts); ":memory:" keeps nothing', _non_empty),
+    ParameterSpec('robot_id', 'string', '',
+                  'the robot these joints belong to: the key of its rows in a fleet history '
+                  'and part of the /diagnostics hardware_id (ROBOT/JOINT); empty: the robot '
+                  '"default" and hardware_id the joint alone'),
 )
 
 #: The friction_experiment_runner's parameters (validated against each other and against the
@@ -512,6 +517,7 @@ def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, 
 
 def expand_history_path(history_file: str) -> str:
     """Return the history path with ``~`` and environment variables expanded."""
-    if history_file == ':memory:':
+    if history_file == ':memory:' or history_file.startswith(('postgresql://',
+                                                                'postgres://')):
         return history_file
     return os.path.expandvars(os.path.expanduser(history_file))

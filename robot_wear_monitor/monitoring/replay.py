@@ -19,6 +19,7 @@ OUT_BAG is written atomically (``bags.atomic_bag_writer``); a bad input bag rais
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
@@ -36,6 +37,8 @@ from robot_wear_monitor.monitoring.service import (explain_no_experiment, FRICTI
                                                    OUTPUT_TOPICS, WearUpdate)
 
 KIT = rosbags_kit(TYPESTORE)
+#: The writer lock a replay holds on its robot in the history (every joint at once).
+ROBOT_LOCK = '*'
 
 
 class NoExperimentError(InputError):
@@ -111,13 +114,14 @@ class ReplayResult:
 def replay_parameters(*, config_file: str | os.PathLike | None = None,
                       joint: str | None = None, gear_ratio: float | None = None,
                       torque_scale: float | None = None, params_file: str | None = None,
-                      joints: Optional[list[str]] = None
+                      joints: Optional[list[str]] = None, robot: str | None = None
                       ) -> tuple[dict[str, Any], dict[str, Any]]:
     """Return the validated parameters of both nodes, with the CLI overrides applied.
 
     ``joint``: the one monitored joint (plain topics); ``joints``: several, or ``['all']``
     (per-joint topics); the CLI's ``--gear-ratio``, ``--torque-scale`` and ``--params`` apply
-    to every joint unless the config file gives a joint its own ``<joint>.<name>``.
+    to every joint unless the config file gives a joint its own ``<joint>.<name>``;
+    ``robot`` (``--robot``) is the estimator's ``robot_id``.
     """
     experiment: dict[str, Any] = {}
     estimator: dict[str, Any] = {'history_file': ':memory:'}
@@ -131,6 +135,8 @@ def replay_parameters(*, config_file: str | os.PathLike | None = None,
         experiment['torque_scale'] = float(torque_scale)
     if params_file is not None:
         estimator['parameter_set_file'] = str(params_file)
+    if robot is not None:
+        estimator['robot_id'] = str(robot)
     return (load_node_parameters(FRICTION_EXPERIMENT_NODE, config_file, overrides=experiment),
             load_node_parameters(WEAR_ESTIMATOR_NODE, config_file, overrides=estimator))
 
@@ -170,9 +176,20 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     stream = iter_joint_chunks(bag, joints=experiments.selection, progress=advance,
                                recover=recover, require_joints=False,
                                chunk_messages=chunk_messages)
-    history = WearHistory(history_file if history_file is not None else ':memory:')
-    estimators = WearEstimatorFleet(estimator_parameters, history=history,
-                                    source='replay parameters')
+    history = WearHistory(history_file if history_file is not None else ':memory:',
+                          robot=estimator_parameters.get('robot_id') or None)
+    # one writer of a robot at a time: a second replay of the same robot into the history
+    # waits, then restores the first one's rows (its trend is the sequential run's)
+    lock = ExitStack()
+    try:
+        if history_file is not None and str(history_file) != ':memory:':
+            lock.enter_context(history.writer_lock(joint=ROBOT_LOCK))
+        estimators = WearEstimatorFleet(estimator_parameters, history=history,
+                                        source='replay parameters')
+    except BaseException:
+        lock.close()
+        history.close()
+        raise
     updates: list[WearUpdate] = []
     result = ReplayResult(updates=updates, joint=', '.join(experiments.selection or ('all',)),
                           message_count=0, sample_count=0, truth=truth)
@@ -232,6 +249,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                     _require_experiments(updates, estimators, experiments, stream)
                 result.out_bag = Path(out_bag)
     finally:
+        lock.close()
         history.close()
     # in time order across joints (an experiment is published when its joint's stream closes
     # it, which can come a chunk after another joint's later one)

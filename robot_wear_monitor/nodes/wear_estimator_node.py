@@ -54,7 +54,8 @@ class WearEstimatorNode(Node):
         raw = declare_parameters(self, WEAR_ESTIMATOR_PARAMETERS)
         self.parameters = validate_parameters(WEAR_ESTIMATOR_NODE, raw,
                                               source=f'{self.get_name()} parameters')
-        self.history = WearHistory(expand_history_path(self.parameters['history_file']))
+        self.history = WearHistory(expand_history_path(self.parameters['history_file']),
+                                   robot=self.parameters['robot_id'] or None)
         self.kit = message_kit()
         self.rejection_log = RejectionLog(what='friction_levels inputs',
                                           period_s=REJECTION_LOG_PERIOD_S)

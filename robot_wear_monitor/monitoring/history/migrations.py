@@ -9,7 +9,9 @@ robot given to old rows (``:robot`` in SQLite), always as a bound parameter.
 Version 1: estimates and alarm events per joint.  Version 2: the 95 % intervals of w and T and
 the trend columns (NULL in old rows).  Version 3: ``robot`` on every estimate and alarm event
 (old rows get the robot the history is opened for, else ``default``); the experiment's identity
-(robot, joint, end stamp) is a unique key, so that a re-run or a concurrent writer adds nothing.
+(robot, joint, end stamp) is a unique key, so that a re-run or a concurrent writer adds nothing;
+``recordings`` lists the recordings a batch re-analysis replayed completely (robot and content
+fingerprint), so that a re-run skips them.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ SCHEMA_VERSION = 3
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
-TABLES = ('schema_version', 'estimates', 'alarm_events')
+TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings')
 
 _SQLITE_V1 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -73,6 +75,13 @@ _SQLITE_V3 = (
     'CREATE UNIQUE INDEX estimates_experiment ON estimates (robot, joint, stamp_s)',
     'CREATE INDEX estimates_robot_joint ON estimates (robot, joint, id)',
     'CREATE INDEX alarm_events_robot_joint ON alarm_events (robot, joint, id)',
+    """CREATE TABLE recordings (
+    robot TEXT NOT NULL,
+    fingerprint TEXT NOT NULL,
+    name TEXT NOT NULL,
+    experiments INTEGER NOT NULL,
+    wall_time_s REAL NOT NULL,
+    PRIMARY KEY (robot, fingerprint))""",
 )
 
 #: SQLite: version -> its steps, oldest first.
@@ -115,6 +124,13 @@ _POSTGRESQL_V3 = (
     estimate_id BIGINT REFERENCES estimates (id),
     note TEXT NOT NULL DEFAULT '')""",
     'CREATE INDEX alarm_events_robot_joint ON alarm_events (robot, joint, id)',
+    """CREATE TABLE recordings (
+    robot TEXT NOT NULL,
+    fingerprint TEXT NOT NULL,
+    name TEXT NOT NULL,
+    experiments INTEGER NOT NULL,
+    wall_time_s DOUBLE PRECISION NOT NULL,
+    PRIMARY KEY (robot, fingerprint))""",
 )
 
 #: PostgreSQL: version -> its steps, oldest first.

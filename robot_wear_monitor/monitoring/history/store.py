@@ -256,6 +256,29 @@ class WearHistory:
             with self._backend.writer_lock(key, wait=wait):
                 yield
 
+    def add_recording(self, *, fingerprint: str, name: str, experiments: int,
+                      robot: Optional[str] = None) -> bool:
+        """Note that a recording was replayed completely; return False when it already was.
+
+        ``fingerprint``: the recording's content fingerprint (hex); ``name``: its bag name (for
+        people); ``experiments``: the estimates it added.
+        """
+        with self._guard('cannot store the recording'), self._backend.transaction():
+            rows = self._backend.execute(
+                'INSERT INTO recordings (robot, fingerprint, name, experiments, wall_time_s) '
+                'VALUES (?, ?, ?, ?, ?) ON CONFLICT (robot, fingerprint) DO NOTHING '
+                'RETURNING robot', (self._robot(robot), str(fingerprint)[:128], str(name)[:256],
+                                    int(experiments), time.time()))
+        return bool(rows)
+
+    def has_recording(self, *, fingerprint: str, robot: Optional[str] = None) -> bool:
+        """Return True when the recording ``fingerprint`` of ``robot`` was replayed already."""
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute(
+                'SELECT 1 FROM recordings WHERE robot = ? AND fingerprint = ?',
+                (self._robot(robot), str(fingerprint)[:128]))
+        return bool(rows)
+
     # ------------------------------------------------------------------ reading
 
     def find_estimate(self, *, joint: str, stamp_s: float, robot: Optional[str] = None,

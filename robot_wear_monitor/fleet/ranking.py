@@ -1,0 +1,150 @@
+"""The fleet at a glance: one row per robot and joint from the history, worst first.
+
+Order (the maintenance team's): a latched alarm first; then the forecast crossing of the wear
+threshold soonest (in experiments); then the highest upper bound of the 95 % interval of w.
+A joint is ``stale`` when it has had no experiment for longer than :data:`STALE_FACTOR` times
+its usual interval (the median time between its experiments), counted up to ``now``.  The
+crossing gets a date when the joint's experiment rate is known (two experiments or more).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import datetime
+import math
+from typing import Any, Iterable, Optional, Sequence
+
+from robot_wear_monitor.monitoring.history import FleetRow
+
+#: A joint is stale after this many of its usual experiment intervals without an experiment.
+STALE_FACTOR = 3.0
+
+
+@dataclass(frozen=True)
+class FleetView:
+    """One row of the fleet view: a joint's latest state and what it means for maintenance.
+
+    ``state``: the history's latest state of the joint (:class:`FleetRow`); ``stale``: no
+    experiment for longer than :data:`STALE_FACTOR` usual intervals; ``crossing_time_s``: the
+    forecast crossing as a time [s since the epoch], None when the rate or the crossing is
+    unknown.
+    """
+
+    state: FleetRow
+    stale: bool
+    crossing_time_s: Optional[float]
+
+    def as_json(self) -> dict[str, Any]:
+        """Return the row as a JSON-ready dict (non-finite numbers as null)."""
+        s = self.state
+        return {
+            'robot': s.robot, 'joint': s.joint, 'wear': finite_or_none(s.wear),
+            'wear_low': finite_or_none(s.wear_low), 'wear_high': finite_or_none(s.wear_high),
+            'trend_wear': finite_or_none(s.trend_wear),
+            'trend_low': finite_or_none(s.trend_low),
+            'trend_high': finite_or_none(s.trend_high), 'alarm': bool(s.alarm),
+            'alarm_since_s': finite_or_none(s.alarm_since_stamp_s),
+            'experiments': int(s.experiments), 'last_stamp_s': finite_or_none(s.last_stamp_s),
+            'crossing_experiments': finite_or_none(s.crossing_experiments),
+            'crossing_time_s': self.crossing_time_s,
+            'usual_interval_s': finite_or_none(s.usual_interval_s),
+            'stale': self.stale, 'status_level': int(s.status_level),
+        }
+
+
+def finite_or_none(value: Optional[float]) -> Optional[float]:
+    """Return ``value`` as a float when finite, else None (JSON null)."""
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def fleet_view(states: Iterable[FleetRow], *, now_s: float) -> list[FleetView]:
+    """Return the fleet rows in the history's order (worst first), judged at ``now_s``.
+
+    ``now_s``: the time [s since the epoch] staleness is judged at.
+    """
+    rows = []
+    for state in states:
+        interval = state.usual_interval_s
+        known = math.isfinite(interval) and interval > 0
+        stale = bool(known and now_s - state.last_stamp_s > STALE_FACTOR * interval)
+        crossing_time = None
+        if known and math.isfinite(state.crossing_experiments):
+            crossing_time = state.last_stamp_s + state.crossing_experiments * interval
+        rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time))
+    return sorted(rows, key=lambda row: row.state.rank_key())
+
+
+def iso_time(stamp_s: Optional[float], *, local: bool = False) -> str:
+    """Return a stamp [s since the epoch] as ISO 8601 to the second (UTC unless ``local``)."""
+    if stamp_s is None or not math.isfinite(stamp_s):
+        return '-'
+    moment = datetime.datetime.fromtimestamp(stamp_s, tz=datetime.timezone.utc)
+    if local:
+        moment = moment.astimezone()
+    return moment.isoformat(timespec='seconds').replace('+00:00', 'Z')
+
+
+def _crossing_text(row: FleetView, local: bool) -> str:
+    crossing = row.state.crossing_experiments
+    if not math.isfinite(crossing):
+        return 'not within the forecast horizon'
+    text = f'in {crossing:.0f} experiments'
+    if row.crossing_time_s is not None:
+        text += f' (~{iso_time(row.crossing_time_s, local=local)[:10]})'
+    return text
+
+
+def _wear_text(state: FleetRow) -> str:
+    if not math.isfinite(state.wear):
+        return 'cannot judge'
+    if math.isfinite(state.wear_low) and math.isfinite(state.wear_high):
+        return f'{state.wear:5.1f} [{state.wear_low:5.1f}, {state.wear_high:5.1f}]'
+    return f'{state.wear:5.1f} [interval unknown]'
+
+
+def _trend_text(state: FleetRow) -> str:
+    if not math.isfinite(state.trend_wear):
+        return '-'
+    return f'{state.trend_wear:.1f}'
+
+
+FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
+                 'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
+                 'crossing_date', 'stale')
+
+
+def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
+    """Return the fleet as a text table, one line per robot joint, worst first."""
+    header = ('robot', 'joint', 'w [95 %]', 'trend w', 'alarm', 'forecast crossing',
+              'experiments', 'last experiment', 'stale')
+    lines = []
+    for row in rows:
+        s = row.state
+        alarm = (f'LATCHED since {iso_time(s.alarm_since_stamp_s, local=local)}'
+                 if s.alarm else 'no')
+        lines.append((s.robot, s.joint, _wear_text(s), _trend_text(s), alarm,
+                      _crossing_text(row, local), str(s.experiments),
+                      iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))
+    widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
+              for i, h in enumerate(header)]
+    out = ['  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip()]
+    out += ['  '.join(c.ljust(w) for c, w in zip(line, widths)).rstrip() for line in lines]
+    return '\n'.join(out)
+
+
+def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[list[str]]:
+    """Return the fleet as CSV rows (header first): numbers plain, times ISO 8601."""
+    def number(value: Optional[float]) -> str:
+        return '' if value is None or not math.isfinite(value) else f'{value:.6g}'
+    out = [list(FLEET_COLUMNS)]
+    for row in rows:
+        s = row.state
+        out.append([s.robot, s.joint, number(s.wear), number(s.wear_low), number(s.wear_high),
+                    number(s.trend_wear), 'latched' if s.alarm else 'no',
+                    iso_time(s.alarm_since_stamp_s, local=local) if s.alarm else '',
+                    str(s.experiments), iso_time(s.last_stamp_s, local=local),
+                    number(s.crossing_experiments),
+                    iso_time(row.crossing_time_s, local=local)
+                    if row.crossing_time_s is not None else '',
+                    'yes' if row.stale else 'no'])
+    return out
