@@ -515,9 +515,12 @@ def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, 
     return validate_parameters(node_name, values, source=str(file))
 
 
+#: A history_file with one of these prefixes is a PostgreSQL URL, not a path.
+POSTGRESQL_SCHEMES = ('postgresql://', 'postgres://')
+
+
 def expand_history_path(history_file: str) -> str:
-    """Return the history path with ``~`` and environment variables expanded."""
-    if history_file == ':memory:' or history_file.startswith(('postgresql://',
-                                                                'postgres://')):
+    """Return the history path with ``~`` and environment variables expanded (URLs as given)."""
+    if history_file == ':memory:' or history_file.startswith(POSTGRESQL_SCHEMES):
         return history_file
     return os.path.expandvars(os.path.expanduser(history_file))
