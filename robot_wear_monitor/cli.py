@@ -258,7 +258,7 @@ def _cmd_estimate(args: argparse.Namespace) -> int:
 
     from robot_wear_monitor.estimation.estimator import estimate_wear
     from robot_wear_monitor.estimation.intervals import wear_intervals
-    from robot_wear_monitor.monitoring.service import meaningful_std
+    from robot_wear_monitor.monitoring.diagnostics import meaningful_std
     params = _params_from(args)
     if len(args.speeds) != len(args.friction):
         raise InputError(f'--speeds has {len(args.speeds)} values but --friction has '
@@ -877,7 +877,7 @@ def _cmd_history(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.monitoring.history import WearHistory, write_levels_csv
-    from robot_wear_monitor.monitoring.service import json_number
+    from robot_wear_monitor.monitoring.diagnostics import json_number
 
     if not Path(args.database).is_file():
         raise InputError(f'{args.database}: no such wear history database')
