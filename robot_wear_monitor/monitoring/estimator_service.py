@@ -56,6 +56,8 @@ class EstimatorConfig:
     min_fit_p_value: float = 0.01
     experiment_speeds_rad_s: tuple[float, ...] = ()
     speed_tolerance_rad_s: float = 1.0
+    #: the robot of the joint (``robot_id``; empty: unnamed, the history's ``default``)
+    robot: str = ''
 
     @classmethod
     def from_node_parameters(cls, values: Mapping[str, Any], *,
@@ -72,7 +74,8 @@ class EstimatorConfig:
                                                             DEFAULT_ALARM_PROBABILITY)),
                    wear_warning=values['wear_warning'],
                    min_fit_p_value=values['min_fit_p_value'],
-                   experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']))
+                   experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']),
+                   robot=str(values.get('robot_id', '') or ''))
 
 
 @dataclass(frozen=True)
@@ -555,9 +558,17 @@ class WearEstimatorService:
                             status: DiagnosticReport | None = None) -> Any:
         """Return the DiagnosticArray of ``status`` (the current status when None)."""
         status = status or self.current_status()
+        values = status.values
+        if self.config.robot:
+            values = (('robot', self.config.robot), *values)
         return messages.diagnostics_to_msg(
-            kit, stamp_s=stamp_s, name=self.diagnostic_name(), hardware_id=self.config.joint,
-            level=status.level, message=status.message, values=status.values)
+            kit, stamp_s=stamp_s, name=self.diagnostic_name(), hardware_id=self.hardware_id(),
+            level=status.level, message=status.message, values=values)
+
+    def hardware_id(self) -> str:
+        """Return the DiagnosticStatus hardware_id: ``<robot_id>/<joint>``, or the joint alone."""
+        return f'{self.config.robot}/{self.config.joint}' if self.config.robot \
+            else self.config.joint
 
 
 def _interval_columns(interval: Optional[WearInterval], trend: Optional[TrendEstimate]
