@@ -36,7 +36,9 @@ setup(
         # packages from PyPI (on a ROS 2 host the system's rclpy stands; see package.xml).
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-sensor-msgs', 'ros-jazzy-std-msgs',
                 'ros-jazzy-std-srvs', 'ros-jazzy-diagnostic-msgs', 'ros-jazzy-trajectory-msgs'],
-        'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'flake8>=6',
+        # A wear history on a PostgreSQL server (--history postgresql://...); SQLite needs none.
+        'postgresql': ['psycopg[binary]>=3.1'],
+        'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'flake8>=6', 'psycopg[binary]>=3.1',
                  'flake8-docstrings>=1.7', 'pydocstyle>=6.3',
                  'colcon-common-extensions>=0.3'],
     },

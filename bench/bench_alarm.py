@@ -22,6 +22,8 @@ every path capped at 100.  The "random variations" of the paper's wear profile d
 simulated as a per-experiment variation of the wear that enters the friction (sd as given,
 clipped to [0, 100]): noise of the wear profile, not wear; the truth the metrics and the
 coverage use is the monotone path.
+Both rules are :class:`robot_wear_monitor.estimation.alarm.AlarmPolicy` (the rule the nodes latch),
+judged per experiment without the latch; the paper's rule without the CUSUM evidence (h = 0).
 Per experiment: temperature clip(40 + A sin(2 pi tau / P + phi) + N(0, 2^2), 30, 50) with A in
 U(4, 10), P in U(20, 60) per run; load N(0.5, 0.1^2) per experiment (shared by its N levels);
 friction levels = the project's model (8) (``robot_wear_monitor.model.friction.friction``) at
@@ -49,10 +51,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from robot_wear_monitor.estimation.alarm import (  # noqa: E402
+    AlarmPolicy, DEFAULT_ALARM_PROBABILITY, WEAR_HEALTHY, WEAR_THRESHOLD)
 from robot_wear_monitor.estimation.estimator import estimate_wear  # noqa: E402
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood  # noqa: E402
-from robot_wear_monitor.estimation.trend import (  # noqa: E402
-    DEFAULT_ALARM_PROBABILITY, TrendAlarmPolicy, TrendConfig, filter_batch)
+from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig  # noqa: E402
 from robot_wear_monitor.model import friction as fm  # noqa: E402
 from robot_wear_monitor.model.params import load_parameter_set  # noqa: E402
 
@@ -61,8 +64,8 @@ SCENARIOS = ('0 late exp', '1 rise 56%', '2 steep 106%')
 EXPERIMENTS = 110
 INTERVAL_S = 3600.0
 WINDOW_AFTER = 10
-THRESHOLD = 35.0
-HEALTHY = 25.0
+THRESHOLD = WEAR_THRESHOLD
+HEALTHY = WEAR_HEALTHY
 
 
 def wear_path(scenario: int, tau: np.ndarray) -> tuple[np.ndarray, float]:
@@ -134,12 +137,14 @@ def run(runs: int, seed: int, probabilities: list[float], config: TrendConfig) -
                                  log_likelihood=ll.reshape(runs, EXPERIMENTS, -1),
                                  config=config)
             base = {'scenario': SCENARIOS[scenario], 'n': n}
+            paper = AlarmPolicy(threshold=THRESHOLD, healthy=HEALTHY, rule='estimate')
             rows.append({**base, 'rule': 'w-hat >= 35',
-                         **alarm_metrics(w_hat >= THRESHOLD, sim['wear'])})
+                         **alarm_metrics(paper.decide(wear=w_hat), sim['wear'])})
             inside = ((trend.wear_low <= sim['wear']) & (sim['wear'] <= trend.wear_high))
             for p in probabilities:
-                alarm = TrendAlarmPolicy(probability=p).decide_batch(
-                    trend.probability_above_threshold)
+                alarm = AlarmPolicy(threshold=THRESHOLD, healthy=HEALTHY, rule='trend',
+                                    probability=p).decide(
+                    probability_above_threshold=trend.probability_above_threshold)
                 rows.append({**base, 'rule': f'P(w>=35) >= {p:g}',
                              'coverage': 100.0 * inside.mean(),
                              **alarm_metrics(alarm, sim['wear'])})

@@ -25,7 +25,7 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.monitoring.history import WearHistory, write_levels_csv
-    from robot_wear_monitor.monitoring.service import json_number
+    from robot_wear_monitor.monitoring.diagnostics import json_number
 
     if not Path(args.database).is_file():
         raise InputError(f'{args.database}: no such wear history database')

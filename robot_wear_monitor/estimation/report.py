@@ -4,18 +4,20 @@
 set of friction levels and returns a :class:`WearReport`; :meth:`WearReport.to_dict` is the
 JSON object of ``robot-wear-monitor estimate --json`` (NaN and inf as null).
 :func:`meaningful_std` decides whether the inverse-Fisher standard deviation of w-hat describes
-its uncertainty or only the interval does.
+its uncertainty or only the interval does (the monitoring services use it too, through
+:mod:`robot_wear_monitor.monitoring.diagnostics`).  Importing this module loads no scipy.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-from typing import Any, Optional, Sequence
+from typing import Any, Optional, Sequence, TYPE_CHECKING
 
-from robot_wear_monitor.estimation.estimator import estimate_wear, WearEstimate
-from robot_wear_monitor.estimation.intervals import wear_intervals, WearInterval
-from robot_wear_monitor.model.params import ParameterSet
+if TYPE_CHECKING:  # the estimator and intervals load scipy: imported where used
+    from robot_wear_monitor.estimation.estimator import WearEstimate
+    from robot_wear_monitor.estimation.intervals import WearInterval
+    from robot_wear_monitor.model.params import ParameterSet
 
 
 def meaningful_std(*, std: float, value: float, low: float, high: float,
@@ -96,6 +98,8 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
         params: the parameter set (model, bounds, thresholds).
 
     """
+    from robot_wear_monitor.estimation.estimator import estimate_wear
+    from robot_wear_monitor.estimation.intervals import wear_intervals
     estimates = estimate_wear(speeds_rad_s, frictions, params=params)
     est = estimates[0]
     interval = wear_intervals(speeds_rad_s, frictions, params=params, estimates=estimates)[0]

@@ -51,14 +51,8 @@ forecast is one matrix-vector product (about 0.5 ms).  Its quantiles
 give the remaining experiments (median and 95 % interval, ``inf`` beyond the horizon) and, at the
 recent spacing, the crossing time [s].
 
-Alarm (:class:`TrendAlarmPolicy`): raise when the posterior P(w >= threshold) >= p.  p = 0.15 was
-chosen with ``bench/bench_alarm.py`` (simulated accelerated wear tests of the paper's three
-scenario shapes, N = 1, 2, 4, 100 runs each): against the paper's single threshold on each
-estimate (w-hat >= 35) it has fewer or as many false alarms while the true w < 25 in every
-scenario and N (in total 23 against 85 runs; 13 % against 48 % in the worst case, scenario 2
-with N = 1) and a smaller mean detection delay overall (0.20 against 0.25 experiments), but a
-larger one on the steep scenario 2 (0.18-0.33 against 0.03-0.11), where the single threshold
-gains its speed from early alarms in the 25-35 band (40-84 % of its runs).
+Alarm: the trend's P(w >= threshold) feeds the ``trend`` rule of
+:mod:`robot_wear_monitor.estimation.alarm` (which also holds the threshold's default).
 """
 
 from __future__ import annotations
@@ -72,14 +66,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
 from robot_wear_monitor.estimation.intervals import wear_grid
 
 FloatArray = NDArray[np.float64]
 
 _LOG_FLOOR = -1e30  # stands for log 0 (-inf) in the interpolation of the rows
-
-#: Default alarm probability of :class:`TrendAlarmPolicy`, chosen by ``bench/bench_alarm.py``.
-DEFAULT_ALARM_PROBABILITY = 0.15
 
 
 @dataclass(frozen=True)
@@ -90,7 +82,7 @@ class TrendConfig:
         wear_grid: strictly increasing wear grid starting at >= 0, shape (G,), G >= 3; the
             likelihood rows must be given on it (default: ``intervals.wear_grid()``, 0 .. 150,
             321 points).
-        threshold: alarm threshold of w (the paper's 35).
+        threshold: alarm threshold of w (default: the paper's 35, ``alarm.WEAR_THRESHOLD``).
         initial_wear_scale: scale of the half-normal new-joint prior of w [w].
         initial_rate_mean: mean of the (exponential) new-joint prior of the rate [w/experiment].
         rate_offset: r0 of the log-rate random walk u = log(r + r0) [w/experiment].
@@ -111,7 +103,7 @@ class TrendConfig:
     """
 
     wear_grid: FloatArray = field(default_factory=wear_grid)
-    threshold: float = 35.0
+    threshold: float = WEAR_THRESHOLD
     initial_wear_scale: float = 4.0
     initial_rate_mean: float = 0.02
     rate_offset: float = 0.02
@@ -642,30 +634,3 @@ def filter_batch(*, times_s: ArrayLike, log_likelihood: ArrayLike,
         out[3, :, j] = flt.probability_above(cfg.threshold)
     return TrendBatch(wear=out[0], wear_low=out[1], wear_high=out[2],
                       probability_above_threshold=out[3])
-
-
-@dataclass(frozen=True)
-class TrendAlarmPolicy:
-    """Raise the wear alarm when the trend's posterior P(w >= threshold) reaches a probability.
-
-    Attributes:
-        probability: alarm when ``probability_above_threshold >= probability`` (0 < p < 1);
-            default chosen by ``bench/bench_alarm.py``.
-
-    """
-
-    probability: float = DEFAULT_ALARM_PROBABILITY
-
-    def __post_init__(self) -> None:
-        """Reject a probability outside (0, 1)."""
-        if not 0.0 < self.probability < 1.0:
-            raise InputError(f'trend alarm: probability must be in (0, 1), got '
-                             f'{self.probability}')
-
-    def decide(self, estimate: TrendEstimate) -> bool:
-        """Return True when this trend estimate calls for the (latched) wear alarm."""
-        return bool(estimate.probability_above_threshold >= self.probability)
-
-    def decide_batch(self, probability_above_threshold: ArrayLike) -> NDArray[np.bool_]:
-        """Return the decision for an array of P(w >= threshold) values (any shape)."""
-        return np.asarray(probability_above_threshold, dtype=float) >= self.probability

@@ -1,1 +1,1 @@
-"""The monitoring service the nodes and the replay share, history, node config."""
+"""The monitoring services the nodes and the replay share, diagnostics, history, node config."""

@@ -4,9 +4,9 @@ The nodes and the replay share these objects.  A node (or a replay) monitors the
 its ``joints`` parameter, or every joint that appears with ``joints: [all]``, or the one
 ``joint`` when ``joints`` is empty (the single-joint layout of the first version, unchanged).
 Each joint gets its own
-:class:`~robot_wear_monitor.monitoring.service.FrictionExperimentService` and
-:class:`~robot_wear_monitor.monitoring.service.WearEstimatorService`, built from the node's
-parameters with the joint's ``<joint>.<name>`` values over them
+:class:`~robot_wear_monitor.monitoring.experiment_service.FrictionExperimentService` and
+:class:`~robot_wear_monitor.monitoring.estimator_service.WearEstimatorService`, built from the
+node's parameters with the joint's ``<joint>.<name>`` values over them
 (:func:`~robot_wear_monitor.monitoring.node_config.joint_parameters`); the estimators share one
 history (rows keyed by joint).
 
@@ -25,14 +25,15 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment
 from robot_wear_monitor.model.params import ParameterError
+from robot_wear_monitor.monitoring.estimator_service import (EstimatorConfig, WearEstimatorService,
+                                                             WearUpdate)
+from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE, joint_namespace,
                                                        joint_parameters, monitored_joints,
                                                        per_joint_outputs, WEAR_ESTIMATOR_NODE)
-from robot_wear_monitor.monitoring.service import (EstimatorConfig, FRICTION_LEVELS_TOPIC,
-                                                   OUTPUT_TOPICS,
-                                                   FrictionExperimentService, RESET_SERVICE,
-                                                   WearEstimatorService, WearUpdate)
+from robot_wear_monitor.monitoring.topics import (FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS,
+                                                  RESET_SERVICE)
 from robot_wear_monitor.recordings.messages import MessageKit
 
 ParametersFor = Callable[[str], Mapping[str, Any]]

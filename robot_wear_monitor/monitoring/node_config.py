@@ -17,6 +17,9 @@ from typing import Any, Callable, Mapping, Optional
 
 import yaml
 
+from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
+                                                 DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
+                                                 WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
@@ -26,6 +29,10 @@ NODE_CONFIG_FILE = 'wear_monitor.yaml'
 
 #: N = 4 discrete optimum of Table V [rad/s], the experiment the demo scenario runs.
 DEFAULT_EXPERIMENT_SPEEDS_RAD_S = (2.1, 28.5, 35.1, 41.7)
+
+#: A pause longer than this [s] between two friction levels ends an experiment (the default of
+#: ``idle_gap_s`` and of the friction experiment service).
+IDLE_GAP_S = 3.0
 
 PARAMETER_TYPES = ('bool', 'integer', 'double', 'string', 'double_array', 'string_array')
 
@@ -74,7 +81,8 @@ def _open_probability(value: float) -> Optional[str]:
 
 
 def _alarm_rule(value: str) -> Optional[str]:
-    return None if value in ('trend', 'estimate') else 'must be "trend" or "estimate"'
+    return None if value in ALARM_RULES else 'must be ' + ' or '.join(
+        f'"{rule}"' for rule in ALARM_RULES)
 
 
 def _at_least_3(value: int) -> Optional[str]:
@@ -152,7 +160,7 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('experiment_speed_tolerance_rad_s', 'double', 1.0,
                   'a level belongs to an experiment speed within this tolerance, motor side '
                   '[rad/s]', _positive),
-    ParameterSpec('idle_gap_s', 'double', 3.0,
+    ParameterSpec('idle_gap_s', 'double', IDLE_GAP_S,
                   'a pause longer than this between two friction levels ends an experiment '
                   '[s] (levels of one experiment come about 1 s apart)', _positive),
     ParameterSpec('standstill_speed_rad_s', 'double', 0.1,
@@ -191,24 +199,24 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINTS,
     ParameterSpec('parameter_set_file', 'string', '',
                   'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
-    ParameterSpec('wear_threshold', 'double', 35.0,
+    ParameterSpec('wear_threshold', 'double', WEAR_THRESHOLD,
                   'alarm level of the wear w [-]: the alarm is raised by an estimate >= it',
                   _positive),
-    ParameterSpec('wear_warning', 'double', 28.0,
+    ParameterSpec('wear_warning', 'double', WEAR_WARNING,
                   'diagnostics WARN when the wear estimate reaches this level [-]',
                   _non_negative),
-    ParameterSpec('wear_healthy', 'double', 25.0,
+    ParameterSpec('wear_healthy', 'double', WEAR_HEALTHY,
                   'wear level that must not raise an alarm [-]; the evidence test weighs each '
                   'estimate between this level and the threshold', _non_negative),
-    ParameterSpec('alarm_evidence', 'double', 0.0,
+    ParameterSpec('alarm_evidence', 'double', DEFAULT_ALARM_EVIDENCE,
                   'CUSUM log-likelihood ratio (worn vs healthy) an estimate >= wear_threshold '
                   'also needs to raise the alarm [-]; 0: the paper\'s rule, one estimate >= '
                   'the threshold is enough', _non_negative),
-    ParameterSpec('alarm_rule', 'string', 'trend',
+    ParameterSpec('alarm_rule', 'string', DEFAULT_ALARM_RULE,
                   'what raises the wear alarm: "trend" (the filtered trend\'s P(w >= '
                   'wear_threshold) reaches alarm_probability) or "estimate" (the paper\'s rule: '
                   'one estimate >= wear_threshold, with alarm_evidence)', _alarm_rule),
-    ParameterSpec('alarm_probability', 'double', 0.15,
+    ParameterSpec('alarm_probability', 'double', DEFAULT_ALARM_PROBABILITY,
                   'with alarm_rule "trend": the posterior probability of w >= wear_threshold '
                   'that raises the alarm [-]', _open_probability),
     ParameterSpec('min_fit_p_value', 'double', 0.01,

@@ -24,16 +24,18 @@ import os
 from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence
 
-from robot_wear_monitor.recordings.bags import atomic_bag_writer, iter_joint_chunks, TYPESTORE
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.monitoring.diagnostics import json_number
+from robot_wear_monitor.monitoring.estimator_service import WearUpdate
+from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
+                                                              FrictionExperimentService)
 from robot_wear_monitor.monitoring.history import WearHistory
-from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
+from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
-from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
-from robot_wear_monitor.monitoring.service import (explain_no_experiment, FRICTION_LEVELS_TOPIC,
-                                                   FrictionExperimentService, json_number,
-                                                   OUTPUT_TOPICS, WearUpdate)
+from robot_wear_monitor.monitoring.topics import FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS
+from robot_wear_monitor.recordings.bags import atomic_bag_writer, iter_joint_chunks, TYPESTORE
+from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
 
 KIT = rosbags_kit(TYPESTORE)
 

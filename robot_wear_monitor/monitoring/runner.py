@@ -29,7 +29,7 @@ from robot_wear_monitor.experiment.planning import (ExperimentPlan, PlanConfig, 
                                                     plan_experiment, trajectory_points,
                                                     TrajectoryPoints)
 from robot_wear_monitor.model.params import ParameterError
-from robot_wear_monitor.monitoring.service import DiagnosticReport
+from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
                                                     ExperimentEvent)
 

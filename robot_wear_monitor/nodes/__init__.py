@@ -1,4 +1,4 @@
-"""The rclpy nodes of the wear monitor: thin shells over ``robot_wear_monitor.monitoring.service``.
+"""The rclpy nodes of the wear monitor: thin shells over the services of ``monitoring/``.
 
 Only the modules of this package import rclpy and the ROS message packages.  Importing the
 package itself imports nothing from ROS, so the core stays usable without it.
@@ -118,7 +118,7 @@ def node_time_s(node: Any) -> float:
 
 
 def log_rejection_report(logger: Any, report: tuple[str, bool] | None) -> None:
-    """Log a :class:`~robot_wear_monitor.monitoring.service.RejectionLog` report, if any.
+    """Log a :class:`~robot_wear_monitor.monitoring.diagnostics.RejectionLog` report, if any.
 
     Malformed inputs are logged as WARN, the routine rejections of the protocol as INFO (one
     call site per severity: rclpy refuses a call site that changes its severity).

@@ -1,8 +1,8 @@
 """friction_experiment_node: /joint_states -> friction_levels, one message per experiment.
 
 Segments the monitored joint(s) into constant-speed friction levels (eq. (3)) and experiments
-with one :class:`robot_wear_monitor.monitoring.service.FrictionExperimentService` per joint
-(:class:`~robot_wear_monitor.monitoring.joints.FrictionExperimentFleet`: ``joint``, or
+with one :class:`robot_wear_monitor.monitoring.experiment_service.FrictionExperimentService` per
+joint (:class:`~robot_wear_monitor.monitoring.joints.FrictionExperimentFleet`: ``joint``, or
 ``joints``, or ``joints: [all]`` for every joint that appears; per-joint values as
 ``<joint>.<name>`` parameters), and publishes each completed experiment on ``friction_levels``
 (sensor_msgs/JointState: ``velocity`` = speed levels [rad/s], ``effort`` = friction levels,
@@ -20,17 +20,18 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from robot_wear_monitor.monitoring.diagnostics import RejectionLog
+from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, rejections_by_joint
-from robot_wear_monitor.recordings.messages import stamp_to_seconds
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
                                                        validate_parameters)
+from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC
 from robot_wear_monitor.nodes import (declare_joint_parameters, declare_parameters,
                                       log_rejection_report, message_kit, node_time_s, spin_node)
 from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
                                           FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
-from robot_wear_monitor.monitoring.service import (DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC,
-                                                   FrictionExperimentService, RejectionLog)
+from robot_wear_monitor.recordings.messages import stamp_to_seconds
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0

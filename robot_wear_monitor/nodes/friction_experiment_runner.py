@@ -24,7 +24,7 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_RUNNE
 from robot_wear_monitor.monitoring.runner import (ABORT_SERVICE, ExperimentRunner,
                                                   RUNNER_STATUS_NAME, runner_config,
                                                   START_SERVICE)
-from robot_wear_monitor.monitoring.service import DIAGNOSTICS_TOPIC
+from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC
 from robot_wear_monitor.nodes import declare_parameters, message_kit, node_time_s, spin_node
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS, TRAJECTORY_QOS
 from robot_wear_monitor.recordings.messages import (diagnostics_to_msg, EXPERIMENT_EVENTS_TOPIC,

@@ -1,7 +1,8 @@
 """wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagnostics.
 
-A thin shell over :class:`robot_wear_monitor.monitoring.service.WearEstimatorService`, one per
-monitored joint (:class:`~robot_wear_monitor.monitoring.joints.WearEstimatorFleet`; the
+A thin shell over
+:class:`robot_wear_monitor.monitoring.estimator_service.WearEstimatorService`, one per monitored
+joint (:class:`~robot_wear_monitor.monitoring.joints.WearEstimatorFleet`; the
 ``friction_levels`` of a joint go to its estimator by ``header.frame_id``): every completed
 experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
 late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger; with
@@ -17,21 +18,22 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
+from robot_wear_monitor.monitoring.diagnostics import RejectionLog
+from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.joints import (output_topic, rejections_by_joint,
                                                   reset_service_name, WearEstimatorFleet)
-from robot_wear_monitor.recordings.messages import alarm_to_msg
 from robot_wear_monitor.monitoring.node_config import (expand_history_path, per_joint_outputs,
                                                        validate_parameters, WEAR_ESTIMATOR_NODE,
                                                        WEAR_ESTIMATOR_PARAMETERS)
+from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
+                                                  FRICTION_LEVELS_TOPIC, TEMPERATURE_TOPIC,
+                                                  TREND_TOPIC, WEAR_TOPIC)
 from robot_wear_monitor.nodes import (declare_joint_parameters, declare_parameters,
                                       log_rejection_report, message_kit, node_time_s, spin_node)
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
-from robot_wear_monitor.monitoring.service import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
-                                                   FRICTION_LEVELS_TOPIC, RejectionLog,
-                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC,
-                                                   WearEstimatorService)
+from robot_wear_monitor.recordings.messages import alarm_to_msg
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0

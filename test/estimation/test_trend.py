@@ -1,4 +1,4 @@
-"""Tests of the wear trend filter and the trend alarm policy.
+"""Tests of the wear trend filter and the trend alarm rule on it.
 
 Friction data come from the independent generator (``independent_robot.friction_model``, which
 shares no code with the package) at the Table V speeds, with one load N(0.5, 0.1) per experiment,
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood
-from robot_wear_monitor.estimation.trend import (
-    DEFAULT_ALARM_PROBABILITY, filter_batch, TrendAlarmPolicy, TrendConfig, WearTrend)
+from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig, WearTrend
 from robot_wear_monitor.model.params import load_parameter_set
 
 SPEEDS = robot.TABLE_V_SPEEDS_RAD_S
@@ -166,20 +166,12 @@ def test_alarm_policy_quiet_while_healthy_and_prompt_after_crossing(shape):
     truth = scenario_path(shape, k.astype(float))
     rows = likelihood_rows(truth, seed=20 + shape)
     trend = WearTrend(TrendConfig(forecast_horizon=5))  # the forecast plays no part here
-    policy = TrendAlarmPolicy()
-    alarms = np.array([policy.decide(trend.update(time_s=float(t), log_likelihood=rows[t]))
-                       for t in k])
+    policy = AlarmPolicy(rule='trend')  # the default probability
+    alarms = np.array([policy.decide(probability_above_threshold=trend.update(
+        time_s=float(t), log_likelihood=rows[t]).probability_above_threshold) for t in k])
     assert not np.any(alarms[truth < 25.0])
     crossing = int(np.argmax(truth >= 35.0))
     assert np.any(alarms[crossing:crossing + 3])  # within 2 experiments of the crossing
-
-
-def test_alarm_policy_validation_and_batch():
-    assert TrendAlarmPolicy().probability == DEFAULT_ALARM_PROBABILITY
-    with pytest.raises(InputError):
-        TrendAlarmPolicy(probability=1.0)
-    np.testing.assert_array_equal(TrendAlarmPolicy(probability=0.5).decide_batch([0.2, 0.5]),
-                                  [False, True])
 
 
 def test_bad_inputs_are_rejected():

@@ -13,7 +13,7 @@ from rosbags.typesys import get_typestore, Stores
 from robot_wear_monitor import cli
 from robot_wear_monitor.recordings.bags import BagError, write_joint_state_bag
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
-from robot_wear_monitor.monitoring.service import OUTPUT_TOPICS
+from robot_wear_monitor.monitoring.topics import OUTPUT_TOPICS
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, simulate_scenario,
                                                       truth_path_for, write_truth_json)
 
@@ -206,7 +206,7 @@ def test_existing_output_is_not_replaced_without_overwrite(small_bag, tmp_path, 
 
 def test_batch_replay_path_equals_the_streaming_node_path(tmp_path):
     """Replay segments a recording in one batch; the node feeds samples one by one: same result."""
-    from robot_wear_monitor.monitoring.service import FrictionExperimentService
+    from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
     experiment_params, _ = replay_parameters(joint='joint_2', gear_ratio=150.0,
                                              torque_scale=10.0)
     scenario = simulate_scenario(

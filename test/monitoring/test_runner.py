@@ -21,7 +21,7 @@ from robot_wear_monitor.experiment.planning import (PlanConfig, plan_experiment,
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config
 from robot_wear_monitor.monitoring.runner import ExperimentRunner, runner_config
-from robot_wear_monitor.monitoring.service import FrictionExperimentService
+from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.recordings import messages
 from trajectory_follower import JointTruth, SimulatedArm
 

@@ -1,0 +1,31 @@
+"""Wear history of a fleet: every estimate and alarm event per robot and joint, and the fleet view.
+
+One store behind one interface, :class:`WearHistory` (:func:`open_history`): an SQLite file
+(the default; WAL, ``synchronous=FULL``) or a PostgreSQL database (``postgresql://`` URL,
+psycopg 3).  One transaction per experiment (the estimate row and its alarm events together),
+so a killed process loses nothing that was reported; the experiment's identity (robot, joint,
+end stamp) is a unique key, so a re-run of a recording or a concurrent writer adds nothing.  On
+start the estimator restores its trend, its latched alarm and the evidence of the alarm test per
+robot and joint from here.  A ``schema_version`` table guards the layout (version 3); an older
+history is migrated in place when opened (``migrations.py``: version 2 -> 3 gives the old rows
+the robot the history is opened for, else ``default``), so a file that loads today loads
+tomorrow; a database that is not a wear history is refused and left untouched.
+
+Modules: ``records`` (the row types), ``migrations`` (the layout per version and backend),
+``backends`` (SQLite and PostgreSQL connections), ``store`` (:class:`WearHistory`),
+``levels_csv`` (export for ``audit``).
+"""
+
+from robot_wear_monitor.monitoring.history.backends import is_postgresql_url, redact_url
+from robot_wear_monitor.monitoring.history.levels_csv import LEVEL_CSV_COLUMNS, write_levels_csv
+from robot_wear_monitor.monitoring.history.migrations import (
+    POSTGRESQL_MIGRATIONS, SCHEMA_VERSION, SQLITE_MIGRATIONS)
+from robot_wear_monitor.monitoring.history.records import (
+    AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
+    RestoredState)
+from robot_wear_monitor.monitoring.history.store import open_history, WearHistory
+
+__all__ = ['AlarmEvent', 'DEFAULT_ROBOT', 'FleetRow', 'HistoryError', 'HistoryRecord',
+           'INTERVAL_COLUMNS', 'is_postgresql_url', 'LEVEL_CSV_COLUMNS', 'open_history',
+           'POSTGRESQL_MIGRATIONS', 'redact_url', 'RestoredState', 'SCHEMA_VERSION',
+           'SQLITE_MIGRATIONS', 'WearHistory', 'write_levels_csv']

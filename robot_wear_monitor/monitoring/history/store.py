@@ -1,0 +1,380 @@
+"""The wear history of a fleet: every estimate and alarm event of every robot's joints.
+
+:class:`WearHistory` stores and reads the rows the same way on both backends (an SQLite file or
+a PostgreSQL database, see ``backends.py``): one transaction per experiment (the estimate and
+its alarm events together), the experiment's identity (robot, joint, end stamp) as a unique
+key so that a re-run of a recording or a concurrent writer adds nothing, the trend and latched
+alarm of each robot's joint restored from here, and the fleet's latest state per joint.  Opening
+migrates an older layout in place (``migrations.py``) and refuses a database that is not a wear
+history, leaving it untouched.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+import json
+import math
+import os
+import time
+from typing import Any, Iterator, Optional, Sequence
+
+from robot_wear_monitor.monitoring.history.backends import (
+    is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend, SqliteBackend)
+from robot_wear_monitor.monitoring.history.migrations import SCHEMA_VERSION, TABLES
+from robot_wear_monitor.monitoring.history.records import (
+    AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
+    RestoredState)
+
+_RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions',
+                   'temperature_degc', 'temperature_std_degc', 'wear', 'wear_std', 'chi2',
+                   'dof', 'p_value', 'temperature_at_bound', 'wear_at_bound', 'alarm_active',
+                   'alarm_evidence', 'status_level', 'parameter_set', *INTERVAL_COLUMNS)
+_EVENT_COLUMNS = 'robot, joint, stamp_s, event, wear, note, estimate_id'
+
+
+def _finite_or_none(value: Optional[float]) -> Optional[float]:
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _nan_if_none(value: Optional[float]) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _check_name(what: str, value: Any) -> str:
+    if not isinstance(value, str) or not value or '\x00' in value:
+        raise HistoryError(f'the {what} name must be a non-empty text without NUL, got '
+                           f'{str(value)[:80]!r}')
+    return value
+
+
+def _record_from_row(row: Sequence[Any]) -> HistoryRecord:
+    return HistoryRecord(
+        id=int(row[0]), robot=row[1], joint=row[2], stamp_s=float(row[3]),
+        speeds_rad_s=tuple(json.loads(row[4])), frictions=tuple(json.loads(row[5])),
+        temperature_degc=float(row[6]), temperature_std_degc=_nan_if_none(row[7]),
+        wear=float(row[8]), wear_std=_nan_if_none(row[9]), chi2=_nan_if_none(row[10]),
+        dof=int(row[11]), p_value=_nan_if_none(row[12]), temperature_at_bound=bool(row[13]),
+        wear_at_bound=bool(row[14]), alarm_active=bool(row[15]),
+        alarm_evidence=float(row[16]), status_level=int(row[17]), parameter_set=row[18],
+        **{c: _nan_if_none(v) for c, v in zip(INTERVAL_COLUMNS, row[19:])})
+
+
+def _event_from_row(row: Sequence[Any]) -> AlarmEvent:
+    return AlarmEvent(robot=row[0], joint=row[1], stamp_s=float(row[2]), event=row[3],
+                      wear=None if row[4] is None else float(row[4]), note=row[5],
+                      estimate_id=None if row[6] is None else int(row[6]))
+
+
+class WearHistory:
+    """The wear history of one or more robots' joints, in SQLite or PostgreSQL.
+
+    Args:
+        location: an SQLite file path (``':memory:'`` for a history that is not kept) or a
+            PostgreSQL URL ``postgresql://USER[:PASSWORD]@HOST:PORT/DB``.
+        robot: the robot of the calls that name none, and of the rows of a version-2 history
+            migrated on open (default ``'default'``).
+        init: None (default): create a missing SQLite file or initialise an empty PostgreSQL
+            database; True: also initialise an existing empty SQLite file, or add the tables
+            to a PostgreSQL database that holds other tables; False: never create anything
+            (read an existing history only).
+
+    Raises :class:`HistoryError` (an :class:`~robot_wear_monitor.errors.InputError`, one line
+    naming the history) when the history cannot be opened, is not a wear history, has a newer
+    layout, or when its server goes away; what was committed before stays.
+    """
+
+    def __init__(self, location: str | os.PathLike, *, robot: Optional[str] = None,
+                 init: Optional[bool] = None) -> None:
+        """Open (and create or migrate) the history at ``location``."""
+        self.robot = _check_name('robot', robot if robot is not None else DEFAULT_ROBOT)
+        if is_postgresql_url(location):
+            self._backend: Any = PostgresqlBackend(str(location))
+        else:
+            self._backend = SqliteBackend(location, init=init)
+        #: The history's name in messages (a path, or the URL without its password).
+        self.path = self._backend.name
+        try:
+            with self._guard('cannot open the wear history'):
+                self._migrate(init=init)
+        except BaseException:
+            self._backend.close()
+            raise
+
+    @property
+    def backend(self) -> str:
+        """Return ``'sqlite'`` or ``'postgresql'``."""
+        return self._backend.kind
+
+    # ------------------------------------------------------------------ plumbing
+
+    @contextmanager
+    def _guard(self, what: str) -> Iterator[None]:
+        """Turn the backend's errors into one-line :class:`HistoryError` naming the history."""
+        try:
+            yield
+        except HistoryError:
+            raise
+        except self._backend.errors as error:
+            describe = getattr(self._backend, 'describe', None)
+            reason = describe(error) if describe else str(error).strip().splitlines()[0]
+            raise HistoryError(f'{self.path}: {what}: {reason}') from None
+
+    def _migrate(self, *, init: Optional[bool]) -> None:
+        """Bring the layout to :data:`SCHEMA_VERSION` in one transaction (or refuse it)."""
+        backend = self._backend
+        if self._stored_version(backend.tables()) == SCHEMA_VERSION:
+            return  # the usual case: no write, no lock (a read-only history opens too)
+        with backend.transaction():
+            backend.lock_migration()
+            tables = backend.tables()
+            version = self._stored_version(tables)
+            if version is None:
+                if tables & set(TABLES) or (tables and backend.kind == 'sqlite'):
+                    raise HistoryError(not_ours_message(self.path, tables))
+                if tables and not init:
+                    raise HistoryError(f'{self.path}: the database holds other tables and no '
+                                       'wear history; give --init to add the history to it')
+                version = 0
+            if version == 0 and init is False:
+                raise HistoryError(f'{self.path}: holds no wear history')
+            if version == SCHEMA_VERSION:
+                return
+            if version > SCHEMA_VERSION:
+                raise HistoryError(f'{self.path}: wear history schema version {version}, '
+                                   f'this version reads {SCHEMA_VERSION}')
+            if version and version < min(backend.migrations):
+                raise HistoryError(f'{self.path}: wear history schema version {version} is '
+                                   f'not known to the {backend.kind} store')
+            for step_version in sorted(v for v in backend.migrations if v > version):
+                for step in backend.migrations[step_version]:
+                    if step.startswith('CREATE TABLE schema_version') and \
+                            'schema_version' in tables:
+                        continue  # a new SQLite file comes with it (see backends.py)
+                    backend.execute(step, {'robot': self.robot} if ':robot' in step else ())
+            if backend.execute('SELECT version FROM schema_version'):
+                backend.execute('UPDATE schema_version SET version = ?', (SCHEMA_VERSION,))
+            else:
+                backend.execute('INSERT INTO schema_version (version) VALUES (?)',
+                                (SCHEMA_VERSION,))
+
+    def _stored_version(self, tables: set[str]) -> Optional[int]:
+        """Return the layout version (0 for a new history; None when not ours)."""
+        if 'schema_version' not in tables:
+            return None
+        rows = self._backend.execute('SELECT version FROM schema_version')
+        if rows:
+            return int(rows[0][0])
+        if 'estimates' not in tables:
+            return 0  # a new history, or the start of one another process makes
+        # a history of the first releases, whose writer died before it stored its version
+        columns = self._backend.columns('estimates')
+        return 3 if 'robot' in columns else 2 if 'wear_low' in columns else 1
+
+    def close(self) -> None:
+        """Close the history (SQLite: a WAL checkpoint folds the log into the file)."""
+        self._backend.close()
+
+    def __enter__(self) -> 'WearHistory':
+        """Return self."""
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        """Close the history."""
+        self.close()
+
+    def _robot(self, robot: Optional[str]) -> str:
+        return self.robot if robot is None else _check_name('robot', robot)
+
+    # ------------------------------------------------------------------ writing
+
+    def append(self, record: HistoryRecord, *,
+               events: Sequence[AlarmEvent] = ()) -> Optional[int]:
+        """Store one estimate and its alarm events in one transaction; return the estimate id.
+
+        Returns None, storing nothing, when the history already holds that experiment (same
+        robot, joint and end stamp, see :meth:`find_estimate`): the unique key makes the check
+        and the insert one step, so writers at once never store an experiment twice.
+        """
+        robot = self._robot(record.robot)
+        joint = _check_name('joint', record.joint)
+        values = (robot, joint, float(record.stamp_s), time.time(),
+                  json.dumps([float(v) for v in record.speeds_rad_s]),
+                  json.dumps([float(f) for f in record.frictions]),
+                  float(record.temperature_degc), _finite_or_none(record.temperature_std_degc),
+                  float(record.wear), _finite_or_none(record.wear_std),
+                  _finite_or_none(record.chi2), int(record.dof), _finite_or_none(record.p_value),
+                  int(bool(record.temperature_at_bound)), int(bool(record.wear_at_bound)),
+                  int(bool(record.alarm_active)), float(record.alarm_evidence),
+                  int(record.status_level), record.parameter_set,
+                  *(_finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS))
+        columns = ('robot', 'joint', 'stamp_s', 'wall_time_s', *_RECORD_COLUMNS[4:])
+        with self._guard('cannot store the estimate'), self._backend.transaction():
+            if self.find_estimate(joint=joint, stamp_s=record.stamp_s, robot=robot) is not None:
+                return None
+            rows = self._backend.execute(
+                f'INSERT INTO estimates ({", ".join(columns)}) VALUES '
+                f'({", ".join("?" * len(columns))}) '
+                'ON CONFLICT (robot, joint, stamp_s) DO NOTHING RETURNING id', values)
+            if not rows:
+                return None
+            estimate_id = int(rows[0][0])
+            for event in events:
+                self._insert_event(event, estimate_id)
+        return estimate_id
+
+    def record_event(self, event: AlarmEvent) -> None:
+        """Store an alarm event on its own (a reset after maintenance)."""
+        with self._guard('cannot store the alarm event'), self._backend.transaction():
+            self._insert_event(event, event.estimate_id)
+
+    def _insert_event(self, event: AlarmEvent, estimate_id: Optional[int]) -> None:
+        if event.event not in ('raised', 'reset'):
+            raise HistoryError(f'{self.path}: alarm event must be raised or reset, got '
+                               f'{str(event.event)[:80]!r}')
+        self._backend.execute(
+            'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
+            'estimate_id, note) VALUES (?, ?, ?, ?, ?, ?, ?, ?)',
+            (self._robot(event.robot), _check_name('joint', event.joint), float(event.stamp_s),
+             time.time(), event.event, _finite_or_none(event.wear), estimate_id, event.note))
+
+    @contextmanager
+    def writer_lock(self, *, joint: str, robot: Optional[str] = None,
+                    wait: bool = True) -> Iterator[None]:
+        """Be the only writer of (robot, joint) while the block runs (an advisory lock).
+
+        Take it before restoring the state of the joint and hold it for the whole run: a second
+        writer of the same robot's joint waits (``wait``) or gets :class:`HistoryError`, and
+        then restores the first one's rows, so that its trend is the sequential run's.
+        SQLite: a byte range of ``<history>-lock`` (per process); PostgreSQL: an advisory lock
+        of the server (per connection).
+        """
+        key = lock_key(self._robot(robot), _check_name('joint', joint))
+        with self._guard('cannot lock the joint'):
+            with self._backend.writer_lock(key, wait=wait):
+                yield
+
+    # ------------------------------------------------------------------ reading
+
+    def find_estimate(self, *, joint: str, stamp_s: float, robot: Optional[str] = None,
+                      tolerance_s: float = 1e-6) -> Optional[int]:
+        """Return the id of the stored estimate of the experiment ending at ``stamp_s`` [s].
+
+        An experiment's identity is its robot, its joint and the stamp of its end (one joint
+        ends one experiment at a time): a re-run of the same recording finds its estimates here.
+        """
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute(
+                'SELECT id FROM estimates WHERE robot = ? AND joint = ? AND stamp_s BETWEEN ? '
+                'AND ? ORDER BY id LIMIT 1',
+                (self._robot(robot), joint, float(stamp_s) - tolerance_s,
+                 float(stamp_s) + tolerance_s))
+        return None if not rows else int(rows[0][0])
+
+    def records(self, *, joint: str, robot: Optional[str] = None,
+                limit: Optional[int] = None) -> tuple[HistoryRecord, ...]:
+        """Return the stored estimates of the robot's ``joint``, oldest first.
+
+        With ``limit``: the last ``limit`` of them.
+        """
+        query = (f'SELECT {", ".join(_RECORD_COLUMNS)} FROM estimates WHERE robot = ? '
+                 'AND joint = ? ORDER BY id DESC')
+        params: tuple = (self._robot(robot), joint)
+        if limit is not None:
+            query += ' LIMIT ?'
+            params += (int(limit),)
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute(query, params)
+        return tuple(_record_from_row(row) for row in reversed(rows))
+
+    def joints(self, *, robot: Optional[str] = None) -> tuple[str, ...]:
+        """Return the joints of the robot that have stored estimates, sorted."""
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute(
+                'SELECT DISTINCT joint FROM estimates WHERE robot = ? ORDER BY joint',
+                (self._robot(robot),))
+        return tuple(row[0] for row in rows)
+
+    def robots(self) -> tuple[str, ...]:
+        """Return the robots that have stored estimates, sorted."""
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute('SELECT DISTINCT robot FROM estimates ORDER BY robot')
+        return tuple(row[0] for row in rows)
+
+    def events(self, *, joint: str, robot: Optional[str] = None) -> tuple[AlarmEvent, ...]:
+        """Return the alarm events of the robot's ``joint``, oldest first."""
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute(
+                f'SELECT {_EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? '
+                'ORDER BY id', (self._robot(robot), joint))
+        return tuple(_event_from_row(row) for row in rows)
+
+    def restore(self, *, joint: str, robot: Optional[str] = None,
+                trend_length: Optional[int] = None) -> RestoredState:
+        """Return the trend, the latched alarm and the alarm evidence of the robot's ``joint``.
+
+        The alarm is latched when the last alarm event is ``raised``; the evidence is that
+        of the last estimate, or 0 after a reset that came later.
+        """
+        robot = self._robot(robot)
+        records = self.records(joint=joint, robot=robot, limit=trend_length)
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute(
+                f'SELECT {_EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? '
+                'ORDER BY id DESC LIMIT 1', (robot, joint))
+        last_event = _event_from_row(rows[0]) if rows else None
+        active = last_event is not None and last_event.event == 'raised'
+        evidence = records[-1].alarm_evidence if records else 0.0
+        if last_event is not None and last_event.event == 'reset' and records and (
+                last_event.estimate_id is None or last_event.estimate_id >= records[-1].id):
+            evidence = 0.0
+        return RestoredState(records=records, alarm_active=active, alarm_evidence=evidence,
+                             last_event=last_event)
+
+    def fleet(self, *, robot: Optional[str] = None) -> list[FleetRow]:
+        """Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
+
+        ``robot`` keeps one robot's joints (all robots when None).  Two queries whatever the
+        fleet's size: the latest estimate and the count per (robot, joint), and the last alarm
+        event per (robot, joint).
+        """
+        where, params = ('WHERE robot = ? ', (_check_name('robot', robot),)) \
+            if robot is not None else ('', ())
+        with self._guard('cannot read the wear history'):
+            latest = self._backend.execute(
+                'SELECT e.robot, e.joint, c.n, c.first_stamp, e.stamp_s, e.wall_time_s, e.wear, '
+                'e.wear_std, e.wear_low, e.wear_high, e.trend_wear, e.trend_low, e.trend_high, '
+                'e.crossing_experiments, e.crossing_time_s, e.alarm_evidence, e.status_level, '
+                'e.parameter_set FROM estimates e JOIN (SELECT robot, joint, MAX(id) AS last_id, '
+                'COUNT(*) AS n, MIN(stamp_s) AS first_stamp FROM estimates ' + where
+                + 'GROUP BY robot, joint) c ON e.id = c.last_id', params)
+            alarms = self._backend.execute(
+                'SELECT a.robot, a.joint, a.event, a.stamp_s FROM alarm_events a JOIN '
+                '(SELECT MAX(id) AS last_id FROM alarm_events ' + where
+                + 'GROUP BY robot, joint) l ON a.id = l.last_id', params)
+        last_event = {(r[0], r[1]): (r[2], float(r[3])) for r in alarms}
+        rows = []
+        for r in latest:
+            event, since = last_event.get((r[0], r[1]), ('', math.nan))
+            rows.append(FleetRow(
+                robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
+                last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),
+                wear_std=_nan_if_none(r[7]), wear_low=_nan_if_none(r[8]),
+                wear_high=_nan_if_none(r[9]), trend_wear=_nan_if_none(r[10]),
+                trend_low=_nan_if_none(r[11]), trend_high=_nan_if_none(r[12]),
+                crossing_experiments=_nan_if_none(r[13]), crossing_time_s=_nan_if_none(r[14]),
+                alarm=event == 'raised', alarm_since_stamp_s=since if event == 'raised'
+                else math.nan, alarm_evidence=float(r[15]), status_level=int(r[16]),
+                parameter_set=r[17]))
+        return sorted(rows, key=FleetRow.rank_key)
+
+
+def open_history(location: str | os.PathLike, *, robot: Optional[str] = None,
+                 init: Optional[bool] = None) -> WearHistory:
+    """Open the wear history at an SQLite path or a ``postgresql://`` URL.
+
+    See :class:`WearHistory` for the arguments.
+    """
+    return WearHistory(location, robot=robot, init=init)
