@@ -64,7 +64,7 @@ def test_identify_writes_a_loadable_set_report_and_figures(files, capsys):
     report = folder / 'report.json'
     code = main(['identify', str(files['baseline']), '--wear-test', str(files['wear']),
                  '--critical-experiment', '15', '--name', 'my_robot', '--out', str(out),
-                 '--json', str(report), '--plots', str(folder / 'fig')])
+                 '--json-out', str(report), '--plots', str(folder / 'fig')])
     assert code == 0
     text = capsys.readouterr().out
     assert 'held-out error [mu, sigma]' in text and 'loaded back' in text
@@ -89,7 +89,7 @@ def test_identify_writes_a_loadable_set_report_and_figures(files, capsys):
 
 def test_identify_json_to_stdout_without_wear_test(files, capsys):
     out = files['folder'] / 'nominal.yaml'
-    assert main(['identify', str(files['baseline']), '--out', str(out), '--json', '-']) == 0
+    assert main(['identify', str(files['baseline']), '--out', str(out), '--json']) == 0
     data = json.loads(capsys.readouterr().out)
     assert data['wear'] is None
     assert data['name'] == 'identified_baseline'

@@ -53,7 +53,7 @@ def replayed(recording, tmp_path_factory):
         [str(REPO_ROOT)] + [p for p in [os.environ.get('PYTHONPATH')] if p]))
     result = subprocess.run(
         [sys.executable, '-m', 'robot_wear_monitor.cli', 'replay', str(bag), '--out', str(out),
-         '--json', str(summary)],
+         '--json-out', str(summary)],
         cwd=REPO_ROOT, env=env, capture_output=True, text=True, timeout=120, check=False)
     assert result.returncode == 0, result.stdout + result.stderr
     return bag, out, json.loads(summary.read_text()), result.stdout

@@ -2,7 +2,8 @@
 
 :class:`DiagnosticReport` is one DiagnosticStatus (level, message, key-values) as the services
 build it; :func:`fmt_number` and :func:`json_number` write numbers into key-values and JSON,
-:func:`meaningful_std` decides whether a standard deviation is worth reporting;
+:func:`meaningful_std` (of :mod:`robot_wear_monitor.estimation.report`) decides whether a
+standard deviation is worth reporting;
 :func:`interval_text`, :func:`forecast_text` and :func:`trend_values` write an estimate's
 interval and trend into the estimator's status; :data:`ROUTINE_REJECTIONS` and
 :class:`RejectionLog` decide which rejected inputs are defects and say so in the nodes' logs at
@@ -15,6 +16,8 @@ from collections import Counter
 from dataclasses import dataclass
 import math
 from typing import Mapping, Optional, TYPE_CHECKING
+
+from robot_wear_monitor.estimation.report import meaningful_std  # noqa: F401 (re-export)
 
 if TYPE_CHECKING:
     from robot_wear_monitor.estimation.intervals import WearInterval
@@ -35,26 +38,6 @@ class DiagnosticReport:
             if k == key:
                 return v
         raise KeyError(key)
-
-
-def meaningful_std(*, std: float, value: float, low: float, high: float,
-                   open_above: bool = False) -> float:
-    """Return ``std`` when it describes the uncertainty of ``value``, else NaN.
-
-    The standard deviation (inverse Fisher information) is kept when the 95 % profile-likelihood
-    interval [low, high] is interior (low > 0, a finite upper end inside the grid) and the Wald
-    interval value +- 1.96 std agrees with it: each half-width within a factor 1.5.  Near w = 0,
-    where the wear term's speed scale collapses, or at a bound, it is not (0.3 +- 4317) and only
-    the interval is reported.
-    """
-    if not (math.isfinite(std) and std > 0 and math.isfinite(low) and math.isfinite(high)):
-        return math.nan
-    if open_above or low <= 0 or not low <= value <= high:
-        return math.nan
-    for half in (value - low, high - value):
-        if not (half > 0 and 1 / 1.5 <= 1.96 * std / half <= 1.5):
-            return math.nan
-    return std
 
 
 def json_number(value: float) -> Optional[float]:

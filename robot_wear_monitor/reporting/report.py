@@ -2,7 +2,8 @@
 
 :func:`plot_wear_trend` draws w-hat with its 95 % interval band, the filtered trend with its
 interval, the threshold, the truth when known (simulated bags) with the region where detection
-is due shaded, and the alarm; a second panel shows T-hat against the true temperature.
+is due shaded, and the alarm; a second panel shows T-hat against the true temperature;
+:func:`plot_replay` draws it for each joint of a replay with estimates.
 :func:`plot_friction_curves` draws the friction levels of every experiment against speed,
 coloured by experiment (like Fig. 2(b)), over the model at w = 0 and at the threshold.
 :func:`write_report` writes ``report.md`` with a table.
@@ -229,3 +230,27 @@ def write_report(result: Any, folder: str | os.PathLike, *, threshold: float,
     target = folder / 'report.md'
     target.write_text('\n'.join(lines) + '\n', encoding='utf-8')
     return target
+
+
+def plot_replay(result: Any, path: str | os.PathLike, *, bag: str | os.PathLike,
+                threshold: float) -> list[Path]:
+    """Draw the wear trend of a replay, one PNG per joint with estimates; return the files.
+
+    One joint (or none with estimates): ``path`` itself; several: ``<stem>_<joint><suffix>``
+    beside it.  ``threshold``: the alarm threshold of w [-].
+    """
+    from dataclasses import replace
+
+    joints = [entry['joint'] for entry in result.joints if entry['estimates']]
+    if len(joints) <= 1:
+        return [plot_wear_trend(result, path, threshold=threshold,
+                                title=f'Wear estimate, {Path(bag).name}, joint {result.joint}')]
+    target = Path(path)
+    written = []
+    for joint in joints:
+        part = replace(result, updates=[u for u in result.updates if u.joint == joint],
+                       joint=joint)
+        written.append(plot_wear_trend(
+            part, target.with_name(f'{target.stem}_{joint}{target.suffix}'),
+            threshold=threshold, title=f'Wear estimate, {Path(bag).name}, joint {joint}'))
+    return written

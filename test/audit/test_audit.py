@@ -188,7 +188,7 @@ def test_cli_audit_writes_json_and_figures(tmp_path, capsys):
                            n_experiments=24)
     csv = write_csv(tmp_path / 'levels.csv', columns)
     report = tmp_path / 'report.json'
-    code = main(['audit', str(csv), '--model', 'nominal', '--json', str(report),
+    code = main(['audit', str(csv), '--model', 'nominal', '--json-out', str(report),
                  '--plots', str(tmp_path / 'fig')])
     assert code == 0
     assert 'position' in capsys.readouterr().out
@@ -201,7 +201,7 @@ def test_cli_audit_writes_json_and_figures(tmp_path, capsys):
 
 def test_cli_json_to_stdout_on_clean_data_has_no_effects(tmp_path, capsys):
     csv = write_csv(tmp_path / 'levels.csv', make_columns(seed=7, n_experiments=20))
-    assert main(['audit', str(csv), '--model', 'nominal', '--json', '-']) == 0
+    assert main(['audit', str(csv), '--model', 'nominal', '--json']) == 0
     data = json.loads(capsys.readouterr().out)
     assert data['effects'] == []
     assert data['rms_after'] == data['rms_before']

@@ -79,7 +79,7 @@ def test_identify_reads_temperature_and_load_from_named_topics(baseline, tmp_pat
     out, report = tmp_path / 'set.yaml', tmp_path / 'report.json'
     code = cli.main(['identify', str(bag), *BAG_ARGS, '--temperature-topic',
                      '/joint_temperature', '--load-topic', '/load_estimate', '--out', str(out),
-                     '--json', str(report)])
+                     '--json-out', str(report)])
     assert code == 0, capsys.readouterr().err
     result = json.loads(report.read_text())
     nominal = result['nominal']

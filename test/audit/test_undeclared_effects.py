@@ -99,7 +99,7 @@ def test_audit_out_params_then_estimate_params_lowers_the_wear_error(tmp_path, c
     out = tmp_path / 'extended.yaml'
     report = tmp_path / 'report.json'
     assert main(['audit', str(table), '--model', 'complete', '--out-params', str(out),
-                 '--json', str(report)]) == 0
+                 '--json-out', str(report)]) == 0
     capsys.readouterr()
     audit = json.loads(report.read_text())
     assert [v for e in audit['effects'] for v in e['variables']] == ['speed']

@@ -19,7 +19,7 @@ def replayed(tmp_path_factory):
     bag = folder / 'bag'
     assert cli.main(['simulate', '--out', str(bag), '--experiments', '5', '--seed', '4']) == 0
     history = folder / 'h.sqlite3'
-    assert cli.main(['replay', str(bag), '--out', str(folder / 'out'), '--json',
+    assert cli.main(['replay', str(bag), '--out', str(folder / 'out'), '--json-out',
                      str(folder / 's.json'), '--history', str(history), '--joint', 'joint_2',
                      '--gear-ratio', '150', '--torque-scale', '10', '--no-progress']) == 0
     summary = json.loads((folder / 's.json').read_text())

@@ -39,7 +39,7 @@ def replayed(tmp_path_factory):
     scenario = _write_scenario(bag, n_experiments=100, seed=11)
     out = folder / 'out'
     code = cli.main([
-        'replay', str(bag), '--out', str(out), '--json', str(folder / 's.json'),
+        'replay', str(bag), '--out', str(out), '--json-out', str(folder / 's.json'),
         '--plot', str(folder / 'trend.png'), '--joint', 'joint_2', '--gear-ratio', '150',
         '--torque-scale', '10', '--no-progress', '--history', str(folder / 'h.sqlite3'),
         '--truth', str(folder / 'scenario.truth.json')])
@@ -239,7 +239,7 @@ def test_replay_reads_nothing_beside_the_bag_and_a_named_bad_truth_is_an_error(
     beside.write_text(json.dumps({'speeds_rad_s': [1.0, 2.0]}))  # another tool's file
     args = ['replay', str(bag), '--joint', 'joint_2', '--gear-ratio', '150',
             '--torque-scale', '10', '--no-progress']
-    assert cli.main(args + ['--out', str(tmp_path / 'out'), '--json',
+    assert cli.main(args + ['--out', str(tmp_path / 'out'), '--json-out',
                             str(tmp_path / 's.json')]) == 0
     summary = json.loads((tmp_path / 's.json').read_text())
     assert len(summary['experiments']) == len(scenario.truth) == 3
@@ -267,7 +267,7 @@ def test_a_killed_replays_partial_output_is_removed_by_the_next_run(tmp_path, ca
     alive.mkdir()
     dead_json = tmp_path / f'.s.json.tmp-{int(gone.stdout)}'
     dead_json.write_text('{')
-    args = ['replay', str(bag), '--out', str(out), '--json', str(tmp_path / 's.json'),
+    args = ['replay', str(bag), '--out', str(out), '--json-out', str(tmp_path / 's.json'),
             '--joint', 'joint_2', '--gear-ratio', '150', '--torque-scale', '10',
             '--no-progress']
     assert cli.main(args) == 0
@@ -289,7 +289,7 @@ def test_a_recording_replayed_twice_into_one_history_is_stored_once(tmp_path, ca
     assert cli.main(args + ['--out', str(tmp_path / 'first')]) == 0
     first = capsys.readouterr().out
     assert 'already in the history' not in first
-    assert cli.main(args + ['--out', str(tmp_path / 'second'), '--json',
+    assert cli.main(args + ['--out', str(tmp_path / 'second'), '--json-out',
                             str(tmp_path / 's.json')]) == 0
     second = capsys.readouterr().out
     assert '0 experiments from' in second and '4 already in the history (skipped' in second
@@ -318,7 +318,7 @@ def test_two_replays_writing_one_history_at_once_store_each_experiment_once(tmp_
     runs = [subprocess.Popen(
         [sys.executable, '-m', 'robot_wear_monitor.cli', 'replay', str(bag), '--joint',
          'joint_2', '--gear-ratio', '150', '--torque-scale', '10', '--no-progress',
-         '--history', str(history), '--out', str(tmp_path / f'out{i}'), '--json',
+         '--history', str(history), '--out', str(tmp_path / f'out{i}'), '--json-out',
          str(tmp_path / f's{i}.json')], cwd=root, env=env, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True) for i in range(2)]
     for run in runs:
@@ -368,7 +368,7 @@ def test_a_recording_without_experiments_exits_2_and_says_why(
         config.write_text('friction_experiment_node:\n  ros__parameters:\n'
                           '    experiment_speeds_rad_s: [2.1, 28.5, 35.1, 41.7]\n')
         extra = [str(config) if e == 'TABLE_V_CONFIG' else e for e in extra]
-    code = cli.main(['replay', str(independent_bags[bag]), '--out', str(out), '--json',
+    code = cli.main(['replay', str(independent_bags[bag]), '--out', str(out), '--json-out',
                      str(tmp_path / 's.json'), '--no-progress', *extra])
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and reason in err, err
@@ -382,7 +382,7 @@ def test_unconfigured_speeds_are_found_in_the_recording(independent_bags, tmp_pa
                                          speeds_rad_s=(35.84, 40.84))
     summary_path = tmp_path / 's.json'
     code = cli.main(['replay', str(independent_bags['other_speeds']), '--out',
-                     str(tmp_path / 'out'), '--json', str(summary_path), '--no-progress'])
+                     str(tmp_path / 'out'), '--json-out', str(summary_path), '--no-progress'])
     assert code == 0, capsys.readouterr().err
     summary = json.loads(summary_path.read_text())
     assert len(summary['experiments']) == len(recording.truth) == 2

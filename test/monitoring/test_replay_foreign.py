@@ -214,7 +214,7 @@ def point5(tmp_path_factory):
             spec = recording.joints[joint]
             out = folder / 'out'
             code, stdout, stderr = run_cli([
-                'replay', bag, '--out', out, '--json', folder / 'summary.json',
+                'replay', bag, '--out', out, '--json-out', folder / 'summary.json',
                 '--joint', joint, '--gear-ratio', spec.gear_ratio,
                 '--torque-scale', spec.torque_scale, '--no-progress'])
             summary = (json.loads((folder / 'summary.json').read_text())
@@ -333,7 +333,7 @@ def arm(tmp_path_factory):
     config = joint_config(folder / 'joints.yaml', recording, recording.joint_names)
     out = folder / 'out'
     history = folder / 'history.sqlite'
-    code, stdout, stderr = run_cli(['replay', bag, '--out', out, '--json', folder / 'all.json',
+    code, stdout, stderr = run_cli(['replay', bag, '--out', out, '--json-out', folder / 'all.json',
                                     '--joint', 'all', '--config', config, '--history', history,
                                     '--no-progress'])
     assert code == 0, stderr
@@ -467,7 +467,7 @@ def test_an_explicit_joint_list_monitors_those_joints_only(arm):
     chosen = ['shoulder', 'wrist_3']
     config = joint_config(folder / 'two.yaml', recording, chosen)
     code, stdout, stderr = run_cli(['replay', run.bag, '--out', folder / 'two',
-                                    '--json', folder / 'two.json', '--joint', ','.join(chosen),
+                                    '--json-out', folder / 'two.json', '--joint', ','.join(chosen),
                                     '--config', config, '--no-progress'])
     assert code == 0, stderr
     summary = json.loads((folder / 'two.json').read_text())
@@ -502,7 +502,7 @@ def test_levels_per_speed_has_one_key_per_speed(arm):
 
 def _refused(tmp_path, bag, *options):
     out = tmp_path / 'out'
-    code, stdout, stderr = run_cli(['replay', bag, '--out', out, '--json',
+    code, stdout, stderr = run_cli(['replay', bag, '--out', out, '--json-out',
                                     tmp_path / 'summary.json', '--no-progress', *options])
     assert code == 2
     lines = stderr.strip().splitlines()
@@ -554,7 +554,7 @@ def test_configured_speeds_filter_and_report_the_others(point5, tmp_path):
     kept, other = spec.speeds_rad_s
     config = joint_config(tmp_path / 'filter.yaml', recording, ['shoulder'],
                           shoulder={'experiment_speeds_rad_s': [kept]})
-    code, stdout, stderr = run_cli(['replay', source.bag, '--out', tmp_path / 'out', '--json',
+    code, stdout, stderr = run_cli(['replay', source.bag, '--out', tmp_path / 'out', '--json-out',
                                     tmp_path / 'summary.json', '--joint', 'shoulder',
                                     '--config', config, '--no-progress'])
     assert code == 0, stderr

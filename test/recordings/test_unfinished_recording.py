@@ -33,7 +33,7 @@ def _replay(bag, out, summary, *extra):
         [str(REPO_ROOT)] + [p for p in [os.environ.get('PYTHONPATH')] if p]))
     return subprocess.run(
         [sys.executable, '-m', 'robot_wear_monitor.cli', 'replay', str(bag), '--out', str(out),
-         '--json', str(summary), '--no-progress', *extra],
+         '--json-out', str(summary), '--no-progress', *extra],
         cwd=REPO_ROOT, env=env, capture_output=True, text=True, timeout=120, check=False)
 
 

@@ -1,10 +1,13 @@
-"""Tests of the design / estimate / study subcommands of the command line."""
+"""``robot-wear-monitor estimate``: JSON fields, text output, one-line errors."""
 
 import json
+import math
 
 import pytest
 
 from robot_wear_monitor.cli import main
+from robot_wear_monitor.estimation.report import meaningful_std, wear_report
+from robot_wear_monitor.model.params import load_parameter_set
 
 GRID_27 = '2.1,8.7,15.3,21.9,28.5,35.1,41.7,82.2,133.5,184.7,236.2,287.1'
 
@@ -13,19 +16,6 @@ def _json(capsys, argv):
     assert main(argv) == 0
     out = capsys.readouterr().out
     return json.loads(out)
-
-
-def test_design_json_is_exactly_n_speeds_cost(capsys):
-    payload = _json(capsys, ['design', '--n', '3', '--grid', GRID_27, '--json'])
-    assert set(payload) == {'n', 'speeds', 'cost'}
-    assert payload['n'] == 3 and payload['speeds'] == [28.5, 41.7, 82.2]
-    assert payload['cost'] == pytest.approx(22.60, rel=0.01)
-
-
-def test_design_human_output_has_units(capsys):
-    assert main(['design', '--n', '2']) == 0
-    out = capsys.readouterr().out
-    assert '[rad/s]' in out and '35.84, 40.84' in out and '26.0' in out
 
 
 def test_estimate_json_fields_and_null_p_value(capsys):
@@ -48,6 +38,24 @@ def test_estimate_with_redundancy_has_a_p_value_and_human_output(capsys):
     assert main(['estimate', '--speeds', '38.6', '--friction', '0.06']) == 0
     out = capsys.readouterr().out
     assert 'temperature [degC]' in out and 'wear w' in out and 'alarm' in out
+
+
+def test_estimate_json_is_the_wear_report_of_the_estimation_package(capsys):
+    speeds, frictions = [31.65, 36.65, 41.65, 46.65], [0.0641, 0.0628, 0.0612, 0.0597]
+    payload = _json(capsys, ['estimate', '--speeds', ','.join(map(str, speeds)), '--friction',
+                             ','.join(map(str, frictions)), '--json'])
+    report = wear_report(speeds_rad_s=speeds, frictions=frictions,
+                         params=load_parameter_set(None))
+    assert payload == json.loads(json.dumps(report.to_dict()))
+    low, high = payload['wear_interval']
+    assert low <= payload['wear'] <= high
+
+
+def test_meaningful_std_keeps_an_interior_std_and_drops_one_at_the_bound():
+    assert meaningful_std(std=2.0, value=20.0, low=16.1, high=23.9) == 2.0
+    assert math.isnan(meaningful_std(std=2.0, value=0.3, low=0.0, high=4.0))  # at w = 0
+    assert math.isnan(meaningful_std(std=2.0, value=20.0, low=16.1, high=23.9,
+                                     open_above=True))
 
 
 @pytest.mark.parametrize('argv, fragment', [
@@ -73,15 +81,3 @@ def test_bad_params_file_exits_2(capsys, tmp_path):
     assert main(['estimate', '--speeds', '35,40', '--friction', '0.06,0.05', '--params',
                  str(bad)]) == 2
     assert 'bad.yaml' in capsys.readouterr().err
-
-
-def test_study_json_and_plot(capsys, tmp_path):
-    png = tmp_path / 'study.png'
-    payload = _json(capsys, ['study', '--n', '2', '--speeds', '35.84,40.84', '--temperatures',
-                             '35:45:5', '--runs', '40', '--seed', '2', '--json', '--plot',
-                             str(png)])
-    assert payload['temperatures'] == [35.0, 40.0, 45.0] and len(payload['variance']) == 3
-    assert png.stat().st_size > 0
-    assert main(['study', '--n', '1', '--speeds', '38.6', '--temperatures', '40:40:1',
-                 '--runs', '20']) == 0
-    assert 'CRB' in capsys.readouterr().out

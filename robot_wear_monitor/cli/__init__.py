@@ -1,0 +1,75 @@
+"""The ``robot-wear-monitor`` command line: the only place that parses argv.
+
+One module per verb, in ros2cli's habit: each has ``HELP``, ``add_arguments(parser)`` and
+``main(args) -> int``; the options several verbs share are built in
+:mod:`robot_wear_monitor.cli.options`, so each has one meaning.  The work itself is done by
+keyword-only functions of the core modules.  A user mistake raises
+:class:`~robot_wear_monitor.errors.InputError`, which :func:`main` prints as one line on stderr
+with exit code 2 (never a traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from types import ModuleType
+from typing import Sequence
+
+from robot_wear_monitor import __version__
+from robot_wear_monitor.cli import (audit, demo, design, estimate, history, identify, live,
+                                    plan, play, replay, segment, simulate, study)
+from robot_wear_monitor.cli.options import (parse_float_list, parse_range, PROG,
+                                            resolve_json)
+from robot_wear_monitor.errors import InputError
+
+__all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'VERBS']
+
+#: The verbs in the order of ``--help``.
+VERBS: dict[str, ModuleType] = {
+    'design': design, 'plan': plan, 'estimate': estimate, 'study': study,
+    'simulate': simulate, 'segment': segment, 'replay': replay, 'demo': demo, 'audit': audit,
+    'history': history, 'live': live, 'play': play, 'identify': identify,
+}
+
+#: Verbs that pass a ``--ros-args ...`` tail to rclpy.
+_ROS_VERBS = ('live', 'play')
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the argparse parser of ``robot-wear-monitor`` with all its subcommands."""
+    parser = argparse.ArgumentParser(
+        prog=PROG, description='Wear monitoring of a robot joint from constant-speed friction '
+                               'data (Bittencourt & Axelsson).')
+    parser.add_argument('--version', action='version', version=f'%(prog)s {__version__}')
+    subparsers = parser.add_subparsers(dest='command', metavar='COMMAND', required=True)
+    for name, verb in VERBS.items():
+        sub = subparsers.add_parser(name, help=verb.HELP, description=verb.HELP)
+        verb.add_arguments(sub)
+        sub.set_defaults(handler=verb.main)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit code (0 success, 2 bad input, 130 Ctrl-C)."""
+    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ros_args: list[str] = []
+    if '--ros-args' in argv:  # ROS arguments go to rclpy untouched (live, play)
+        cut = argv.index('--ros-args')
+        argv, ros_args = argv[:cut], argv[cut:]
+    args = parser.parse_args(argv)  # argparse exits with 2 and a usage line on bad syntax
+    if ros_args and args.command not in _ROS_VERBS:
+        parser.error(f'--ros-args is only for live and play, not {args.command}')
+    args.ros_args = ros_args
+    from robot_wear_monitor.blas_threads import use_single_blas_thread
+    use_single_blas_thread()
+    try:
+        resolve_json(args, command=args.command)
+        return int(args.handler(args) or 0)
+    except InputError as error:
+        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f'{PROG} {args.command}: error: {message}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f'{PROG} {args.command}: interrupted', file=sys.stderr)
+        return 130

@@ -1,0 +1,113 @@
+"""``robot-wear-monitor identify``: a parameter set (models (5), (7), sigma) from levels.
+
+The inputs are read by :func:`robot_wear_monitor.audit.identify_inputs.load_identify_levels`
+and fitted by :func:`robot_wear_monitor.audit.identification.identify`; this verb checks the
+options, writes ``--out`` (loaded back), ``--plots`` and ``--json-out``, and prints the
+summary or ``--json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json,
+                                            level_source_scales, parse_float_list)
+from robot_wear_monitor.errors import InputError
+
+HELP = 'identify a parameter set (models (5), (7), sigma) from friction levels'
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the options of ``identify``."""
+    parser.add_argument('baseline', metavar='BASELINE',
+                        help='healthy-joint friction levels: a CSV with speed, friction, '
+                             'temperature, load (optionally experiment), or raw runs / a bag '
+                             'that the segmentation turns into levels')
+    parser.add_argument('--wear-test', metavar='WEAR',
+                        help='levels of an accelerated wear test (same columns plus '
+                             'experiment, the time index k)')
+    parser.add_argument('--critical-experiment', metavar='K',
+                        help='experiment of the wear test identified with w = --critical-wear')
+    parser.add_argument('--critical-wear', type=float, default=35.0, metavar='W',
+                        help="wear level of experiment K (default 35, the paper's convention)")
+    parser.add_argument('--from-params', metavar='FILE',
+                        help='reference parameter set for the fields the data cannot determine '
+                             '(default: the packaged IRB 6620 joint 2 set)')
+    parser.add_argument('--name', help='name of the new set (default: identified_<BASELINE>)')
+    parser.add_argument('--out', required=True, metavar='PARAMS.yaml',
+                        help='write the parameter set here (atomically; loaded back to check)')
+    add_json(parser, what='the JSON report', legacy_path=True)
+    parser.add_argument('--plots', metavar='DIR', help='write the residual figures here')
+    parser.add_argument('--temperature-bounds', type=parse_float_list, metavar='LOW,HIGH',
+                        help='temperature bounds of the estimator [degC] (default: the '
+                             "baseline's temperature range)")
+    parser.add_argument('--temperature-column', metavar='COLUMN',
+                        help='column holding the joint temperature [degC] (default temperature)')
+    parser.add_argument('--load-column', metavar='COLUMN',
+                        help='column holding the load torque (default load)')
+    parser.add_argument('--temperature-topic', metavar='TOPIC',
+                        help='bag input: the joint temperature [degC] recorded on this topic '
+                             '(sensor_msgs/Temperature or std_msgs/Float64), per level at its '
+                             'time')
+    parser.add_argument('--load-topic', metavar='TOPIC',
+                        help='bag input: the load torque tau_l (normalised) recorded on this '
+                             'topic (std_msgs/Float64), per level at its time')
+    parser.add_argument('--experiment-gap', type=float, default=10.0, metavar='S',
+                        help='bag input: levels more than S seconds apart start a new '
+                             'experiment (default 10)')
+    parser.add_argument('--folds', type=int, default=5,
+                        help='cross-validation folds of the held-out error (default 5)')
+    add_level_source(parser)
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``identify``: write the parameter set, print the summary or the JSON report."""
+    from robot_wear_monitor.audit.identification import (identify, plot_identification,
+                                                         write_parameter_set)
+    from robot_wear_monitor.audit.identify_inputs import default_set_name, load_identify_levels
+    from robot_wear_monitor.model.params import load_parameter_set
+
+    if (args.wear_test is None) != (args.critical_experiment is None):
+        raise InputError('--wear-test and --critical-experiment K go together (K is the '
+                         'experiment of the wear test with w = --critical-wear)')
+    if not (math.isfinite(args.critical_wear) and args.critical_wear > 0):
+        raise InputError(f'--critical-wear must be > 0, got {args.critical_wear}')
+    if args.folds < 2:
+        raise InputError(f'--folds must be >= 2, got {args.folds}')
+    bounds = None
+    if args.temperature_bounds is not None:
+        if len(args.temperature_bounds) != 2 or not (
+                args.temperature_bounds[0] < args.temperature_bounds[1]):
+            raise InputError('--temperature-bounds: expected LOW,HIGH with LOW < HIGH')
+        bounds = (args.temperature_bounds[0], args.temperature_bounds[1])
+    from_params = load_parameter_set(args.from_params)
+    gear_ratio, torque_scale = level_source_scales(args)
+
+    def levels(path: str, role: str):
+        return load_identify_levels(
+            path, role=role, joint=args.joint, topic=args.topic, flip_sign=not args.raw_sign,
+            gear_ratio=gear_ratio, torque_scale=torque_scale,
+            temperature_topic=args.temperature_topic, load_topic=args.load_topic,
+            experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
+            load_column=args.load_column)
+
+    baseline = levels(args.baseline, 'BASELINE')
+    wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None
+    result = identify(baseline=baseline, from_params=from_params,
+                      name=args.name or default_set_name(args.baseline),
+                      wear_test=wear_test, critical_experiment=args.critical_experiment,
+                      critical_wear=args.critical_wear, temperature_bounds_degc=bounds,
+                      n_folds=args.folds)
+    loaded = write_parameter_set(args.out, result)
+    report = result.to_dict()
+    report['out'] = str(args.out)
+    report['loaded_back'] = loaded.name == result.params.name
+    if args.plots:
+        report['figures'] = [str(p) for p in plot_identification(
+            result=result, baseline=baseline, wear_test=wear_test, out_dir=args.plots)]
+    if emit_json(args, report):
+        return 0
+    print(result.summary())
+    print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
+    return 0

@@ -1,0 +1,217 @@
+"""Option builders and helpers shared by the verbs of ``robot-wear-monitor``.
+
+Each option that several verbs take is built here, so it has one spelling and one meaning:
+
+* ``--params FILE``: a friction-model parameter-set YAML (default: the packaged IRB 6620 joint 2
+  set);
+* ``--config YAML``: a ROS 2 node parameter file (default: the packaged ``wear_monitor.yaml``);
+* ``--joint``: the joint to work on (replay and segment also take several, or ``all``);
+* ``--gear-ratio R``: motor speed = R x joint speed [-]; when not given, the value of the node
+  config the verb reads for a bag (replay, segment) or else 1 (raw runs, audit, identify);
+* ``--torque-scale S``: normalised torque = effort / S; defaults as ``--gear-ratio``;
+* ``--json``: print one JSON object on stdout instead of the text; ``--json-out PATH``: also
+  write that object to PATH (atomically).  ``--json PATH`` (replay, audit, identify) is the
+  deprecated spelling of ``--json-out PATH``: it still writes the file, with a warning on stderr.
+
+The argparse ``type`` functions (:func:`parse_float_list`, :func:`parse_range`,
+:func:`joint_names`) and the JSON output helpers live here too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any, Sequence
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
+
+PROG = 'robot-wear-monitor'
+
+
+# --------------------------------------------------------------------------- argparse types
+
+def parse_float_list(text: str) -> list[float]:
+    """Parse '2.1,8.7,15.3' into floats (argparse type); reject empty items, NaN and inf."""
+    items = [item.strip() for item in text.split(',')]
+    values = []
+    for item in items:
+        try:
+            value = float(item)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'not a number: {item!r} in {text!r}') from None
+        if value != value or value in (float('inf'), float('-inf')):
+            raise argparse.ArgumentTypeError(f'not a finite number: {item!r} in {text!r}')
+        values.append(value)
+    return values
+
+
+def parse_range(text: str) -> list[float]:
+    """Parse 'start:stop:step' (inclusive stop) or a comma list into floats (argparse type)."""
+    if ':' not in text:
+        return parse_float_list(text)
+    parts = text.split(':')
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f'expected start:stop:step, got {text!r}')
+    start, stop, step = parse_float_list(','.join(parts))
+    if step <= 0 or stop < start:
+        raise argparse.ArgumentTypeError(f'expected start <= stop and step > 0, got {text!r}')
+    count = int(round((stop - start) / step)) + 1
+    return [start + i * step for i in range(count)]
+
+
+def joint_names(text: str) -> list[str]:
+    """Parse one ``--joint`` value: a name or comma-separated names (argparse type)."""
+    names = [name.strip() for name in text.split(',')]
+    if not all(names):
+        raise argparse.ArgumentTypeError(f'empty joint name in {text!r}')
+    return names
+
+
+def joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str] | None]:
+    """Return (joint, joints) of ``--joint``: one name keeps the single-joint layout."""
+    if not names:
+        return None, None
+    if len(names) == 1 and names[0] != 'all':
+        return names[0], None
+    if 'all' in names and len(names) > 1:
+        raise InputError('--joint: "all" stands alone')
+    return None, list(names)
+
+
+# --------------------------------------------------------------------------- option builders
+
+def add_params(parser: argparse.ArgumentParser) -> None:
+    """Add ``--params FILE``: the friction-model parameter set."""
+    parser.add_argument('--params', metavar='FILE',
+                        help='parameter-set YAML (default: the packaged IRB 6620 joint 2 set)')
+
+
+def params_from(args: argparse.Namespace) -> ParameterSet:
+    """Return the parameter set of ``--params`` (the packaged one when not given)."""
+    return load_parameter_set(getattr(args, 'params', None))
+
+
+def add_config(parser: argparse.ArgumentParser, *, help_text: str) -> None:
+    """Add ``--config YAML``: the ROS 2 node parameter file."""
+    parser.add_argument('--config', metavar='YAML', help=help_text)
+
+
+def add_joints(parser: argparse.ArgumentParser, *, help_text: str) -> None:
+    """Add ``--joint NAME[,NAME]`` (repeatable, or ``all``): the joints to work on."""
+    parser.add_argument('--joint', action='extend', type=joint_names, metavar='NAME[,NAME]',
+                        help=help_text)
+
+
+def add_gear_ratio_and_torque_scale(parser: argparse.ArgumentParser, *, gear_default: str,
+                                    scale_default: str | None = None) -> None:
+    """Add ``--gear-ratio R`` and ``--torque-scale S`` (None when not given).
+
+    ``gear_default`` and ``scale_default`` (default: the same) say where the value comes from
+    when the option is not given.
+    """
+    parser.add_argument('--gear-ratio', type=float, default=None, metavar='R',
+                        help=f'motor speed = R x joint speed (default: {gear_default})')
+    parser.add_argument('--torque-scale', type=float, default=None, metavar='S',
+                        help='normalised torque = effort / S (default: '
+                             f'{scale_default or gear_default})')
+
+
+def add_json(parser: argparse.ArgumentParser, *, what: str = 'one JSON object',
+             legacy_path: bool = False) -> None:
+    """Add ``--json`` (print JSON on stdout) and ``--json-out PATH`` (write it to a file).
+
+    ``legacy_path``: the verb took ``--json PATH`` before; that spelling still writes the
+    file (see :func:`resolve_json`, which warns on stderr).
+    """
+    text = f'print {what} on stdout instead of the text'
+    if legacy_path:
+        parser.add_argument('--json', nargs='?', const=True, default=False, metavar='PATH',
+                            help=text + ' (--json PATH: deprecated spelling of --json-out '
+                                        'PATH)')
+    else:
+        parser.add_argument('--json', action='store_true', help=text)
+    parser.add_argument('--json-out', metavar='PATH',
+                        help=f'also write {what} to this file (atomically)')
+
+
+def resolve_json(args: argparse.Namespace, *, command: str) -> None:
+    """Turn a deprecated ``--json PATH`` / ``--json -`` into ``--json-out PATH`` / ``--json``.
+
+    Warns on stderr once; leaves ``args.json`` a bool and ``args.json_out`` a path or None.
+    """
+    value = getattr(args, 'json', False)
+    if not isinstance(value, str):
+        return
+    if value == '-':
+        print(f'{PROG} {command}: warning: --json - is deprecated; use --json',
+              file=sys.stderr)
+        args.json = True
+        return
+    print(f'{PROG} {command}: warning: --json PATH is deprecated; use --json-out PATH',
+          file=sys.stderr)
+    if args.json_out is not None and args.json_out != value:
+        raise InputError(f'--json {value} and --json-out {args.json_out}: give one file')
+    args.json, args.json_out = False, value
+
+
+def print_json(payload: object) -> None:
+    """Print ``payload`` as one indented JSON object on stdout (no NaN or inf)."""
+    json.dump(payload, sys.stdout, indent=2, allow_nan=False)
+    sys.stdout.write('\n')
+
+
+def write_json_out(path: str | None, payload: Any) -> None:
+    """Write ``payload`` to ``--json-out PATH`` atomically (nothing when ``path`` is None)."""
+    if path is None:
+        return
+    from robot_wear_monitor.atomic_files import write_json_atomic
+    try:
+        write_json_atomic(path, payload)
+    except OSError as error:
+        raise InputError(f'{path}: cannot write: {error.strerror}') from None
+
+
+def emit_json(args: argparse.Namespace, payload: Any) -> bool:
+    """Write ``--json-out`` and print ``--json``; return True when JSON went to stdout."""
+    write_json_out(getattr(args, 'json_out', None), payload)
+    if getattr(args, 'json', False):
+        print_json(payload)
+        return True
+    return False
+
+
+def warn_deprecated(command: str, old: str, new: str) -> None:
+    """Print the one-line deprecation warning of an option spelling on stderr."""
+    print(f'{PROG} {command}: warning: {old} is deprecated; use {new}', file=sys.stderr)
+
+
+def ros_args(args: argparse.Namespace) -> list[str]:
+    """Return the ``--ros-args ...`` tail of the command line (live, play)."""
+    return list(getattr(args, 'ros_args', None) or [])
+
+
+def rclpy_missing(error: ImportError) -> InputError:
+    """Return the one-line error of a verb that needs rclpy when it is not installed."""
+    return InputError(f'rclpy is not installed ({error}); pip install '
+                      f'"robot_wear_monitor[ros]" or source a ROS 2 Jazzy setup')
+
+
+def add_level_source(parser: argparse.ArgumentParser) -> None:
+    """Add the options of raw-run and bag inputs that are segmented into levels (audit, identify).
+
+    ``--gear-ratio`` and ``--torque-scale`` are None when not given: see
+    :func:`level_source_scales` (these verbs read no node config, so the default is 1).
+    """
+    parser.add_argument('--joint', help='joint name to segment (bag input)')
+    parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
+    parser.add_argument('--raw-sign', action='store_true',
+                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    add_gear_ratio_and_torque_scale(parser, gear_default='1; bag input only')
+
+
+def level_source_scales(args: argparse.Namespace) -> tuple[float, float]:
+    """Return (gear ratio, torque scale) of a level source: the options, else 1 and 1."""
+    return (1.0 if args.gear_ratio is None else args.gear_ratio,
+            1.0 if args.torque_scale is None else args.torque_scale)

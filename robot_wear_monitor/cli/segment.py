@@ -1,0 +1,75 @@
+"""``robot-wear-monitor segment``: friction levels of eq. (3) from a bag or raw CSV (CSV out).
+
+The segmentation itself is :mod:`robot_wear_monitor.monitoring.segment`; this verb prints the
+CSV (or writes ``--out``) and one report line per joint on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
+                                            add_joints, joint_selection, parse_float_list)
+from robot_wear_monitor.cli.replay import joint_summary_line
+
+HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the options of ``segment``."""
+    parser.add_argument('data', metavar='DATA',
+                        help='ROS 2 bag folder, or a raw CSV(.gz) with t_s,q_rad,dq_rad_s,'
+                             'tau_measured_Nm columns (KUKA runs)')
+    add_joints(parser, help_text='joint in the bag; several as NAME,NAME or repeated --joint, '
+                                 'or "all" (default: the node config\'s joint, joint_2)')
+    parser.add_argument('--topic', default='/joint_states', help='JointState topic')
+    add_gear_ratio_and_torque_scale(
+        parser, gear_default='bag: from the node config (--config), 150 in the packaged '
+                             'one; raw CSV: 1',
+        scale_default='bag: from the node config (--config), 10 in the packaged one; raw '
+                      'CSV: 1')
+    add_config(parser, help_text='node parameter file for a bag (default: the packaged '
+                                 'wear_monitor.yaml; per-joint values as <joint>: {...})')
+    parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
+                        help='experiments at these motor speeds only [rad/s] (default: the '
+                             'speeds found in the data)')
+    parser.add_argument('--out', metavar='CSV', help='write the levels here (default stdout)')
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``segment``: the level CSV on stdout or ``--out``, the report on stderr."""
+    from pathlib import Path
+
+    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
+                                                       segment_raw_csv)
+    path = Path(args.data)
+    if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
+        result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
+                                 torque_scale=args.torque_scale, speeds_rad_s=args.speeds)
+        report = [f'{result.n_levels} friction levels; rejected: '
+                  + (', '.join(f'{k} {n}' for k, n in sorted(result.rejections.items()))
+                     or 'none')]
+    else:
+        from robot_wear_monitor.monitoring.replay import replay_parameters
+        joint, joints = joint_selection(args.joint)
+        experiment, _ = replay_parameters(config_file=args.config, joint=joint, joints=joints,
+                                          gear_ratio=args.gear_ratio,
+                                          torque_scale=args.torque_scale)
+        result = segment_bag(path, experiment_parameters=experiment, topic=args.topic,
+                             speeds_rad_s=args.speeds)
+        report = list(result.notes)
+        for summary in result.joints:
+            report.append(joint_summary_line(summary, estimates=False))
+            if summary['rejected']:
+                report.append('    rejected: ' + ', '.join(
+                    f'{k} {n}' for k, n in summary['rejected'].items()))
+    text = levels_csv_text(result.rows)
+    if args.out:
+        write_text_atomic(args.out, text)
+    else:
+        sys.stdout.write(text)
+    for line in report:
+        print(line, file=sys.stderr)
+    return 0

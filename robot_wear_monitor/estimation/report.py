@@ -1,0 +1,112 @@
+"""The wear estimate of one experiment as a report: estimate, intervals, alarm, JSON.
+
+:func:`wear_report` runs the estimator (16)-(19) and the profile-likelihood intervals on one
+set of friction levels and returns a :class:`WearReport`; :meth:`WearReport.to_dict` is the
+JSON object of ``robot-wear-monitor estimate --json`` (NaN and inf as null).
+:func:`meaningful_std` decides whether the inverse-Fisher standard deviation of w-hat describes
+its uncertainty or only the interval does (the monitoring services use it too, through
+:mod:`robot_wear_monitor.monitoring.diagnostics`).  Importing this module loads no scipy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+from typing import Any, Optional, Sequence, TYPE_CHECKING
+
+if TYPE_CHECKING:  # the estimator and intervals load scipy: imported where used
+    from robot_wear_monitor.estimation.estimator import WearEstimate
+    from robot_wear_monitor.estimation.intervals import WearInterval
+    from robot_wear_monitor.model.params import ParameterSet
+
+
+def meaningful_std(*, std: float, value: float, low: float, high: float,
+                   open_above: bool = False) -> float:
+    """Return ``std`` when it describes the uncertainty of ``value``, else NaN.
+
+    The standard deviation (inverse Fisher information) is kept when the 95 % profile-likelihood
+    interval [low, high] is interior (low > 0, a finite upper end inside the grid) and the Wald
+    interval value +- 1.96 std agrees with it: each half-width within a factor 1.5.  Near w = 0,
+    where the wear term's speed scale collapses, or at a bound, it is not (0.3 +- 4317) and only
+    the interval is reported.
+    """
+    if not (math.isfinite(std) and std > 0 and math.isfinite(low) and math.isfinite(high)):
+        return math.nan
+    if open_above or low <= 0 or not low <= value <= high:
+        return math.nan
+    for half in (value - low, high - value):
+        if not (half > 0 and 1 / 1.5 <= 1.96 * std / half <= 1.5):
+            return math.nan
+    return std
+
+
+def _finite(value: float) -> Optional[float]:
+    """Return ``value`` as float, or None when it is NaN or infinite (valid JSON)."""
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+@dataclass(frozen=True)
+class WearReport:
+    """The estimate of one experiment with its 95 % intervals and the alarm decision.
+
+    Attributes:
+        estimate: the ML estimate of (T [degC], w [-]) with covariance and chi2 test.
+        interval: the profile-likelihood intervals of w [-] and T [degC].
+        wear_std: standard deviation of w-hat [-], NaN where it is not meaningful
+            (see :func:`meaningful_std`).
+        alarm: w-hat >= the parameter set's wear threshold.
+        warning: w-hat >= the parameter set's warning level.
+        wear_threshold: the alarm threshold of the parameter set [-].
+
+    """
+
+    estimate: WearEstimate
+    interval: WearInterval
+    wear_std: float
+    alarm: bool
+    warning: bool
+    wear_threshold: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the JSON object of ``estimate --json`` (keys stable; None for NaN/inf)."""
+        est, interval = self.estimate, self.interval
+        return {
+            'temperature': float(est.temperature_degc), 'wear': float(est.wear),
+            'covariance': [[_finite(x) for x in row] for row in est.covariance],
+            'wear_std': _finite(self.wear_std),
+            'temperature_std': _finite(est.temperature_std_degc),
+            'wear_interval': [_finite(interval.wear_low), _finite(interval.wear_high)],
+            'wear_interval_open_above': interval.wear_high_at_grid_end,
+            'temperature_interval': [_finite(interval.temperature_low),
+                                     _finite(interval.temperature_high)],
+            'alarm': self.alarm, 'warning': self.warning,
+            'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': _finite(est.p_value),
+            'temperature_at_bound': est.temperature_at_bound,
+            'wear_at_bound': est.wear_at_bound, 'n_levels': est.n_levels,
+            'speeds': [float(v) for v in est.speeds_rad_s],
+            'wear_threshold': self.wear_threshold}
+
+
+def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
+                params: ParameterSet) -> WearReport:
+    """Estimate (T, w) from one experiment's friction levels and decide the alarm.
+
+    Args:
+        speeds_rad_s: motor-side speed levels [rad/s].
+        frictions: friction levels, normalised torque, one per speed.
+        params: the parameter set (model, bounds, thresholds).
+
+    """
+    from robot_wear_monitor.estimation.estimator import estimate_wear
+    from robot_wear_monitor.estimation.intervals import wear_intervals
+    estimates = estimate_wear(speeds_rad_s, frictions, params=params)
+    est = estimates[0]
+    interval = wear_intervals(speeds_rad_s, frictions, params=params, estimates=estimates)[0]
+    wear_std = meaningful_std(std=float(est.wear_std), value=float(est.wear),
+                              low=interval.wear_low, high=interval.wear_high,
+                              open_above=interval.wear_high_at_grid_end)
+    return WearReport(estimate=est, interval=interval, wear_std=wear_std,
+                      alarm=bool(est.wear >= params.wear_threshold),
+                      warning=bool(est.wear >= params.wear_warning),
+                      wear_threshold=params.wear_threshold)

@@ -1,0 +1,132 @@
+"""Friction levels of a recording, as ``robot-wear-monitor segment`` writes them (CSV).
+
+:func:`segment_bag` segments the joints of a ROS 2 bag as the replay does (joint discovery,
+chunked reading, the per-joint services of :mod:`~robot_wear_monitor.monitoring.joints`) and
+numbers each level by the experiment it belongs to; :func:`segment_raw_csv` segments one
+KUKA-style raw run with the raw-run settings.  :func:`levels_csv_text` formats the levels as
+the CSV table ``audit`` and ``identify`` read.  Speeds are motor-side [rad/s], frictions
+normalised torque (effort / torque_scale), times [s].
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+import io
+import os
+from typing import Any, Mapping, Optional, Sequence
+
+from robot_wear_monitor.experiment.levels import FrictionLevel
+
+#: Columns of the level CSV, in order.
+LEVEL_COLUMNS = ('speed', 'friction', 'friction_std_error', 'tau_forward', 'tau_backward',
+                 'n_forward', 'n_backward', 'position_min_rad', 'position_max_rad',
+                 'start_time_s', 'end_time_s', 'experiment', 'joint')
+
+
+@dataclass
+class SegmentedLevels:
+    """The friction levels of a recording and what was found per joint.
+
+    Attributes:
+        rows: (level, experiment index or '' when the level is in no experiment, joint name).
+        notes: the reader's notes on the recording (bag input).
+        joints: one :func:`~robot_wear_monitor.monitoring.replay.joint_summary` per monitored
+            joint (bag input).
+        rejections: raw-run input: the segmentation's rejection counts by reason.
+        n_levels: raw-run input: the levels segmented (also those in no experiment at
+            ``speeds_rad_s``).
+
+    """
+
+    rows: list[tuple[FrictionLevel, Any, str]]
+    notes: list[str] = field(default_factory=list)
+    joints: list[dict[str, Any]] = field(default_factory=list)
+    rejections: dict[str, int] = field(default_factory=dict)
+    n_levels: int = 0
+
+
+def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = None,
+                    torque_scale: Optional[float] = None,
+                    speeds_rad_s: Optional[Sequence[float]] = None) -> SegmentedLevels:
+    """Segment one KUKA-style raw run with the raw-run settings (gear ratio and scale 1).
+
+    ``gear_ratio`` / ``torque_scale``: override the raw-run settings when not None;
+    ``speeds_rad_s``: assemble the levels into experiments at these speeds (otherwise the
+    levels are in no experiment).
+    """
+    from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
+    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_raw_csv
+    t, q, v, e = read_raw_csv(path)
+    overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
+                                       ('torque_scale', torque_scale)) if val is not None}
+    config = kuka_segmenter_config(**overrides)
+    result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    rows: list[tuple[FrictionLevel, Any, str]] = [(level, '', config.joint)
+                                                  for level in result.levels]
+    if speeds_rad_s:
+        assembler = ExperimentAssembler(speeds_rad_s=speeds_rad_s)
+        done = [x for level in result.levels for x in assembler.add(level)] + assembler.flush()
+        rows = [(level, k, config.joint) for k, x in enumerate(done) for level in x.levels]
+    return SegmentedLevels(rows=rows, rejections=dict(result.rejections),
+                           n_levels=len(result.levels))
+
+
+def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, Any],
+                topic: str = '/joint_states',
+                speeds_rad_s: Optional[Sequence[float]] = None) -> SegmentedLevels:
+    """Segment the joints of a bag as the replay does; raise NoExperimentError on no level.
+
+    ``experiment_parameters``: the validated friction experiment node parameters (e.g. of
+    :func:`~robot_wear_monitor.monitoring.replay.replay_parameters`); ``speeds_rad_s``: keep
+    only experiments at these motor speeds [rad/s] (``experiment_speeds_rad_s``).
+    """
+    from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
+    from robot_wear_monitor.monitoring.replay import (explain_recording, joint_summary,
+                                                      NoExperimentError)
+    from robot_wear_monitor.recordings.bags import iter_joint_chunks
+    experiment = dict(experiment_parameters)
+    if speeds_rad_s:
+        from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
+                                                               validate_parameters)
+        experiment = validate_parameters(
+            FRICTION_EXPERIMENT_NODE, {**experiment, 'experiment_speeds_rad_s': speeds_rad_s},
+            source='--speeds')
+    fleet = FrictionExperimentFleet(experiment, source='segment parameters')
+    stream = iter_joint_chunks(path, joints=fleet.selection, topic=topic,
+                               require_joints=False)
+    found: dict[str, list] = {}
+    for chunk in stream:
+        for name, samples in chunk.items():
+            service = fleet.service(name)
+            found.setdefault(name, []).extend(service.add_recording(
+                time_s=samples.time_s, position_rad=samples.position_rad,
+                velocity_rad_s=samples.velocity_rad_s, effort=samples.effort))
+    for service, done in fleet.finish():
+        found.setdefault(service.joint, []).append(done)
+    result = SegmentedLevels(rows=[], notes=list(stream.notes))
+    for name, service in fleet.services.items():
+        experiments = found.get(name, [])
+        for level in service.levels:
+            k = next((i for i, x in enumerate(experiments)
+                      if x.start_time_s <= level.start_time_s
+                      and level.end_time_s <= x.end_time_s), '')
+            result.rows.append((level, k, name))
+        result.joints.append(joint_summary(service, stream))
+    if not result.rows:
+        raise NoExperimentError(f'no friction level: {explain_recording(fleet, stream)}')
+    return result
+
+
+def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]]) -> str:
+    """Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text."""
+    text = io.StringIO()
+    writer = csv.writer(text)
+    writer.writerow(LEVEL_COLUMNS)
+    for level, k, joint in rows:
+        writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
+                         f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
+                         f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
+                         f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
+                         f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k, joint])
+    return text.getvalue()

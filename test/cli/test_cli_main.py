@@ -1,0 +1,45 @@
+"""The ``cli`` package: one module per verb, the entry points, one-line errors."""
+
+from pathlib import Path
+import subprocess
+import sys
+
+from conftest import REPO_ROOT
+from robot_wear_monitor import cli
+
+VERBS = ('design', 'plan', 'estimate', 'study', 'simulate', 'segment', 'replay', 'demo',
+         'audit', 'history', 'live', 'play', 'identify')
+
+
+def test_every_verb_is_a_module_with_help_add_arguments_and_main():
+    assert tuple(sorted(cli.VERBS)) == tuple(sorted(VERBS))
+    for name, module in cli.VERBS.items():
+        assert module.__name__ == f'robot_wear_monitor.cli.{name}'
+        assert callable(module.add_arguments) and callable(module.main) and module.HELP
+
+
+def test_no_module_of_the_cli_package_is_over_600_lines():
+    folder = Path(cli.__file__).parent
+    sizes = {p.name: len(p.read_text().splitlines()) for p in folder.glob('*.py')}
+    assert set(sizes) >= {f'{v}.py' for v in VERBS} | {'options.py', '__main__.py'}
+    assert max(sizes.values()) <= 600, sizes
+
+
+def test_python_m_runs_the_command_line():
+    run = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', '--help'],
+                         cwd=REPO_ROOT, capture_output=True, text=True, timeout=60,
+                         check=False)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith('usage: robot-wear-monitor')
+    for verb in VERBS:
+        assert verb in run.stdout
+
+
+def test_ros_args_are_only_for_live_and_play(capsys):
+    try:
+        cli.main(['design', '--n', '2', '--ros-args', '-p', 'x:=1'])
+    except SystemExit as error:
+        assert error.code == 2
+    else:
+        raise AssertionError('--ros-args accepted by design')
+    assert '--ros-args is only for live and play' in capsys.readouterr().err
