@@ -16,8 +16,8 @@ from types import ModuleType
 from typing import Sequence
 
 from robot_wear_monitor import __version__
-from robot_wear_monitor.cli import (audit, demo, design, estimate, history, identify, live,
-                                    plan, play, replay, segment, simulate, study)
+from robot_wear_monitor.cli import (audit, demo, design, estimate, fleet, history, identify,
+                                    live, plan, play, replay, segment, simulate, study)
 from robot_wear_monitor.cli.options import (parse_float_list, parse_range, PROG,
                                             resolve_json)
 from robot_wear_monitor.errors import InputError
@@ -28,7 +28,7 @@ __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'V
 VERBS: dict[str, ModuleType] = {
     'design': design, 'plan': plan, 'estimate': estimate, 'study': study,
     'simulate': simulate, 'segment': segment, 'replay': replay, 'demo': demo, 'audit': audit,
-    'history': history, 'live': live, 'play': play, 'identify': identify,
+    'history': history, 'fleet': fleet, 'live': live, 'play': play, 'identify': identify,
 }
 
 #: Verbs that pass a ``--ros-args ...`` tail to rclpy.
@@ -73,3 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'{PROG} {args.command}: interrupted', file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): no traceback
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import add_json, emit_json, PROG
+from robot_wear_monitor.cli.options import add_json, add_robot, emit_json, PROG
 from robot_wear_monitor.errors import InputError
 
 HELP = 'show the stored wear history and export its friction levels for audit'
@@ -12,7 +12,9 @@ HELP = 'show the stored wear history and export its friction levels for audit'
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``history``."""
-    parser.add_argument('database', metavar='DB', help='wear history SQLite file of the estimator')
+    parser.add_argument('database', metavar='DB',
+                        help='wear history: an SQLite file, or postgresql://USER@HOST:PORT/DB')
+    add_robot(parser, help_text='robot to show (default: the only robot stored)')
     parser.add_argument('--joint', help='joint to show (default: the only joint stored)')
     parser.add_argument('--last', type=int, metavar='K', help='show only the last K estimates')
     parser.add_argument('--csv', metavar='LEVELS', help='export the friction levels as a CSV '
@@ -24,15 +26,26 @@ def main(args: argparse.Namespace) -> int:
     """Run ``history``: a table of the estimates (or ``--json``), ``--csv`` the levels."""
     from pathlib import Path
 
-    from robot_wear_monitor.monitoring.history import WearHistory, write_levels_csv
     from robot_wear_monitor.monitoring.diagnostics import json_number
+    from robot_wear_monitor.monitoring.history import (is_postgresql_url, open_history,
+                                                       write_levels_csv)
 
-    if not Path(args.database).is_file():
+    if not is_postgresql_url(args.database) and not Path(args.database).is_file():
         raise InputError(f'{args.database}: no such wear history database')
     if args.last is not None and args.last < 1:
         raise InputError(f'--last must be >= 1, got {args.last}')
-    with WearHistory(args.database) as history:
-        joints = history.joints()
+    with open_history(args.database, init=False) as history:
+        robots = history.robots()
+        robot = args.robot
+        if robot is None:
+            if len(robots) > 1:
+                raise InputError(f'{args.database}: holds robots {", ".join(robots)}; '
+                                 'choose one with --robot')
+            robot = robots[0] if robots else history.robot
+        elif robot not in robots:
+            raise InputError(f'{args.database}: no estimates of robot {robot!r} '
+                             f'(stored: {", ".join(robots) or "none"})')
+        joints = history.joints(robot=robot)
         joint = args.joint
         if joint is None:
             if len(joints) != 1:
@@ -42,12 +55,12 @@ def main(args: argparse.Namespace) -> int:
         elif joint not in joints:
             raise InputError(f'{args.database}: no estimates for joint {joint!r} '
                              f'(stored: {", ".join(joints) or "none"})')
-        state = history.restore(joint=joint)
-        records = history.records(joint=joint, limit=args.last)
+        state = history.restore(joint=joint, robot=robot)
+        records = history.records(joint=joint, robot=robot, limit=args.last)
     if args.csv:
         write_levels_csv(args.csv, records=records)
     payload = {
-        'joint': joint, 'alarm_active': state.alarm_active, 'csv': args.csv,
+        'robot': robot, 'joint': joint, 'alarm_active': state.alarm_active, 'csv': args.csv,
         'estimates': [{'id': r.id, 'stamp_s': r.stamp_s, 'speeds': list(r.speeds_rad_s),
                        'frictions': list(r.frictions), 'wear': json_number(r.wear),
                        'wear_std': json_number(r.wear_std),
@@ -56,7 +69,7 @@ def main(args: argparse.Namespace) -> int:
                       for r in records]}
     if emit_json(args, payload):
         return 0
-    print(f'joint {joint}: {len(records)} estimate(s) shown; alarm '
+    print(f'robot {robot}, joint {joint}: {len(records)} estimate(s) shown; alarm '
           f'{"LATCHED" if state.alarm_active else "clear"}')
     header = ('id', 'stamp [s]', 'w', 'std w', 'T [degC]', 'p-value')
     print('{:>5} {:>14} {:>7} {:>7} {:>9} {:>8}  alarm'.format(*header))

@@ -9,7 +9,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from robot_wear_monitor.cli.options import (PROG, rclpy_missing, ros_args, warn_deprecated)
+from robot_wear_monitor.cli.options import (add_history, add_robot, PROG, rclpy_missing,
+                                            ros_args, warn_deprecated)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'run both monitoring nodes on the live ROS 2 graph in one process (needs rclpy)'
@@ -23,8 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--params-file', metavar='YAML', dest='legacy_config',
                         help='deprecated spelling of --config')
     parser.add_argument('--joint', help='joint to monitor (overrides the config)')
-    parser.add_argument('--history', metavar='FILE',
-                        help='SQLite wear history (overrides the config)')
+    add_history(parser, help_text='wear history (overrides the config)')
+    add_robot(parser, help_text='robot_id of the estimator: its key in a fleet history and '
+                                'in /diagnostics (overrides the config)')
     parser.add_argument('--params', metavar='FILE',
                         help='friction-model parameter-set YAML (overrides the config)')
     parser.add_argument('--parameter-set', metavar='FILE', dest='legacy_params',
@@ -59,6 +61,8 @@ def main(args: argparse.Namespace) -> int:
         overrides.append(('joint', args.joint))
     if args.history:
         overrides.append(('history_file', args.history))
+    if args.robot:
+        overrides.append(('robot_id', args.robot))
     if parameter_set:
         overrides.append(('parameter_set_file', parameter_set))
     # Refuse a bad file here with one line, before any node starts.

@@ -118,6 +118,27 @@ def add_gear_ratio_and_torque_scale(parser: argparse.ArgumentParser, *, gear_def
                              f'{scale_default or gear_default})')
 
 
+def add_robot(parser: argparse.ArgumentParser, *, help_text: str) -> None:
+    """Add ``--robot NAME``: the robot the joints belong to (its key in a fleet history)."""
+    parser.add_argument('--robot', metavar='NAME', type=robot_name, help=help_text)
+
+
+def robot_name(text: str) -> str:
+    """Parse a ``--robot`` value: a non-empty name of at most 128 printable characters."""
+    name = text.strip()
+    if not name or len(name) > 128 or not name.isprintable():
+        raise argparse.ArgumentTypeError(
+            f'a robot name is 1-128 printable characters, got {text[:40]!r}')
+    return name
+
+
+def add_history(parser: argparse.ArgumentParser, *, help_text: str,
+                required: bool = False) -> None:
+    """Add ``--history PATH|URL``: the wear history (an SQLite file or a PostgreSQL URL)."""
+    parser.add_argument('--history', metavar='PATH|URL', required=required,
+                        help=help_text + ': an SQLite file, or postgresql://USER@HOST:PORT/DB')
+
+
 def add_json(parser: argparse.ArgumentParser, *, what: str = 'one JSON object',
              legacy_path: bool = False) -> None:
     """Add ``--json`` (print JSON on stdout) and ``--json-out PATH`` (write it to a file).

@@ -1,8 +1,10 @@
-"""``robot-wear-monitor replay``: a recorded bag through the monitoring service.
+"""``robot-wear-monitor replay``: recorded bags through the monitoring service.
 
-The replay itself is :func:`robot_wear_monitor.monitoring.replay.replay_bag`; this verb reads
-the options, prints the summary line (one per joint with several joints) or the summary JSON,
-and draws the wear trend (:func:`robot_wear_monitor.reporting.report.plot_replay`).
+One bag: :func:`robot_wear_monitor.monitoring.replay.replay_bag`; this verb reads the options,
+prints the summary line (one per joint with several joints) or the summary JSON, and draws the
+wear trend (:func:`robot_wear_monitor.reporting.report.plot_replay`).  Many bags (several
+paths, a folder of bags, ``--manifest``, or ``--workers``/``--dask``):
+:func:`robot_wear_monitor.fleet.batch.run_batch`, one task per bag, the history as the output.
 """
 
 from __future__ import annotations
@@ -11,8 +13,9 @@ import argparse
 import sys
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
-                                            add_joints, add_json, add_params,
-                                            joint_selection, print_json, write_json_out)
+                                            add_history, add_joints, add_json, add_params,
+                                            add_robot, emit_json, joint_selection, print_json,
+                                            write_json_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'replay a recorded bag through the monitoring service'
@@ -20,8 +23,22 @@ HELP = 'replay a recorded bag through the monitoring service'
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``replay``."""
-    parser.add_argument('bag', metavar='BAG', help='recorded ROS 2 bag (MCAP or sqlite3)')
-    parser.add_argument('--out', required=True, metavar='OUT_BAG', help='output bag directory')
+    parser.add_argument('bag', metavar='BAG', nargs='*',
+                        help='recorded ROS 2 bag(s) (MCAP or sqlite3), or folders of bags')
+    parser.add_argument('--out', metavar='OUT_BAG',
+                        help='output bag directory (required with one bag unless --history is '
+                             'given); with many bags a folder: OUT/<robot>/<bag name>/')
+    parser.add_argument('--manifest', metavar='CSV',
+                        help='bags of many robots: a CSV with the columns robot,bag (a '
+                             'relative bag path is relative to the CSV)')
+    add_robot(parser, help_text='the robot of the bags (its key in the history; default: the '
+                                'node config\'s robot_id, else "default"); a manifest names '
+                                'each bag\'s robot')
+    parser.add_argument('--workers', type=int, metavar='N',
+                        help='replay many bags on N processes of this machine (default 1)')
+    parser.add_argument('--dask', metavar='ADDRESS',
+                        help='submit the bags to the Dask scheduler at ADDRESS (e.g. '
+                             'tcp://10.0.0.5:8786); the workers must read the bags\' paths')
     add_json(parser, what='the summary JSON', legacy_path=True)
     parser.add_argument('--plot', metavar='PNG', help='draw the wear trend (like Fig. 11)')
     add_joints(parser, help_text='joint to monitor; several as NAME,NAME or repeated --joint, '
@@ -33,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                  'per-joint values as <joint>: {gear_ratio: ...})')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='storage of OUT_BAG (default mcap)')
-    parser.add_argument('--history', metavar='FILE', help='also keep the SQLite wear history')
+    add_history(parser, help_text='also keep the wear history (with many bags: the output)')
     parser.add_argument('--truth', metavar='JSON',
                         help='truth of a simulated bag (simulate writes BAG.truth.json), added '
                              'to the summary and the plot; nothing beside the bag is read '
@@ -44,19 +61,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
+def is_batch(args: argparse.Namespace) -> bool:
+    """Return True when the command names many bags (or asks for workers or Dask)."""
+    from pathlib import Path
+
+    from robot_wear_monitor.fleet.batch import is_bag
+    return bool(len(args.bag) > 1 or args.manifest or args.workers is not None
+                or args.dask or any(not is_bag(Path(b)) and Path(b).is_dir()
+                                    for b in args.bag))
+
+
 def main(args: argparse.Namespace) -> int:
-    """Run ``replay``: write OUT_BAG, print the summary (text or ``--json``)."""
+    """Run ``replay``: one bag (write OUT_BAG, print the summary) or many (:func:`main_batch`)."""
     from pathlib import Path
 
     from robot_wear_monitor.experiment.simulation import read_truth_json
     from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
-    if Path(args.out).exists() and not args.overwrite:
+    if not args.bag and not args.manifest:
+        raise InputError('name a bag (or several, a folder of bags, or --manifest CSV)')
+    if is_batch(args):
+        return main_batch(args)
+    if args.out is None and args.history is None:
+        raise InputError('--out OUT_BAG or --history: the replay needs somewhere to write')
+    [bag] = args.bag
+    args.bag = bag
+    if args.out is not None and Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     truth = read_truth_json(args.truth) if args.truth else None
     joint, joints = joint_selection(args.joint)
     experiment, estimator = replay_parameters(
         config_file=args.config, joint=joint, joints=joints, gear_ratio=args.gear_ratio,
-        torque_scale=args.torque_scale, params_file=args.params)
+        torque_scale=args.torque_scale, params_file=args.params, robot=args.robot)
     result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
                         estimator_parameters=estimator, storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
@@ -86,7 +121,7 @@ def main(args: argparse.Namespace) -> int:
              if skipped else '')
           + ('no alarm' if first is None else
              f'alarm at experiment {first["index"]} (w-hat {first["wear"]:.1f})')
-          + f'; wrote {args.out}')
+          + (f'; wrote {args.out}' if args.out else f'; history {args.history}'))
     if joints:
         for entry in result.joints:
             print(joint_summary_line(entry))
@@ -109,3 +144,47 @@ def joint_summary_line(entry: dict, *, estimates: bool = True) -> str:
     if entry['no_experiment']:
         line += f'; no experiment: {entry["no_experiment"]}'
     return line
+
+
+def main_batch(args: argparse.Namespace) -> int:
+    """Run ``replay`` on many bags: one task per bag, a progress bar, a summary; exit 2 if any
+    bag failed (each named with its reason on stderr)."""
+    import sys
+
+    from tqdm import tqdm
+
+    from robot_wear_monitor.fleet.batch import (BagOutcome, collect_bags, ReplaySettings,
+                                                run_batch)
+    for option, given in (('--truth', args.truth), ('--plot', args.plot)):
+        if given:
+            raise InputError(f'{option} is for one bag; with many bags the history is the '
+                             'output (see the fleet command)')
+    if args.history is None and args.out is None:
+        raise InputError('many bags need --history (the output) or --out DIR')
+    if args.workers is not None and args.dask:
+        raise InputError('--workers and --dask: choose one (Dask has its own workers)')
+    if args.workers is not None and not 1 <= args.workers <= 256:
+        raise InputError(f'--workers must be 1-256, got {args.workers}')
+    tasks = collect_bags(paths=args.bag, manifest=args.manifest, robot=args.robot,
+                         out_dir=args.out)
+    joint, joints = joint_selection(args.joint)
+    settings = ReplaySettings(history=args.history, config_file=args.config, joint=joint,
+                              joints=tuple(joints) if joints else None,
+                              gear_ratio=args.gear_ratio, torque_scale=args.torque_scale,
+                              params_file=args.params, storage=args.storage,
+                              overwrite=args.overwrite, recover=not args.strict)
+    if args.history is not None:  # made (or refused) once, before the workers start
+        from robot_wear_monitor.monitoring.history import open_history
+        open_history(args.history).close()
+
+    def report(outcome: BagOutcome) -> None:  # a failure as it happens, above the bar
+        if outcome.status == 'failed':
+            tqdm.write(f'failed: {outcome.bag} (robot {outcome.robot}): {outcome.reason}',
+                       file=sys.stderr)
+
+    result = run_batch(tasks, settings=settings, workers=args.workers or 1,
+                       dask_address=args.dask, progress=not args.no_progress,
+                       on_outcome=report)
+    if not emit_json(args, result.summary()):
+        print(result.summary_line())
+    return 2 if result.failed else 0

@@ -10,7 +10,8 @@ import argparse
 import sys
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
-                                            add_joints, joint_selection, parse_float_list)
+                                            add_joints, add_robot, joint_selection,
+                                            parse_float_list)
 from robot_wear_monitor.cli.replay import joint_summary_line
 
 HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
@@ -35,6 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='experiments at these motor speeds only [rad/s] (default: the '
                              'speeds found in the data)')
     parser.add_argument('--out', metavar='CSV', help='write the levels here (default stdout)')
+    add_robot(parser, help_text='add a robot column with this name (levels of several robots '
+                                'in one table)')
 
 
 def main(args: argparse.Namespace) -> int:
@@ -65,7 +68,7 @@ def main(args: argparse.Namespace) -> int:
             if summary['rejected']:
                 report.append('    rejected: ' + ', '.join(
                     f'{k} {n}' for k, n in summary['rejected'].items()))
-    text = levels_csv_text(result.rows)
+    text = levels_csv_text(result.rows, robot=args.robot)
     if args.out:
         write_text_atomic(args.out, text)
     else:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import add_params, params_from, parse_float_list
+from robot_wear_monitor.errors import InputError
 
 HELP = 'simulate friction experiments of a wearing joint into a ROS 2 bag'
 
@@ -27,6 +28,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='bag storage (default mcap)')
     parser.add_argument('--overwrite', action='store_true', help='replace an existing bag')
     parser.add_argument('--seed', type=int, default=0, help='random seed')
+    parser.add_argument('--start-time', metavar='TIME',
+                        help='time of the first sample: ISO 8601 (UTC when no zone) or seconds '
+                             'since the epoch (default 2024-01-01T00:00:00Z); consecutive '
+                             'recordings of one robot start where the previous one ended')
     add_params(parser)
 
 
@@ -41,6 +46,16 @@ def main(args: argparse.Namespace) -> int:
         n_experiments=args.experiments, speeds_rad_s=args.speeds, params=params,
         seed=args.seed, wear_final=args.wear_final, experiment_interval_s=args.interval,
         joint=JointSimConfig(sample_rate_hz=args.sample_rate))
+    if args.start_time is not None:
+        import math
+        from dataclasses import replace
+
+        from robot_wear_monitor.cli.fleet import parse_time
+        start_s = parse_time(args.start_time, option='--start-time')
+        if not math.isfinite(start_s) or not 0.0 <= start_s < 4.1e9:
+            raise InputError(f'--start-time: must be between 1970 and 2099, got '
+                             f'{args.start_time[:40]}')
+        config = replace(config, start_time_s=start_s)
     scenario = simulate_scenario(config=config, model=params.model, seed=args.seed)
     bag = write_joint_state_bag(args.out, stamps_s=scenario.time_s, names=scenario.joint_names,
                                 position=scenario.position_rad,

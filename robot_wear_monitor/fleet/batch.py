@@ -400,8 +400,6 @@ def run_batch(tasks: Sequence[BagTask], *, settings: ReplaySettings, workers: in
     def finished(index: int, outcome: BagOutcome) -> None:
         outcomes[index] = outcome
         bar.update(1)
-        if outcome.status == 'failed':
-            bar.write(f'failed: {outcome.bag} (robot {outcome.robot}): {outcome.reason}')
         if on_outcome is not None:
             on_outcome(outcome)
 

@@ -88,6 +88,8 @@ def _crossing_text(row: FleetView, local: bool) -> str:
     crossing = row.state.crossing_experiments
     if not math.isfinite(crossing):
         return 'not within the forecast horizon'
+    if crossing <= 0:
+        return 'crossed (trend past the threshold)'
     text = f'in {crossing:.0f} experiments'
     if row.crossing_time_s is not None:
         text += f' (~{iso_time(row.crossing_time_s, local=local)[:10]})'

@@ -118,15 +118,21 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
     return result
 
 
-def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]]) -> str:
-    """Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text."""
+def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]], *,
+                    robot: str | None = None) -> str:
+    """Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text.
+
+    ``robot``: a last column ``robot`` with this name (none when None).
+    """
     text = io.StringIO()
     writer = csv.writer(text)
-    writer.writerow(LEVEL_COLUMNS)
+    writer.writerow(list(LEVEL_COLUMNS) + (['robot'] if robot is not None else []))
+    extra = [robot] if robot is not None else []
     for level, k, joint in rows:
         writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
                          f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
                          f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
                          f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
-                         f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k, joint])
+                         f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k, joint,
+                         *extra])
     return text.getvalue()

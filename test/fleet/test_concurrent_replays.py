@@ -114,8 +114,8 @@ def test_eight_replays_at_once_store_the_sequential_rows(robot_bags, tmp_path, r
 
 
 @pytest.mark.parametrize('backend', ['sqlite', 'postgresql'])
-def test_two_replays_of_one_robot_at_once_give_the_rows_of_one(robot_bags, tmp_path, request,
-                                                              backend):
+def test_two_replays_of_one_robot_at_once_give_the_rows_of_one(
+        robot_bags, tmp_path, request, backend):
     bag = robot_bags['robot_3']
     once = _location(backend, tmp_path, request, 'once')
     _replay(bag, once, 'robot_3')

@@ -1,0 +1,90 @@
+"""``robot-wear-monitor fleet``: every robot joint of a history, worst first.
+
+The ranking and its texts are :mod:`robot_wear_monitor.fleet.ranking`; this verb reads the
+options and prints a text table (default), ``--json`` (a list of objects) or ``--csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import time
+
+from robot_wear_monitor.cli.options import add_history, add_json, add_robot, emit_json
+from robot_wear_monitor.errors import InputError
+
+HELP = 'every robot joint of a wear history, worst first (alarm, forecast crossing, wear)'
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the options of ``fleet``."""
+    add_history(parser, help_text='the fleet\'s wear history', required=True)
+    add_robot(parser, help_text='show only this robot\'s joints')
+    parser.add_argument('--csv', nargs='?', const='-', metavar='PATH',
+                        help='print the rows as CSV (or write them to PATH)')
+    parser.add_argument('--now', metavar='TIME',
+                        help='judge staleness at this time: ISO 8601 (e.g. '
+                             '2026-11-24T12:00:00Z) or seconds since the epoch '
+                             '(default: the clock)')
+    parser.add_argument('--local', action='store_true',
+                        help='times in the local time zone (default UTC)')
+    add_json(parser, what='the rows (a list of objects)')
+
+
+def parse_time(text: str, *, option: str = '--now') -> float:
+    """Return seconds since the epoch of an ISO 8601 time (UTC when no zone) or a number."""
+    import datetime
+    import math
+    try:
+        value = float(text)
+    except ValueError:
+        pass
+    else:
+        if not math.isfinite(value):
+            raise InputError(f'{option}: not a finite time: {text[:40]!r}')
+        return value
+    try:
+        moment = datetime.datetime.fromisoformat(text.replace('Z', '+00:00'))
+    except ValueError:
+        raise InputError(f'{option}: not an ISO 8601 time or a number: {text[:40]!r}') from None
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=datetime.timezone.utc)
+    return moment.timestamp()
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
+    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view
+    from robot_wear_monitor.monitoring.history import open_history
+    now_s = parse_time(args.now) if args.now else time.time()
+    with open_history(args.history, init=False) as history:
+        rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s)
+    if args.robot and not rows:
+        raise InputError(f'{args.history}: no estimates of robot {args.robot!r}')
+    if emit_json(args, [row.as_json() for row in rows]):
+        return 0
+    if args.csv:
+        buffer = io.StringIO()
+        csv.writer(buffer, lineterminator='\n').writerows(fleet_csv_rows(rows,
+                                                                         local=args.local))
+        if args.csv == '-':
+            print(buffer.getvalue(), end='')
+        else:
+            try:
+                write_text_atomic(args.csv, buffer.getvalue())
+            except OSError as error:
+                raise InputError(f'{args.csv}: cannot write: {error.strerror}') from None
+            print(f'{len(rows)} rows written to {args.csv}')
+        return 0
+    if not rows:
+        print(f'{args.history}: no estimates yet')
+        return 0
+    alarms = sum(1 for row in rows if row.state.alarm)
+    stale = sum(1 for row in rows if row.stale)
+    robots = len({row.state.robot for row in rows})
+    print(f'{robots} robots, {len(rows)} joints: {alarms} alarm(s) latched, {stale} stale '
+          '(worst first)')
+    print(fleet_table(rows, local=args.local))
+    return 0
