@@ -38,7 +38,10 @@ setup(
                 'ros-jazzy-std-srvs', 'ros-jazzy-diagnostic-msgs', 'ros-jazzy-trajectory-msgs'],
         # A wear history on a PostgreSQL server (--history postgresql://...); SQLite needs none.
         'postgresql': ['psycopg[binary]>=3.1'],
+        # Re-analysis of many recordings on an existing Dask cluster (replay --dask ADDRESS).
+        'dask': ['distributed>=2023.1'],
         'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'flake8>=6', 'psycopg[binary]>=3.1',
+                 'distributed>=2023.1',
                  'flake8-docstrings>=1.7', 'pydocstyle>=6.3',
                  'colcon-common-extensions>=0.3'],
     },
