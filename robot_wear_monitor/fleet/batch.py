@@ -465,7 +465,8 @@ def _run_dask(tasks: Sequence[BagTask], settings: ReplaySettings,
     try:
         from distributed import as_completed, Client
     except ImportError as error:  # pragma: no cover - dask is a dependency
-        raise BatchError(f'--dask needs the distributed package ({error})') from None
+        raise BatchError(f'--dask needs the distributed package: pip install '
+                         f'"robot_wear_monitor[dask]" ({error})') from None
     own = client is None
     if own:
         try:
