@@ -24,6 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``history``: a table of the estimates (or ``--json``), ``--csv`` the levels."""
+    import math
     from pathlib import Path
 
     from robot_wear_monitor.monitoring.diagnostics import json_number
@@ -73,9 +74,13 @@ def main(args: argparse.Namespace) -> int:
           f'{"LATCHED" if state.alarm_active else "clear"}')
     header = ('id', 'stamp [s]', 'w', 'std w', 'T [degC]', 'p-value')
     print('{:>5} {:>14} {:>7} {:>7} {:>9} {:>8}  alarm'.format(*header))
+
+    def cell(value: float, spec: str) -> str:  # '-' where the estimate reported none
+        return format(value, spec) if math.isfinite(value) else '-'
     for r in records:
-        print(f'{r.id:>5} {r.stamp_s:>14.1f} {r.wear:>7.2f} {r.wear_std:>7.2f} '
-              f'{r.temperature_degc:>9.2f} {r.p_value:>8.3g}  {"yes" if r.alarm_active else ""}')
+        print(f'{r.id:>5} {r.stamp_s:>14.1f} {cell(r.wear, ".2f"):>7} '
+              f'{cell(r.wear_std, ".2f"):>7} {cell(r.temperature_degc, ".2f"):>9} '
+              f'{cell(r.p_value, ".3g"):>8}  {"yes" if r.alarm_active else ""}')
     if args.csv:
         print(f'levels written to {args.csv} (run: {PROG} audit {args.csv})')
     return 0

@@ -46,10 +46,21 @@ def json_number(value: float) -> Optional[float]:
     return value if math.isfinite(value) else None
 
 
-def fmt_number(value: float, digits: int = 4) -> str:
-    """Return ``value`` with ``digits`` significant digits (``nan`` when not finite)."""
+#: What a person reads for a number that is not known (never 'nan').
+UNKNOWN = 'unknown'
+#: What a person reads for a std the estimate does not report (the interval says it).
+STD_NOT_REPORTED = 'not reported (see the interval)'
+#: What a person reads for an open end of a forecast (never 'inf' or 'nan').
+BEYOND_HORIZON = 'beyond the forecast horizon'
+
+
+def fmt_number(value: float, digits: int = 4, *, missing: str = UNKNOWN) -> str:
+    """Return ``value`` with ``digits`` significant digits; ``missing`` when not finite.
+
+    Text a person reads never says 'nan' or 'inf' (JSON says null instead).
+    """
     value = float(value)
-    return f'{value:.{digits}g}' if math.isfinite(value) else 'nan'
+    return f'{value:.{digits}g}' if math.isfinite(value) else missing
 
 
 #: Rejections that the friction experiment itself produces (ramps too short to be a pass, a
@@ -116,9 +127,11 @@ def forecast_text(trend: TrendEstimate) -> str:
     remaining = float(trend.remaining_experiments)
     if trend.probability_above_threshold >= 0.5 or not math.isfinite(remaining):
         return ''
-    return (f', crossing in {remaining:.0f} experiments '
-            f'({fmt_number(trend.remaining_experiments_low, 3)}-'
-            f'{fmt_number(trend.remaining_experiments_high, 3)})')
+    low = fmt_number(trend.remaining_experiments_low, 3)
+    high = float(trend.remaining_experiments_high)
+    if not math.isfinite(high):
+        return f', crossing in {remaining:.0f} experiments (95 %: {low} to {BEYOND_HORIZON})'
+    return f', crossing in {remaining:.0f} experiments (95 %: {low}-{fmt_number(high, 3)})'
 
 
 #: Diagnostics key-values of the trend (trend attribute names, with their keys).
@@ -137,5 +150,7 @@ def trend_values(trend: Optional[TrendEstimate]) -> list[tuple[str, str]]:
     """Return the trend's diagnostics key-values (:data:`TREND_KEYS`), none when None."""
     if trend is None:
         return []
-    return [(key, fmt_number(getattr(trend, name), 15 if 'time' in key else 6))
+    return [(key, fmt_number(getattr(trend, name), 15 if 'time' in key else 6,
+                             missing=BEYOND_HORIZON if key.startswith(('remaining', 'crossing'))
+                             else UNKNOWN))
             for key, name in TREND_KEYS]

@@ -30,7 +30,8 @@ from robot_wear_monitor.experiment.levels import FrictionExperiment
 from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,
                                                        forecast_text, interval_text, json_number,
-                                                       meaningful_std, trend_values)
+                                                       meaningful_std, STD_NOT_REPORTED,
+                                                       trend_values)
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC)
@@ -467,7 +468,8 @@ class WearEstimatorService:
             message = summary
         values = [
             ('joint', config.joint),
-            ('wear', fmt_number(wear, 6)), ('wear_std', fmt_number(wear_std, 6)),
+            ('wear', fmt_number(wear, 6)),
+            ('wear_std', fmt_number(wear_std, 6, missing=STD_NOT_REPORTED)),
             ('wear_low', fmt_number(math.nan if interval is None else interval.wear_low, 6)),
             ('wear_high', fmt_number(math.nan if interval is None else interval.wear_high, 6)),
             ('temperature_degc', fmt_number(estimate.temperature_degc, 6)),
@@ -522,7 +524,8 @@ class WearEstimatorService:
         if self.trend:
             last = self.trend[-1]
             values += [('wear', fmt_number(last.wear, 6)),
-                       ('wear_std', fmt_number(last.wear_std, 6)),
+                       ('wear_std',
+                        fmt_number(last.wear_std, 6, missing=STD_NOT_REPORTED)),
                        ('temperature_degc', fmt_number(last.temperature_degc, 6))]
         values += self._rejection_values()
         if self.latch.active:

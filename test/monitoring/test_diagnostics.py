@@ -23,7 +23,8 @@ def test_rejection_log_reports_each_rejection_once_and_at_most_once_per_period()
 
 
 def test_numbers_in_key_values_and_json():
-    assert fmt_number(35.0) == '35' and fmt_number(math.nan) == 'nan'
+    assert fmt_number(35.0) == '35' and fmt_number(math.nan) == 'unknown'
+    assert fmt_number(math.inf, missing='beyond') == 'beyond'
     assert fmt_number(1 / 3, 6) == '0.333333'
     assert json_number(math.inf) is None and json_number(2) == 2.0
 
