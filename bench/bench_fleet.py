@@ -19,7 +19,6 @@ The per-bag replay time printed here is what ``docs/fleet.md`` plans a fleet wit
 
 import argparse
 from dataclasses import replace
-import importlib
 import math
 import multiprocessing
 import os
@@ -29,7 +28,7 @@ import tempfile
 import time
 
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
-from robot_wear_monitor.fleet.batch import collect_bags, ReplaySettings, run_batch
+from robot_wear_monitor.fleet.batch import collect_bags, replay_one, ReplaySettings, run_batch
 from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.monitoring.history import HistoryRecord, WearHistory
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
@@ -156,9 +155,11 @@ def main() -> None:
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                       dashboard_address=None) as cluster, \
                 distributed.Client(cluster) as client:
-            # workers up, with the replay imported, before the clock starts (the pool's
-            # forked workers start with it imported too)
-            client.run(importlib.import_module, 'robot_wear_monitor.monitoring.replay')
+            # workers warm before the clock starts: one replay each (imports, the estimator's
+            # problem and interval calibration of the design), as the pool's workers, forked
+            # from this process after its in-process run, start warm
+            first = collect_bags(manifest=manifest)[0]
+            client.run(replay_one, first, ReplaySettings())
             dask_wall, dask = timed_batch(manifest, root / 'h3.sqlite3', dask_client=client)
         print(f'  Dask LocalCluster (2)  {dask_wall:7.2f} s   {two / dask_wall:.2f}x the pool')
         peak = max(o.peak_rss_mb for o in second.outcomes + dask.outcomes)

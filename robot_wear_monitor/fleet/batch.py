@@ -8,8 +8,8 @@ its experiments in one transaction each.
 
 **Same numbers as one by one.**  A joint's wear trend is a filter over its experiments in time
 order, so the bags of one robot run one after the other, earliest recording first; the robots
-run in parallel.  On the pool the next bag of a robot is submitted when its previous bag is
-done; on Dask each bag's task depends on the previous bag of its robot.  A bag that fails is
+run in parallel: on the pool and on Dask alike, the next bag of a robot is submitted when its
+previous bag is done.  A bag that fails is
 reported with its reason and does not stop the others (a task never raises).  A bag already in
 the history (same robot, same recording fingerprint) is skipped.
 """
@@ -309,12 +309,8 @@ def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def replay_one(task: BagTask, settings: ReplaySettings, *after: Any) -> BagOutcome:
-    """Replay one bag into the history; never raise (a failure is the outcome's ``reason``).
-
-    ``after``: the outcome of the robot's previous bag (Dask passes it, so that this task
-    waits for it); unused otherwise.
-    """
+def replay_one(task: BagTask, settings: ReplaySettings) -> BagOutcome:
+    """Replay one bag into the history; never raise (a failure is the outcome's ``reason``)."""
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     from robot_wear_monitor.monitoring.history import open_history
     from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
@@ -461,7 +457,7 @@ def _run_pool(tasks: Sequence[BagTask], settings: ReplaySettings,
 def _run_dask(tasks: Sequence[BagTask], settings: ReplaySettings,
               finished: Callable[[int, BagOutcome], None], address: str | None,
               client: Any) -> str:
-    """Submit the tasks to Dask, each depending on its robot's previous bag; collect them."""
+    """Submit the tasks to Dask: each robot's next bag when its previous one is done."""
     try:
         from distributed import as_completed, Client
     except ImportError as error:  # pragma: no cover - dask is a dependency
@@ -475,22 +471,26 @@ def _run_dask(tasks: Sequence[BagTask], settings: ReplaySettings,
             raise BatchError(f'--dask {_cut(str(address))}: cannot connect to the scheduler '
                              f'({_cut(str(error), 200)})') from None
     try:
-        futures: dict[Any, int] = {}
-        for chain in _chains(tasks).values():
-            previous = None
-            for index in chain:
-                args = (tasks[index], settings) + (() if previous is None else (previous,))
-                future = client.submit(replay_one, *args, pure=False)
-                futures[future] = index
-                previous = future
-        for future in as_completed(list(futures)):
-            index = futures[future]
+        chains = _chains(tasks)
+        running: dict[Any, tuple[str, int]] = {}
+
+        def submit_next(robot: str) -> Any:
+            index = chains[robot].popleft()
+            future = client.submit(replay_one, tasks[index], settings, pure=False)
+            running[future] = (robot, index)
+            return future
+
+        pending = as_completed([submit_next(robot) for robot in chains if chains[robot]])
+        for future in pending:
+            robot, index = running.pop(future)
             try:
                 outcome = future.result()
             except Exception as error:  # noqa: BLE001 - a lost worker or task
                 outcome = _failed(tasks[index], f'dask task failed: {type(error).__name__}: '
                                                 f'{_cut(str(error), 200)}')
             finished(index, outcome)
+            if chains[robot]:
+                pending.add(submit_next(robot))
         workers = len(client.scheduler_info().get('workers', {}))
         return f'dask ({workers} workers)'
     finally:
