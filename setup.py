@@ -40,10 +40,14 @@ setup(
         'postgresql': ['psycopg[binary]>=3.1'],
         # Re-analysis of many recordings on an existing Dask cluster (replay --dask ADDRESS).
         'dask': ['distributed>=2023.1'],
-        'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'flake8>=6', 'psycopg[binary]>=3.1',
-                 'distributed>=2023.1',
-                 'flake8-docstrings>=1.7', 'pydocstyle>=6.3',
-                 'colcon-common-extensions>=0.3'],
+        'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'psycopg[binary]>=3.1',
+                 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
+                 # ament_flake8's checks and plugins, ament_pep257, mypy
+                 'flake8>=6', 'flake8-blind-except>=0.2', 'flake8-builtins>=2.0',
+                 'flake8-class-newline>=1.6', 'flake8-comprehensions>=3.10',
+                 'flake8-deprecated>=2.0', 'flake8-docstrings>=1.7',
+                 'flake8-import-order>=0.18', 'flake8-quotes>=3.3', 'pydocstyle>=6.3',
+                 'mypy>=1.8', 'types-PyYAML>=6.0'],
     },
     zip_safe=True,
     maintainer='robot_wear_monitor maintainers',

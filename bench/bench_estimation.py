@@ -21,10 +21,10 @@ from scipy import optimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from robot_wear_monitor.model import friction as fm  # noqa: E402
 from robot_wear_monitor.estimation.estimator import estimate_wear  # noqa: E402
-from robot_wear_monitor.model.params import load_parameter_set  # noqa: E402
 from robot_wear_monitor.estimation.study import run_study  # noqa: E402
+from robot_wear_monitor.model import friction as fm  # noqa: E402
+from robot_wear_monitor.model.params import load_parameter_set  # noqa: E402
 
 TABLE_IV = {1: [38.63], 2: [35.84, 40.84], 3: [33.68, 38.68, 43.68],
             4: [31.65, 36.65, 41.65, 46.65]}

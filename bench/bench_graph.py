@@ -1111,9 +1111,9 @@ def main(argv=None):
                         help='no shell process (the node with its callback replaced by a '
                              'counter) in the runs')
     parser.add_argument('--verbose', action='store_true',
-                        help='print every subscriber\'s result (counts, gc statistics)')
+                        help="print every subscriber's result (counts, gc statistics)")
     parser.add_argument('--keep-logs', action='store_true',
-                        help='keep the children\'s stderr and ROS logs (path printed)')
+                        help="keep the children's stderr and ROS logs (path printed)")
     parser.add_argument('--role', choices=('pub', 'check') + ROLES,
                         help=argparse.SUPPRESS)
     parser.add_argument('--check', default='features',

@@ -16,12 +16,13 @@ import time
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from robot_wear_monitor.experiment.planning import (PlanConfig, plan_experiment,  # noqa: E402
-                                                    plan_summary)
+from robot_wear_monitor.experiment.planning import (plan_experiment, plan_summary,  # noqa: E402
+                                                    PlanConfig)
 
 SPEEDS = (2.1, 28.5, 35.1, 41.7)
-SETTINGS = dict(joint='joint_2', speeds_rad_s=SPEEDS, center_rad=0.2, half_range_rad=0.5,
-                gear_ratio=150.0, max_acceleration_rad_s2=10.0, rate_hz=250.0, noise_std=0.01)
+SETTINGS = {'joint': 'joint_2', 'speeds_rad_s': SPEEDS, 'center_rad': 0.2, 'half_range_rad': 0.5,
+            'gear_ratio': 150.0, 'max_acceleration_rad_s2': 10.0, 'rate_hz': 250.0,
+            'noise_std': 0.01}
 
 
 def main() -> None:

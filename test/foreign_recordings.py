@@ -430,7 +430,7 @@ def generate(*, schedule: Sequence[str], joints: dict[str, JointSpec] | None = N
     paths = {name: _Path(EPOCH_S, arm[name].posture_rad) for name in names}
     clock = EPOCH_S + protocol.lead_in_s
     runs = {name: schedule.count(name) for name in names}
-    done = {name: 0 for name in names}
+    done = dict.fromkeys(names, 0)
     low, high = protocol.temperature_degc
     experiments: list[ExperimentTruth] = []
     # per-level torque offsets on the plateau, applied by time window: (joint, t0, t1, tau_f)

@@ -11,6 +11,13 @@ from conftest import REPO_ROOT
 TARGETS = ['robot_wear_monitor', 'test', 'bench', 'launch', 'setup.py']
 
 
+#: ament_flake8's plugins (flake8 --version names them as below); the `test` extra installs them.
+AMENT_PLUGINS = ('flake8-blind-except', 'flake8-builtins', 'flake8-class-newline',
+                 'flake8-comprehensions', 'flake8-deprecated', 'flake8-docstrings',
+                 'import-order', 'flake8-quotes')
+
+
+@pytest.mark.flake8
 @pytest.mark.linter
 def test_flake8():
     try:  # on a ROS 2 host, the ament linter itself
@@ -23,6 +30,12 @@ def test_flake8():
         return
     if shutil.which('flake8') is None and not _module_available('flake8'):
         pytest.skip('flake8 is not installed (pip install ".[test]")')
+    version = subprocess.run([sys.executable, '-m', 'flake8', '--version'], cwd=REPO_ROOT,
+                             capture_output=True, text=True, check=False).stdout
+    listed = ''.join(version.split()).replace('_', '-')  # --version wraps its lines
+    missing = [plugin for plugin in AMENT_PLUGINS if plugin not in listed]
+    assert not missing, f'flake8 runs without ament_flake8 plugins {missing}: ' \
+                        'pip install ".[test]"'
     targets = [t for t in TARGETS if (REPO_ROOT / t).exists()]
     result = subprocess.run([sys.executable, '-m', 'flake8', *targets], cwd=REPO_ROOT,
                             capture_output=True, text=True, check=False)

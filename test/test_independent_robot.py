@@ -10,24 +10,24 @@ import os
 import subprocess
 import sys
 
-from conftest import REPO_ROOT
 import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
+from conftest import REPO_ROOT
 import independent_robot as robot
-from robot_wear_monitor.experiment.segmentation import (SegmenterConfig, segment_batch,
+from robot_wear_monitor.experiment.segmentation import (segment_batch, SegmenterConfig,
                                                         StreamingSegmenter)
 
 SEED = 0
 N_EXPERIMENTS = 8
 SPEEDS = robot.TABLE_V_SPEEDS_RAD_S
 #: The segmentation settings of config/wear_monitor.yaml (friction_experiment_node).
-NODE_SEGMENTER = dict(joint='joint_2', gear_ratio=150.0, torque_scale=10.0,
-                      standstill_speed_rad_s=0.1, speed_tolerance_fraction=0.05,
-                      speed_tolerance_rad_s=0.05, min_duration_s=0.2, trim_s=0.02,
-                      min_samples=20, min_window_rad=0.0, max_gap_s=0.1)
+NODE_SEGMENTER = {'joint': 'joint_2', 'gear_ratio': 150.0, 'torque_scale': 10.0,
+                  'standstill_speed_rad_s': 0.1, 'speed_tolerance_fraction': 0.05,
+                  'speed_tolerance_rad_s': 0.05, 'min_duration_s': 0.2, 'trim_s': 0.02,
+                  'min_samples': 20, 'min_window_rad': 0.0, 'max_gap_s': 0.1}
 #: |w-hat - w| allowed where w >= 20: about 3x the scatter of w-hat seen there over 30 seeds
 #: (std 4-7 per experiment, N = 4 speeds, model error sigma of (9b) per level).
 WEAR_TOLERANCE = 15.0

@@ -66,7 +66,7 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
             raise InputError(f'{source}: column {name!r} has NaN or inf values '
                              f'(first at row {int(np.argmax(bad)) + 1})')
     if np.any(numeric['speed'] <= 0):
-        raise InputError(f'{source}: column \'speed\' must be > 0 (the friction level of eq. (3) '
+        raise InputError(f"{source}: column 'speed' must be > 0 (the friction level of eq. (3) "
                          'is direction independent: use |speed|)')
     return AuditTable(numeric, text, source)
 

@@ -116,4 +116,4 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
             'per_experiment': [{'temperature_before_degc': float(x[0]), 'wear_before': float(x[1]),
                                 'temperature_after_degc': float(z[0]), 'wear_after': float(z[1])}
                                for x, z in zip(b, a)],
-            'reference': 'errors are against the table\'s temperature and wear columns'}
+            'reference': "errors are against the table's temperature and wear columns"}

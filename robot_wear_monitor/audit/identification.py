@@ -604,7 +604,7 @@ def check_wear_test(table: AuditTable, critical_experiment: str) -> str:
     _require_columns(table, ('speed', 'friction', 'temperature', 'load'),
                      'the wear profile (6)')
     if 'experiment' not in table.columns:
-        raise InputError(f'{table.source}: column \'experiment\' is missing (the wear test '
+        raise InputError(f"{table.source}: column 'experiment' is missing (the wear test "
                          'needs its time index k)')
     labels = _as_text(table, 'experiment')
     key = _experiment_key(critical_experiment)
@@ -997,7 +997,7 @@ def parameter_set_yaml(result: Identification) -> str:
             line('std', params.load_std, 'std of the load-torque estimate [-]'), '',
             '# Estimation: temperature bounds = '
             + ('given by --temperature-bounds' if result.extra.get('temperature_bounds_given')
-               else 'the baseline\'s temperature range') + f'; wear_max from {source}.',
+               else "the baseline's temperature range") + f'; wear_max from {source}.',
             'estimation:',
             line('temperature_min_degc', params.temperature_min_degc, 'degC'),
             line('temperature_max_degc', params.temperature_max_degc, 'degC'),
@@ -1105,7 +1105,7 @@ def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | No
                                  f'column (columns: {", ".join(table.columns)})')
             numeric[target] = numeric[name]
         if target not in numeric:
-            hint = (' (the raw runs\' gravity load is in column load_torque: '
+            hint = (" (the raw runs' gravity load is in column load_torque: "
                     '--load-column load_torque)' if 'load_torque' in numeric and
                     target == 'load' else '')
             raise InputError(

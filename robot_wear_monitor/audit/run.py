@@ -30,9 +30,8 @@ from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
 from robot_wear_monitor.audit.estimates import estimate_changes
 from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
                                              offline_defaults)
-from robot_wear_monitor.audit.fitting import (_as_text, _Base, _design, _fit, _Fit, _group_codes,
-                                              _nominal_base, _orthonormal, _speed_base,
-                                              AuditTable)
+from robot_wear_monitor.audit.fitting import (_as_text, _Base, _design, _Fit, _fit, _group_codes,
+                                              _nominal_base, _orthonormal, _speed_base, AuditTable)
 from robot_wear_monitor.audit.noise import noise_floor
 from robot_wear_monitor.audit.result import _json_clean, AuditResult, Effect
 from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term

@@ -19,8 +19,8 @@ HELP = 'every robot joint of a wear history, worst first (alarm, forecast crossi
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``fleet``."""
-    add_history(parser, help_text='the fleet\'s wear history', required=True)
-    add_robot(parser, help_text='show only this robot\'s joints')
+    add_history(parser, help_text="the fleet's wear history", required=True)
+    add_robot(parser, help_text="show only this robot's joints")
     parser.add_argument('--csv', nargs='?', const='-', metavar='PATH',
                         help='print the rows as CSV (or write them to PATH)')
     parser.add_argument('--now', metavar='TIME',

@@ -33,12 +33,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'relative bag path is relative to the CSV)')
     add_robot(parser, help_text='the robot of the bags (its key in the history; default: the '
                                 'node config\'s robot_id, else "default"); a manifest names '
-                                'each bag\'s robot')
+                                "each bag's robot")
     parser.add_argument('--workers', type=int, metavar='N',
                         help='replay many bags on N processes of this machine (default 1)')
     parser.add_argument('--dask', metavar='ADDRESS',
                         help='submit the bags to the Dask scheduler at ADDRESS (e.g. '
-                             'tcp://10.0.0.5:8786); the workers must read the bags\' paths')
+                             "tcp://10.0.0.5:8786); the workers must read the bags' paths")
     add_json(parser, what='the summary JSON', legacy_path=True)
     parser.add_argument('--plot', metavar='PNG', help='draw the wear trend (like Fig. 11)')
     add_joints(parser, help_text='joint to monitor; several as NAME,NAME or repeated --joint, '
@@ -147,8 +147,10 @@ def joint_summary_line(entry: dict, *, estimates: bool = True) -> str:
 
 
 def main_batch(args: argparse.Namespace) -> int:
-    """Run ``replay`` on many bags: one task per bag, a progress bar, a summary; exit 2 if any
-    bag failed (each named with its reason on stderr)."""
+    """Run ``replay`` on many bags: one task per bag, a progress bar and a summary.
+
+    Exit 2 when any bag failed (each is named with its reason on stderr as it fails).
+    """
     import sys
 
     from tqdm import tqdm

@@ -20,9 +20,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
-from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import marginal_fisher_information
+from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]

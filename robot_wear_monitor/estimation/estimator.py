@@ -34,8 +34,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 from scipy.linalg import solve_triangular
 
-from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]

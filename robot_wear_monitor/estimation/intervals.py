@@ -46,9 +46,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 from scipy.linalg import solve_triangular
 
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import (estimate_wear, MarginalModel,
                                                      validate_speeds, WearEstimates)
-from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 

@@ -17,10 +17,10 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robot_wear_monitor.model import friction as fm
-from robot_wear_monitor.estimation.design import design_cost
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation.design import design_cost
 from robot_wear_monitor.estimation.estimator import estimate_wear, validate_speeds
+from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]

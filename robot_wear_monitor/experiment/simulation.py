@@ -39,10 +39,10 @@ from numpy.typing import NDArray
 
 from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig
+from robot_wear_monitor.experiment.segmentation import SegmenterConfig
 from robot_wear_monitor.model.friction import friction as friction_model
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
-from robot_wear_monitor.experiment.planning import PlanConfig, plan_experiment
-from robot_wear_monitor.experiment.segmentation import SegmenterConfig
 
 FloatArray = NDArray[np.float64]
 
@@ -137,11 +137,11 @@ class JointSimConfig:
 
 def segmenter_config_for(config: JointSimConfig, **overrides) -> SegmenterConfig:
     """Return segmenter settings matching a simulated joint (conversions and tolerances)."""
-    settings = dict(joint=config.joint, gear_ratio=config.gear_ratio,
-                    torque_scale=config.torque_scale, standstill_speed_rad_s=0.1,
-                    speed_tolerance_fraction=0.05, speed_tolerance_rad_s=0.05,
-                    min_duration_s=0.2, trim_s=0.02, min_samples=20,
-                    max_gap_s=5.0 / config.sample_rate_hz)
+    settings = {'joint': config.joint, 'gear_ratio': config.gear_ratio,
+                'torque_scale': config.torque_scale, 'standstill_speed_rad_s': 0.1,
+                'speed_tolerance_fraction': 0.05, 'speed_tolerance_rad_s': 0.05,
+                'min_duration_s': 0.2, 'trim_s': 0.02, 'min_samples': 20,
+                'max_gap_s': 5.0 / config.sample_rate_hz}
     settings.update(overrides)
     return SegmenterConfig(**settings)
 

@@ -53,7 +53,7 @@ class ParameterSpec:
     """
 
     name: str
-    type: str
+    type: str  # noqa: A003 - the ROS 2 parameter type, as rclpy names it
     default: Any
     description: str
     check: Optional[Callable[[Any], Optional[str]]] = None
@@ -145,7 +145,7 @@ _JOINTS = ParameterSpec(
 _SPEEDS = ParameterSpec(
     'experiment_speeds_rad_s', 'double_array', (),
     'motor-side speed levels of one friction experiment [rad/s]; empty (default): found in '
-    'the data (the levels\' own speeds; an experiment ends at an idle gap or when its speeds '
+    "the data (the levels' own speeds; an experiment ends at an idle gap or when its speeds "
     'start to repeat); set: only levels within experiment_speed_tolerance_rad_s of these '
     'speeds are kept (the others are counted and reported with their speeds)', _speeds)
 
@@ -184,7 +184,7 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('max_gap_s', 'double', 0.1,
                   'a time step longer than this splits the joint-state stream [s]', _positive),
     ParameterSpec('experiment_events_topic', 'string', 'friction_experiment/events',
-                  'the friction_experiment_runner\'s events (start/end/aborted of each '
+                  "the friction_experiment_runner's events (start/end/aborted of each "
                   'experiment): an end event closes the experiment at once; empty: not '
                   'subscribed, experiments end at an idle gap only', _topic),
 )
@@ -210,7 +210,7 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
                   'estimate between this level and the threshold', _non_negative),
     ParameterSpec('alarm_evidence', 'double', DEFAULT_ALARM_EVIDENCE,
                   'CUSUM log-likelihood ratio (worn vs healthy) an estimate >= wear_threshold '
-                  'also needs to raise the alarm [-]; 0: the paper\'s rule, one estimate >= '
+                  "also needs to raise the alarm [-]; 0: the paper's rule, one estimate >= "
                   'the threshold is enough', _non_negative),
     ParameterSpec('alarm_rule', 'string', DEFAULT_ALARM_RULE,
                   'what raises the wear alarm: "trend" (the filtered trend\'s P(w >= '
@@ -239,7 +239,7 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('joint_names', 'string_array', tuple(f'joint_{i}' for i in range(1, 7)),
                   'every joint of the trajectory controller, in its order', _names),
     ParameterSpec('posture_rad', 'double_array', (0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
-                  'the held posture, one position per joint_names [rad]; a tested joint\'s '
+                  "the held posture, one position per joint_names [rad]; a tested joint's "
                   'value is the centre of its position window; the joints must stand there '
                   'when the experiment starts'),
     ParameterSpec('joints', 'string_array', ('joint_2',),
@@ -274,10 +274,10 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   _non_negative),
     ParameterSpec('target_std_error', 'double', 0.001,
                   'wanted standard error of each friction level, normalised [-]; 0: only the '
-                  'segmentation\'s shortest plateau', _non_negative),
+                  "segmentation's shortest plateau", _non_negative),
     ParameterSpec('min_plateau_s', 'double', 0.2,
                   'shortest plateau the segmentation keeps after trimming [s] (the '
-                  'friction_experiment_node\'s min_duration_s)', _positive),
+                  "friction_experiment_node's min_duration_s)", _positive),
     ParameterSpec('trim_s', 'double', 0.02,
                   'time the segmentation trims at each plateau end [s] (its trim_s)',
                   _non_negative),

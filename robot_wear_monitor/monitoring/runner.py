@@ -25,9 +25,8 @@ from typing import Any, Mapping, Optional
 import numpy as np
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.planning import (ExperimentPlan, PlanConfig, PlanError,
-                                                    plan_experiment, trajectory_points,
-                                                    TrajectoryPoints)
+from robot_wear_monitor.experiment.planning import (ExperimentPlan, plan_experiment, PlanConfig,
+                                                    PlanError, trajectory_points, TrajectoryPoints)
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,

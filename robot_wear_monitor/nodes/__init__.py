@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Mapping, Sequence
 
-from robot_wear_monitor.recordings.messages import MessageKit, rclpy_kit
 from robot_wear_monitor.monitoring.node_config import ParameterSpec
+from robot_wear_monitor.recordings.messages import MessageKit, rclpy_kit
 
 
 def _import_message(type_name: str) -> Any:

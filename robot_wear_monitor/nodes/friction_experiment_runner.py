@@ -21,14 +21,13 @@ from trajectory_msgs.msg import JointTrajectory
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_RUNNER_NODE,
                                                        FRICTION_EXPERIMENT_RUNNER_PARAMETERS,
                                                        validate_parameters)
-from robot_wear_monitor.monitoring.runner import (ABORT_SERVICE, ExperimentRunner,
-                                                  RUNNER_STATUS_NAME, runner_config,
-                                                  START_SERVICE)
+from robot_wear_monitor.monitoring.runner import (ABORT_SERVICE, ExperimentRunner, runner_config,
+                                                  RUNNER_STATUS_NAME, START_SERVICE)
 from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC
 from robot_wear_monitor.nodes import declare_parameters, message_kit, node_time_s, spin_node
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS, TRAJECTORY_QOS
-from robot_wear_monitor.recordings.messages import (diagnostics_to_msg, EXPERIMENT_EVENTS_TOPIC,
-                                                    experiment_event_to_msg, trajectory_to_msg)
+from robot_wear_monitor.recordings.messages import (diagnostics_to_msg, experiment_event_to_msg,
+                                                    EXPERIMENT_EVENTS_TOPIC, trajectory_to_msg)
 
 DIAGNOSTICS_PERIOD_S = 1.0
 

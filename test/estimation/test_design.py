@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from robot_wear_monitor.model import friction as fm
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import (best_grid_design, design_cost, DesignResult,
                                                   fisher_information, optimal_design,
                                                   wear_variance_bound)
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import load_parameter_set
 
 PARAMS = load_parameter_set()

@@ -29,7 +29,7 @@ import independent_robot as robot
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.estimation.intervals import (calibrate_cutoffs, profile_log_likelihood,
-                                                     WEAR_GRID_MAX, wear_grid, wear_intervals,
+                                                     wear_grid, WEAR_GRID_MAX, wear_intervals,
                                                      WearInterval, WearIntervals)
 from robot_wear_monitor.model.params import load_parameter_set
 

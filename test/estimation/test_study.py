@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.estimation.study import (cramer_rao_bound, plot_study, run_study,
                                                  simulate_friction)
+from robot_wear_monitor.model.params import load_parameter_set
 
 PARAMS = load_parameter_set()
 
@@ -64,8 +64,8 @@ def test_plot_writes_a_png(tmp_path):
     ({'speeds_rad_s': [0.0, 3.0]}, '> 0'),
 ])
 def test_study_input_errors(kwargs, fragment):
-    arguments = dict(speeds_rad_s=[35.0, 40.0], temperatures_degc=[40.0], wear=35.0, runs=10,
-                     seed=0, params=PARAMS)
+    arguments = {'speeds_rad_s': [35.0, 40.0], 'temperatures_degc': [40.0], 'wear': 35.0,
+                 'runs': 10, 'seed': 0, 'params': PARAMS}
     arguments.update(kwargs)
     with pytest.raises(InputError) as info:
         run_study(**arguments)

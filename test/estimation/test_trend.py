@@ -9,10 +9,10 @@ temperatures varying in 30-50 degC and level noise sigma of (9b); the likelihood
 import json
 import math
 
-import independent_robot as robot
 import numpy as np
 import pytest
 
+import independent_robot as robot
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood

@@ -20,8 +20,8 @@ import yaml
 import independent_robot as robot
 from robot_wear_monitor import cli
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.planning import (PLATEAU, PlanConfig, plan_experiment,
-                                                    plan_summary, trajectory_points)
+from robot_wear_monitor.experiment.planning import (plan_experiment, plan_summary, PlanConfig,
+                                                    PLATEAU, trajectory_points)
 from robot_wear_monitor.experiment.segmentation import segment_batch, SegmenterConfig
 from robot_wear_monitor.experiment.simulation import (experiment_trajectory, JointSimConfig,
                                                       plan_config_for)
@@ -29,8 +29,8 @@ from robot_wear_monitor.recordings.bags import TYPESTORE
 from robot_wear_monitor.recordings.messages import trajectory_from_msg
 
 SPEEDS = (2.1, 28.5, 35.1, 41.7)
-IRB = dict(joint='joint_2', speeds_rad_s=SPEEDS, center_rad=0.2, half_range_rad=0.5,
-           gear_ratio=150.0, max_acceleration_rad_s2=10.0)
+IRB = {'joint': 'joint_2', 'speeds_rad_s': SPEEDS, 'center_rad': 0.2, 'half_range_rad': 0.5,
+       'gear_ratio': 150.0, 'max_acceleration_rad_s2': 10.0}
 
 
 def _dense(plan, rate_hz=20_000.0):
@@ -239,7 +239,7 @@ def test_cli_writes_yaml_bag_and_csv_of_the_same_plan(tmp_path, capsys):
 
 
 def test_cli_plans_the_designed_speeds(capsys):
-    args = [a for a in PLAN_ARGS]
+    args = list(PLAN_ARGS)
     i = args.index('--speeds')
     del args[i:i + 2]
     assert cli.main(args + ['--n', '4', '--grid', '2.1,8.7,15.3,21.9,28.5,35.1,41.7',

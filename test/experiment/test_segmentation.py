@@ -7,8 +7,8 @@ import pytest
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
-from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, SegmenterConfig,
-                                                        StreamingSegmenter, segment_batch)
+from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, segment_batch,
+                                                        SegmenterConfig, StreamingSegmenter)
 from robot_wear_monitor.experiment.simulation import (JointSimConfig, PAPER_SPEEDS_RAD_S,
                                                       ScenarioConfig, segmenter_config_for,
                                                       simulate_scenario)
@@ -78,20 +78,20 @@ def test_streaming_messages_equal_batch(paper_grid):
 
 
 def _message(segmenter, stamp, **fields):
-    message = dict(name=['a', 'j'], position=[0.0, 0.0], velocity=[0.0, 1.0],
-                   effort=[0.0, 0.1])
+    message = {'name': ['a', 'j'], 'position': [0.0, 0.0], 'velocity': [0.0, 1.0],
+               'effort': [0.0, 0.1]}
     message.update(fields)
     return segmenter.add_joint_state(stamp_s=stamp, **message)
 
 
 @pytest.mark.parametrize('fields,reason', [
-    (dict(name=['a', 'b']), 'joint_missing'),
-    (dict(effort=[]), 'missing_effort'),
-    (dict(position=[]), 'missing_position'),
-    (dict(velocity=[]), 'missing_velocity'),
-    (dict(effort=[0.0, 0.1, 0.2]), 'length_mismatch'),
-    (dict(effort=[0.0, float('nan')]), 'non_finite'),
-    (dict(position=[0.0, float('inf')]), 'non_finite'),
+    ({'name': ['a', 'b']}, 'joint_missing'),
+    ({'effort': []}, 'missing_effort'),
+    ({'position': []}, 'missing_position'),
+    ({'velocity': []}, 'missing_velocity'),
+    ({'effort': [0.0, 0.1, 0.2]}, 'length_mismatch'),
+    ({'effort': [0.0, float('nan')]}, 'non_finite'),
+    ({'position': [0.0, float('inf')]}, 'non_finite'),
 ])
 def test_message_rejections(fields, reason):
     segmenter = StreamingSegmenter(SegmenterConfig(joint='j'))

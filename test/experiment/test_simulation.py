@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.model.friction import friction
-from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, JointSimConfig,
                                                       read_truth_json, ScenarioConfig,
                                                       segmenter_config_for, simulate_scenario,
                                                       TABLE_V_SPEEDS_RAD_S, truth_path_for,
                                                       write_truth_json)
+from robot_wear_monitor.model.friction import friction
+from robot_wear_monitor.model.params import load_parameter_set
 
 
 @pytest.fixture(scope='module')
@@ -78,12 +78,12 @@ def test_invalid_joint_is_rejected():
 
 
 @pytest.mark.parametrize('kwargs,field', [
-    (dict(load=(0.5,)), 'load'),
-    (dict(speeds_rad_s=(-1.0,)), 'speeds_rad_s'),
+    ({'load': (0.5,)}, 'load'),
+    ({'speeds_rad_s': (-1.0,)}, 'speeds_rad_s'),
 ])
 def test_invalid_scenarios_are_rejected(kwargs, field):
-    base = dict(speeds_rad_s=(10.0,), wear=(0.0, 1.0), temperature_degc=(40.0, 40.0),
-                load=(0.5, 0.5))
+    base = {'speeds_rad_s': (10.0,), 'wear': (0.0, 1.0), 'temperature_degc': (40.0, 40.0),
+            'load': (0.5, 0.5)}
     with pytest.raises(InputError, match=field):
         base.update(kwargs)
         ScenarioConfig(**base)

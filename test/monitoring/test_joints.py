@@ -1,8 +1,8 @@
 """Several joints in one service: refused joints, restored joints, names and parameters."""
 
-import independent_robot as robot
 import pytest
 
+import independent_robot as robot
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config
 from robot_wear_monitor.monitoring.history import WearHistory

@@ -11,11 +11,11 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
 from robot_wear_monitor import cli
-from robot_wear_monitor.recordings.bags import BagError, write_joint_state_bag
-from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
-from robot_wear_monitor.monitoring.topics import OUTPUT_TOPICS
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, simulate_scenario,
                                                       truth_path_for, write_truth_json)
+from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+from robot_wear_monitor.monitoring.topics import OUTPUT_TOPICS
+from robot_wear_monitor.recordings.bags import BagError, write_joint_state_bag
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 TOPICS = {('/' + t).replace('//', '/'): msgtype for t, msgtype in OUTPUT_TOPICS.items()}
@@ -354,7 +354,7 @@ def independent_bags(tmp_path_factory):
 
 @pytest.mark.parametrize('bag, extra, reason', [
     ('table_v', ['--joint', 'joint_1'], 'never moves'),
-    ('table_v', ['--joint', 'joint_9'], "joints seen: joint_1, joint_2"),
+    ('table_v', ['--joint', 'joint_9'], 'joints seen: joint_1, joint_2'),
     ('other_speeds', ['--config', 'TABLE_V_CONFIG'],
      'at 35.8, 40.8 rad/s, but none formed an experiment of the configured speeds '
      '[2.1, 28.5, 35.1, 41.7]'),

@@ -16,12 +16,11 @@ import numpy as np
 import pytest
 from rosbags.typesys import get_typestore, Stores
 
-from robot_wear_monitor.experiment.planning import (PlanConfig, plan_experiment,
-                                                    trajectory_points)
+from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig, trajectory_points
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config
-from robot_wear_monitor.monitoring.runner import ExperimentRunner, runner_config
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
+from robot_wear_monitor.monitoring.runner import ExperimentRunner, runner_config
 from robot_wear_monitor.recordings import messages
 from trajectory_follower import JointTruth, SimulatedArm
 

@@ -16,6 +16,7 @@ LAUNCH_FILE = Path(__file__).resolve().parents[2] / 'launch' / 'wear_monitor_lau
 
 
 class _Recorded:
+
     def __init__(self, *args, **kwargs):
         """Keep the constructor arguments."""
         self.args, self.kwargs = args, kwargs

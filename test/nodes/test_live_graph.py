@@ -18,21 +18,22 @@ import sys
 import threading
 import time
 
+import pytest
+
 from conftest import require_rclpy
 import independent_robot as robot
-import pytest
 
 rclpy = require_rclpy()
 
 from process_graph import console_script, ProcessGraph  # noqa: E402
 
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Bool, Float64  # noqa: E402
 
-from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
 from robot_wear_monitor.monitoring.node_config import default_node_config_file  # noqa: E402
 from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS  # noqa: E402
+from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
 
 N_EXPERIMENTS = 8
 BIN = Path(sys.executable).parent

@@ -27,15 +27,16 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from conftest import require_rclpy
 import foreign_recordings as foreign
-import pytest
 
 rclpy = require_rclpy()
 
 from process_graph import console_script, ProcessGraph  # noqa: E402
 
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
@@ -223,7 +224,7 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     assert alarm[WORN] == [False] + [e['alarm'] for e in expected[WORN]]
     assert alarm[WORN][-1] is True
     assert alarm[HEALTHY] == [False] * (1 + len(expected[HEALTHY]))
-    assert 'WEAR ALARM raised by experiment 3 of \'shoulder\'' in graph.log('wear_estimator_node')
+    assert "WEAR ALARM raised by experiment 3 of 'shoulder'" in graph.log('wear_estimator_node')
 
     # /diagnostics: one status per joint from each node (every joint of /joint_states for the
     # friction node under [all]); the worn joint in ERROR, the healthy one not

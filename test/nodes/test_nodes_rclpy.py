@@ -10,26 +10,27 @@ messages on both inputs (counted on /diagnostics, the node keeps running).
 import math
 import sqlite3
 
+import pytest
+
 from conftest import require_rclpy
 import independent_robot as robot
-import pytest
 
 rclpy = require_rclpy()
 
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from robot_wear_monitor.recordings.messages import (  # noqa: E402
-    diagnostics_from_msg, trend_from_msg)
 from robot_wear_monitor.nodes.friction_experiment_node import (  # noqa: E402
     FrictionExperimentNode, main as friction_main)
 from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS  # noqa: E402
 from robot_wear_monitor.nodes.wear_estimator_node import (  # noqa: E402
     main as estimator_main, WearEstimatorNode)
+from robot_wear_monitor.recordings.messages import (  # noqa: E402
+    diagnostics_from_msg, trend_from_msg)
 
 SPEEDS = [2.1, 28.5, 35.1, 41.7]
 

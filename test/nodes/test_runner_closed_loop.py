@@ -18,15 +18,16 @@ import sys
 import threading
 import time
 
-from conftest import require_rclpy
 import numpy as np
 import pytest
+
+from conftest import require_rclpy
 
 rclpy = require_rclpy()
 
 from process_graph import console_script, ProcessGraph  # noqa: E402
 
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402

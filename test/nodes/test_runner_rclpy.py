@@ -10,19 +10,20 @@ abort sends ``aborted`` and a point back at the posture, and bad parameters refu
 
 import time
 
-from conftest import require_rclpy
 import numpy as np
 import pytest
 
+from conftest import require_rclpy
+
 rclpy = require_rclpy()
 
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 
-from robot_wear_monitor.experiment.planning import (PlanConfig, plan_experiment,  # noqa: E402
+from robot_wear_monitor.experiment.planning import (plan_experiment, PlanConfig,  # noqa: E402
                                                     trajectory_points)
 from robot_wear_monitor.monitoring.node_config import (  # noqa: E402
     FRICTION_EXPERIMENT_RUNNER_PARAMETERS)

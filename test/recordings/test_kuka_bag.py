@@ -24,12 +24,11 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import REPO_ROOT
 from robot_wear_monitor.experiment.segmentation import segment_batch
 from robot_wear_monitor.recordings.bags import iter_joint_chunks, JOINT_STATE_TYPE, TYPESTORE
 from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, list_kuka_runs,
                                                   read_kuka_run)
-
-from conftest import REPO_ROOT
 
 FIELDS = ('time_s', 'position_rad', 'velocity_rad_s', 'effort')
 

@@ -1,5 +1,8 @@
-"""No 'nan' or 'inf' in anything a person reads: the demo's stdout and report, the diagnostics
-messages and key-values the nodes publish, the replay and history text (JSON keeps null)."""
+"""No 'nan' or 'inf' in anything a person reads (JSON keeps null).
+
+The demo's stdout and report, the diagnostics messages and key-values the nodes publish, and
+the history text.
+"""
 
 import re
 

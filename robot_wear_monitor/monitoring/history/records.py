@@ -48,7 +48,7 @@ class HistoryRecord:
     alarm_evidence: float
     status_level: int
     parameter_set: str
-    id: Optional[int] = None
+    id: Optional[int] = None  # noqa: A003 - the history's column name, part of the API
     wear_low: float = math.nan
     wear_high: float = math.nan
     temperature_low_degc: float = math.nan
