@@ -50,7 +50,7 @@ def remove_stale_partials(path: str | os.PathLike) -> list[Path]:
     """
     target = Path(path)
     pattern = re.compile(rf'^\.{re.escape(target.name)}\.(partial|tmp)-(\d+)$')
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(target.parent.iterdir())
     except OSError:

@@ -145,7 +145,8 @@ def with_experiment_order(table: AuditTable) -> AuditTable:
     if len(prefixes) != 1 or None in prefixes:
         return table
     numeric = dict(table.numeric)
-    numeric[ORDER_COLUMN] = np.array([float(matches[v].group(2)) for v in labels])
+    numeric[ORDER_COLUMN] = np.array([float(matches[v].group(2))  # type: ignore[union-attr]
+                                      for v in labels])  # (None excluded above)
     return AuditTable(numeric, dict(table.text), table.source)
 
 

@@ -59,7 +59,8 @@ class AuditTable:
 
 # --------------------------------------------------------------------------- base models
 
-def _decay(speed: FloatArray, stribeck_speed: FloatArray | float, alpha: float) -> FloatArray:
+def _decay(speed: FloatArray, stribeck_speed: FloatArray | float,
+           alpha: FloatArray | float) -> FloatArray:
     """Return exp(-|v/phi|^alpha), 0 where phi <= 0 is not admissible."""
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         value = np.exp(-np.abs(speed / stribeck_speed) ** alpha)

@@ -27,7 +27,7 @@ g, computed by a second Gauss-Legendre quadrature over z.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,7 +51,7 @@ _LINE_SEARCH_HALVINGS = 8
 _BATCH_CHUNK = 64  # rows of the grid search at a time (cache-sized)
 _GRID_CHUNK_CELLS = 1 << 21  # at most this many (row, grid point) costs at a time
 _STARTS = 3
-_TRACE = []
+_TRACE: list[Any] = []
 # Composite Gauss-Legendre rules of the N = 1 marginal likelihood (T) and information (z).
 _T_PANELS, _T_NODES = 8, 8
 _Z_PANELS, _Z_NODES = 96, 8
@@ -289,7 +289,8 @@ class _WhitenedProblem:
         """
         h_t, h_w = 1e-3, 1e-4 * np.maximum(1.0, np.abs(w))
         columns = []
-        for dt, dw in ((h_t, 0.0), (0.0, h_w)):
+        steps: tuple[tuple[Any, Any], ...] = ((h_t, 0.0), (0.0, h_w))
+        for dt, dw in steps:
             plus = self._jacobian(t + dt, w + dw)
             minus = self._jacobian(t - dt, w - dw)
             columns.append((plus - minus) / (2.0 * (dt + dw))[..., None, None]

@@ -256,7 +256,7 @@ class _Profile:
             cube = self.cross[None, :, :] + p_t[s:s + chunk, None, :]
             cube += q_w[s:s + chunk, :, None]
             prof_w[s:s + chunk] = _parabola_min(cube, self.t_grid)[0]
-            if want_t:
+            if prof_t is not None:
                 prof_t[s:s + chunk] = _parabola_min(np.swapaxes(cube, 1, 2), self.grid)[0]
         prof_w += d2[:, None]
         if want_t:

@@ -153,12 +153,12 @@ def run_study(*, speeds_rad_s: ArrayLike, temperatures_degc: ArrayLike, wear: fl
             t_bound[start:stop] = batch.temperature_at_bound
             w_bound[start:stop] = batch.wear_at_bound
             bar.update(stop - start)
-    wear_hat = wear_hat.reshape(temps.size, runs)
-    error = wear_hat - wear
+    wear_grid = wear_hat.reshape(temps.size, runs)
+    error = wear_grid - wear
     return StudyResult(
         n=speeds.size, speeds_rad_s=speeds, wear=float(wear), temperatures_degc=temps,
-        runs=runs, seed=seed, mean=wear_hat.mean(axis=1), bias=error.mean(axis=1),
-        variance=wear_hat.var(axis=1, ddof=1), mse=np.mean(error ** 2, axis=1),
+        runs=runs, seed=seed, mean=wear_grid.mean(axis=1), bias=error.mean(axis=1),
+        variance=wear_grid.var(axis=1, ddof=1), mse=np.mean(error ** 2, axis=1),
         crb=cramer_rao_bound(speeds_rad_s=speeds, temperatures_degc=temps, wear=wear,
                              params=params),
         temperature_at_bound=t_bound.reshape(temps.size, runs).mean(axis=1),

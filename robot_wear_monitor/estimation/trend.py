@@ -457,7 +457,7 @@ class WearTrend:
             raise InputError(f'trend: time goes backwards ({time_s} < {reference})')
         if self._last_time is not None:
             self._spacing.add(time_s - self._last_time)
-        if self.experiments > 0:
+        if self.experiments > 0 and reference is not None:
             self._filter.predict(np.array([self._elapsed(time_s - reference)]))
         self._filter.update(row[None, :])
         self._last_time = time_s

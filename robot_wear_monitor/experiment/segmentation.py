@@ -144,6 +144,7 @@ class SegmenterConfig:
                         or not math.isfinite(value):
                     raise InputError(f'SegmenterConfig.{name}: expected a finite number, '
                                      f'got {value!r}')
+            assert half is not None  # given together with the centre (checked above)
             if half <= 0:
                 raise InputError(f'SegmenterConfig.window_half_width_rad: must be > 0, '
                                  f'got {half}')
@@ -435,7 +436,8 @@ class StreamingSegmenter:
             return []
         arrays = [np.array(values, dtype=np.float64) for values in self._buffer]
         self._buffer = ([], [], [], [])
-        found = _analyse_move(*arrays, sign, self.config, self.rejections)
+        found = _analyse_move(arrays[0], arrays[1], arrays[2], arrays[3], sign, self.config,
+                              self.rejections)
         return self._pairer.add(found) if found is not None else []
 
 
@@ -619,11 +621,13 @@ class ChunkSegmenter:
         self._move, self._sign = (), 0
         if sign == 0 or not move:
             return []
-        found = _analyse_move(*move, sign, self.config, self.rejections)
+        time_s, position_rad, speed_rad_s, torque = move
+        found = _analyse_move(time_s, position_rad, speed_rad_s, torque, sign, self.config,
+                              self.rejections)
         return self._pairer.add(found) if found is not None else []
 
 
-def _count(counter: Counter, reason: str, count: int) -> None:
+def _count(counter: Counter, reason: str, count: int | np.integer) -> None:
     if count:
         counter[reason] += int(count)
 

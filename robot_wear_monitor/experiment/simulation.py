@@ -32,7 +32,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Iterator, Optional, Sequence
+from typing import Any, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -137,11 +137,11 @@ class JointSimConfig:
 
 def segmenter_config_for(config: JointSimConfig, **overrides) -> SegmenterConfig:
     """Return segmenter settings matching a simulated joint (conversions and tolerances)."""
-    settings = {'joint': config.joint, 'gear_ratio': config.gear_ratio,
-                'torque_scale': config.torque_scale, 'standstill_speed_rad_s': 0.1,
-                'speed_tolerance_fraction': 0.05, 'speed_tolerance_rad_s': 0.05,
-                'min_duration_s': 0.2, 'trim_s': 0.02, 'min_samples': 20,
-                'max_gap_s': 5.0 / config.sample_rate_hz}
+    settings: dict[str, Any] = {'joint': config.joint, 'gear_ratio': config.gear_ratio,
+                                'torque_scale': config.torque_scale, 'standstill_speed_rad_s': 0.1,
+                                'speed_tolerance_fraction': 0.05, 'speed_tolerance_rad_s': 0.05,
+                                'min_duration_s': 0.2, 'trim_s': 0.02, 'min_samples': 20,
+                                'max_gap_s': 5.0 / config.sample_rate_hz}
     settings.update(overrides)
     return SegmenterConfig(**settings)
 
@@ -223,7 +223,8 @@ class Scenario:
 
 # --------------------------------------------------------------------------- trajectories
 
-def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float]) -> PlanConfig:
+def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float] | FloatArray
+                    ) -> PlanConfig:
     """Return the plan the simulated joint executes (``experiment.planning``).
 
     The window is centred on ``phi_bar_rad`` with half width ``max_stroke_rad`` / 2, each
@@ -244,7 +245,7 @@ def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float]) -> Pl
                       shorten_to_window=True)
 
 
-def experiment_trajectory(*, speeds_rad_s: Sequence[float], config: JointSimConfig
+def experiment_trajectory(*, speeds_rad_s: Sequence[float] | FloatArray, config: JointSimConfig
                           ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64]]:
     """Return the tested joint's planned trajectory, sampled at the sample rate.
 

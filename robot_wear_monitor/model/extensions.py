@@ -455,7 +455,7 @@ def extension_from_mapping(section: Any, where: str = 'added_terms') -> ModelExt
     defaults = section.get('defaults', {}) or {}
     if not isinstance(defaults, Mapping):
         raise ExtensionError(f'{where}.defaults: expected a mapping variable: value')
-    parsed_defaults = []
+    parsed_defaults: list[tuple[str, str | float]] = []
     for key, value in defaults.items():
         if isinstance(value, str):
             parsed_defaults.append((str(key), value))
@@ -495,8 +495,8 @@ def extension_to_mapping(extension: ModelExtension) -> dict:
                     value = float(value)
                 item[key] = value
             factors.append(item)
-        entry = {'name': term.name, 'factors': factors,
-                 'coefficients': [float(c) for c in term.coefficients]}
+        entry: dict[str, Any] = {'name': term.name, 'factors': factors,
+                                 'coefficients': [float(c) for c in term.coefficients]}
         if term.drop_first:
             entry['drop_first'] = True
         terms.append(entry)

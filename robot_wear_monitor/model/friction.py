@@ -29,7 +29,7 @@ class FrictionWithGradients:
     d_load: FloatArray
 
 
-def _stribeck(speed: FloatArray, stribeck_speed: ArrayLike, alpha: float) -> tuple:
+def _stribeck(speed: FloatArray, stribeck_speed: FloatArray | float, alpha: float) -> tuple:
     """Return exp(-|v/phi|^alpha) and |v/phi|^alpha (the latter for derivatives)."""
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         power = np.abs(speed / stribeck_speed) ** alpha

@@ -575,7 +575,7 @@ class WearEstimatorService:
 
 
 def _interval_columns(interval: Optional[WearInterval], trend: Optional[TrendEstimate]
-                      ) -> dict[str, float]:
+                      ) -> dict[str, Any]:
     """Return the history's interval and trend columns of one estimate (NaN when absent)."""
     nan = math.nan
     return {

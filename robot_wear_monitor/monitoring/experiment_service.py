@@ -18,6 +18,7 @@ import math
 from typing import Any, Mapping, Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
@@ -34,6 +35,8 @@ if TYPE_CHECKING:
 #: A standstill at least this long [s] is a pause between experiments, not a turn inside one
 #: (the planned experiment dwells 0.1-0.2 s at its turns); used at the cut of a recording.
 _PAUSE_S = 0.5
+
+FloatArray = NDArray[np.float64]
 
 
 @dataclass
@@ -86,7 +89,9 @@ class FrictionExperimentService:
         self.last_experiment: Optional[FrictionExperiment] = None
         self.last_error = ''
         self._status_total = 0
-        self._segmenter = StreamingSegmenter(self.segmenter_config)
+        # the sample-by-sample segmenter; the chunk segmenter takes its place once a recording
+        # is added in chunks (the rejection counts are read from whichever ran)
+        self._segmenter: Any = StreamingSegmenter(self.segmenter_config)
         self._chunks: Optional[ChunkSegmenter] = None
         self._last_pause_end_s = -math.inf
         from robot_wear_monitor.experiment.segmentation import SpeedTally
@@ -150,9 +155,10 @@ class FrictionExperimentService:
             time_s=time_s, position_rad=position_rad, velocity_rad_s=velocity_rad_s,
             effort=effort)))
 
-    def add_recording(self, *, time_s: Sequence[float], position_rad: Sequence[float],
-                      velocity_rad_s: Sequence[float], effort: Sequence[float]
-                      ) -> list[FrictionExperiment]:
+    def add_recording(self, *, time_s: Sequence[float] | FloatArray,
+                      position_rad: Sequence[float] | FloatArray,
+                      velocity_rad_s: Sequence[float] | FloatArray,
+                      effort: Sequence[float] | FloatArray) -> list[FrictionExperiment]:
         """Segment a chunk of a recording of the joint at once (the replay) and assemble it.
 
         Chunks are the consecutive parts of one recording (a whole recording is one chunk);
@@ -186,7 +192,8 @@ class FrictionExperimentService:
             experiments += self._idle(float(time_s[-1]))
         return experiments
 
-    def _rests(self, time_s: Sequence[float], velocity_rad_s: Sequence[float],
+    def _rests(self, time_s: Sequence[float] | FloatArray,
+               velocity_rad_s: Sequence[float] | FloatArray,
                motion_before_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Return the end times [s] and lengths [s] of the standstills between moving samples.
 
@@ -509,7 +516,7 @@ def explain_no_experiment(*, service: FrictionExperimentService,
     if not seen and joints_seen is None:
         return f'joint {joint!r} is in no message on {topic}'
     if not seen:
-        names = list(joints_seen)
+        names = list(joints_seen or ())
         shown = ', '.join(names[:12]) + (', ...' if len(names) > 12 else '')
         return f'joint {joint!r} is in no message on {topic} (joints seen: {shown or "none"})'
     if service.messages == 0:

@@ -203,7 +203,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
             if writer is not None:
                 writer.write(bag_topic(FRICTION_LEVELS_TOPIC), msg, stamp_ns)
             estimator, update = estimators.handle_friction_levels(msg)
-            if update is None:
+            if update is None or estimator is None:
                 return
             updates.append(update)
             if writer is not None:
@@ -279,8 +279,8 @@ def _rejections(experiments: FrictionExperimentFleet, estimators: WearEstimatorF
     for service in experiments.services.values():
         for reason, count in service.all_rejections().items():
             add(f'segmentation_{reason}', count)
-    for service in estimators.services.values():
-        for reason, count in service.rejections.items():
+    for estimator in estimators.services.values():
+        for reason, count in estimator.rejections.items():
             add(f'friction_levels_{reason}', count)
     for reason, count in estimators.rejections.items():
         add(f'friction_levels_{reason}', count)

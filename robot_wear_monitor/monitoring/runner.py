@@ -282,6 +282,12 @@ class ExperimentRunner:
         """Return True while a run is in progress."""
         return self.run_start_s is not None
 
+    def _started_s(self) -> float:
+        """Return the start of the run in progress [s] (only called while running)."""
+        if self.run_start_s is None:
+            raise RuntimeError('no friction experiment run in progress')
+        return self.run_start_s
+
     def start(self, now_s: float, *, trajectory_subscribers: int = 1) -> tuple[bool, str]:
         """Start a run at ``now_s`` if idle; return (success, one-line message).
 
@@ -313,14 +319,14 @@ class ExperimentRunner:
         """Return the node-clock time of the next action, or None when idle."""
         if not self.running:
             return None
-        return self.run_start_s + self._actions[self._next][0]
+        return self._started_s() + self._actions[self._next][0]
 
     def due(self, now_s: float) -> list[RunnerAction]:
         """Return the actions due at ``now_s``, in order; the run ends after the last one."""
         actions = []
         while self.running and self._next < len(self._actions):
             offset, _, kind, step = self._actions[self._next]
-            if self.run_start_s + offset > now_s + _DUE_TOLERANCE_S:
+            if self._started_s() + offset > now_s + _DUE_TOLERANCE_S:
                 break
             self._next += 1
             if kind == 'start':
@@ -367,12 +373,12 @@ class ExperimentRunner:
         if step is not None:
             action = RunnerAction(kind='aborted', step=step,
                                   event=self.event('aborted', step, stamp_s=now_s))
-            hold = self.hold_points(step, now_s - self.run_start_s - step.start_offset_s)
+            hold = self.hold_points(step, now_s - self._started_s() - step.start_offset_s)
             self.experiments_aborted += 1
             message = (f'aborted the friction experiment of {step.joint} '
-                       f'(#{self._ids[step.index]}) after {now_s - self.run_start_s:.1f} s')
+                       f'(#{self._ids[step.index]}) after {now_s - self._started_s():.1f} s')
         else:
-            message = f'aborted the run after {now_s - self.run_start_s:.1f} s (between joints)'
+            message = f'aborted the run after {now_s - self._started_s():.1f} s (between joints)'
         remaining = [s.joint for s in self._not_begun()]
         if remaining:
             message += f'; not run: {", ".join(remaining)}'
@@ -412,7 +418,7 @@ class ExperimentRunner:
     def _progress(self, now_s: float) -> str:
         step = self.current()
         n = len(self.schedule)
-        elapsed = now_s - self.run_start_s
+        elapsed = now_s - self._started_s()
         if step is not None:
             return (f'{step.joint}, joint {step.index + 1} of {n}, '
                     f'{elapsed - step.start_offset_s:.1f} s of {step.duration_s:.1f} s')
@@ -438,7 +444,7 @@ class ExperimentRunner:
                   ('experiments_aborted', str(self.experiments_aborted)),
                   ('last_run', self.last_outcome)]
         if self.running:
-            values += [('elapsed_s', f'{now_s - self.run_start_s:.3f}')]
+            values += [('elapsed_s', f'{now_s - self._started_s():.3f}')]
             message = f'running: {self._progress(now_s)}'
         else:
             message = 'idle' if self.runs_started == 0 else f'idle; last run {self.last_outcome}'

@@ -128,7 +128,7 @@ def play_bag(bag: str | os.PathLike, *, rate: float = 1.0, topics: Sequence[str]
         player.wait_for_acks(timeout_s=10.0)
     finally:
         player.destroy_node()
-    span = 0.0 if first_ns is None else (last_ns - first_ns) * 1e-9
+    span = 0.0 if first_ns is None or last_ns is None else (last_ns - first_ns) * 1e-9
     say(f'played {sum(published.values())} messages ('
         + ', '.join(f'{t}: {n}' for t, n in published.items())
         + f') spanning {span:.1f} s of recording in {wall_s:.1f} s')

@@ -163,7 +163,7 @@ def level_names(joint: str, count: int) -> list[str]:
 
 
 def friction_levels_to_msg(kit: MessageKit, *, stamp_s: float, joint: str,
-                           speeds_rad_s: Sequence[float], frictions: Sequence[float]) -> Any:
+                           speeds_rad_s: Iterable[float], frictions: Iterable[float]) -> Any:
     """Build the friction_levels JointState: velocity = speeds [rad/s], effort = friction."""
     speeds = [float(v) for v in speeds_rad_s]
     values = [float(f) for f in frictions]
@@ -313,7 +313,8 @@ def trajectory_from_msg(msg: Any) -> dict[str, Any]:
     points leave them empty).
     """
     names = list(msg.joint_names)
-    times, columns = [], {'positions': [], 'velocities': [], 'accelerations': []}
+    times: list[float] = []
+    columns: dict[str, list] = {'positions': [], 'velocities': [], 'accelerations': []}
     for k, point in enumerate(msg.points):
         times.append(float(point.time_from_start.sec)
                      + 1e-9 * float(point.time_from_start.nanosec))

@@ -17,6 +17,7 @@ import gzip
 import os
 from pathlib import Path
 import re
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -170,9 +171,10 @@ def kuka_segmenter_config(**overrides) -> SegmenterConfig:
     5 % (at least 0.01 rad/s), the standstill threshold 0.03 rad/s and passes must last 0.3 s.
     Keyword arguments override any field.
     """
-    settings = {'joint': 'kuka_joint', 'gear_ratio': 1.0, 'torque_scale': 1.0,
-                'standstill_speed_rad_s': 0.03, 'speed_tolerance_fraction': 0.05,
-                'speed_tolerance_rad_s': 0.01, 'min_duration_s': 0.3, 'min_samples': 20,
-                'max_gap_s': 0.05}
+    settings: dict[str, Any] = {
+        'joint': 'kuka_joint', 'gear_ratio': 1.0, 'torque_scale': 1.0,
+        'standstill_speed_rad_s': 0.03, 'speed_tolerance_fraction': 0.05,
+        'speed_tolerance_rad_s': 0.01, 'min_duration_s': 0.3, 'min_samples': 20,
+        'max_gap_s': 0.05}
     settings.update(overrides)
     return SegmenterConfig(**settings)

@@ -351,7 +351,8 @@ class WearHistory:
         active = last_event is not None and last_event.event == 'raised'
         evidence = records[-1].alarm_evidence if records else 0.0
         if last_event is not None and last_event.event == 'reset' and records and (
-                last_event.estimate_id is None or last_event.estimate_id >= records[-1].id):
+                last_event.estimate_id is None or records[-1].id is None
+                or last_event.estimate_id >= records[-1].id):
             evidence = 0.0
         return RestoredState(records=records, alarm_active=active, alarm_evidence=evidence,
                              last_event=last_event)
