@@ -89,3 +89,17 @@ def test_pip_installed_console_scripts_run_outside_the_source_tree(tmp_path):
     for command in ('design', 'estimate', 'study', 'simulate', 'replay', 'demo', 'audit'):
         assert command in help_run.stdout
     assert Path(shutil.which('friction_experiment_node')).is_file()
+
+
+def test_versions_agree_with_the_changelog():
+    """package.xml, setup.py, the package and CHANGELOG.rst's newest entry name one version."""
+    import re
+
+    import robot_wear_monitor
+    xml = re.search(r'<version>([^<]+)</version>', (REPO_ROOT / 'package.xml').read_text())
+    setup = re.search(r"version='([^']+)'", (REPO_ROOT / 'setup.py').read_text())
+    changelog = (REPO_ROOT / 'CHANGELOG.rst').read_text()
+    newest = re.search(r'^(\d+\.\d+\.\d+) \(\d{4}-\d{2}-\d{2}\)\n-+$', changelog, re.MULTILINE)
+    assert xml and setup and newest
+    assert xml.group(1) == setup.group(1) == newest.group(1) == robot_wear_monitor.__version__
+    assert changelog.startswith('^^^') and 'Changelog for package robot_wear_monitor' in changelog
