@@ -23,6 +23,10 @@ _NEXT_DOMAIN = itertools.count(_DOMAIN_BASE + 1)
 # user's cache, so a test never reads a calibration that an older version stored
 os.environ['ROBOT_WEAR_MONITOR_CACHE'] = tempfile.mkdtemp(prefix='rwm_calibrations_')
 
+# the throw-away PostgreSQL server of the history tests (postgresql_server, postgresql_url,
+# history_location)
+pytest_plugins = ('postgres_server',)
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DIR = REPO_ROOT.parent / 'shared'
 EXTERNAL_DIR = SHARED_DIR / 'data' / 'external'
@@ -63,6 +67,15 @@ def require_rclpy():
             pytest.fail(f'rclpy is required in CI (pip install ".[ros]"): {error}')
         pytest.skip(f'rclpy is not installed ({error}); pip install ".[ros]"')
     return rclpy
+
+
+@pytest.fixture
+def ros_context():
+    """Initialise rclpy for one test and shut it down after (skips without rclpy, not in CI)."""
+    rclpy = require_rclpy()
+    rclpy.init()
+    yield rclpy
+    rclpy.try_shutdown()
 
 
 def next_ros_domain_id() -> int:

@@ -20,7 +20,6 @@ from robot_wear_monitor.monitoring.history import open_history
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
 
-pytest_plugins = ('postgres_server',)
 
 ROBOTS = 8
 EXPERIMENTS = 3

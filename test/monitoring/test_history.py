@@ -21,9 +21,6 @@ from robot_wear_monitor.monitoring.history import (
 ROOT = Path(__file__).resolve().parents[2]
 HISTORY_V2 = Path(__file__).resolve().parent / 'data' / 'history_v2.db'
 
-# postgresql_server, postgresql_url, history_location (parametrised 'sqlite', 'postgresql')
-pytest_plugins = ('postgres_server',)
-
 
 def _record(k, *, wear=10.0, alarm=False, evidence=0.0, joint='joint_2', robot=None,
             **extra):

@@ -35,13 +35,6 @@ from robot_wear_monitor.recordings.messages import (  # noqa: E402
 SPEEDS = [2.1, 28.5, 35.1, 41.7]
 
 
-@pytest.fixture
-def ros_context():
-    rclpy.init()
-    yield
-    rclpy.try_shutdown()
-
-
 class Probe:
     """A probe node that records what any subscriber of the monitor's topics would see."""
 

@@ -1,6 +1,5 @@
 """robot_id on the live graph: the estimator node keys its history rows and names the robot."""
 
-import pytest
 
 from conftest import require_rclpy
 
@@ -19,13 +18,6 @@ from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS  # noqa: E402
 from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode  # noqa: E402
 
 SPEEDS = [2.1, 28.5, 35.1, 41.7]
-
-
-@pytest.fixture
-def ros_context():
-    rclpy.init()
-    yield
-    rclpy.try_shutdown()
 
 
 def _levels(stamp_s: float, wear: float) -> JointState:

@@ -44,13 +44,6 @@ SETTINGS = {'joint_names': NAMES, 'posture_rad': POSTURE, 'joints': ['joint_2'],
             'end_margin_s': 0.5}
 
 
-@pytest.fixture
-def ros_context():
-    rclpy.init()
-    yield
-    rclpy.try_shutdown()
-
-
 def _runner(**overrides):
     values = {**SETTINGS, **overrides}
     return FrictionExperimentRunner(parameter_overrides=[Parameter(k, value=v)
