@@ -12,7 +12,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-from typing import Any, Optional, Sequence, TYPE_CHECKING
+from typing import Any, Sequence, TYPE_CHECKING
+
+from robot_wear_monitor.json_values import finite_or_none
 
 if TYPE_CHECKING:  # the estimator and intervals load scipy: imported where used
     from robot_wear_monitor.estimation.estimator import WearEstimate
@@ -38,12 +40,6 @@ def meaningful_std(*, std: float, value: float, low: float, high: float,
         if not (half > 0 and 1 / 1.5 <= 1.96 * std / half <= 1.5):
             return math.nan
     return std
-
-
-def _finite(value: float) -> Optional[float]:
-    """Return ``value`` as float, or None when it is NaN or infinite (valid JSON)."""
-    value = float(value)
-    return value if math.isfinite(value) else None
 
 
 @dataclass(frozen=True)
@@ -73,15 +69,16 @@ class WearReport:
         est, interval = self.estimate, self.interval
         return {
             'temperature': float(est.temperature_degc), 'wear': float(est.wear),
-            'covariance': [[_finite(x) for x in row] for row in est.covariance],
-            'wear_std': _finite(self.wear_std),
-            'temperature_std': _finite(est.temperature_std_degc),
-            'wear_interval': [_finite(interval.wear_low), _finite(interval.wear_high)],
+            'covariance': [[finite_or_none(x) for x in row] for row in est.covariance],
+            'wear_std': finite_or_none(self.wear_std),
+            'temperature_std': finite_or_none(est.temperature_std_degc),
+            'wear_interval': [finite_or_none(interval.wear_low),
+                              finite_or_none(interval.wear_high)],
             'wear_interval_open_above': interval.wear_high_at_grid_end,
-            'temperature_interval': [_finite(interval.temperature_low),
-                                     _finite(interval.temperature_high)],
+            'temperature_interval': [finite_or_none(interval.temperature_low),
+                                     finite_or_none(interval.temperature_high)],
             'alarm': self.alarm, 'warning': self.warning,
-            'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': _finite(est.p_value),
+            'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': finite_or_none(est.p_value),
             'temperature_at_bound': est.temperature_at_bound,
             'wear_at_bound': est.wear_at_bound, 'n_levels': est.n_levels,
             'speeds': [float(v) for v in est.speeds_rad_s],

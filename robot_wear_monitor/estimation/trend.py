@@ -68,6 +68,7 @@ from scipy import special
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
 from robot_wear_monitor.estimation.intervals import wear_grid
+from robot_wear_monitor.json_values import finite_or_none
 
 FloatArray = NDArray[np.float64]
 
@@ -158,11 +159,6 @@ class TrendConfig:
         return np.concatenate(([0.0], np.geomspace(low, self.rate_max, self.rate_points - 1)))
 
 
-def _json_number(value: float) -> Optional[float]:
-    value = float(value)
-    return value if math.isfinite(value) else None
-
-
 @dataclass(frozen=True)
 class TrendEstimate:
     """The filtered wear trend after one experiment.
@@ -212,7 +208,7 @@ class TrendEstimate:
         out: dict = {}
         for name in self.__dataclass_fields__:
             value = getattr(self, name)
-            out[name] = value if isinstance(value, int) else _json_number(value)
+            out[name] = value if isinstance(value, int) else finite_or_none(value)
         return out
 
 

@@ -14,6 +14,7 @@ import datetime
 import math
 from typing import Any, Iterable, Optional, Sequence
 
+from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.history import FleetRow
 
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
@@ -50,11 +51,6 @@ class FleetView:
             'usual_interval_s': finite_or_none(s.usual_interval_s),
             'stale': self.stale, 'status_level': int(s.status_level),
         }
-
-
-def finite_or_none(value: Optional[float]) -> Optional[float]:
-    """Return ``value`` as a float when finite, else None (JSON null)."""
-    return None if value is None or not math.isfinite(value) else float(value)
 
 
 def fleet_view(states: Iterable[FleetRow], *, now_s: float) -> list[FleetView]:

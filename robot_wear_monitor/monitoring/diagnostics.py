@@ -18,6 +18,7 @@ import math
 from typing import Mapping, Optional, TYPE_CHECKING
 
 from robot_wear_monitor.estimation.report import meaningful_std  # noqa: F401 (re-export)
+from robot_wear_monitor.json_values import finite_or_none
 
 if TYPE_CHECKING:
     from robot_wear_monitor.estimation.intervals import WearInterval
@@ -40,10 +41,9 @@ class DiagnosticReport:
         raise KeyError(key)
 
 
-def json_number(value: float) -> Optional[float]:
-    """Return ``value`` as float, or None when it is NaN or infinite (valid JSON)."""
-    value = float(value)
-    return value if math.isfinite(value) else None
+#: ``value`` as a float, or None when it is NaN or infinite (valid JSON): the package's one
+#: helper, :func:`robot_wear_monitor.json_values.finite_or_none`, under the name callers use.
+json_number = finite_or_none
 
 
 #: What a person reads for a number that is not known (never 'nan').

@@ -8,8 +8,8 @@ from pathlib import Path
 import tempfile
 from typing import Sequence
 
+from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.history.records import HistoryRecord
-from robot_wear_monitor.monitoring.history.store import _finite_or_none
 
 LEVEL_CSV_COLUMNS = ('speed', 'friction', 'experiment', 'time_s', 'wear_hat',
                      'temperature_hat_degc', 'fit_p_value')
@@ -33,7 +33,7 @@ def write_levels_csv(path: str | os.PathLike, *, records: Sequence[HistoryRecord
             for number, record in enumerate(records, 1):
                 experiment = record.id if record.id is not None else number
                 estimate = (record.wear, record.temperature_degc, record.p_value)
-                extras = [_finite_or_none(value) for value in estimate]
+                extras = [finite_or_none(value) for value in estimate]
                 for speed, friction in zip(record.speeds_rad_s, record.frictions):
                     writer.writerow([repr(float(speed)), repr(float(friction)), experiment,
                                      repr(float(record.stamp_s)),

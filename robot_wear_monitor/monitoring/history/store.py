@@ -18,6 +18,7 @@ import os
 import time
 from typing import Any, Iterator, Optional, Sequence
 
+from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.history.backends import (
     is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend, SqliteBackend)
 from robot_wear_monitor.monitoring.history.migrations import SCHEMA_VERSION, TABLES
@@ -30,13 +31,6 @@ _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions
                    'dof', 'p_value', 'temperature_at_bound', 'wear_at_bound', 'alarm_active',
                    'alarm_evidence', 'status_level', 'parameter_set', *INTERVAL_COLUMNS)
 _EVENT_COLUMNS = 'robot, joint, stamp_s, event, wear, note, estimate_id'
-
-
-def _finite_or_none(value: Optional[float]) -> Optional[float]:
-    if value is None:
-        return None
-    value = float(value)
-    return value if math.isfinite(value) else None
 
 
 def _nan_if_none(value: Optional[float]) -> float:
@@ -203,13 +197,13 @@ class WearHistory:
         values = (robot, joint, float(record.stamp_s), time.time(),
                   json.dumps([float(v) for v in record.speeds_rad_s]),
                   json.dumps([float(f) for f in record.frictions]),
-                  float(record.temperature_degc), _finite_or_none(record.temperature_std_degc),
-                  float(record.wear), _finite_or_none(record.wear_std),
-                  _finite_or_none(record.chi2), int(record.dof), _finite_or_none(record.p_value),
+                  float(record.temperature_degc), finite_or_none(record.temperature_std_degc),
+                  float(record.wear), finite_or_none(record.wear_std),
+                  finite_or_none(record.chi2), int(record.dof), finite_or_none(record.p_value),
                   int(bool(record.temperature_at_bound)), int(bool(record.wear_at_bound)),
                   int(bool(record.alarm_active)), float(record.alarm_evidence),
                   int(record.status_level), record.parameter_set,
-                  *(_finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS))
+                  *(finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS))
         columns = ('robot', 'joint', 'stamp_s', 'wall_time_s', *_RECORD_COLUMNS[4:])
         with self._guard('cannot store the estimate'), self._backend.transaction():
             if self.find_estimate(joint=joint, stamp_s=record.stamp_s, robot=robot) is not None:
@@ -238,7 +232,7 @@ class WearHistory:
             'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
             'estimate_id, note) VALUES (?, ?, ?, ?, ?, ?, ?, ?)',
             (self._robot(event.robot), _check_name('joint', event.joint), float(event.stamp_s),
-             time.time(), event.event, _finite_or_none(event.wear), estimate_id, event.note))
+             time.time(), event.event, finite_or_none(event.wear), estimate_id, event.note))
 
     @contextmanager
     def writer_lock(self, *, joint: str, robot: Optional[str] = None,
