@@ -24,7 +24,7 @@ All subscribers of a run use the same executor and subscription kind (the varian
 * ``-raw``: ``raw=True`` subscriptions; the node deserialises with
   ``rclpy.serialization.deserialize_message``, the do-nothing subscriber does not deserialise;
 * ``-cdr``: raw subscriptions; the node reads only its joint from the CDR bytes
-  (:func:`parse_joint_cdr`, a prototype) into ``service.add_sample``;
+  (:func:`parse_joint_cdr`, the package's CDR decoding) into ``service.add_sample``;
 * ``-batch``: as ``-cdr``, but the callback only queues the bytes and a 50 Hz timer of the node
   parses the queue (warm caches for a whole batch; results up to 20 ms later).
 
@@ -53,12 +53,13 @@ from pathlib import Path
 import pstats
 import queue
 import signal
-import struct
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+
+from robot_wear_monitor.recordings.bags import BagError, decode_joint_state
 
 TOPIC = '/joint_states'
 JOINTS = tuple(f'joint_{i}' for i in range(1, 7))
@@ -92,7 +93,11 @@ def joint_state_samples(rate, duration, seed=0):
 
     gear = float(_node_default('gear_ratio'))
     scale = float(_node_default('torque_scale'))
-    motor_speeds = np.asarray(_node_default('experiment_speeds_rad_s'), dtype=float)
+    # the node finds the speeds in the data (experiment_speeds_rad_s defaults to []): the
+    # stream uses the planned speeds of the runner (Table V)
+    from robot_wear_monitor.monitoring.node_config import DEFAULT_EXPERIMENT_SPEEDS_RAD_S
+    motor_speeds = np.asarray(_node_default('experiment_speeds_rad_s')
+                              or DEFAULT_EXPERIMENT_SPEEDS_RAD_S, dtype=float)
     rng = np.random.default_rng(seed)
     n = int(round(rate * duration))
     dt = 1.0 / rate
@@ -197,51 +202,23 @@ def role_publisher(args):
     return 0
 
 
-_U32 = struct.Struct('<I').unpack_from
-_STAMP = struct.Struct('<iI').unpack_from
-_F64 = struct.Struct('<d').unpack_from
-
-
 def parse_joint_cdr(buffer, joint):
     """Return (stamp [s], position, velocity, effort) of ``joint`` from a serialized JointState.
 
-    A prototype of a fast path for the node (``-cdr`` variants): reads only the stamp, the
-    names and the joint's three values from the little-endian CDR bytes of a raw subscription,
-    instead of building the whole Python message.  Returns None when the message cannot be used
-    (not little-endian CDR, joint missing, an array whose length differs from ``name``).
+    The fast path of the ``-cdr`` variants: the package's CDR decoding
+    (:func:`robot_wear_monitor.recordings.bags.decode_joint_state`, the replay's decoder) on the
+    bytes of a raw subscription, instead of building the whole Python message.  Returns None
+    when the message cannot be used (malformed, joint missing, an array whose length differs
+    from ``name``).
     """
     try:
-        return _parse_joint_cdr(buffer, joint)
-    except (struct.error, IndexError):  # truncated or malformed
+        stamp, _, names, position, velocity, effort = decode_joint_state(buffer)
+    except BagError:
         return None
-
-
-def _parse_joint_cdr(buffer, joint):
-    if buffer[1] != 1:  # encapsulation kind: CDR_LE
+    if joint not in names or not len(position) == len(velocity) == len(effort) == len(names):
         return None
-    sec, nanosec = _STAMP(buffer, 4)
-    offset = 16 + _U32(buffer, 12)[0]  # after frame_id
-    offset = (offset + 3) & ~3
-    count = _U32(buffer, offset)[0]
-    offset += 4
-    index = -1
-    for i in range(count):
-        offset = (offset + 3) & ~3
-        length = _U32(buffer, offset)[0]
-        if index < 0 and buffer[offset + 4:offset + 3 + length] == joint:
-            index = i
-        offset += 4 + length
-    values = []
-    for _ in range(3):
-        offset = (offset + 3) & ~3
-        size = _U32(buffer, offset)[0]
-        offset += 4
-        if size != count or index < 0:
-            return None
-        offset = ((offset - 4 + 7) & ~7) + 4  # doubles: 8-aligned after the 4-byte header
-        values.append(_F64(buffer, offset + 8 * index)[0])
-        offset += 8 * size
-    return sec + nanosec * 1e-9, values[0], values[1], values[2]
+    index = names.index(joint)
+    return stamp, float(position[index]), float(velocity[index]), float(effort[index])
 
 
 def _make_executor(name):
@@ -287,7 +264,7 @@ def _counting_node(raw, work=True, cdr=False, batch=False):
             self.on_joint_state(deserialize_message(data, JointState))
 
         def on_cdr(self, data):
-            """Read the joint from the CDR bytes and feed the sample (prototype fast path)."""
+            """Read the joint from the CDR bytes and feed the sample (the CDR fast path)."""
             self.count += 1
             sample = parse_joint_cdr(data, self.joint_cdr)
             if sample is None:
@@ -334,7 +311,7 @@ def _counting_node(raw, work=True, cdr=False, batch=False):
             self.count += 1
 
     node = CountingNode() if work else ShellNode()
-    node.joint_cdr = node.service.joint.encode()
+    node.joint_cdr = node.service.joint
     node.queue = []
     if raw:
         callback = node.on_queue if batch else node.on_cdr if cdr else node.on_raw

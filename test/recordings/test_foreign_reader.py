@@ -276,8 +276,8 @@ def test_read_joints_concatenates_the_chunks(tmp_path):
 
 
 def test_layouts_forgotten_between_chunks_keep_their_tallies(tmp_path, monkeypatch):
-    from robot_wear_monitor.recordings import bags
-    monkeypatch.setattr(bags, '_MAX_LAYOUTS', 20)
+    from robot_wear_monitor.recordings.bags import cdr
+    monkeypatch.setattr(cdr, '_MAX_LAYOUTS', 20)
     recording = _recording(shuffle_order=True, absent_fraction=0.05, effort_empty_fraction=0.02,
                            schedule=('elbow',))
     bag = fr.write_bag(recording, tmp_path / 'bag')

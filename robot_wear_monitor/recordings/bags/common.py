@@ -1,0 +1,64 @@
+"""What the bag modules share: the Jazzy typestore, names, the error type, opening a bag.
+
+The storage plugins (MCAP by default, sqlite3 on request) and opening a bag for reading with
+rosbags (:class:`rosbags.rosbag2.Reader`), with a one-line :class:`BagError` for a bad bag.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from rosbags.rosbag2 import Reader, StoragePlugin
+from rosbags.typesys import get_typestore, Stores
+
+from robot_wear_monitor.errors import InputError
+
+FloatArray = NDArray[np.float64]
+
+
+#: rosbags typestore of ROS 2 Jazzy.
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'
+JOINT_STATES_TOPIC = '/joint_states'
+STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
+BAG_VERSION = 9
+
+
+class BagError(InputError):
+    """A bag cannot be read or written; the message is one line naming the bag and the problem."""
+
+
+def storage_plugin(storage: str) -> StoragePlugin:
+    try:
+        return STORAGES[storage]
+    except KeyError:
+        raise BagError(f'unknown storage {storage!r} (expected mcap or sqlite3)') from None
+
+
+def open_reader(path: str | os.PathLike) -> Reader:
+    bag = Path(path)
+    if not bag.exists():
+        raise BagError(f'{bag}: no such bag')
+    try:
+        reader = Reader(bag)
+        reader.open()
+    except Exception as error:  # noqa: BLE001 - rosbags raises several types for bad bags
+        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise BagError(f'{bag}: cannot open bag: {message}') from None
+    return reader
+
+
+def joint_state_connections(reader: Reader, path: Any, topic: str) -> list:
+    connections = [c for c in reader.connections if c.topic == topic]
+    if not connections:
+        topics = ', '.join(sorted({c.topic for c in reader.connections})) or 'none'
+        raise BagError(f'{path}: no topic {topic} (topics: {topics})')
+    for connection in connections:
+        if connection.msgtype != JOINT_STATE_TYPE:
+            raise BagError(f'{path}: topic {topic} has type {connection.msgtype}, '
+                           f'expected {JOINT_STATE_TYPE}')
+    return connections
