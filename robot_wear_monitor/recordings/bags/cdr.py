@@ -94,8 +94,10 @@ def parse_layout(raw: bytes | memoryview) -> Layout:
         offset += 8 * n
     if offset != len(data) and len(data) - offset > 3:
         raise ValueError('trailing bytes')
-    return Layout(little=little, frame_id=frame_id, names=names, arrays=tuple(arrays),
-                  size=len(data))
+    if len(arrays) != 3:
+        raise ValueError(f'{len(arrays)} float arrays, expected 3')
+    return Layout(little=little, frame_id=frame_id, names=names,
+                  arrays=(arrays[0], arrays[1], arrays[2]), size=len(data))
 
 
 def decode_joint_state(raw: bytes | memoryview) -> tuple[float, str, list[str], FloatArray,
@@ -271,7 +273,7 @@ class MultiDecoder:
     def rejections(self) -> dict[str, Counter]:
         """Return joint -> Counter(reason -> messages) for the requested or seen joints."""
         joints = self.requested if self.requested is not None else list(self.seen)
-        result = {joint: Counter() for joint in joints}
+        result: dict[str, Counter] = {joint: Counter() for joint in joints}
         tallies = Counter(self._forgotten)
         for known in self.known:
             tallies[(tuple(known.index), known.reason)] += known.count
@@ -424,11 +426,12 @@ class MultiDecoder:
                     return layouts, assign
         while pending.any():
             first = int(np.argmax(pending))
-            known = self._lookup(raws[int(rows[first])])
-            if known is None:
+            found = self._lookup(raws[int(rows[first])])
+            if found is None:
                 self.malformed += 1
                 pending[first] = False
                 continue
+            known = found
             left = np.flatnonzero(pending)
             keys = np.ascontiguousarray(words[np.ix_(left, known.words)])
             groups = keys.view(np.dtype((np.void, 8 * keys.shape[1]))).ravel()

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,7 +25,7 @@ TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'
 JOINT_STATES_TOPIC = '/joint_states'
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
-BAG_VERSION = 9
+BAG_VERSION: Literal[9] = 9
 
 
 class BagError(InputError):

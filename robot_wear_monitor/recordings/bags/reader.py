@@ -266,6 +266,7 @@ class JointStream:
                 source: Iterator[Any] = ((t, raw) for _, t, raw in
                                          reader.messages(connections=connections))
             else:
+                assert unfinished is not None  # no reader: the recording is unfinished
                 source = iter_unfinished_mcap(Path(path), unfinished[0], topic, state)
             total = self.total_messages
             raws: list = []

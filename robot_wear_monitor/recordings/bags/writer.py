@@ -56,7 +56,7 @@ class BagWriter:
         """Write a typestore message object (or CDR bytes) on a declared topic."""
         if topic not in self._connections:
             raise BagError(f'topic {topic} was not added before writing')
-        data = msg if isinstance(msg, (bytes, bytearray, memoryview)) else \
+        data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else \
             TYPESTORE.serialize_cdr(msg, self._types[topic])
         self._writer.write(self._connections[topic], int(timestamp_ns), data)
         self.message_count += 1
@@ -142,7 +142,7 @@ def _split_stamps(stamps_s: FloatArray) -> tuple[NDArray[np.int64], NDArray[np.i
     return sec + carry, np.where(carry, nanosec - 1_000_000_000, nanosec)
 
 
-def encode_joint_states(*, stamps_s: Sequence[float], names: Sequence[str],
+def encode_joint_states(*, stamps_s: Sequence[float] | FloatArray, names: Sequence[str],
                         position: Any, velocity: Any, effort: Any,
                         name_order: Any = None, frame_id: str = '') -> list[bytes]:
     """Encode JointState messages to CDR (little endian) with numpy.
@@ -178,7 +178,7 @@ def encode_joint_states(*, stamps_s: Sequence[float], names: Sequence[str],
         groups = [(np.flatnonzero(inverse.ravel() == g), unique[g]) for g in range(len(unique))]
     out: list[bytes | None] = [None] * n
     for rows, columns in groups:
-        raw, layout = _template([names[c] for c in columns], frame_id)
+        raw, layout = _template([names[int(c)] for c in columns], frame_id)
         block = np.tile(np.frombuffer(raw, dtype=np.uint8), (rows.size, 1))
         block[:, 4:8] = sec[rows].astype('<i4').view(np.uint8).reshape(-1, 4)
         block[:, 8:12] = nanosec[rows].astype('<u4').view(np.uint8).reshape(-1, 4)
@@ -192,7 +192,7 @@ def encode_joint_states(*, stamps_s: Sequence[float], names: Sequence[str],
     return out  # type: ignore[return-value]
 
 
-def write_joint_state_bag(path: str | os.PathLike, *, stamps_s: Sequence[float],
+def write_joint_state_bag(path: str | os.PathLike, *, stamps_s: Sequence[float] | FloatArray,
                           names: Sequence[str], position: Any, velocity: Any, effort: Any,
                           name_order: Any = None, topic: str = JOINT_STATES_TOPIC,
                           storage: str = 'mcap', overwrite: bool = False,
