@@ -13,17 +13,17 @@ from typing import Callable, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from robot_wear_monitor.audit.fitting import _as_text, _Base, _design, _fit, AuditTable
+from robot_wear_monitor.audit.fitting import as_text, AuditTable, Base, design_matrix, fit_model
 
 FloatArray = NDArray[np.float64]
 
 
-def _folds(table: AuditTable, n_folds: int, seed: int) -> tuple[NDArray[np.int_], str]:
+def fold_indices(table: AuditTable, n_folds: int, seed: int) -> tuple[NDArray[np.int_], str]:
     """Fold index of every row: by experiment when the column exists, else by row."""
     rng = np.random.default_rng(seed)
     n = table.n_rows
     if 'experiment' in table.columns:
-        values = _as_text(table, 'experiment')
+        values = as_text(table, 'experiment')
         keys = np.array(sorted(set(values.tolist())))
         k = min(n_folds, len(keys))
         if k >= 2:
@@ -34,8 +34,8 @@ def _folds(table: AuditTable, n_folds: int, seed: int) -> tuple[NDArray[np.int_]
     return rng.permutation(n) % k, 'rows (no experiment column)'
 
 
-def _cv_rms(base: _Base, table: AuditTable, terms: Sequence | Callable, theta: FloatArray,
-            folds: NDArray[np.int_], nonnegative: bool = False) -> tuple[float, FloatArray]:
+def cv_rms(base: Base, table: AuditTable, terms: Sequence | Callable, theta: FloatArray,
+           folds: NDArray[np.int_], nonnegative: bool = False) -> tuple[float, FloatArray]:
     """Held-out RMS error over the folds and the held-out residual of every row.
 
     ``terms``: the added terms, or a function of the training table that returns them (for a
@@ -47,8 +47,8 @@ def _cv_rms(base: _Base, table: AuditTable, terms: Sequence | Callable, theta: F
         test = folds == k
         train = ~test
         fold_terms = terms(table.subset(train)) if callable(terms) else terms
-        fit = _fit(base, table.subset(train), fold_terms, theta, max_nfev=40,
-                   nonnegative=nonnegative)
-        x = _design(base, fit.theta, table.subset(test), fold_terms)
+        fit = fit_model(base, table.subset(train), fold_terms, theta, max_nfev=40,
+                        nonnegative=nonnegative)
+        x = design_matrix(base, fit.theta, table.subset(test), fold_terms)
         held_out[test] = y[test] - x @ fit.coef
     return float(np.sqrt(np.mean(held_out ** 2))), held_out

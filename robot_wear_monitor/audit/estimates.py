@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from robot_wear_monitor.audit.fitting import _as_text, AuditTable
+from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
@@ -83,7 +83,7 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
 
     y = table.numeric['friction']
     after, known = _split(after, table)
-    experiments = _as_text(table, 'experiment')
+    experiments = as_text(table, 'experiment')
     results: dict[str, list] = {'before': [], 'after': []}
     truth_t, truth_w = [], []
     try:

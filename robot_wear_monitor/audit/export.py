@@ -24,7 +24,7 @@ import numpy as np
 
 from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.audit.candidates import ORDER_COLUMN
-from robot_wear_monitor.audit.fitting import _Base, _Fit, AuditTable
+from robot_wear_monitor.audit.fitting import AuditTable, Base, Fit
 from robot_wear_monitor.audit.shapes import Term
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.extensions import AddedTerm, ModelExtension, ONLINE_VARIABLES
@@ -36,7 +36,7 @@ from robot_wear_monitor.model.params import (FrictionModel, parameter_set_from_m
 LATEST_COLUMNS = ('experiment', ORDER_COLUMN, 'time', 'time_s', 'stamp', 'stamp_s', 'date')
 
 
-def added_terms(base: _Base, fit: _Fit, table: AuditTable,
+def added_terms(base: Base, fit: Fit, table: AuditTable,
                 terms: Sequence[Term]) -> tuple[AddedTerm, ...]:
     """Return the terms with their identified amplitudes (after the base model's columns)."""
     start = base.columns(fit.theta, table.subset(np.arange(1))).shape[1]
@@ -72,7 +72,7 @@ def base_model(params: ParameterSet, description: dict) -> FrictionModel:
     return FrictionModel(**values)
 
 
-def extended_parameter_set(params: ParameterSet, base: _Base, fit: _Fit, table: AuditTable,
+def extended_parameter_set(params: ParameterSet, base: Base, fit: Fit, table: AuditTable,
                            terms: Sequence[Term], *, name: str | None = None) -> ParameterSet:
     """Return the parameter set of the audit's fit: re-identified base plus added terms."""
     model = base_model(params, base.describe(fit.theta, fit.coef))

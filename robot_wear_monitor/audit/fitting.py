@@ -2,9 +2,9 @@
 
 Friction models are written as (columns nonlinear in a few parameters theta) x (amplitudes):
 the speed model (4) per group, the nominal model (5) and the complete model (8).  They are
-identified by variable projection (:func:`_fit`): ``scipy.optimize.least_squares`` over theta,
-all amplitudes by linear least squares inside every residual evaluation.  :func:`_folds` and
-:func:`_cv_rms` give the held-out (cross-validated by experiment) error.
+identified by variable projection (:func:`fit_model`): ``scipy.optimize.least_squares`` over theta,
+all amplitudes by linear least squares inside every residual evaluation.  :func:`fold_indices` and
+:func:`cv_rms` give the held-out (cross-validated by experiment) error.
 
 Units: speeds motor side [rad/s], friction in the table's own unit (normalised for the packaged
 model), temperature [degC].
@@ -68,7 +68,7 @@ def _decay(speed: FloatArray, stribeck_speed: FloatArray | float,
 
 
 @dataclass(frozen=True)
-class _Base:
+class Base:
     """A base model written as (linear columns) x (amplitudes), columns nonlinear in theta."""
 
     name: str
@@ -87,16 +87,16 @@ class _Base:
         return self.bounds_for(table)
 
 
-def _speed_base(table: AuditTable, group: str | None) -> _Base:
+def speed_base(table: AuditTable, group: str | None) -> Base:
     """Model (4) per group: F_c + F_s exp(-|v/phi_s|^alpha) + F_v v; theta = (log phi, alpha)."""
-    keys, codes = _group_codes(table, group)
+    keys, codes = group_codes(table, group)
     g = len(keys)
     lower, upper = _speed_bounds(table, group, keys)
     vmin, vmax = np.exp(lower[0::2]), np.exp(upper[0::2]) / 5.0
     theta0 = np.column_stack([np.log(np.sqrt(vmin * vmax)), np.full(g, 1.36)]).ravel()
 
     def columns(theta: FloatArray, data: AuditTable) -> FloatArray:
-        _, c = _group_codes(data, group, keys)
+        _, c = group_codes(data, group, keys)
         speed = data.numeric['speed']
         out = np.zeros((len(speed), 3 * g))
         phi = np.exp(theta[0::2])[c]
@@ -116,7 +116,7 @@ def _speed_base(table: AuditTable, group: str | None) -> _Base:
         return result
 
     def decays(theta: FloatArray, data: AuditTable) -> dict:
-        _, c = _group_codes(data, group, keys)
+        _, c = group_codes(data, group, keys)
         return {'Stribeck': _decay(data.numeric['speed'], np.exp(theta[0::2])[c],
                                    theta[1::2][c])}
 
@@ -124,7 +124,7 @@ def _speed_base(table: AuditTable, group: str | None) -> _Base:
         return _speed_bounds(data, group, keys)
 
     start = _speed_start(table, codes, g, theta0, lower, upper)
-    return _Base('speed', start, lower, upper, columns, describe, decays, bounds)
+    return Base('speed', start, lower, upper, columns, describe, decays, bounds)
 
 
 def _speed_bounds(table: AuditTable, group: str | None,
@@ -135,7 +135,7 @@ def _speed_bounds(table: AuditTable, group: str | None,
     every level and its amplitude is not identifiable (a held-out lower speed would then be
     predicted with an unbounded amplitude); phi_s <= 5 x the highest speed; 0.5 <= alpha <= 3.
     """
-    _, codes = _group_codes(table, group, keys)
+    _, codes = group_codes(table, group, keys)
     v = table.numeric['speed']
     g = len(keys)
     present = np.bincount(codes, minlength=g) > 0
@@ -165,7 +165,7 @@ def _speed_start(table: AuditTable, codes: NDArray, g: int, theta0: FloatArray,
     return np.clip(start, lower + 1e-9, upper - 1e-9)
 
 
-def _nominal_base(table: AuditTable, model: FrictionModel, with_wear: bool) -> _Base:
+def nominal_base(table: AuditTable, model: FrictionModel, with_wear: bool) -> Base:
     """Model (5) (and (8) with ``with_wear``), amplitudes linear, Stribeck speeds nonlinear.
 
     theta = (phi_s,tl, phi_s(T_lo), phi_s(T_hi), T_V0, alpha[, phi_s,w]); the temperature
@@ -224,23 +224,23 @@ def _nominal_base(table: AuditTable, model: FrictionModel, with_wear: bool) -> _
                     v, np.maximum(stribeck_speed(theta, temp), 1e-6), theta[4])}
 
     name = 'complete' if with_wear else 'nominal'
-    return _Base(name, theta0_a, np.array(lower), np.array(upper), columns, describe, decays)
+    return Base(name, theta0_a, np.array(lower), np.array(upper), columns, describe, decays)
 
 
-def _group_codes(table: AuditTable, group: str | None,
-                 keys: Sequence[str] | None = None) -> tuple[list[str], NDArray[np.int_]]:
+def group_codes(table: AuditTable, group: str | None,
+                keys: Sequence[str] | None = None) -> tuple[list[str], NDArray[np.int_]]:
     """Return the group names and the integer group of every row (one group when None)."""
     n = table.n_rows
     if group is None:
         return ['all'], np.zeros(n, dtype=int)
-    values = _as_text(table, group)
+    values = as_text(table, group)
     if keys is None:
         keys = sorted(set(values.tolist()))
     index = {k: i for i, k in enumerate(keys)}
     return list(keys), np.array([index.get(v, 0) for v in values], dtype=int)
 
 
-def _as_text(table: AuditTable, name: str) -> NDArray[np.str_]:
+def as_text(table: AuditTable, name: str) -> NDArray[np.str_]:
     if name in table.text:
         return table.text[name]
     return np.array([f'{v:g}' for v in table.numeric[name]])
@@ -264,7 +264,7 @@ def _rss(x: FloatArray, y: FloatArray) -> float:
     return float(r @ r)
 
 
-def _orthonormal(x: FloatArray, tol: float = 1e-6) -> FloatArray:
+def orthonormal(x: FloatArray, tol: float = 1e-6) -> FloatArray:
     """Return an orthonormal basis of the column space of x, shape (n, rank).
 
     Directions with relative singular value below ``tol`` (of unit-norm columns) count as rank
@@ -283,15 +283,15 @@ def _orthonormal(x: FloatArray, tol: float = 1e-6) -> FloatArray:
 # --------------------------------------------------------------------------- fitting
 
 @dataclass(frozen=True)
-class _Fit:
+class Fit:
     theta: FloatArray
     coef: FloatArray
     prediction: FloatArray
     residual: FloatArray
 
 
-def _design(base: _Base, theta: FloatArray, table: AuditTable,
-            terms: Sequence) -> FloatArray:
+def design_matrix(base: Base, theta: FloatArray, table: AuditTable,
+                  terms: Sequence) -> FloatArray:
     blocks = [base.columns(theta, table)] + [t.columns(table) for t in terms]
     return np.column_stack(blocks)
 
@@ -326,11 +326,11 @@ def _solve_nonnegative(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatA
     coef, _ = optimize.nnls(x / scale, y, maxiter=50 * x.shape[1])
     coef = coef / scale
     free = coef > 0
-    return coef, _orthonormal(x[:, free]) if free.any() else np.zeros((len(y), 0))
+    return coef, orthonormal(x[:, free]) if free.any() else np.zeros((len(y), 0))
 
 
-def _fit(base: _Base, table: AuditTable, terms: Sequence, theta0: FloatArray,
-         max_nfev: int = 100, nonnegative: bool = False) -> _Fit:
+def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray,
+              max_nfev: int = 100, nonnegative: bool = False) -> Fit:
     """Variable projection: nonlinear theta by least_squares, amplitudes by QR inside.
 
     The Jacobian is Kaufman's approximation (I - P) dX/dtheta c of the projected residual,
@@ -377,13 +377,13 @@ def _fit(base: _Base, table: AuditTable, terms: Sequence, theta0: FloatArray,
     theta = result.x
     x, coef, _ = solve(theta)
     prediction = x @ coef
-    return _Fit(theta, coef, prediction, y - prediction)
+    return Fit(theta, coef, prediction, y - prediction)
 
 
 # --------------------------------------------------------------------------- shared by identify
 
-def _wear_base(table: AuditTable, *, alpha: float, phi_s_wear: float,
-               free_alpha: bool = False) -> _Base:
+def wear_base(table: AuditTable, *, alpha: float, phi_s_wear: float,
+              free_alpha: bool = False) -> Base:
     """Model (7) at known wear levels (column ``wear``): phi_s,w (and alpha if free) nonlinear.
 
     Columns (w exp(-|v/(phi_s,w w)|^alpha), w v) with amplitudes (F_s,w, F_v,w); theta =
@@ -426,12 +426,12 @@ def _wear_base(table: AuditTable, *, alpha: float, phi_s_wear: float,
         return {'Stribeck (wear)': _decay(data.numeric['speed'], theta[0] * w,
                                           exponent(theta))}
 
-    return _Base('wear', theta0_a, lower_a, upper_a, columns, describe, decays)
+    return Base('wear', theta0_a, lower_a, upper_a, columns, describe, decays)
 
 
-def _multistart_fit(base: _Base, table: AuditTable, starts: Sequence[FloatArray], *,
-                    n_best: int = 3, max_nfev: int = 200, nonnegative: bool = False,
-                    rank_rows: int = 2000) -> tuple[_Fit, int]:
+def multistart_fit(base: Base, table: AuditTable, starts: Sequence[FloatArray], *,
+                   n_best: int = 3, max_nfev: int = 200, nonnegative: bool = False,
+                   rank_rows: int = 2000) -> tuple[Fit, int]:
     """Fit from the ``n_best`` of ``starts`` with the lowest projected RSS; keep the best fit.
 
     Every start costs one linear solve to rank (on at most ``rank_rows`` evenly spaced rows);
@@ -451,9 +451,9 @@ def _multistart_fit(base: _Base, table: AuditTable, starts: Sequence[FloatArray]
         r = y - x @ coef
         ranked.append((float(r @ r), theta))
     ranked.sort(key=lambda item: item[0])
-    best: _Fit | None = None
+    best: Fit | None = None
     for _, theta in ranked[:n_best]:
-        fit = _fit(base, table, [], theta, max_nfev=max_nfev, nonnegative=nonnegative)
+        fit = fit_model(base, table, [], theta, max_nfev=max_nfev, nonnegative=nonnegative)
         if best is None or float(fit.residual @ fit.residual) < float(
                 best.residual @ best.residual):
             best = fit
@@ -469,8 +469,8 @@ def _flatten(description: Mapping) -> dict[str, float]:
     return out
 
 
-def _parameter_errors(base: _Base, table: AuditTable, fit: _Fit,
-                      nonnegative: bool = False) -> dict[str, tuple]:
+def parameter_errors(base: Base, table: AuditTable, fit: Fit,
+                     nonnegative: bool = False) -> dict[str, tuple]:
     """Return the standard errors of the natural parameters (those of ``base.describe``).
 
     Gauss-Newton covariance s^2 (J^T J)^-1 of all parameters (theta and amplitudes), J the

@@ -36,11 +36,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
 from robot_wear_monitor.atomic_files import write_text_atomic
-from robot_wear_monitor.audit.cross_validation import _cv_rms, _folds
-from robot_wear_monitor.audit.fitting import (
-    _as_text, _Base, _fit, _multistart_fit, _nominal_base, _parameter_errors, _speed_base,
-    _wear_base, AuditTable)
+from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
+from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, fit_model, multistart_fit,
+                                              nominal_base, parameter_errors, speed_base,
+                                              wear_base)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.json_values import finite_or_none, json_clean
 from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, load_parameter_set,
                                              parameter_set_from_mapping, ParameterSet)
@@ -115,7 +116,7 @@ class Parameter:
 
     def to_dict(self) -> dict:
         """Return a JSON-ready dict (an infinite standard error is null)."""
-        return {'value': self.value, 'std_error': _json_number(self.std_error),
+        return {'value': self.value, 'std_error': finite_or_none(self.std_error),
                 'unit': self.unit, 'at_bound': self.at_bound}
 
 
@@ -236,7 +237,7 @@ class WearIdentification:
                 'critical_wear': self.critical_wear,
                 'error': {'mean': self.error_mean, 'std': self.error_std},
                 'wear_levels': [{'experiment': lv.experiment, 'wear': lv.wear,
-                                 'wear_std': _json_number(lv.wear_std),
+                                 'wear_std': finite_or_none(lv.wear_std),
                                  'n_levels': lv.n_levels} for lv in self.levels]}
 
 
@@ -270,7 +271,7 @@ class Identification:
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
-        return _clean({
+        return json_clean({
             'name': self.params.name, 'nominal': self.nominal.to_dict(),
             'wear': self.wear.to_dict() if self.wear is not None else None,
             'sigma': self.sigma, 'sigma_rule': self.sigma_rule,
@@ -312,22 +313,6 @@ def _parameter_line(p: Parameter) -> str:
     error = f'{p.std_error:.2e}' if math.isfinite(p.std_error) else 'undetermined'
     flag = '  (at its bound)' if p.at_bound else ''
     return f'  {p.name:<12}{p.value:>13.5g} +- {error:<12} [{p.unit}]{flag}'
-
-
-def _json_number(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
-def _clean(value):
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if isinstance(value, (float, np.floating)):
-        return _json_number(float(value))
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
 
 
 # --------------------------------------------------------------------------- data checks
@@ -418,8 +403,8 @@ _T_V0 = 3
 _ALPHA = 4
 
 
-def _restricted(base: _Base, *, n_columns: int, drop_columns: Sequence[int],
-                fixed_theta: Mapping[int, float]) -> _Base:
+def _restricted(base: Base, *, n_columns: int, drop_columns: Sequence[int],
+                fixed_theta: Mapping[int, float]) -> Base:
     """Return ``base`` (``n_columns`` linear columns) with some columns removed, theta fixed.
 
     ``describe`` still reports every parameter: the removed amplitudes as 0, the fixed theta at
@@ -483,15 +468,15 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
         The :class:`NominalIdentification`.
 
     """
-    base = _nominal_base(table, start, False)
+    base = nominal_base(table, start, False)
     vmax = float(table.numeric['speed'].max())
     upper = base.upper.copy()
     upper[[0, 1, 2]] = 2.0 * vmax
     base = replace(base, upper=upper, theta0=np.minimum(base.theta0, upper - 1e-6))
     lower, upper = base.bounds(table)
     starts = _nominal_starts(table, start, base.theta0, lower, upper)
-    full_fit, ranked = _multistart_fit(base, table, starts, n_best=3)
-    full_errors = _parameter_errors(base, table, full_fit)
+    full_fit, ranked = multistart_fit(base, table, starts, n_best=3)
+    full_errors = parameter_errors(base, table, full_fit)
     n_linear = 7
     chosen, fit, dropped = base, full_fit, ()
     free_theta = list(range(len(base.theta0)))
@@ -504,11 +489,11 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
         candidate = _restricted(base, n_columns=n_linear, drop_columns=drop_columns,
                                 fixed_theta=fixed)
         free = [i for i in range(len(base.theta0)) if i not in fixed]
-        trial = _fit(candidate, table, [], full_fit.theta[free], max_nfev=200)
+        trial = fit_model(candidate, table, [], full_fit.theta[free], max_nfev=200)
         bic = _bic(trial, n_linear - len(drop_columns) + len(free))
         if bic < best:
             chosen, fit, best, dropped, free_theta = candidate, trial, bic, subset, free
-    errors = dict(_parameter_errors(chosen, table, fit))
+    errors = dict(parameter_errors(chosen, table, fit))
     undetermined = {'phi_s_load'} if 0 in dropped else set()
     if 1 in dropped:
         undetermined |= {'phi_s0', 'phi_s_temp'}
@@ -522,11 +507,11 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
                                           index=free_theta.index(_T_V0)))
     parameters = tuple(Parameter(name, errors[name][0], errors[name][1], _UNITS[name],
                                  errors[name][2]) for name in NOMINAL_PARAMETERS)
-    folds, fold_text = _folds(table, n_folds, seed)
-    _, held_out = _cv_rms(chosen, table, [], fit.theta, folds)
+    folds, fold_text = fold_indices(table, n_folds, seed)
+    _, held_out = cv_rms(chosen, table, [], fit.theta, folds)
     temperature = table.numeric['temperature']
     load = table.numeric['load']
-    n_experiments = (len(set(_as_text(table, 'experiment').tolist()))
+    n_experiments = (len(set(as_text(table, 'experiment').tolist()))
                      if 'experiment' in table.columns else 0)
     return NominalIdentification(
         parameters=parameters, held_out_mean=float(np.mean(held_out)),
@@ -540,7 +525,7 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
         dropped=tuple(_STRIBECK_TERMS[i][0] for i in dropped))
 
 
-def _viscous_profile_errors(base: _Base, table: AuditTable, fit, errors: Mapping, *,
+def _viscous_profile_errors(base: Base, table: AuditTable, fit, errors: Mapping, *,
                             index: int) -> dict:
     """Return f_v0, f_v_temp errors widened to their mean change along the T_V0 profile (+-1 SE).
 
@@ -556,7 +541,7 @@ def _viscous_profile_errors(base: _Base, table: AuditTable, fit, errors: Mapping
         fixed = _restricted(base, n_columns=len(fit.coef), drop_columns=(),
                             fixed_theta={index: value})
         free = [i for i in range(len(fit.theta)) if i != index]
-        trial = _fit(fixed, table, [], fit.theta[free], max_nfev=60)
+        trial = fit_model(fixed, table, [], fit.theta[free], max_nfev=60)
         values = _flatten_all(fixed.describe(trial.theta, trial.coef))
         for name in ('f_v0', 'f_v_temp'):
             change = abs(values[name] - errors[name][0])
@@ -578,7 +563,7 @@ def _model_with(model: FrictionModel, values: Mapping[str, float]) -> FrictionMo
 # --------------------------------------------------------------------------- model (7)
 
 def _experiment_key(text: str) -> str:
-    """Normalise an experiment label the way :func:`_as_text` writes numbers."""
+    """Normalise an experiment label the way :func:`as_text` writes numbers."""
     try:
         return f'{float(text):g}'
     except ValueError:
@@ -606,7 +591,7 @@ def check_wear_test(table: AuditTable, critical_experiment: str) -> str:
     if 'experiment' not in table.columns:
         raise InputError(f"{table.source}: column 'experiment' is missing (the wear test "
                          'needs its time index k)')
-    labels = _as_text(table, 'experiment')
+    labels = as_text(table, 'experiment')
     key = _experiment_key(critical_experiment)
     if key not in set(labels.tolist()):
         order = _experiment_order(labels.tolist())
@@ -669,20 +654,20 @@ def identify_wear(*, table: AuditTable, nominal: FrictionModel, critical_experim
     speed = table.numeric['speed']
     profile = table.numeric['friction'] - nominal_friction(
         speed, table.numeric['load'], table.numeric['temperature'], nominal)
-    labels = _as_text(table, 'experiment')
+    labels = as_text(table, 'experiment')
     rows = labels == key
     critical = AuditTable({'speed': speed[rows], 'friction': profile[rows],
                            'wear': np.full(int(rows.sum()), float(critical_wear))},
                           {}, f'{table.source} (experiment {key})')
-    base = _wear_base(critical, alpha=nominal.alpha, phi_s_wear=start.phi_s_wear,
-                      free_alpha=free_alpha)
+    base = wear_base(critical, alpha=nominal.alpha, phi_s_wear=start.phi_s_wear,
+                     free_alpha=free_alpha)
     lower, upper = base.bounds(critical)
     grid = np.exp(np.linspace(math.log(lower[0] * 1.01), math.log(upper[0] * 0.99), 25))
     alphas = (0.7, 1.0, 1.4, 2.0, 3.0) if free_alpha else (None,)
     starts = [base.theta0] + [np.array([x] if a is None else [x, a])
                               for x in grid for a in alphas]
-    fit, _ = _multistart_fit(base, critical, starts, n_best=3)
-    errors = _parameter_errors(base, critical, fit)
+    fit, _ = multistart_fit(base, critical, starts, n_best=3)
+    errors = parameter_errors(base, critical, fit)
     names = WEAR_PARAMETERS + (('alpha',) if free_alpha else ())
     parameters = tuple(Parameter(name, errors[name][0], errors[name][1], _UNITS[name],
                                  errors[name][2]) for name in names)
@@ -753,13 +738,13 @@ class SpeedIdentification:
 
     def to_dict(self) -> dict:
         """Return a JSON-ready dict."""
-        return _clean({'groups': {g: {k: p.to_dict() for k, p in values.items()}
-                                  for g, values in self.groups.items()},
-                       'warnings': list(self.warnings),
-                       'held_out_error': {'mean': self.held_out_mean, 'std': self.held_out_std,
-                                          'folds': self.folds},
-                       'fit_rms': self.fit_rms, 'n_levels': self.n_levels,
-                       'excluded': list(self.excluded)})
+        return json_clean({'groups': {g: {k: p.to_dict() for k, p in values.items()}
+                                      for g, values in self.groups.items()},
+                           'warnings': list(self.warnings),
+                           'held_out_error': {'mean': self.held_out_mean, 'std': self.held_out_std,
+                                              'folds': self.folds},
+                           'fit_rms': self.fit_rms, 'n_levels': self.n_levels,
+                           'excluded': list(self.excluded)})
 
 
 def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds: int = 5,
@@ -771,10 +756,10 @@ def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds
     fewer than six distinct speeds are left out (reported in ``excluded``).  The friction unit
     is the table's (N.m for the KUKA iiwa levels); speeds in the table's unit.
     """
-    from robot_wear_monitor.audit.run import _enough_speeds
+    from robot_wear_monitor.audit.run import enough_speeds
 
-    table, excluded = _enough_speeds(table, group, 'speed')
-    keys = (sorted(set(_as_text(table, group).tolist())) if group is not None else ['all'])
+    table, excluded = enough_speeds(table, group, 'speed')
+    keys = (sorted(set(as_text(table, group).tolist())) if group is not None else ['all'])
     units = {'F_c': 'friction', 'F_s': 'friction', 'phi_s': 'speed', 'alpha': '-',
              'F_v': 'friction/speed'}
     groups: dict[str, dict[str, Parameter]] = {}
@@ -782,22 +767,22 @@ def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds
     residual = np.zeros(table.n_rows)
     fold_text = ''
     for key in keys:
-        rows = (_as_text(table, group) == key) if group is not None else np.ones(
+        rows = (as_text(table, group) == key) if group is not None else np.ones(
             table.n_rows, dtype=bool)
         sub = table.subset(rows)
-        base = _speed_base(sub, None)
+        base = speed_base(sub, None)
         lower, upper = base.bounds(sub)
         starts = [base.theta0] + [np.array([log_phi, alpha])
                                   for log_phi in np.linspace(lower[0], upper[0], 9)
                                   for alpha in (0.7, 1.0, 1.4, 2.0, 2.8)]
-        fit, _ = _multistart_fit(base, sub, starts, n_best=3, nonnegative=True)
-        errors = _parameter_errors(base, sub, fit, nonnegative=True)
+        fit, _ = multistart_fit(base, sub, starts, n_best=3, nonnegative=True)
+        errors = parameter_errors(base, sub, fit, nonnegative=True)
         for name, (value, error, at_bound) in errors.items():
             parameter = name.rpartition('.')[2]
             groups.setdefault(key, {})[parameter] = Parameter(parameter, value, error,
                                                               units[parameter], at_bound)
-        folds, fold_text = _folds(sub, n_folds, seed)
-        _, held_out[rows] = _cv_rms(base, sub, [], fit.theta, folds, nonnegative=True)
+        folds, fold_text = fold_indices(sub, n_folds, seed)
+        _, held_out[rows] = cv_rms(base, sub, [], fit.theta, folds, nonnegative=True)
         residual[rows] = fit.residual
     return SpeedIdentification(groups=groups, held_out_mean=float(np.mean(held_out)),
                                held_out_std=float(np.std(held_out, ddof=1)),

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import spatial
 
-from robot_wear_monitor.audit.fitting import _as_text, AuditTable
+from robot_wear_monitor.audit.fitting import as_text, AuditTable
 
 FloatArray = NDArray[np.float64]
 
@@ -48,7 +48,7 @@ def noise_floor(*, table: AuditTable, residual: FloatArray, n_parameters: int,
     cols = []
     for k in variables:
         if k in table.text or (k in table.numeric and len(np.unique(table.numeric[k])) <= 8):
-            codes = np.unique(_as_text(table, k), return_inverse=True)[1]
+            codes = np.unique(as_text(table, k), return_inverse=True)[1]
             cols.append(codes * 100.0)
         elif k in table.numeric:
             x = table.numeric[k]

@@ -12,6 +12,7 @@ from typing import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import extension_to_mapping
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -130,7 +131,7 @@ class AuditResult:
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
-        return _json_clean({
+        return json_clean({
             'model': self.model, 'n_levels': self.n_levels, 'group': self.group,
             'candidates': list(self.candidates),
             'rms_before': self.rms_before, 'rms_after': self.rms_after,
@@ -187,17 +188,3 @@ class AuditResult:
 
 def _finite(value: float) -> float:
     return float(value) if math.isfinite(value) else (-1e300 if value < 0 else 1e300)
-
-
-def _json_clean(value):
-    if isinstance(value, dict):
-        return {str(k): _json_clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_clean(v) for v in value]
-    if isinstance(value, (np.floating, float)):
-        return _finite(float(value)) if math.isfinite(float(value)) else None
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, np.ndarray):
-        return _json_clean(value.tolist())
-    return value

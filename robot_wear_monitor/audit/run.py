@@ -25,19 +25,21 @@ from numpy.typing import NDArray
 from robot_wear_monitor.audit.candidates import (candidate_columns, families, make_variable,
                                                  make_variables, periodic_frequencies, Variable,
                                                  with_experiment_order)
-from robot_wear_monitor.audit.cross_validation import _cv_rms, _folds
+from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
 from robot_wear_monitor.audit.estimates import estimate_changes
 from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
                                              offline_defaults)
-from robot_wear_monitor.audit.fitting import (_as_text, _Base, _design, _Fit, _fit, _group_codes,
-                                              _nominal_base, _orthonormal, _speed_base, AuditTable)
+from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, design_matrix, Fit,
+                                              fit_model, group_codes, nominal_base, orthonormal,
+                                              speed_base)
 from robot_wear_monitor.audit.noise import noise_floor
-from robot_wear_monitor.audit.result import _json_clean, AuditResult, Effect
+from robot_wear_monitor.audit.result import AuditResult, Effect
 from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
 from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, periodic_scan,
                                                    sinusoid, Tester)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import Factor
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -91,20 +93,20 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     if params is not None and params.model.extension is not None and model != 'speed':
         params = _without_extension(params)
     table = with_experiment_order(table)
-    table, excluded = _enough_speeds(table, group, model)
-    base = (_speed_base(table, group) if model == 'speed'
-            else _nominal_base(table, params.model, model == 'complete'))
+    table, excluded = enough_speeds(table, group, model)
+    base = (speed_base(table, group) if model == 'speed'
+            else nominal_base(table, params.model, model == 'complete'))
     n = table.n_rows
     if n < len(base.theta0) + 3 * _n_linear(base, table) // 2 + 5:
         raise InputError(f'{table.source}: {n} friction levels are too few to audit the '
                          f'{model} model')
     variables = make_variables(table, candidate_columns(table, model=model, group=group))
     group_variable = make_variable(table, group) if group is not None else None
-    folds, fold_text = _folds(table, n_folds, seed)
+    folds, fold_text = fold_indices(table, n_folds, seed)
 
-    fit = _fit(base, table, [], base.theta0)
+    fit = fit_model(base, table, [], base.theta0)
     fit_before = fit
-    cv_before, _ = _cv_rms(base, table, [], fit.theta, folds)
+    cv_before, _ = cv_rms(base, table, [], fit.theta, folds)
     cv_now = cv_before
     terms: list[Term] = []
     effects: list[Effect] = []
@@ -121,9 +123,9 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                 stop = step['report']['decision']
                 break
             trial_terms = terms + [step['term']]
-            trial_fit = _fit(base, table, trial_terms, fit.theta)
-            cv_trial, _ = _cv_rms(base, table, _fold_terms(base, terms, step['term'], fit.theta),
-                                  trial_fit.theta, folds)
+            trial_fit = fit_model(base, table, trial_terms, fit.theta)
+            cv_trial, _ = cv_rms(base, table, _fold_terms(base, terms, step['term'], fit.theta),
+                                 trial_fit.theta, folds)
             step['report']['rms_cv_with_term'] = cv_trial
             if cv_trial <= cv_now * (1.0 - min_gain):
                 accepted = step
@@ -144,7 +146,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                               step['report']['chosen']['candidate'],
                               tuple(step['report']['chosen']['confounded_with'])))
         terms, fit, cv_now = trial_terms, trial_fit, cv_trial
-    n_params = _orthonormal(_design(base, fit.theta, table, terms)).shape[1] + len(base.theta0)
+    n_params = (orthonormal(design_matrix(base, fit.theta, table, terms)).shape[1]
+                + len(base.theta0))
     floor_vars = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
                               ('speed', 'friction')] + [v.name for v in variables]
     if group is not None:
@@ -169,13 +172,13 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         noise_floor=floor, noise_floor_method=floor_method, folds=fold_text,
         effects=tuple(effects), steps=tuple(steps), residual_before=fit_before.residual,
         residual_after=fit.residual,
-        parameters_before=_json_clean(base.describe(fit_before.theta, fit_before.coef)),
-        parameters_after=_json_clean(base.describe(fit.theta, fit.coef)),
+        parameters_before=json_clean(base.describe(fit_before.theta, fit_before.coef)),
+        parameters_after=json_clean(base.describe(fit.theta, fit.coef)),
         estimate_changes=changes, stop_reason=stop, excluded=excluded,
         extended_params=extended, offline=offline)
 
 
-def _fold_terms(base: _Base, terms: Sequence[Term], term: Term, theta: FloatArray):
+def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray):
     """Return the terms of a trial for cross-validation.
 
     A sinusoid's period is scanned again on every fold's training levels (over the same range
@@ -187,8 +190,8 @@ def _fold_terms(base: _Base, terms: Sequence[Term], term: Term, theta: FloatArra
     name = term.variables[0]
 
     def for_training(train: AuditTable) -> list[Term]:
-        fit = _fit(base, train, terms, theta, max_nfev=40)
-        q0 = _orthonormal(_design(base, fit.theta, train, terms))
+        fit = fit_model(base, train, terms, theta, max_nfev=40)
+        q0 = orthonormal(design_matrix(base, fit.theta, train, terms))
         x = train.numeric[name]
         variable = make_variable(train, name)
         if variable is None or variable.kind != 'continuous':
@@ -211,8 +214,8 @@ def _distinct_speeds(speed: FloatArray) -> int:
     return len(np.unique(np.round(np.log(speed) / 0.02)))
 
 
-def _enough_speeds(table: AuditTable, group: str | None,
-                   model: str) -> tuple[AuditTable, tuple[str, ...]]:
+def enough_speeds(table: AuditTable, group: str | None,
+                  model: str) -> tuple[AuditTable, tuple[str, ...]]:
     """Drop the groups with fewer than MIN_SPEEDS distinct speeds (speed model only).
 
     The speed model (4) has five parameters per group; with fewer distinct speeds it
@@ -226,7 +229,7 @@ def _enough_speeds(table: AuditTable, group: str | None,
             raise InputError(f'{table.source}: {_distinct_speeds(speed)} distinct speeds; the '
                              f'speed model (4) needs at least {MIN_SPEEDS}')
         return table, ()
-    keys, codes = _group_codes(table, group)
+    keys, codes = group_codes(table, group)
     keep = np.ones(table.n_rows, dtype=bool)
     excluded = []
     for i, key in enumerate(keys):
@@ -240,24 +243,24 @@ def _enough_speeds(table: AuditTable, group: str | None,
     return table.subset(keep), tuple(excluded)
 
 
-def _n_linear(base: _Base, table: AuditTable) -> int:
+def _n_linear(base: Base, table: AuditTable) -> int:
     return base.columns(base.theta0, table.subset(np.arange(1))).shape[1]
 
 
-def _theta_jacobian(base: _Base, table: AuditTable, terms: Sequence[Term],
-                    fit: _Fit) -> FloatArray:
+def _theta_jacobian(base: Base, table: AuditTable, terms: Sequence[Term],
+                    fit: Fit) -> FloatArray:
     """Jacobian of the prediction in theta at the fit (finite differences), shape (n, p)."""
     cols = []
     for j in range(len(fit.theta)):
         step = 1e-6 * max(abs(fit.theta[j]), 1e-3)
         theta = fit.theta.copy()
         theta[j] += step
-        x = _design(base, theta, table, terms)
+        x = design_matrix(base, theta, table, terms)
         cols.append((x @ fit.coef - fit.prediction) / step)
     return np.column_stack(cols) if cols else np.zeros((table.n_rows, 0))
 
 
-def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
+def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
           variables: Sequence[Variable], group_variable: Variable | None,
           fdr: float, exclude: frozenset = frozenset()) -> dict:
     """Test every candidate family against the current model; choose the effect to add.
@@ -265,14 +268,14 @@ def _step(table: AuditTable, base: _Base, fit: _Fit, terms: Sequence[Term],
     ``exclude``: candidates already tried in this step whose effect did not lower the held-out
     error; the most significant other candidate is chosen.
     """
-    x0 = _design(base, fit.theta, table, terms)
+    x0 = design_matrix(base, fit.theta, table, terms)
     # the linearised model: its columns and its Jacobian in the nonlinear parameters
-    q0 = _orthonormal(np.column_stack([x0, _theta_jacobian(base, table, terms, fit)]))
+    q0 = orthonormal(np.column_stack([x0, _theta_jacobian(base, table, terms, fit)]))
     by_name = {v.name: v for v in variables}
     # from the second effect on, experiment-level structure left by the effects already added
     # counts with the experiments' scatter, not as independent levels (see Tester); so do
     # the rivals of the named effect (confounding)
-    experiments = (np.unique(_as_text(table, 'experiment'), return_inverse=True)[1].ravel()
+    experiments = (np.unique(as_text(table, 'experiment'), return_inverse=True)[1].ravel()
                    if 'experiment' in table.columns else None)
     robust = Tester(q0, fit.residual, experiments)
     tester = robust if terms else Tester(q0, fit.residual, None)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robot_wear_monitor.audit.candidates import factor_columns, speed_factor, Variable
-from robot_wear_monitor.audit.fitting import _Base, _orthonormal, AuditTable
+from robot_wear_monitor.audit.fitting import AuditTable, Base, orthonormal
 from robot_wear_monitor.model.extensions import AddedTerm, Factor
 
 FloatArray = NDArray[np.float64]
@@ -55,7 +55,7 @@ class Term:
                          self.drop_first)
 
 
-def base_alpha(base: _Base, theta: FloatArray) -> float:
+def base_alpha(base: Base, theta: FloatArray) -> float:
     """Return the Stribeck exponent of the fitted base model (median over groups)."""
     if base.name == 'speed':
         return float(np.median(theta[1::2]))
@@ -66,7 +66,7 @@ class ShapeBuilder:
     """Builds the named shapes of an effect in given variables."""
 
     def __init__(self, table: AuditTable, variables: Sequence[Variable],
-                 group_variable: Variable | None, base: _Base, theta: FloatArray):
+                 group_variable: Variable | None, base: Base, theta: FloatArray):
         """Prepare the shapes of ``variables`` for the model ``base`` fitted at ``theta``."""
         self.table = table
         self.variables = {v.name: v for v in variables}
@@ -154,7 +154,7 @@ def choose_shape(shapes: Sequence[Term], q0: FloatArray, residual: FloatArray,
     for term in shapes:
         basis = term.columns(table)
         perp = basis - q0 @ (q0.T @ basis)
-        q1 = _orthonormal(perp, tol=1e-5)
+        q1 = orthonormal(perp, tol=1e-5)
         if q1.shape[1] == 0:
             continue
         rss = float(residual @ residual) - float(np.sum((q1.T @ residual) ** 2))

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, stats
 
-from robot_wear_monitor.audit.fitting import _orthonormal
+from robot_wear_monitor.audit.fitting import orthonormal
 
 FloatArray = NDArray[np.float64]
 
@@ -32,7 +32,7 @@ def nested_test(q0: FloatArray, residual: FloatArray, basis: FloatArray,
     is spanned.
     """
     perp = basis - q0 @ (q0.T @ basis)
-    q1 = _orthonormal(perp, tol=1e-5)
+    q1 = orthonormal(perp, tol=1e-5)
     df1 = q1.shape[1]
     n = len(residual)
     df2 = n - q0.shape[1] - df1 - n_theta
@@ -120,7 +120,7 @@ class Tester:
             n, n_groups = len(residual), len(self.counts)
             rest, rank = residual, q0.shape[1]
             if scatter_from is not None:
-                q = _orthonormal(np.column_stack([q0, scatter_from]))
+                q = orthonormal(np.column_stack([q0, scatter_from]))
                 rest, rank = residual - q @ (q.T @ residual), q.shape[1]
             means = self._means(rest[:, None])[:, 0]
             between = float(np.sum(self.counts * means ** 2))
@@ -128,7 +128,7 @@ class Tester:
             s2_between = between / max(n_groups - min(rank, n_groups - 1), 1)
             s2_within = within / max(n - n_groups - rank, 1)
             self.shrink = 1.0 - math.sqrt(min(1.0, s2_within / max(s2_between, 1e-300)))
-        self.q0 = _orthonormal(self.transform(q0), tol=1e-5)
+        self.q0 = orthonormal(self.transform(q0), tol=1e-5)
         r = self.transform(residual[:, None])[:, 0]
         self.residual = r - self.q0 @ (self.q0.T @ r)
 
@@ -139,7 +139,7 @@ class Tester:
         ``alternative`` (the term to be tested) when given.
         """
         q0, residual, experiments = self.raw
-        q = _orthonormal(np.column_stack([q0, basis]))
+        q = orthonormal(np.column_stack([q0, basis]))
         return Tester(q, residual - q @ (q.T @ residual), experiments, alternative)
 
     def _means(self, x: FloatArray) -> FloatArray:
@@ -162,7 +162,7 @@ class Tester:
         """Return (log p, df) of adding ``basis`` to the model (plus ``given`` columns)."""
         q0, residual = self.q0, self.residual
         if given is not None:
-            q0 = _orthonormal(np.column_stack([q0, self.transform(given)]))
+            q0 = orthonormal(np.column_stack([q0, self.transform(given)]))
             residual = residual - q0 @ (q0.T @ residual)
         return nested_test(q0, residual, self.transform(basis))
 

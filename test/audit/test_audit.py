@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from effect_generator import model_friction
-from robot_wear_monitor.audit.model_audit import (AuditTable, load_audit_data, read_level_table,
-                                                  run_audit, table_from_columns)
+from robot_wear_monitor.audit.data import load_audit_data, read_level_table, table_from_columns
+from robot_wear_monitor.audit.fitting import AuditTable
+from robot_wear_monitor.audit.run import run_audit
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import load_parameter_set

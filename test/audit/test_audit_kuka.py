@@ -5,7 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from robot_wear_monitor.audit.model_audit import load_audit_data, run_audit
+from robot_wear_monitor.audit.data import load_audit_data
+from robot_wear_monitor.audit.run import run_audit
 
 
 @pytest.fixture(scope='module')

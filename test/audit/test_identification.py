@@ -312,7 +312,7 @@ def test_speed_model_is_identified_per_group_with_standard_errors():
 # ----------------------------------------------------------------------- measured data
 
 def test_kuka_iiwa_levels_identify_the_speed_model_per_joint(kuka_dir):
-    from robot_wear_monitor.audit.model_audit import load_audit_data
+    from robot_wear_monitor.audit.data import load_audit_data
 
     table = load_audit_data(kuka_dir)
     result = identify_speed_model(table=table, group='joint')
