@@ -10,7 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from robot_wear_monitor.audit.fitting import AuditTable
+from robot_wear_monitor.audit.identification_result import Identification
 from robot_wear_monitor.audit.result import AuditResult
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.friction import wear_friction
 
 
 def _pyplot():
@@ -115,3 +118,83 @@ def _matching_rows(table: AuditTable, result: AuditResult) -> AuditTable:
     values = table.text[result.group] if result.group in table.text else np.array(
         [f'{v:g}' for v in table.numeric[result.group]])
     return table.subset(~np.isin(values, list(left_out)))
+
+
+def plot_identification(*, result: Identification, baseline: AuditTable,
+                        wear_test: AuditTable | None = None, out_dir: str | Path,
+                        dpi: int = 80) -> list[Path]:
+    """Write the identification figures into ``out_dir``; return their paths.
+
+    ``identify_residuals.png``: held-out residuals of (5) against speed, temperature and load
+    (and the wear-model error against experiment with a wear test), with +- sigma_eps;
+    ``identify_wear.png`` (wear test only): the identified w of every experiment and the wear
+    profile (6) of the critical experiment with model (7).
+    """
+    plt = _pyplot()
+    folder = Path(out_dir)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise InputError(f'{folder}: cannot create the figure folder: {error.strerror}') from None
+    nominal = result.nominal
+    panels = [('speed [rad/s]', baseline.numeric['speed'], nominal.held_out_residual),
+              ('temperature [degC]', baseline.numeric['temperature'],
+               nominal.held_out_residual),
+              ('load [-]', baseline.numeric['load'], nominal.held_out_residual)]
+    wear = result.wear
+    if wear is not None and wear_test is not None:
+        order = {lv.experiment: i for i, lv in enumerate(wear.levels)}
+        index = np.array([order[e] for e in wear.experiment], dtype=float)
+        panels.append(('experiment (index in time order)', index, wear.residual))
+    figure, axes = plt.subplots(1, len(panels), figsize=(2.9 * len(panels), 2.5),
+                                squeeze=False)
+    for i, (axis, (label, x, residual)) in enumerate(zip(axes[0], panels)):
+        axis.plot(x, residual, '.', markersize=2.5,
+                  color='tab:orange' if label.startswith('experiment') else 'tab:blue')
+        std = wear.error_std if label.startswith('experiment') else nominal.held_out_std
+        for level in (-std, 0.0, std):
+            axis.axhline(level, color='k' if level == 0 else '0.5', linewidth=0.6,
+                         linestyle='-' if level == 0 else '--')
+        if label.startswith('speed') and np.ptp(np.log(x)) > 2:
+            axis.set_xscale('log')
+        axis.set_xlabel(label, fontsize=8)
+        axis.tick_params(labelsize=7)
+    axes[0, 0].set_ylabel('held-out residual of (5)', fontsize=8)
+    if len(panels) == 4:
+        axes[0, 3].set_ylabel('error of (7)', fontsize=8)
+    figure.suptitle(f'{result.params.name}: held-out error [mu, sigma] = '
+                    f'[{nominal.held_out_mean:.2e}, {nominal.held_out_std:.2e}]', fontsize=9)
+    figure.tight_layout()
+    paths = [folder / 'identify_residuals.png']
+    figure.savefig(paths[0], dpi=dpi)
+    plt.close(figure)
+    if wear is None or wear_test is None:
+        return paths
+    figure, (left, right) = plt.subplots(1, 2, figsize=(8.0, 2.8))
+    w = np.array([lv.wear for lv in wear.levels])
+    std = np.array([lv.wear_std for lv in wear.levels])
+    x = np.arange(len(w))
+    left.errorbar(x, w, yerr=np.where(np.isfinite(std), std, 0.0), fmt='.', markersize=3,
+                  linewidth=0.7)
+    critical = [i for i, lv in enumerate(wear.levels) if lv.experiment == wear.critical_experiment]
+    left.plot(critical, [wear.critical_wear], 's', color='tab:red',
+              label=f'K = {wear.critical_experiment} (w = {wear.critical_wear:g})')
+    left.set_xlabel('experiment (index in time order)', fontsize=8)
+    left.set_ylabel('identified w', fontsize=8)
+    left.legend(fontsize=7)
+    rows = wear.experiment == wear.critical_experiment
+    speed = wear_test.numeric['speed'][rows]
+    right.plot(speed, wear.profile[rows], 'o', markersize=3, label='wear profile (6)')
+    grid = np.linspace(speed.min(), speed.max(), 200)
+    right.plot(grid, wear_friction(grid, wear.critical_wear, result.params.model), '-',
+               color='tab:red', label='model (7)')
+    right.set_xlabel('speed [rad/s]', fontsize=8)
+    right.set_ylabel('tau_f - tau_f0', fontsize=8)
+    right.legend(fontsize=7)
+    for axis in (left, right):
+        axis.tick_params(labelsize=7)
+    figure.tight_layout()
+    paths.append(folder / 'identify_wear.png')
+    figure.savefig(paths[1], dpi=dpi)
+    plt.close(figure)
+    return paths

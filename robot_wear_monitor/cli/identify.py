@@ -63,8 +63,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``identify``: write the parameter set, print the summary or the JSON report."""
-    from robot_wear_monitor.audit.identification import (identify, plot_identification,
-                                                         write_parameter_set)
+    from robot_wear_monitor.audit.export import write_identified_parameter_set
+    from robot_wear_monitor.audit.identification import identify
+    from robot_wear_monitor.audit.report import plot_identification
     from robot_wear_monitor.audit.identify_inputs import default_set_name, load_identify_levels
     from robot_wear_monitor.model.params import load_parameter_set
 
@@ -99,7 +100,7 @@ def main(args: argparse.Namespace) -> int:
                       wear_test=wear_test, critical_experiment=args.critical_experiment,
                       critical_wear=args.critical_wear, temperature_bounds_degc=bounds,
                       n_folds=args.folds)
-    loaded = write_parameter_set(args.out, result)
+    loaded = write_identified_parameter_set(args.out, result)
     report = result.to_dict()
     report['out'] = str(args.out)
     report['loaded_back'] = loaded.name == result.params.name

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 import independent_robot as robot
+from robot_wear_monitor.audit.export import parameter_set_yaml, write_identified_parameter_set
 from robot_wear_monitor.audit.fitting import AuditTable
-from robot_wear_monitor.audit.identification import (
-    identify, identify_nominal, identify_speed_model, NOMINAL_PARAMETERS, parameter_set_yaml,
-    write_parameter_set)
+from robot_wear_monitor.audit.identification import identify, identify_nominal
+from robot_wear_monitor.audit.identification_result import NOMINAL_PARAMETERS
+from robot_wear_monitor.audit.speed_model import identify_speed_model
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
@@ -221,7 +222,7 @@ def test_wear_model_with_a_well_measured_critical_experiment_meets_table_ii():
 
 def test_written_set_loads_back_and_says_where_fields_come_from(identified, tmp_path):
     result = identified['heavy_load']
-    loaded = write_parameter_set(tmp_path / 'heavy.yaml', result)
+    loaded = write_identified_parameter_set(tmp_path / 'heavy.yaml', result)
     assert isinstance(loaded, ParameterSet)
     assert loaded.name == 'sim_heavy_load'
     for name in NOMINAL_PARAMETERS:

@@ -1,0 +1,275 @@
+"""The results of ``identify``: identified parameters with standard errors and their report.
+
+:class:`Parameter` (value, standard error, unit, bound), the nominal (5), wear-profile (7) and
+complete results (:class:`NominalIdentification`, :class:`WearIdentification`,
+:class:`Identification`), with their text report and JSON; the parameter names, units and
+meanings of the parameter-set YAML.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.json_values import finite_or_none, json_clean
+from robot_wear_monitor.model.params import (ParameterSet)
+
+FloatArray = NDArray[np.float64]
+
+
+#: The twelve parameters of the nominal model (5), in the order of the parameter-set YAML.
+NOMINAL_PARAMETERS = ('f_c0', 'f_c_load', 'f_s0', 'f_s_load', 'f_s_temp', 'f_v0', 'f_v_temp',
+                      'phi_s0', 'phi_s_load', 'phi_s_temp', 't_v0', 'alpha')
+#: The parameters of the wear model (7) (alpha is shared with (5)).
+WEAR_PARAMETERS = ('f_s_wear', 'f_v_wear', 'phi_s_wear')
+#: Fewest distinct speeds for model (5) (error below), and the number that spans it well.
+MIN_SPEEDS, GOOD_SPEEDS = 6, 8
+#: Fewest distinct speeds of the critical experiment for model (7) (three parameters).
+MIN_WEAR_SPEEDS = 4
+#: Default wear level of the critical experiment (the paper's convention).
+CRITICAL_WEAR = 35.0
+
+#: Unit of each parameter of the parameter set.
+PARAMETER_UNITS = {'f_c0': '-', 'f_c_load': '-/-', 'f_s0': '-', 'f_s_load': '-/-',
+                   'f_s_temp': '1/degC',
+                   'f_v0': '1/(rad/s)', 'f_v_temp': '1/(rad/s)', 'phi_s0': 'rad/s',
+                   'phi_s_load': 'rad/s', 'phi_s_temp': 'rad/s/degC', 't_v0': 'degC', 'alpha': '-',
+                   'f_s_wear': '-/w', 'f_v_wear': '1/(rad/s)/w', 'phi_s_wear': 'rad/s/w'}
+#: What each parameter of the parameter set stands for.
+PARAMETER_MEANINGS = {'f_c0': 'Coulomb offset', 'f_c_load': 'Coulomb load slope',
+                      'f_s0': 'Stribeck amplitude offset', 'f_s_load': 'Stribeck load amplitude',
+                      'f_s_temp': 'Stribeck amplitude temperature slope',
+                      'f_v0': 'viscous slope offset',
+                      'f_v_temp': 'viscous slope temperature amplitude',
+                      'phi_s0': 'Stribeck speed offset',
+                      'phi_s_load': 'Stribeck speed of the load term',
+                      'phi_s_temp': 'Stribeck speed temperature slope',
+                      't_v0': 'viscous temperature constant', 'alpha': 'Stribeck exponent',
+                      'f_s_wear': 'Stribeck wear amplitude', 'f_v_wear': 'viscous wear slope',
+                      'phi_s_wear': 'Stribeck wear speed'}
+#: What to measure more of when a parameter is poorly determined.
+
+
+# --------------------------------------------------------------------------- results
+
+@dataclass(frozen=True)
+class Parameter:
+    """One identified parameter.
+
+    Attributes:
+        name: field name of the parameter set (``f_c0``, ...).
+        value: the estimate, in the parameter's unit (``unit``).
+        std_error: its standard error (inf when the data do not determine it).
+        unit: unit of value and standard error.
+        at_bound: the estimate lies on a bound of its physical domain.
+
+    """
+
+    name: str
+    value: float
+    std_error: float
+    unit: str
+    at_bound: bool = False
+
+    def to_dict(self) -> dict:
+        """Return a JSON-ready dict (an infinite standard error is null)."""
+        return {'value': self.value, 'std_error': finite_or_none(self.std_error),
+                'unit': self.unit, 'at_bound': self.at_bound}
+
+
+@dataclass(frozen=True)
+class NominalIdentification:
+    """The nominal model (5) identified on baseline levels.
+
+    Attributes:
+        parameters: the twelve parameters, in the order of :data:`NOMINAL_PARAMETERS`.
+        held_out_mean: mean of the held-out prediction error mu_eps [friction units].
+        held_out_std: its standard deviation sigma_eps [friction units].
+        folds: how the levels were split for the held-out error.
+        fit_rms: in-sample RMS error [friction units].
+        residual: in-sample residual (data minus model), shape (n,).
+        held_out_residual: held-out residual of every level, shape (n,).
+        n_levels: number of friction levels.
+        n_experiments: number of experiments (0 without an ``experiment`` column).
+        n_speeds: number of distinct speeds (equal within 2 %).
+        temperatures: number of distinct temperatures (equal within 0.1 degC).
+        loads: number of distinct loads (equal within 0.005).
+        temperature_range_degc: (min, max) of the levels' temperatures.
+        load_range: (min, max) of the levels' loads.
+        starts: number of starting points ranked by the multi-start fit.
+        dropped: Stribeck terms left out because the data do not support them (BIC).
+
+    """
+
+    parameters: tuple[Parameter, ...]
+    held_out_mean: float
+    held_out_std: float
+    folds: str
+    fit_rms: float
+    residual: FloatArray
+    held_out_residual: FloatArray
+    n_levels: int
+    n_experiments: int
+    n_speeds: int
+    temperatures: int
+    loads: int
+    temperature_range_degc: tuple[float, float]
+    load_range: tuple[float, float]
+    starts: int
+    dropped: tuple[str, ...] = ()
+
+    def values(self) -> dict[str, float]:
+        """Return {name: value} of the twelve parameters."""
+        return {p.name: p.value for p in self.parameters}
+
+    def to_dict(self) -> dict:
+        """Return a JSON-ready dict (without the residual arrays)."""
+        return {'parameters': {p.name: p.to_dict() for p in self.parameters},
+                'held_out_error': {'mean': self.held_out_mean, 'std': self.held_out_std,
+                                   'folds': self.folds},
+                'fit_rms': self.fit_rms, 'n_levels': self.n_levels,
+                'n_experiments': self.n_experiments, 'distinct_speeds': self.n_speeds,
+                'distinct_temperatures': self.temperatures, 'distinct_loads': self.loads,
+                'temperature_range_degc': list(self.temperature_range_degc),
+                'load_range': list(self.load_range), 'starts': self.starts,
+                'dropped_terms': list(self.dropped)}
+
+
+@dataclass(frozen=True)
+class WearLevel:
+    """The wear level identified for one experiment of the wear test (Fig. 4 validation).
+
+    Attributes:
+        experiment: the experiment's label (its value in the ``experiment`` column).
+        wear: the identified w [-].
+        wear_std: its standard error (from the pooled wear-model error).
+        n_levels: friction levels of the experiment.
+
+    """
+
+    experiment: str
+    wear: float
+    wear_std: float
+    n_levels: int
+
+
+@dataclass(frozen=True)
+class WearIdentification:
+    """The wear model (7) identified on an accelerated wear test.
+
+    Attributes:
+        parameters: F_s,w, F_v,w and phi_s,w with standard errors (alpha from (5); alpha
+            too when it was identified in (7), see :func:`identify_wear`).
+        critical_experiment: the experiment K the model was identified at.
+        critical_wear: the wear level assigned to K by convention.
+        levels: the identified wear level of every experiment, in the table's order of
+            experiments (numeric order when the labels are numbers).
+        error_mean: mean of the wear-model error over the whole test [friction units].
+        error_std: its standard deviation [friction units].
+        profile: the wear profile (6) of every level of the test, shape (n,).
+        residual: the wear-model error of every level (profile minus (7) at the experiment's
+            identified w), shape (n,).
+        experiment: the experiment label of every level, shape (n,).
+
+    """
+
+    parameters: tuple[Parameter, ...]
+    critical_experiment: str
+    critical_wear: float
+    levels: tuple[WearLevel, ...]
+    error_mean: float
+    error_std: float
+    profile: FloatArray
+    residual: FloatArray
+    experiment: NDArray[np.str_]
+
+    def values(self) -> dict[str, float]:
+        """Return {name: value} of the three wear parameters."""
+        return {p.name: p.value for p in self.parameters}
+
+    def to_dict(self) -> dict:
+        """Return a JSON-ready dict (without the per-level arrays)."""
+        return {'parameters': {p.name: p.to_dict() for p in self.parameters},
+                'critical_experiment': self.critical_experiment,
+                'critical_wear': self.critical_wear,
+                'error': {'mean': self.error_mean, 'std': self.error_std},
+                'wear_levels': [{'experiment': lv.experiment, 'wear': lv.wear,
+                                 'wear_std': finite_or_none(lv.wear_std),
+                                 'n_levels': lv.n_levels} for lv in self.levels]}
+
+
+@dataclass(frozen=True)
+class Identification:
+    """Outcome of :func:`identify`: the parameter set and how well the data determined it.
+
+    Attributes:
+        params: the complete, validated parameter set.
+        nominal: the nominal model (5) identification.
+        wear: the wear model (7) identification (None without a wear test).
+        sigma: sigma of (9b) written to the set.
+        sigma_rule: how sigma was formed.
+        from_params: the reference set the undetermined fields came from.
+        warnings: what the data do not determine well, each naming what to measure more of.
+        baseline_source: where the baseline levels came from.
+        wear_source: where the wear-test levels came from (None without a wear test).
+
+    """
+
+    params: ParameterSet
+    nominal: NominalIdentification
+    wear: WearIdentification | None
+    sigma: float
+    sigma_rule: str
+    from_params: ParameterSet
+    warnings: tuple[str, ...]
+    baseline_source: str
+    wear_source: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """Return the JSON report (valid JSON: no NaN or inf)."""
+        return json_clean({
+            'name': self.params.name, 'nominal': self.nominal.to_dict(),
+            'wear': self.wear.to_dict() if self.wear is not None else None,
+            'sigma': self.sigma, 'sigma_rule': self.sigma_rule,
+            'temperature_bounds_degc': [self.params.temperature_min_degc,
+                                        self.params.temperature_max_degc],
+            'from_params': self.from_params.source, 'baseline': self.baseline_source,
+            'wear_test': self.wear_source, 'warnings': list(self.warnings), **self.extra})
+
+    def summary(self) -> str:
+        """Return a plain-text report."""
+        nominal = self.nominal
+        lines = [f'identified nominal model (5) on {nominal.n_levels} friction levels '
+                 f'({nominal.n_experiments} experiments, {nominal.n_speeds} speeds, '
+                 f'T {nominal.temperature_range_degc[0]:.1f}-'
+                 f'{nominal.temperature_range_degc[1]:.1f} degC, load '
+                 f'{nominal.load_range[0]:.3g}-{nominal.load_range[1]:.3g})']
+        lines += [_parameter_line(p) for p in nominal.parameters]
+        lines += [f'  {term}: not supported by the data (BIC), left out: amplitudes 0'
+                  for term in nominal.dropped]
+        lines.append(f'  held-out error [mu, sigma] = [{nominal.held_out_mean:.3e}, '
+                     f'{nominal.held_out_std:.3e}] ({nominal.folds})')
+        if self.wear is not None:
+            wear = self.wear
+            lines.append(f'wear model (7) at experiment {wear.critical_experiment} with '
+                         f'w = {wear.critical_wear:g} (alpha from (5)):')
+            lines += [_parameter_line(p) for p in wear.parameters]
+            lines.append(f'  wear-model error [mu, sigma] = [{wear.error_mean:.3e}, '
+                         f'{wear.error_std:.3e}] over {len(wear.levels)} experiments')
+            shown = ', '.join(f'{lv.experiment}: {lv.wear:.1f}' for lv in wear.levels[-8:])
+            lines.append(f'  identified w (last {min(8, len(wear.levels))}): {shown}')
+        else:
+            lines.append(f'wear model (7): from {self.from_params.source} (no --wear-test)')
+        lines.append(f'sigma of (9b) = {self.sigma:.3e} ({self.sigma_rule})')
+        lines += [f'warning: {text}' for text in self.warnings]
+        return '\n'.join(lines)
+
+
+def _parameter_line(p: Parameter) -> str:
+    error = f'{p.std_error:.2e}' if math.isfinite(p.std_error) else 'undetermined'
+    flag = '  (at its bound)' if p.at_bound else ''
+    return f'  {p.name:<12}{p.value:>13.5g} +- {error:<12} [{p.unit}]{flag}'
