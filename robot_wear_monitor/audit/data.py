@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import gzip
+import os
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -225,14 +226,14 @@ def _sample_field(samples, name: str) -> FloatArray:
     return np.asarray(samples[index], dtype=float)
 
 
-def is_bag(path: str | Path) -> bool:
+def is_bag(path: str | os.PathLike) -> bool:
     """Return True for a bag: a folder with ``metadata.yaml``, or a ``.mcap`` / ``.db3`` file."""
     file = Path(path)
     return (file.is_dir() and (file / 'metadata.yaml').exists()) or \
         file.suffix in ('.mcap', '.db3')
 
 
-def load_audit_data(path: str | Path, *, model: str = 'speed', joint: str | None = None,
+def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str | None = None,
                     topic: str = '/joint_states', flip_sign: bool = True,
                     gear_ratio: float = 1.0, torque_scale: float = 1.0) -> AuditTable:
     """Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.

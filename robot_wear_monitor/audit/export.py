@@ -20,7 +20,7 @@ from dataclasses import replace
 import json
 import math
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -54,9 +54,9 @@ def added_terms(base: Base, fit: Fit, table: AuditTable,
     return tuple(out)
 
 
-def offline_defaults(table: AuditTable, terms: Sequence[AddedTerm]) -> dict[str, object]:
+def offline_defaults(table: AuditTable, terms: Sequence[AddedTerm]) -> dict[str, Any]:
     """Return the default of every offline variable of the terms, and how it was chosen."""
-    out: dict[str, object] = {}
+    out: dict[str, Any] = {}
     for name in dict.fromkeys(v for t in terms for v in t.variables):
         if name in ONLINE_VARIABLES:
             continue

@@ -457,6 +457,7 @@ def multistart_fit(base: Base, table: AuditTable, starts: Sequence[FloatArray], 
         if best is None or float(fit.residual @ fit.residual) < float(
                 best.residual @ best.residual):
             best = fit
+    assert best is not None, 'multistart_fit needs at least one start'
     return best, len(ranked)
 
 
@@ -527,8 +528,8 @@ def parameter_errors(base: Base, table: AuditTable, fit: Fit,
                 | np.isclose(theta, upper, rtol=1e-6, atol=0))
     on_bound = np.concatenate([on_bound, on_zero[len(theta):]])
     bound_of = {}
-    for j in np.flatnonzero(on_bound):
-        for i in np.flatnonzero(np.abs(derivative_all[:, j]) > 0):
-            bound_of[names[i]] = True
+    for column in np.flatnonzero(on_bound):
+        for row in np.flatnonzero(np.abs(derivative_all[:, column]) > 0):
+            bound_of[names[int(row)]] = True
     return {name: (float(reference[i]), float(np.sqrt(variance[i])), bound_of.get(name, False))
             for i, name in enumerate(names)}

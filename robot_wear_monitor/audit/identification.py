@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 import math
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -176,7 +176,8 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
     full_fit, ranked = multistart_fit(base, table, starts, n_best=3)
     full_errors = parameter_errors(base, table, full_fit)
     n_linear = 7
-    chosen, fit, dropped = base, full_fit, ()
+    chosen, fit = base, full_fit
+    dropped: tuple[int, ...] = ()
     free_theta = list(range(len(base.theta0)))
     best = _bic(full_fit, n_linear + len(base.theta0))
     for subset in ((0,), (1,), (0, 1)):
@@ -233,7 +234,7 @@ def _viscous_profile_errors(base: Base, table: AuditTable, fit, errors: Mapping,
     if not math.isfinite(t_error) or at_bound:
         return {}
     lower, upper = base.bounds(table)
-    out = {}
+    out: dict[str, tuple[float, float, bool]] = {}
     for shift in (-t_error, t_error):
         value = float(np.clip(t_v0 + shift, lower[index] + 1e-6, upper[index] - 1e-6))
         fixed = _restricted(base, n_columns=len(fit.coef), drop_columns=(),
@@ -400,7 +401,7 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     warnings = check_baseline(baseline)
     nominal = identify_nominal(table=baseline, start=from_params.model, n_folds=n_folds,
                                seed=seed)
-    dropped_names = set()
+    dropped_names: set[str] = set()
     for term in nominal.dropped:
         names = ('f_s_load', 'phi_s_load') if term.startswith('load') else (
             'f_s0', 'f_s_temp', 'phi_s0', 'phi_s_temp')
@@ -455,11 +456,12 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
                         f'outside the temperature bounds: set to their middle '
                         f'{0.5 * (t_lo + t_hi):g} degC')
         design_t = 0.5 * (t_lo + t_hi)
-    values = {f.name: getattr(from_params, f.name) for f in fields(ParameterSet)}
-    values.update(name=name.strip(), model=model, sigma=float(sigma),
-                  temperature_min_degc=float(t_lo), temperature_max_degc=float(t_hi),
-                  design_temperature_degc=float(design_t), source='<identified>')
-    params = ParameterSet(**values)
+    fields_of_set: dict[str, Any] = {f.name: getattr(from_params, f.name)
+                                     for f in fields(ParameterSet)}
+    fields_of_set.update(name=name.strip(), model=model, sigma=float(sigma),
+                         temperature_min_degc=float(t_lo), temperature_max_degc=float(t_hi),
+                         design_temperature_degc=float(design_t), source='<identified>')
+    params = ParameterSet(**fields_of_set)
     result = Identification(params=params, nominal=nominal, wear=wear, sigma=float(sigma),
                             sigma_rule=rule, from_params=from_params,
                             warnings=tuple(warnings), baseline_source=baseline.source,

@@ -151,7 +151,8 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
     for i, (axis, (label, x, residual)) in enumerate(zip(axes[0], panels)):
         axis.plot(x, residual, '.', markersize=2.5,
                   color='tab:orange' if label.startswith('experiment') else 'tab:blue')
-        std = wear.error_std if label.startswith('experiment') else nominal.held_out_std
+        std = (wear.error_std if wear is not None and label.startswith('experiment')
+               else nominal.held_out_std)
         for level in (-std, 0.0, std):
             axis.axhline(level, color='k' if level == 0 else '0.5', linewidth=0.6,
                          linestyle='-' if level == 0 else '--')
@@ -172,10 +173,10 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
         return paths
     figure, (left, right) = plt.subplots(1, 2, figsize=(8.0, 2.8))
     w = np.array([lv.wear for lv in wear.levels])
-    std = np.array([lv.wear_std for lv in wear.levels])
-    x = np.arange(len(w))
-    left.errorbar(x, w, yerr=np.where(np.isfinite(std), std, 0.0), fmt='.', markersize=3,
-                  linewidth=0.7)
+    wear_std = np.array([lv.wear_std for lv in wear.levels])
+    positions = np.arange(len(w))
+    left.errorbar(positions, w, yerr=np.where(np.isfinite(wear_std), wear_std, 0.0), fmt='.',
+                  markersize=3, linewidth=0.7)
     critical = [i for i, lv in enumerate(wear.levels) if lv.experiment == wear.critical_experiment]
     left.plot(critical, [wear.critical_wear], 's', color='tab:red',
               label=f'K = {wear.critical_experiment} (w = {wear.critical_wear:g})')

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 import math
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -94,8 +94,11 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         params = _without_extension(params)
     table = with_experiment_order(table)
     table, excluded = enough_speeds(table, group, model)
-    base = (speed_base(table, group) if model == 'speed'
-            else nominal_base(table, params.model, model == 'complete'))
+    if model == 'speed':
+        base = speed_base(table, group)
+    else:
+        assert params is not None  # loaded above for the models (5) and (8)
+        base = nominal_base(table, params.model, model == 'complete')
     n = table.n_rows
     if n < len(base.theta0) + 3 * _n_linear(base, table) // 2 + 5:
         raise InputError(f'{table.source}: {n} friction levels are too few to audit the '
@@ -154,8 +157,11 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         floor_vars.append(group)
     floor, floor_method = noise_floor(table=table, residual=fit.residual, n_parameters=n_params,
                                       variables=list(dict.fromkeys(floor_vars)))
-    extended, offline, changes = None, {}, None
+    extended: ParameterSet | None = None
+    offline: dict[str, Any] = {}
+    changes = None
     if model != 'speed':
+        assert params is not None  # loaded above for the models (5) and (8)
         extended = extended_parameter_set(params, base, fit, table, terms)
         offline = offline_defaults(table, added_terms(base, fit, table, terms))
         if estimate:
@@ -279,7 +285,7 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
                    if 'experiment' in table.columns else None)
     robust = Tester(q0, fit.residual, experiments)
     tester = robust if terms else Tester(q0, fit.residual, None)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for family in families(table, variables, group_variable):
         period = None
         if family.periodic:
@@ -299,11 +305,11 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
     if not rows:
         report['decision'] = 'no candidate variables to test'
         return {'term': None, 'report': report, 'log10_p': 0.0}
-    log_p = np.array([r['log_p'] for r in rows])
-    adjusted = benjamini_hochberg(log_p)
-    order = np.argsort(log_p)
+    log_ps = np.array([r['log_p'] for r in rows])
+    adjusted = benjamini_hochberg(log_ps)
+    order = np.argsort(log_ps)
     report['best'] = [{'candidate': rows[i]['candidate'],
-                       'log10_p': float(log_p[i] / math.log(10)),
+                       'log10_p': float(log_ps[i] / math.log(10)),
                        'q_value': float(adjusted[i]), 'df': rows[i]['df']}
                       for i in order[:6]]
     significant = adjusted <= fdr
@@ -322,6 +328,9 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
                if ok and r['period'] is not None}
     builder = ShapeBuilder(table, variables, group_variable, base, fit.theta)
     term = choose_shape(builder.shapes(best['variables'], periods), q0, fit.residual, table)
+    if term is None:
+        report['decision'] = f'no shape of {best["candidate"]} adds to the model'
+        return {'term': None, 'report': report, 'log10_p': 0.0}
     # the strongest single-variable rivals (alone or with speed, Bonferroni-significant with
     # the experiments as random effects) that share no variable with the chosen effect: are
     # they confounded with it?

@@ -49,7 +49,7 @@ class Term:
         size = int(np.prod([f.size for f in self.factors])) - (1 if self.drop_first else 0)
         return size + (1 if self.shape in ('periodic', 'Stribeck interaction') else 0)
 
-    def added(self, coefficients: Sequence[float]) -> AddedTerm:
+    def added(self, coefficients: Sequence[float] | np.ndarray) -> AddedTerm:
         """Return the term with its identified amplitudes, as the model evaluates it."""
         return AddedTerm(self.name, self.factors, tuple(float(c) for c in coefficients),
                          self.drop_first)
@@ -89,7 +89,8 @@ class ShapeBuilder:
         if len(pair) == 2:
             a = self.variables.get(pair[0]) or self.group_variable
             b = self.variables.get(pair[1]) or self.group_variable
-            terms += self._pair_shapes(a, b)
+            if a is not None and b is not None:
+                terms += self._pair_shapes(a, b)
         return terms
 
     def _single_shapes(self, name: str, period: float | None) -> list[Term]:
@@ -147,8 +148,11 @@ class ShapeBuilder:
 
 
 def choose_shape(shapes: Sequence[Term], q0: FloatArray, residual: FloatArray,
-                 table: AuditTable) -> Term:
-    """Return the shape with the lowest BIC on the current residual (ties: fewer df)."""
+                 table: AuditTable) -> Term | None:
+    """Return the shape with the lowest BIC on the current residual (ties: fewer df).
+
+    None when no shape adds a column outside the span of ``q0``.
+    """
     n = len(residual)
     best, best_bic = None, math.inf
     for term in shapes:

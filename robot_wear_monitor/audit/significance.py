@@ -143,6 +143,7 @@ class Tester:
         return Tester(q, residual - q @ (q.T @ residual), experiments, alternative)
 
     def _means(self, x: FloatArray) -> FloatArray:
+        assert self.codes is not None  # the means are of the experiments, when known
         sums = np.zeros((len(self.counts), x.shape[1]))
         np.add.at(sums, self.codes, x)
         return sums / self.counts[:, None]
@@ -167,7 +168,7 @@ class Tester:
         return nested_test(q0, residual, self.transform(basis))
 
 
-def benjamini_hochberg(log_p: Sequence[float]) -> FloatArray:
+def benjamini_hochberg(log_p: Sequence[float] | FloatArray) -> FloatArray:
     """Return the Benjamini-Hochberg adjusted p-values (q-values) of natural-log p-values."""
     return stats.false_discovery_control(np.exp(np.asarray(log_p, dtype=float)), method='bh')
 

@@ -66,7 +66,7 @@ def main(args: argparse.Namespace) -> int:
     result = run_audit(table=table, model=args.model, params=params, group=group,
                        fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds)
     report = result.to_dict()
-    if args.out_params:
+    if args.out_params and result.extended_params is not None:
         from robot_wear_monitor.audit.export import write_parameter_set
         write_parameter_set(args.out_params, result.extended_params,
                             header=params_header(args, result))

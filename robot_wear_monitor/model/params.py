@@ -81,7 +81,7 @@ class ParameterSet:
     wear_warning: float
     source: str = '<built-in>'
 
-    def with_overrides(self, **changes: float) -> 'ParameterSet':
+    def with_overrides(self, **changes: Any) -> 'ParameterSet':
         """Return a copy with some scalar fields replaced, validated like a loaded file."""
         values = {f.name: getattr(self, f.name) for f in fields(self)}
         unknown = sorted(set(changes) - set(values) - {'model'})
