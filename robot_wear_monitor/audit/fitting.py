@@ -241,6 +241,7 @@ def group_codes(table: AuditTable, group: str | None,
 
 
 def as_text(table: AuditTable, name: str) -> NDArray[np.str_]:
+    """Return column ``name`` of the table as text (numbers written as ``f'{x:g}'``)."""
     if name in table.text:
         return table.text[name]
     return np.array([f'{v:g}' for v in table.numeric[name]])
@@ -284,6 +285,8 @@ def orthonormal(x: FloatArray, tol: float = 1e-6) -> FloatArray:
 
 @dataclass(frozen=True)
 class Fit:
+    """One variable-projection fit: nonlinear parameters, coefficients, residual and more."""
+
     theta: FloatArray
     coef: FloatArray
     prediction: FloatArray
@@ -292,6 +295,7 @@ class Fit:
 
 def design_matrix(base: Base, theta: FloatArray, table: AuditTable,
                   terms: Sequence) -> FloatArray:
+    """Return the columns of ``base`` at ``theta`` and of the added ``terms``, shape (n, k)."""
     blocks = [base.columns(theta, table)] + [t.columns(table) for t in terms]
     return np.column_stack(blocks)
 

@@ -79,6 +79,7 @@ def default_set_name(baseline: str | os.PathLike) -> str:
 # --------------------------------------------------------------------------- data checks
 
 def distinct_count(values: FloatArray, resolution: float, *, log: bool = False) -> int:
+    """Return how many distinct values there are at ``resolution`` (of the log with ``log``)."""
     x = np.log(values) if log else values
     return len(np.unique(np.round(x / resolution)))
 
@@ -145,6 +146,7 @@ def _experiment_key(text: str) -> str:
 
 
 def experiment_order(labels: Sequence[str]) -> list[str]:
+    """Return the distinct experiment labels in their time order (numeric labels by number)."""
     unique = list(dict.fromkeys(labels))
     try:
         return sorted(unique, key=float)

@@ -229,6 +229,7 @@ class MultiDecoder:
     """
 
     def __init__(self, joints: Sequence[str] | None) -> None:
+        """Decode for ``joints`` (None: every joint seen)."""
         self.requested = None if joints is None else list(dict.fromkeys(joints))
         self.seen: dict[str, None] = {}          # joint names in the order first seen
         self.known: list[_Known] = []            # every layout met (for the tallies)

@@ -33,6 +33,7 @@ class BagError(InputError):
 
 
 def storage_plugin(storage: str) -> StoragePlugin:
+    """Return the rosbags storage plugin of ``mcap`` or ``sqlite3`` (BagError otherwise)."""
     try:
         return STORAGES[storage]
     except KeyError:
@@ -40,6 +41,7 @@ def storage_plugin(storage: str) -> StoragePlugin:
 
 
 def open_reader(path: str | os.PathLike) -> Reader:
+    """Open a bag for reading with rosbags; BagError (one line) when it is missing or bad."""
     bag = Path(path)
     if not bag.exists():
         raise BagError(f'{bag}: no such bag')
@@ -53,6 +55,7 @@ def open_reader(path: str | os.PathLike) -> Reader:
 
 
 def joint_state_connections(reader: Reader, path: Any, topic: str) -> list:
+    """Return the JointState connections of ``topic`` (BagError: no such topic or wrong type)."""
     connections = [c for c in reader.connections if c.topic == topic]
     if not connections:
         topics = ', '.join(sorted({c.topic for c in reader.connections})) or 'none'
