@@ -90,6 +90,24 @@ class ProcessGraph:
         with self.lock:
             return predicate()
 
+    def settle(self, state, *, quiet_s=0.5, timeout_s=10.0):
+        """Wait until ``state()`` (under the lock) has not changed for ``quiet_s``; return True.
+
+        The condition of "nothing more arrives": False when it still changes at the deadline.
+        """
+        deadline = time.monotonic() + timeout_s
+        with self.lock:
+            last, since = state(), time.monotonic()
+        while time.monotonic() < deadline:
+            time.sleep(0.05)
+            with self.lock:
+                now = state()
+            if now != last:
+                last, since = now, time.monotonic()
+            elif time.monotonic() - since >= quiet_s:
+                return True
+        return False
+
     def stop(self, name):
         """SIGINT, then kill: return the exit code (None when it had to be killed)."""
         process = self.processes[name]

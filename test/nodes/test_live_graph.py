@@ -111,7 +111,9 @@ def test_both_nodes_as_processes_match_the_offline_replay_and_survive_the_alarm(
     assert f'played {len(recording.stamps_s)} messages' in graph.log('player')
     assert graph.wait(lambda: len(graph.wear) >= N_EXPERIMENTS, 20.0), graph.log(
         'wear_estimator_node')
-    time.sleep(1.5)  # nothing more may come, and the periodic diagnostics go on
+    # nothing more may come (the outputs stay the same for 1.5 s); the diagnostics go on
+    assert graph.settle(lambda: (len(graph.wear), len(graph.temperature), len(graph.alarm)),
+                        quiet_s=1.5)
 
     assert len(graph.wear) == N_EXPERIMENTS
     assert graph.wear == pytest.approx(expected, abs=1e-6)

@@ -201,7 +201,9 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     assert f'played {len(recording)} messages' in graph.log('player')
     assert graph.wait(lambda: all(len(graph.wear[j]) >= len(expected[j]) for j in JOINTS),
                       20.0), graph.logs()
-    time.sleep(1.5)  # nothing more may come
+    # nothing more may come: every output of every joint stays the same for 1.5 s
+    assert graph.settle(lambda: [len(graph.wear[j]) + len(graph.temperature[j])
+                                 + len(graph.trend[j]) for j in JOINTS], quiet_s=1.5)
 
     wear = graph.snapshot(graph.wear)
     for joint in JOINTS:  # one estimate per experiment of the joint, on its own topic only
@@ -264,7 +266,7 @@ def test_two_joints_as_processes_match_the_replay_and_alarm_only_the_worn_joint(
     response = graph.call_reset(WORN)
     assert response.success, response.message
     assert graph.wait(lambda: graph.alarm[WORN][-1] is False, 5.0)
-    time.sleep(0.5)
+    assert graph.settle(lambda: {j: len(a) for j, a in graph.alarm.items()})
     assert graph.alarm[HEALTHY] == alarm[HEALTHY] + [False]
     assert graph.alarm[WORN] == alarm[WORN] + [True, False]
     late = {j: [] for j in JOINTS}  # a late subscriber gets each joint's current state
@@ -314,7 +316,8 @@ def test_estimator_under_all_serves_joints_as_they_come_with_their_own_parameter
     publisher = graph.node.create_publisher(JointState, '/friction_levels', FRICTION_LEVELS_QOS)
     # the probe's own subscription and the estimator's
     assert graph.wait(lambda: publisher.get_subscription_count() >= 2, 40.0), graph.logs()
-    time.sleep(1.0)  # both ends matched
+    # both ends matched: the count stays for 1 s (the estimator's side matches too)
+    assert graph.settle(lambda: publisher.get_subscription_count(), quiet_s=1.0)
     assert graph.alarm == {j: [] for j in JOINTS}  # no joint yet
     recording = _recording()
     truth = {j: [] for j in JOINTS}
@@ -329,7 +332,7 @@ def test_estimator_under_all_serves_joints_as_they_come_with_their_own_parameter
         truth[experiment.joint].append(experiment.wear)
         assert graph.wait(lambda: len(graph.wear[experiment.joint])
                           == len(truth[experiment.joint]), 30.0), graph.logs()
-    time.sleep(1.0)
+    assert graph.settle(lambda: {j: len(w) for j, w in graph.wear.items()}, quiet_s=1.0)
     wear = graph.snapshot(graph.wear)
     assert {j: len(w) for j, w in wear.items()} == {j: SCHEDULE.count(j) for j in JOINTS}
     assert wear[WORN] == pytest.approx(truth[WORN], abs=8.0)

@@ -154,7 +154,9 @@ def test_runner_drives_the_arm_and_the_monitor_finds_exactly_the_planned_experim
     aborted = graph.call('abort')
     assert aborted.success and 'joint_2' in aborted.message, aborted.message
     assert graph.wait(lambda: len(graph.wear) >= 2, 15.0), graph.logs()
-    time.sleep(1.5)  # nothing more may come
+    # nothing more may come: events, levels and estimates stay the same for 1.5 s
+    assert graph.settle(lambda: (len(graph.events), len(graph.levels), len(graph.wear)),
+                        quiet_s=1.5)
 
     assert graph.kinds('joint_2') == [('start', 1), ('end', 1), ('start', 3), ('end', 3),
                                       ('start', 5), ('aborted', 5)]
