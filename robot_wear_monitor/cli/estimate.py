@@ -37,7 +37,8 @@ def main(args: argparse.Namespace) -> int:
     w_note = ' (on w = 0)' if est.wear_at_bound else ''
     if est.n_levels == 1:
         t_note = ' (posterior mean, N = 1)'
-    p_text = 'n/a (dof = 0)' if not math.isfinite(est.p_value) else f'{est.p_value:.3f}'
+    p_text = ('n/a (dof = 0)' if not math.isfinite(est.p_value) else f'{est.p_value:.3f}'
+              if est.p_value >= 1e-3 else f'{est.p_value:.2g}')
     above = '+' if interval.wear_high_at_grid_end else ''
     w_std = f' +- {wear_std:.2f}' if math.isfinite(wear_std) else ''
     rows = [('temperature [degC]', f'{est.temperature_degc:8.2f}  95 % '
@@ -45,11 +46,14 @@ def main(args: argparse.Namespace) -> int:
             ('wear w [-]', f'{est.wear:8.2f}  95 % [{interval.wear_low:.1f}, '
              f'{interval.wear_high:.1f}{above}]{w_std}{w_note}'),
             ('alarm', f'{"YES" if report.alarm else "no"} (threshold w >= '
-                      f'{params.wear_threshold:g})'),
+                      f'{params.wear_threshold:g})' if report.plausibility.valid else
+             'CANNOT JUDGE (the estimate is invalid, see below)'),
             ('chi2 / dof', f'{est.chi2:8.3f} / {est.dof}'),
             ('p-value', p_text)]
     print(f'wear estimate from N = {est.n_levels} level(s) at '
           f'{", ".join(f"{v:g}" for v in est.speeds_rad_s)} rad/s')
     for name, value in rows:
         print(f'  {name:<20}{value}')
+    if not report.plausibility.valid:
+        print('INVALID: ' + report.plausibility.text())
     return 0

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import math
 from typing import Any, Sequence, TYPE_CHECKING
 
+from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
 from robot_wear_monitor.json_values import finite_or_none
 
 if TYPE_CHECKING:  # the estimator and intervals load scipy: imported where used
@@ -54,6 +55,8 @@ class WearReport:
         alarm: w-hat >= the parameter set's wear threshold.
         warning: w-hat >= the parameter set's warning level.
         wear_threshold: the alarm threshold of the parameter set [-].
+        plausibility: the verdict of the plausibility checks; when invalid the wear cannot be
+            judged from these levels and ``alarm`` means nothing (JSON ``alarm`` null).
 
     """
 
@@ -63,6 +66,7 @@ class WearReport:
     alarm: bool
     warning: bool
     wear_threshold: float
+    plausibility: Plausibility = VALID
 
     def to_dict(self) -> dict[str, Any]:
         """Return the JSON object of ``estimate --json`` (keys stable; None for NaN/inf)."""
@@ -77,12 +81,13 @@ class WearReport:
             'wear_interval_open_above': interval.wear_high_at_grid_end,
             'temperature_interval': [finite_or_none(interval.temperature_low),
                                      finite_or_none(interval.temperature_high)],
-            'alarm': self.alarm, 'warning': self.warning,
+            'alarm': self.alarm if self.plausibility.valid else None,
+            'warning': self.warning,
             'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': finite_or_none(est.p_value),
             'temperature_at_bound': est.temperature_at_bound,
             'wear_at_bound': est.wear_at_bound, 'n_levels': est.n_levels,
             'speeds': [float(v) for v in est.speeds_rad_s],
-            'wear_threshold': self.wear_threshold}
+            'wear_threshold': self.wear_threshold, **self.plausibility.to_json()}
 
 
 def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
@@ -106,4 +111,6 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
     return WearReport(estimate=est, interval=interval, wear_std=wear_std,
                       alarm=bool(est.wear >= params.wear_threshold),
                       warning=bool(est.wear >= params.wear_warning),
-                      wear_threshold=params.wear_threshold)
+                      wear_threshold=params.wear_threshold,
+                      plausibility=check_levels(speeds_rad_s=speeds_rad_s, frictions=frictions,
+                                                params=params, estimate=est))

@@ -50,6 +50,7 @@ class FleetView:
             'crossing_time_s': self.crossing_time_s,
             'usual_interval_s': finite_or_none(s.usual_interval_s),
             'stale': self.stale, 'status_level': int(s.status_level),
+            'valid': not s.invalid_reason, 'invalid_reason': s.invalid_reason or None,
         }
 
 
@@ -93,8 +94,8 @@ def _crossing_text(row: FleetView, local: bool) -> str:
 
 
 def _wear_text(state: FleetRow) -> str:
-    if not math.isfinite(state.wear):
-        return 'cannot judge'
+    if not math.isfinite(state.wear) or state.invalid_reason:
+        return 'CANNOT JUDGE'
     if math.isfinite(state.wear_low) and math.isfinite(state.wear_high):
         return f'{state.wear:5.1f} [{state.wear_low:5.1f}, {state.wear_high:5.1f}]'
     return f'{state.wear:5.1f} [interval unknown]'
@@ -108,7 +109,7 @@ def _trend_text(state: FleetRow) -> str:
 
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
-                 'crossing_date', 'stale')
+                 'crossing_date', 'stale', 'valid')
 
 
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
@@ -144,5 +145,5 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[li
                     number(s.crossing_experiments),
                     iso_time(row.crossing_time_s, local=local)
                     if row.crossing_time_s is not None else '',
-                    'yes' if row.stale else 'no'])
+                    'yes' if row.stale else 'no', 'no' if s.invalid_reason else 'yes'])
     return out

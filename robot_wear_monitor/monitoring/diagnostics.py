@@ -54,6 +54,16 @@ STD_NOT_REPORTED = 'not reported (see the interval)'
 BEYOND_HORIZON = 'beyond the forecast horizon'
 
 
+def clean_text(text: str, *, limit: int = 200) -> str:
+    """Return ``text`` safe for a terminal line: control characters escaped, cut at ``limit``.
+
+    Names come from recordings and histories other people wrote: a newline, an escape
+    sequence or a carriage return in a joint's name must not forge or hide a line of output.
+    """
+    cleaned = ''.join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+    return cleaned if len(cleaned) <= limit else cleaned[:limit - 1] + '\u2026'
+
+
 def fmt_number(value: float, digits: int = 4, *, missing: str = UNKNOWN) -> str:
     """Return ``value`` with ``digits`` significant digits; ``missing`` when not finite.
 
@@ -70,6 +80,41 @@ def fmt_number(value: float, digits: int = 4, *, missing: str = UNKNOWN) -> str:
 ROUTINE_REJECTIONS = frozenset({'pass_too_short', 'pass_unpaired', 'pass_no_common_window',
                                 'time_gap', 'aborted_experiment', 'already_in_history',
                                 'joint_missing', 'experiment_cut'})
+
+
+#: Prefixes a replay or segment summary puts before a rejection reason (where it happened).
+_REASON_PREFIXES = ('segmentation_', 'friction_levels_', 'reader_')
+
+
+def is_routine(reason: str) -> bool:
+    """Return True for a rejection the experiment itself produces (:data:`ROUTINE_REJECTIONS`).
+
+    ``reason`` may carry a joint (``"<joint>: <reason>"``) or a summary prefix
+    (``segmentation_``, ``friction_levels_``, ``reader_``).
+    """
+    reason = reason.rpartition(': ')[2]
+    for prefix in _REASON_PREFIXES:
+        if reason.startswith(prefix):
+            reason = reason[len(prefix):]
+            break
+    return reason in ROUTINE_REJECTIONS
+
+
+def rejection_text(rejections: Mapping[str, int]) -> str:
+    """Return the rejections in words: the bad-data ones named, the routine ones only counted.
+
+    '' when nothing was rejected; e.g. ``"rejected as bad data: non_finite 3; routine: 299
+    (unpaired passes, gaps between experiments ...)"``.
+    """
+    defects = {r: n for r, n in sorted(rejections.items()) if n and not is_routine(r)}
+    routine = sum(n for r, n in rejections.items() if is_routine(r))
+    parts = []
+    if defects:
+        parts.append('rejected as bad data: ' + ', '.join(f'{r} {n}' for r, n in defects.items()))
+    if routine:
+        parts.append(f'routine: {routine} (the pass without a partner at the end of a sweep, '
+                     'the pauses between experiments, ramps)')
+    return '; '.join(parts)
 
 
 class RejectionLog:

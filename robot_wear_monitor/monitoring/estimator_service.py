@@ -16,25 +16,25 @@ node parameters (:class:`EstimatorConfig`); the result of one experiment is a
 from __future__ import annotations
 
 from collections import Counter, deque
-from dataclasses import dataclass
 import math
-from typing import Any, Callable, Mapping, Optional, Sequence, TYPE_CHECKING
+from typing import Any, Callable, Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.estimation.alarm import (AlarmLatch, AlarmPolicy,
-                                                 DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
-                                                 WEAR_WARNING)
+from robot_wear_monitor.estimation.alarm import AlarmLatch
+from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
 from robot_wear_monitor.experiment.levels import FrictionExperiment
-from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
+from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,
-                                                       forecast_text, interval_text, json_number,
+                                                       forecast_text, interval_text,
                                                        meaningful_std, STD_NOT_REPORTED,
                                                        trend_values)
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC)
+# EstimatorConfig and WearUpdate live in wear_update; imported from here by existing callers
+from robot_wear_monitor.monitoring.wear_update import EstimatorConfig, WearUpdate
 from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK,
                                                     DIAGNOSTIC_WARN, FrictionLevelsMessage,
@@ -46,123 +46,7 @@ if TYPE_CHECKING:
     from robot_wear_monitor.estimation.trend import TrendEstimate, WearTrend
 
 
-@dataclass(frozen=True)
-class EstimatorConfig:
-    """Configuration of :class:`WearEstimatorService` (from the node parameters)."""
-
-    joint: str
-    params: ParameterSet
-    alarm: AlarmPolicy = AlarmPolicy()
-    wear_warning: float = WEAR_WARNING
-    min_fit_p_value: float = 0.01
-    experiment_speeds_rad_s: tuple[float, ...] = ()
-    speed_tolerance_rad_s: float = 1.0
-    #: the robot of the joint (``robot_id``; empty: unnamed, the history's ``default``)
-    robot: str = ''
-
-    @classmethod
-    def from_node_parameters(cls, values: Mapping[str, Any], *,
-                             params: ParameterSet | None = None) -> 'EstimatorConfig':
-        """Build from validated ``wear_estimator_node`` parameters (see node_config)."""
-        if params is None:
-            params = load_parameter_set(values.get('parameter_set_file') or None)
-        return cls(joint=values['joint'], params=params,
-                   alarm=AlarmPolicy(threshold=values['wear_threshold'],
-                                     healthy=values['wear_healthy'],
-                                     evidence_to_raise=values['alarm_evidence'],
-                                     rule=values.get('alarm_rule', DEFAULT_ALARM_RULE),
-                                     probability=values.get('alarm_probability',
-                                                            DEFAULT_ALARM_PROBABILITY)),
-                   wear_warning=values['wear_warning'],
-                   min_fit_p_value=values['min_fit_p_value'],
-                   experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']),
-                   robot=str(values.get('robot_id', '') or ''))
-
-
-@dataclass(frozen=True)
-class WearUpdate:
-    """The result of one experiment: inputs, estimate, alarm state and diagnostics."""
-
-    index: int
-    stamp_s: float
-    joint: str
-    speeds_rad_s: tuple[float, ...]
-    frictions: tuple[float, ...]
-    estimate: WearEstimate
-    alarm_active: bool
-    alarm_raised: bool
-    alarm_evidence: float
-    status: DiagnosticReport
-    interval: Optional[WearInterval] = None
-    trend: Optional[TrendEstimate] = None
-
-    @property
-    def wear(self) -> float:
-        """Return w-hat."""
-        return float(self.estimate.wear)
-
-    @property
-    def wear_std(self) -> float:
-        """Return the standard deviation of w-hat where it means something, else NaN.
-
-        See :func:`meaningful_std`: near w = 0 or on a bound the inverse Fisher information is
-        no measure of the uncertainty and only the interval is reported.
-        """
-        return meaningful_std(std=float(self.estimate.wear_std), value=self.wear,
-                              low=self.wear_interval[0], high=self.wear_interval[1],
-                              open_above=self.wear_interval_open_above)
-
-    @property
-    def wear_interval(self) -> tuple[float, float]:
-        """Return the 95 % profile-likelihood interval of w (NaNs when not computed)."""
-        if self.interval is None:
-            return (math.nan, math.nan)
-        return (float(self.interval.wear_low), float(self.interval.wear_high))
-
-    @property
-    def wear_interval_open_above(self) -> bool:
-        """Return True when the upper end is only a lower bound (the wear grid's end)."""
-        return bool(self.interval is not None and self.interval.wear_high_at_grid_end)
-
-    @property
-    def temperature_interval(self) -> tuple[float, float]:
-        """Return the 95 % profile-likelihood interval of T [degC] (NaNs when not computed)."""
-        if self.interval is None:
-            return (math.nan, math.nan)
-        return (float(self.interval.temperature_low), float(self.interval.temperature_high))
-
-    @property
-    def temperature_degc(self) -> float:
-        """Return T-hat [degC]."""
-        return float(self.estimate.temperature_degc)
-
-    @property
-    def temperature_std_degc(self) -> float:
-        """Return the standard deviation of T-hat [degC]."""
-        return float(self.estimate.temperature_std_degc)
-
-    def to_json(self) -> dict[str, Any]:
-        """Return a JSON-safe summary (NaN and inf become None)."""
-        return {
-            'index': self.index, 'joint': self.joint, 'stamp_s': self.stamp_s,
-            'speeds_rad_s': [float(v) for v in self.speeds_rad_s],
-            'frictions': [float(f) for f in self.frictions],
-            'temperature_degc': json_number(self.temperature_degc),
-            'temperature_std_degc': json_number(self.temperature_std_degc),
-            'wear': json_number(self.wear), 'wear_std': json_number(self.wear_std),
-            'wear_interval': [json_number(v) for v in self.wear_interval],
-            'wear_interval_open_above': self.wear_interval_open_above,
-            'temperature_interval': [json_number(v) for v in self.temperature_interval],
-            'trend': None if self.trend is None else self.trend.to_json(),
-            'fit_p_value': json_number(self.estimate.p_value),
-            'chi2': json_number(self.estimate.chi2), 'dof': int(self.estimate.dof),
-            'temperature_at_bound': bool(self.estimate.temperature_at_bound),
-            'wear_at_bound': bool(self.estimate.wear_at_bound),
-            'alarm': self.alarm_active, 'alarm_raised': self.alarm_raised,
-            'alarm_evidence': json_number(self.alarm_evidence),
-            'status': messages.LEVEL_NAMES[self.status.level], 'message': self.status.message,
-        }
-
+__all__ = ['EstimateFunction', 'EstimatorConfig', 'WearEstimatorService', 'WearUpdate']
 
 #: ``f(speeds, frictions, *, params) -> WearEstimate``: the estimator the service calls.
 EstimateFunction = Callable[..., 'WearEstimate']
@@ -207,6 +91,8 @@ class WearEstimatorService:
         self.restored_estimates = len(restored.records)
         self.experiments = len(restored.records)
         self.rejections: Counter[str] = Counter()
+        #: estimates of this run the plausibility checks refused (the wear not judged)
+        self.invalid_estimates = 0
         self.last_update: Optional[WearUpdate] = None
         self.last_rejection = ''
 
@@ -233,7 +119,8 @@ class WearEstimatorService:
         rows: list[Optional[np.ndarray]] = [None] * len(records)
         groups: dict[tuple[float, ...], list[int]] = {}
         for i, record in enumerate(records):
-            groups.setdefault(tuple(record.speeds_rad_s), []).append(i)
+            if record.valid:  # an invalid estimate was never evidence
+                groups.setdefault(tuple(record.speeds_rad_s), []).append(i)
         for speeds, indices in groups.items():
             try:
                 batch = self._likelihood_rows(np.asarray(speeds), np.asarray(
@@ -342,12 +229,22 @@ class WearEstimatorService:
             return None
         wear = float(estimate.wear)
         wear_std = float(estimate.wear_std)
-        interval, trend = self._interval_and_trend(speeds, frictions, stamp_s=levels.stamp_s,
-                                                   estimates=batch)
-        raised = self.latch.update(
-            wear=wear, wear_std=wear_std,
-            probability_above_threshold=(math.nan if trend is None
-                                         else trend.probability_above_threshold))
+        plausibility = check_levels(
+            speeds_rad_s=speeds, frictions=frictions, params=self.config.params,
+            estimate=estimate, expected_speeds_rad_s=self.config.experiment_speeds_rad_s,
+            speed_tolerance_rad_s=self.config.speed_tolerance_rad_s,
+            invalid_p_value=self.config.invalid_fit_p_value)
+        interval = trend = None
+        raised = False
+        if plausibility.valid:
+            interval, trend = self._interval_and_trend(speeds, frictions,
+                                                       stamp_s=levels.stamp_s, estimates=batch)
+            raised = self.latch.update(
+                wear=wear, wear_std=wear_std,
+                probability_above_threshold=(math.nan if trend is None
+                                             else trend.probability_above_threshold))
+        else:  # not evidence for or against the alarm: the latch and the trend stay
+            self.invalid_estimates += 1
         self.experiments += 1
         update_std = meaningful_std(
             std=wear_std, value=wear,
@@ -355,7 +252,8 @@ class WearEstimatorService:
             high=math.nan if interval is None else interval.wear_high,
             open_above=bool(interval is not None and interval.wear_high_at_grid_end))
         status = self._status(estimate=estimate, speeds=levels.speeds_rad_s,
-                              interval=interval, trend=trend, wear_std=update_std)
+                              interval=interval, trend=trend, wear_std=update_std,
+                              plausibility=plausibility)
         record = HistoryRecord(
             joint=self.config.joint, stamp_s=levels.stamp_s, speeds_rad_s=levels.speeds_rad_s,
             frictions=levels.frictions, temperature_degc=float(estimate.temperature_degc),
@@ -365,7 +263,8 @@ class WearEstimatorService:
             temperature_at_bound=bool(estimate.temperature_at_bound),
             wear_at_bound=bool(estimate.wear_at_bound), alarm_active=self.latch.active,
             alarm_evidence=self.latch.evidence, status_level=status.level,
-            parameter_set=self.config.params.name, **_interval_columns(interval, trend))
+            parameter_set=self.config.params.name, **_interval_columns(interval, trend),
+            invalid_reason='' if plausibility.valid else plausibility.text())
         events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
                              wear=wear, note=self._raise_note(wear, trend))] if raised else []
         record_id = self.history.append(record, events=events)
@@ -378,7 +277,8 @@ class WearEstimatorService:
             index=self.experiments, stamp_s=levels.stamp_s, joint=self.config.joint,
             speeds_rad_s=levels.speeds_rad_s, frictions=levels.frictions, estimate=estimate,
             alarm_active=self.latch.active, alarm_raised=raised,
-            alarm_evidence=self.latch.evidence, status=status, interval=interval, trend=trend)
+            alarm_evidence=self.latch.evidence, status=status, interval=interval, trend=trend,
+            plausibility=plausibility)
         return self.last_update
 
     def _raise_note(self, wear: float, trend: Optional[TrendEstimate]) -> str:
@@ -436,7 +336,8 @@ class WearEstimatorService:
     def _status(self, *, estimate: WearEstimate, speeds: Sequence[float],
                 interval: Optional[WearInterval] = None,
                 trend: Optional[TrendEstimate] = None,
-                wear_std: float = math.nan) -> DiagnosticReport:
+                wear_std: float = math.nan,
+                plausibility: Plausibility = VALID) -> DiagnosticReport:
         config = self.config
         wear = float(estimate.wear)
         p_value = float(estimate.p_value)
@@ -454,10 +355,14 @@ class WearEstimatorService:
             warnings.append(f'the friction levels do not fit the model (p = {p_value:.2g})')
         if bool(estimate.temperature_at_bound):
             warnings.append('temperature estimate on its bound')
-        if config.experiment_speeds_rad_s and not _same_speeds(
-                speeds, config.experiment_speeds_rad_s, config.speed_tolerance_rad_s):
-            warnings.append('speeds differ from the configured experiment')
-        if self.latch.active:
+        if not plausibility.valid:
+            # the levels are not what the parameter set speaks about: w-hat is no judgement
+            level = DIAGNOSTIC_ERROR
+            message = (f'CANNOT JUDGE THE WEAR ({plausibility.detail()}); the estimate '
+                       f'w = {fmt_number(wear, 3)} is not used')
+            if self.latch.active:
+                message = 'WEAR ALARM (latched, reset after maintenance); ' + message
+        elif self.latch.active:
             level = DIAGNOSTIC_ERROR
             message = f'WEAR ALARM (latched, reset after maintenance): {summary}'
         elif warnings:
@@ -491,7 +396,11 @@ class WearEstimatorService:
             ('wear_warning', fmt_number(config.wear_warning)),
             ('experiments', str(self.experiments)),
             ('parameter_set', config.params.name),
+            ('valid', str(plausibility.valid).lower()),
         ]
+        if not plausibility.valid:
+            values += [('invalid_checks', ','.join(plausibility.failed)),
+                       ('likely_cause', plausibility.likely_cause or 'unknown')]
         values += trend_values(trend)
         values += self._rejection_values()
         return DiagnosticReport(level=level, message=message, values=tuple(values))
@@ -589,9 +498,3 @@ def _interval_columns(interval: Optional[WearInterval], trend: Optional[TrendEst
         'crossing_experiments': nan if trend is None else float(trend.remaining_experiments),
         'crossing_time_s': nan if trend is None else float(trend.crossing_time_s),
     }
-
-
-def _same_speeds(speeds: Sequence[float], expected: Sequence[float], tolerance: float) -> bool:
-    if len(speeds) != len(expected):
-        return False
-    return all(abs(a - b) <= tolerance for a, b in zip(sorted(speeds), sorted(expected)))

@@ -20,6 +20,7 @@ import yaml
 from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
                                                  DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
                                                  WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
+from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
@@ -222,6 +223,10 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('min_fit_p_value', 'double', 0.01,
                   'diagnostics WARN when the chi-square fit p-value is below it [-]',
                   _probability),
+    ParameterSpec('invalid_fit_p_value', 'double', INVALID_P_VALUE,
+                  'below this chi-square fit p-value the estimate is invalid: the wear cannot '
+                  'be judged from the experiment (reported, stored, never alarm evidence) [-]',
+                  _probability),
     _SPEEDS,
     ParameterSpec('history_file', 'string', '~/.ros/robot_wear_monitor/wear_history.sqlite3',
                   'wear history: an SQLite file, or a PostgreSQL URL '
@@ -308,7 +313,7 @@ PER_JOINT_PARAMETERS: dict[str, tuple[str, ...]] = {
                                'min_samples', 'min_window_rad', 'max_gap_s'),
     WEAR_ESTIMATOR_NODE: ('parameter_set_file', 'wear_threshold', 'wear_warning', 'wear_healthy',
                           'alarm_evidence', 'alarm_rule', 'alarm_probability',
-                          'min_fit_p_value', 'experiment_speeds_rad_s'),
+                          'min_fit_p_value', 'invalid_fit_p_value', 'experiment_speeds_rad_s'),
 }
 
 NODE_PARAMETERS: dict[str, tuple[ParameterSpec, ...]] = {

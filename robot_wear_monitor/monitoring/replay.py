@@ -27,7 +27,6 @@ from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.monitoring.diagnostics import json_number
-from robot_wear_monitor.monitoring.estimator_service import WearUpdate
 from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
                                                               FrictionExperimentService)
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -35,6 +34,7 @@ from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEs
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.monitoring.topics import FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS
+from robot_wear_monitor.monitoring.wear_update import WearUpdate
 from robot_wear_monitor.recordings.bags import atomic_bag_writer, iter_joint_chunks, TYPESTORE
 from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
 
@@ -67,6 +67,18 @@ class ReplayResult:
     recovery: Optional[Any] = None
     joints: list[dict[str, Any]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: each monitored joint's state in the history after the replay (:func:`joint_state`)
+    states: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def invalid(self) -> list[WearUpdate]:
+        """Return the updates whose levels failed the plausibility checks (wear not judged)."""
+        return [u for u in self.updates if not u.valid]
+
+    @property
+    def latched(self) -> list[dict[str, Any]]:
+        """Return the joints whose alarm is latched in the history after the replay."""
+        return [state for state in self.states if state['alarm']]
 
     @property
     def first_alarm(self) -> Optional[WearUpdate]:
@@ -110,6 +122,8 @@ class ReplayResult:
                 'complete': self.recovery.complete, 'reason': self.recovery.reason},
             'joints': self.joints,
             'notes': list(self.notes),
+            'invalid_estimates': len(self.invalid),
+            'state': self.states,
         }
 
 
@@ -250,6 +264,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                     run(writer)
                     _require_experiments(updates, estimators, experiments, stream)
                 result.out_bag = Path(out_bag)
+        result.states = joint_states(history, list(estimators.services))
     finally:
         lock.close()
         history.close()
@@ -285,6 +300,30 @@ def _rejections(experiments: FrictionExperimentFleet, estimators: WearEstimatorF
     for reason, count in estimators.rejections.items():
         add(f'friction_levels_{reason}', count)
     return total
+
+
+def joint_states(history: WearHistory, joints: Sequence[str]) -> list[dict[str, Any]]:
+    """Return the joints' state in the history (JSON-ready): what a maintenance team acts on.
+
+    Per joint: ``alarm`` (latched) and ``alarm_since_stamp_s`` (its raise [s]), ``estimates``
+    stored, and ``last_estimate``: the stamp [s], w-hat, its 95 % interval and the validity of
+    the latest stored estimate (None when there is none).  A re-run that estimates nothing new
+    still reports this state.
+    """
+    rows = {row.joint: row for row in history.fleet(robot=history.robot)}
+    states = []
+    for joint in joints:
+        row = rows.get(joint)
+        states.append({
+            'robot': history.robot, 'joint': joint, 'alarm': bool(row and row.alarm),
+            'alarm_since_stamp_s': json_number(row.alarm_since_stamp_s) if row else None,
+            'estimates': row.experiments if row else 0,
+            'last_estimate': None if row is None else {
+                'stamp_s': row.last_stamp_s, 'wear': json_number(row.wear),
+                'wear_interval': [json_number(row.wear_low), json_number(row.wear_high)],
+                'valid': not row.invalid_reason,
+                'invalid_reason': row.invalid_reason or None}})
+    return states
 
 
 def explain_joint(service: FrictionExperimentService, stream: Any) -> str:

@@ -172,7 +172,7 @@ def test_a_version_2_history_of_the_released_code_loads_with_its_rows_alarms_and
         new = history.append(HistoryRecord(**{**old.__dict__, 'id': None, 'stamp_s': 2e9}))
         assert new == 12
     with sqlite3.connect(path) as conn:
-        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == 3
+        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == SCHEMA_VERSION
     shutil.copyfile(HISTORY_V2, path)
     with WearHistory(path) as history:  # no robot given: the old rows are the default robot's
         assert history.robots() == (DEFAULT_ROBOT,)

@@ -11,14 +11,16 @@ the trend columns (NULL in old rows).  Version 3: ``robot`` on every estimate an
 (old rows get the robot the history is opened for, else ``default``); the experiment's identity
 (robot, joint, end stamp) is a unique key, so that a re-run or a concurrent writer adds nothing;
 ``recordings`` lists the recordings a batch re-analysis replayed completely (robot and content
-fingerprint), so that a re-run skips them.
+fingerprint), so that a re-run skips them.  Version 4: ``invalid_reason`` on every estimate
+('' for a valid one, the plausibility checks' verdict for one the monitor could not judge; old
+rows are valid).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.monitoring.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
@@ -84,8 +86,11 @@ _SQLITE_V3 = (
     PRIMARY KEY (robot, fingerprint))""",
 )
 
+_V4 = ("ALTER TABLE estimates ADD COLUMN invalid_reason TEXT NOT NULL DEFAULT ''",)
+
 #: SQLite: version -> its steps, oldest first.
-SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3}
+SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
+                                                 4: _V4}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -134,4 +139,4 @@ _POSTGRESQL_V3 = (
 )
 
 #: PostgreSQL: version -> its steps, oldest first.
-POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3}
+POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4}

@@ -59,6 +59,13 @@ class HistoryRecord:
     crossing_experiments: float = math.nan
     crossing_time_s: float = math.nan
     robot: Optional[str] = None
+    #: '' for a valid estimate; else why the monitor could not judge the wear (plausibility)
+    invalid_reason: str = ''
+
+    @property
+    def valid(self) -> bool:
+        """Return True when the estimate passed the plausibility checks."""
+        return not self.invalid_reason
 
 
 @dataclass(frozen=True)
@@ -116,6 +123,8 @@ class FleetRow:
     alarm_evidence: float
     status_level: int
     parameter_set: str
+    #: '' when the latest estimate is valid; else why the wear cannot be judged
+    invalid_reason: str = ''
 
     @property
     def usual_interval_s(self) -> float:
@@ -127,11 +136,13 @@ class FleetRow:
     def rank_key(self) -> tuple[int, float, float, str, str]:
         """Return the sort key of the fleet view, worst first.
 
-        A latched alarm first, then the soonest forecast crossing [experiments], then the
-        highest upper bound of w (the estimate itself when the interval is unknown).
+        A latched alarm first, then the joints whose latest estimate cannot be judged (an
+        invalid estimate: a monitor that does not know is no healthy joint), then the soonest
+        forecast crossing [experiments], then the highest upper bound of w (the estimate itself
+        when the interval is unknown).
         """
         crossing = (self.crossing_experiments if math.isfinite(self.crossing_experiments)
                     else math.inf)
         high = self.wear_high if math.isfinite(self.wear_high) else self.wear
-        return (0 if self.alarm else 1, crossing,
+        return (0 if self.alarm else 1 if self.invalid_reason else 2, crossing,
                 -high if math.isfinite(high) else math.inf, self.robot, self.joint)

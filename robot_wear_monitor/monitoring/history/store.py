@@ -29,7 +29,8 @@ from robot_wear_monitor.monitoring.history.records import (
 _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions',
                    'temperature_degc', 'temperature_std_degc', 'wear', 'wear_std', 'chi2',
                    'dof', 'p_value', 'temperature_at_bound', 'wear_at_bound', 'alarm_active',
-                   'alarm_evidence', 'status_level', 'parameter_set', *INTERVAL_COLUMNS)
+                   'alarm_evidence', 'status_level', 'parameter_set', *INTERVAL_COLUMNS,
+                   'invalid_reason')
 _EVENT_COLUMNS = 'robot, joint, stamp_s, event, wear, note, estimate_id'
 
 
@@ -53,7 +54,8 @@ def _record_from_row(row: Sequence[Any]) -> HistoryRecord:
         dof=int(row[11]), p_value=_nan_if_none(row[12]), temperature_at_bound=bool(row[13]),
         wear_at_bound=bool(row[14]), alarm_active=bool(row[15]),
         alarm_evidence=float(row[16]), status_level=int(row[17]), parameter_set=row[18],
-        **{c: _nan_if_none(v) for c, v in zip(INTERVAL_COLUMNS, row[19:])})
+        **{c: _nan_if_none(v) for c, v in zip(INTERVAL_COLUMNS, row[19:])},
+        invalid_reason=row[19 + len(INTERVAL_COLUMNS)] or '')
 
 
 def _event_from_row(row: Sequence[Any]) -> AlarmEvent:
@@ -165,7 +167,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
-        return 3 if 'robot' in columns else 2 if 'wear_low' in columns else 1
+        return (4 if 'invalid_reason' in columns else 3 if 'robot' in columns
+                else 2 if 'wear_low' in columns else 1)
 
     def close(self) -> None:
         """Close the history (SQLite: a WAL checkpoint folds the log into the file)."""
@@ -203,7 +206,8 @@ class WearHistory:
                   int(bool(record.temperature_at_bound)), int(bool(record.wear_at_bound)),
                   int(bool(record.alarm_active)), float(record.alarm_evidence),
                   int(record.status_level), record.parameter_set,
-                  *(finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS))
+                  *(finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS),
+                  str(record.invalid_reason)[:2000])
         columns = ('robot', 'joint', 'stamp_s', 'wall_time_s', *_RECORD_COLUMNS[4:])
         with self._guard('cannot store the estimate'), self._backend.transaction():
             if self.find_estimate(joint=joint, stamp_s=record.stamp_s, robot=robot) is not None:
@@ -365,7 +369,8 @@ class WearHistory:
                 'SELECT e.robot, e.joint, c.n, c.first_stamp, e.stamp_s, e.wall_time_s, e.wear, '
                 'e.wear_std, e.wear_low, e.wear_high, e.trend_wear, e.trend_low, e.trend_high, '
                 'e.crossing_experiments, e.crossing_time_s, e.alarm_evidence, e.status_level, '
-                'e.parameter_set FROM estimates e JOIN (SELECT robot, joint, MAX(id) AS last_id, '
+                'e.parameter_set, e.invalid_reason FROM estimates e JOIN (SELECT robot, joint, '
+                'MAX(id) AS last_id, '
                 'COUNT(*) AS n, MIN(stamp_s) AS first_stamp FROM estimates ' + where
                 + 'GROUP BY robot, joint) c ON e.id = c.last_id', params)
             alarms = self._backend.execute(
@@ -385,7 +390,7 @@ class WearHistory:
                 crossing_experiments=_nan_if_none(r[13]), crossing_time_s=_nan_if_none(r[14]),
                 alarm=event == 'raised', alarm_since_stamp_s=since if event == 'raised'
                 else math.nan, alarm_evidence=float(r[15]), status_level=int(r[16]),
-                parameter_set=r[17]))
+                parameter_set=r[17], invalid_reason=r[18] or ''))
         return sorted(rows, key=FleetRow.rank_key)
 
 
