@@ -251,7 +251,9 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
                        level_noise_std: float = SIGMA_9B, torque_noise_std: float = 5.0e-3,
                        effort_resolution: float = 1.0e-3,
                        velocity_noise_std: float = 2.0e-5, position_noise_std: float = 1.0e-6,
-                       start_time_s: float = 1_700_000_000.0) -> Recording:
+                       start_time_s: float = 1_700_000_000.0,
+                       friction_parameters: dict | None = None,
+                       effort_limit: float | None = None) -> Recording:
     """Simulate an accelerated wear test: ``n_experiments`` friction experiments of one joint.
 
     Args:
@@ -281,6 +283,11 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
         velocity_noise_std: std of the white velocity noise [rad/s, joint side].
         position_noise_std: std of the white position noise [rad].
         start_time_s: time of the first sample [s].
+        friction_parameters: the joint's friction coefficients (default
+            :data:`PAPER_PARAMETERS`: the joint the packaged parameter set describes; another
+            dict: another joint).
+        effort_limit: the drive's torque limit (effort units): the recorded effort of the
+            monitored joint saturates at +- this value (None: no limit).
 
     Returns:
         The :class:`Recording` with its truth.
@@ -318,6 +325,8 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
         if values.shape != (n_exp,):
             raise ValueError(f'{label}: expected {n_exp} values, got shape {values.shape}')
     level_errors = rng.normal(0.0, level_noise_std, (n_exp, len(speeds)))
+    coefficients = PAPER_PARAMETERS if friction_parameters is None else {
+        **PAPER_PARAMETERS, **friction_parameters}
 
     dt = 1.0 / rate_hz
     n_ramp = _samples(ramp_s, rate_hz)
@@ -385,10 +394,10 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
     for k in range(n_exp):
         mine = (experiment == k) & (qd != 0.0)
         friction[mine] = friction_model(motor_speed[mine], load_values[k], temperatures[k],
-                                        wear_values[k])
+                                        wear_values[k], coefficients)
     final = (experiment == -1) & (qd != 0.0)
     friction[final] = friction_model(motor_speed[final], load_values[-1], temperatures[-1],
-                                     wear_values[-1])
+                                     wear_values[-1], coefficients)
     torque = (gravity * np.cos(q) + inertia * qdd + np.sign(qd) * (friction + level_error)
               + rng.normal(0.0, torque_noise_std, n))
 
@@ -400,6 +409,8 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
     position[:, col] = q + rng.normal(0.0, position_noise_std, n)
     velocity[:, col] = qd + rng.normal(0.0, velocity_noise_std, n)
     effort[:, col] = torque_scale * torque
+    if effort_limit is not None:
+        effort[:, col] = np.clip(effort[:, col], -effort_limit, effort_limit)
     if effort_resolution > 0:
         effort = np.round(effort / effort_resolution) * effort_resolution
 
@@ -407,7 +418,7 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
     for k in range(n_exp):
         rows = np.flatnonzero(experiment == k)
         model = friction_model(np.array(speeds), load_values[k], temperatures[k],
-                               wear_values[k])
+                               wear_values[k], coefficients)
         truth.append(ExperimentTruth(
             index=k, wear=float(wear_values[k]), temperature_degc=float(temperatures[k]),
             load=float(load_values[k]), start_s=float(stamps_s[rows[0]]),

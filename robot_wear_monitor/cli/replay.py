@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_history, add_joints, add_json, add_params,
@@ -107,6 +108,7 @@ def main(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f'note: {note}', file=sys.stderr)
     summary = result.summary()
+    warn_if_emptier(args.json_out, summary)
     write_json_out(args.json_out, summary)
     if args.plot:
         from robot_wear_monitor.reporting.report import plot_replay
@@ -114,18 +116,88 @@ def main(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
         return 0
-    first = summary['first_alarm']
-    skipped = result.rejections.get('friction_levels_already_in_history', 0)
-    print(f'{len(result.updates)} experiments from {result.message_count} messages; '
-          + (f'{skipped} already in the history (skipped, not estimated again); '
-             if skipped else '')
-          + ('no alarm' if first is None else
-             f'alarm at experiment {first["index"]} (w-hat {first["wear"]:.1f})')
+    print(summary_line(result, summary)
           + (f'; wrote {args.out}' if args.out else f'; history {args.history}'))
     if joints:
         for entry in result.joints:
             print(joint_summary_line(entry))
     return 0
+
+
+def summary_line(result: Any, summary: dict) -> str:
+    """Return the replay's line: experiments, skipped ones, and the joints' state in words.
+
+    "no alarm" only when no joint's alarm is latched in the history and every estimate of the
+    run was valid; an invalid estimate says why the wear cannot be judged; a run that found
+    only experiments the history already holds reports the state from the history.
+    """
+    from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.monitoring.diagnostics import is_routine, rejection_text
+    first = summary['first_alarm']
+    defects = {r: n for r, n in result.rejections.items() if not is_routine(r)}
+    skipped = result.rejections.get('friction_levels_already_in_history', 0)
+    line = (f'{len(result.updates)} experiments from {result.message_count} messages; '
+            + (f'{skipped} already in the history (skipped, not estimated again); '
+               if skipped else ''))
+    latched = [state for state in result.latched
+               if first is None or state['joint'] != first.get('joint', state['joint'])]
+    if first is not None:
+        line += f'alarm at experiment {first["index"]} (w-hat {first["wear"]:.1f})'
+    elif latched:
+        line += 'alarm LATCHED (from the history: ' + ', '.join(
+            f'{state["joint"]} since {iso_time(state["alarm_since_stamp_s"])}'
+            for state in latched) + ')'
+    elif result.invalid:
+        line += 'CANNOT JUDGE the wear'
+    elif defects:
+        line += 'alarm not raised, but bad data were rejected'
+    else:
+        line += 'no alarm'
+    invalid = result.invalid
+    if invalid:
+        line += (f'; {len(invalid)} of {len(result.updates)} estimates invalid, '
+                 f'{invalid[-1].plausibility.text()}')
+    if not result.updates and not latched:
+        known = [state for state in result.states if state['last_estimate'] is not None]
+        line += ''.join(
+            f'; {state["joint"]}: last estimate w-hat {state["last_estimate"]["wear"]:.1f} at '
+            f'{iso_time(state["last_estimate"]["stamp_s"])}'
+            + ('' if state['last_estimate']['valid'] else ' (invalid)')
+            for state in known if state['last_estimate']['wear'] is not None)
+    if defects:
+        line += '; WARNING: ' + rejection_text(defects) + explain_defects(defects)
+    return line
+
+
+#: What a bad-data rejection of a replay means for the estimates, in words.
+_DEFECT_MEANING = {
+    'segmentation_pass_torque_saturated': 'the drive torque sat at its limit in those passes '
+    '(a clipped torque is no friction): their speeds are missing from the experiments',
+}
+
+
+def explain_defects(defects: dict) -> str:
+    """Return the meaning of the known bad-data rejections (' (...)'), or ''."""
+    known = [_DEFECT_MEANING[r] for r in sorted(defects) if r in _DEFECT_MEANING]
+    return f' ({"; ".join(known)})' if known else ''
+
+
+def warn_if_emptier(path: str | None, summary: dict) -> None:
+    """Say so on stderr when ``path`` holds a summary with more experiments than ``summary``."""
+    import json
+    from pathlib import Path
+    if not path or not Path(path).is_file():
+        return
+    try:
+        old = json.loads(Path(path).read_text(encoding='utf-8')[:50_000_000])
+        before = len(old.get('experiments', ()))
+    except (OSError, ValueError, AttributeError, TypeError):
+        return
+    after = len(summary['experiments'])
+    if before > after:
+        print(f'note: {path} held {before} experiments, this run estimated {after} (the '
+              'others are in the history already); the new summary replaces it and carries '
+              "each joint's state from the history under 'state'", file=sys.stderr)
 
 
 def joint_summary_line(entry: dict, *, estimates: bool = True) -> str:

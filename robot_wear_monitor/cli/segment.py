@@ -45,15 +45,15 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.monitoring.diagnostics import rejection_text
     from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
                                                        segment_raw_csv)
     path = Path(args.data)
     if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
         result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
                                  torque_scale=args.torque_scale, speeds_rad_s=args.speeds)
-        report = [f'{result.n_levels} friction levels; rejected: '
-                  + (', '.join(f'{k} {n}' for k, n in sorted(result.rejections.items()))
-                     or 'none')]
+        report = [f'{result.n_levels} friction levels; '
+                  + (rejection_text(result.rejections) or 'nothing rejected')]
     else:
         from robot_wear_monitor.monitoring.replay import replay_parameters
         joint, joints = joint_selection(args.joint)
@@ -65,9 +65,8 @@ def main(args: argparse.Namespace) -> int:
         report = list(result.notes)
         for summary in result.joints:
             report.append(joint_summary_line(summary, estimates=False))
-            if summary['rejected']:
-                report.append('    rejected: ' + ', '.join(
-                    f'{k} {n}' for k, n in summary['rejected'].items()))
+            if rejection_text(summary['rejected']):
+                report.append('    ' + rejection_text(summary['rejected']))
     text = levels_csv_text(result.rows, robot=args.robot)
     if args.out:
         write_text_atomic(args.out, text)

@@ -41,7 +41,9 @@ Pipeline, shared by the streaming and the batch path so that both give identical
    those lines: ``0.5 sqrt(s+^2/n+ + s-^2/n-)``.
 
 Rejection counters count samples or messages for the sample reasons and passes for the
-``pass_*`` reasons; ``time_gap`` counts gaps.
+``pass_*`` reasons; ``time_gap`` counts gaps.  A pair whose one pass sits at its extreme torque
+in at least half of the window while the other does not is a drive at its torque limit (a
+clipped signal): both passes are rejected as ``pass_torque_saturated``.
 
 The streaming path buffers only the samples of the current move (constant work per message; the
 move is analysed with numpy when it ends, so each sample is touched a bounded number of times)
@@ -68,7 +70,12 @@ FloatArray = NDArray[np.float64]
 SAMPLE_REASONS = ('joint_missing', 'missing_position', 'missing_velocity', 'missing_effort',
                   'length_mismatch', 'non_finite', 'time_not_increasing', 'time_gap')
 #: Pass rejection reasons.
-PASS_REASONS = ('pass_too_short', 'pass_unpaired', 'pass_no_common_window')
+PASS_REASONS = ('pass_too_short', 'pass_unpaired', 'pass_no_common_window',
+                'pass_torque_saturated')
+#: A pass whose torque sits at its extreme value in at least this fraction of the window, while
+#: its partner's does not, hit the drive's torque limit (a clipped signal, not friction).
+SATURATED_FRACTION = 0.5
+_PARTNER_FRACTION = 0.2
 
 
 @dataclass(frozen=True)
@@ -300,7 +307,11 @@ class _Pairer:
                 2.0 * _tolerance(max(old.level_rad_s, new.level_rad_s), self._config):
             self._rejections['pass_unpaired'] += 1
             return []
-        level = self._pair(old, new)
+        level, reason = self._pair(old, new)
+        if reason == 'pass_torque_saturated':  # both passes are spent
+            self._pending = None
+            self._rejections[reason] += 2
+            return []
         if level is None:
             self._rejections['pass_no_common_window'] += 1
             return []
@@ -312,20 +323,24 @@ class _Pairer:
             self._rejections['pass_unpaired'] += 1
             self._pending = None
 
-    def _pair(self, first: _Pass, second: _Pass) -> FrictionLevel | None:
+    def _pair(self, first: _Pass, second: _Pass) -> tuple[FrictionLevel | None, str]:
+        """Return the level of two opposite passes, or None and the reason (a pass reason)."""
         forward, backward = (first, second) if first.direction > 0 else (second, first)
         low = max(forward.position_rad.min(), backward.position_rad.min())
         high = min(forward.position_rad.max(), backward.position_rad.max())
         if high <= low or high - low < self._config.min_window_rad:
-            return None
+            return None, 'pass_no_common_window'
         parts = []
         for p in (forward, backward):
             inside = (p.position_rad >= low) & (p.position_rad <= high)
             if np.count_nonzero(inside) < self._config.min_samples:
-                return None
+                return None, 'pass_no_common_window'
             parts.append((p.time_s[inside], p.position_rad[inside], p.speed_rad_s[inside],
                           p.torque[inside]))
         (tf, qf, vf, ef), (tb, qb, vb, eb) = parts
+        clipped = sorted((_at_extreme(ef), _at_extreme(eb)))
+        if clipped[1] >= SATURATED_FRACTION and clipped[0] < _PARTNER_FRACTION:
+            return None, 'pass_torque_saturated'
         centre = 0.5 * (low + high)
         mean_f, var_f = _torque_at(qf, ef, centre)
         mean_b, var_b = _torque_at(qb, eb, centre)
@@ -335,7 +350,18 @@ class _Pairer:
             friction_std_error=0.5 * math.sqrt(var_f / ef.size + var_b / eb.size),
             tau_forward=mean_f, tau_backward=mean_b, n_forward=int(ef.size),
             n_backward=int(eb.size), position_min_rad=float(low), position_max_rad=float(high),
-            start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1])))
+            start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1]))), ''
+
+
+def _at_extreme(torque: FloatArray) -> float:
+    """Return the fraction of a pass's torque samples at its extreme value away from zero.
+
+    A drive at its torque limit records the limit itself, sample after sample: a measured
+    torque with noise repeats its largest magnitude only by chance.
+    """
+    mean = float(np.mean(torque))
+    extreme = float(np.max(torque) if mean >= 0 else np.min(torque))
+    return float(np.count_nonzero(torque == extreme)) / max(torque.size, 1)
 
 
 # --------------------------------------------------------------------------- streaming
