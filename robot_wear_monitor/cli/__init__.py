@@ -16,8 +16,9 @@ from types import ModuleType
 from typing import Sequence
 
 from robot_wear_monitor import __version__
-from robot_wear_monitor.cli import (audit, demo, design, estimate, fleet, history, identify,
-                                    live, plan, play, replay, segment, simulate, study)
+from robot_wear_monitor.cli import (audit, call, demo, design, estimate, fleet, history,
+                                    identify, live, plan, play, replay, segment, simulate,
+                                    study)
 from robot_wear_monitor.cli.options import (parse_float_list, parse_range, PROG,
                                             resolve_json)
 from robot_wear_monitor.errors import InputError
@@ -28,11 +29,12 @@ __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'V
 VERBS: dict[str, ModuleType] = {
     'design': design, 'plan': plan, 'estimate': estimate, 'study': study,
     'simulate': simulate, 'segment': segment, 'replay': replay, 'demo': demo, 'audit': audit,
-    'history': history, 'fleet': fleet, 'live': live, 'play': play, 'identify': identify,
+    'history': history, 'fleet': fleet, 'live': live, 'play': play, 'call': call,
+    'identify': identify,
 }
 
 #: Verbs that pass a ``--ros-args ...`` tail to rclpy.
-_ROS_VERBS = ('live', 'play')
+_ROS_VERBS = ('live', 'play', 'call')
 
 
 def build_parser() -> argparse.ArgumentParser:

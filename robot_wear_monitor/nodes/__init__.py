@@ -132,6 +132,29 @@ def log_rejection_report(logger: Any, report: tuple[str, bool] | None) -> None:
         logger.info(text)
 
 
+def help_requested(args: Sequence[str] | None) -> bool:
+    """Return True when the process arguments before ``--ros-args`` ask for ``-h``/``--help``."""
+    import sys
+    argv = list(sys.argv[1:] if args is None else args[1:] if args and not str(
+        args[0]).startswith('-') else args)
+    if '--ros-args' in argv:
+        argv = argv[:argv.index('--ros-args')]
+    return any(a in ('-h', '--help') for a in argv)
+
+
+def node_help(node: str) -> str:
+    """Return the ``--help`` text of a node executable: usage and its declared parameters."""
+    from robot_wear_monitor.monitoring.node_config import NODE_PARAMETERS
+    lines = [f'usage: {node} [--ros-args --params-file FILE -p NAME:=VALUE ...]', '',
+             f'The robot_wear_monitor node {node} (ROS 2 Jazzy).  Parameters (type, default):']
+    for spec in NODE_PARAMETERS.get(node, ()):
+        lines.append(f'  {spec.name} ({spec.type}, default {spec.default!r})')
+        lines.append(f'      {spec.description}')
+    lines += ['', 'Packaged parameter file: config/wear_monitor.yaml (robot-wear-monitor live '
+              '--help runs the whole graph).']
+    return '\n'.join(lines)
+
+
 def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -> int:
     """Init rclpy, build the node and spin it until shutdown (the Jazzy try/finally pattern).
 
@@ -154,6 +177,9 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     Returns 0 after a normal shutdown and 2 when a node refuses its parameters (nothing is
     spun then; the nodes already built are destroyed).
     """
+    if help_requested(args):  # answer --help without starting anything
+        print(node_help(logger_name))
+        return 0
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 

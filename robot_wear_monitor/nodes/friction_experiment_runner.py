@@ -70,7 +70,7 @@ class FrictionExperimentRunner(Node):
             f'{self.runner.total_s:.1f} s per run; trajectories on '
             f'{self.trajectory_publisher.topic_name}, events on '
             f'{self.events_publisher.topic_name}; call {self.resolve_service_name(START_SERVICE)} '
-            'to run it')
+            '(std_srvs/Trigger) to run it: robot-wear-monitor call start, or ros2 service call')
 
     def subscribers(self):
         """Return how many subscriptions the trajectory topic has (the controller's)."""
