@@ -11,7 +11,8 @@ import csv
 import io
 import time
 
-from robot_wear_monitor.cli.options import add_history, add_json, add_robot, emit_json
+from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
+                                            emit_json)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'every robot joint of a wear history, worst first (alarm, forecast crossing, wear)'
@@ -27,8 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='judge staleness at this time: ISO 8601 (e.g. '
                              '2026-11-24T12:00:00Z) or seconds since the epoch '
                              '(default: the clock)')
-    parser.add_argument('--local', action='store_true',
-                        help='times in the local time zone (default UTC)')
+    add_local(parser)
     add_json(parser, what='the rows (a list of objects)')
 
 

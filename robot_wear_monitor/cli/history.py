@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
-from robot_wear_monitor.cli.options import add_json, add_robot, emit_json, PROG
+from robot_wear_monitor.cli.options import add_json, add_local, add_robot, emit_json, PROG
 from robot_wear_monitor.errors import InputError
 
 HELP = 'show the stored wear history and export its friction levels for audit'
@@ -19,6 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--last', type=int, metavar='K', help='show only the last K estimates')
     parser.add_argument('--csv', metavar='LEVELS', help='export the friction levels as a CSV '
                         'table for `robot-wear-monitor audit`')
+    add_local(parser)
     add_json(parser)
 
 
@@ -27,7 +29,8 @@ def main(args: argparse.Namespace) -> int:
     import math
     from pathlib import Path
 
-    from robot_wear_monitor.monitoring.diagnostics import json_number
+    from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.monitoring.diagnostics import clean_text, json_number
     from robot_wear_monitor.monitoring.history import (is_postgresql_url, open_history,
                                                        write_levels_csv)
 
@@ -60,27 +63,54 @@ def main(args: argparse.Namespace) -> int:
         records = history.records(joint=joint, robot=robot, limit=args.last)
     if args.csv:
         write_levels_csv(args.csv, records=records)
+    rows = [_row(r) for r in records]
     payload = {
         'robot': robot, 'joint': joint, 'alarm_active': state.alarm_active, 'csv': args.csv,
-        'estimates': [{'id': r.id, 'stamp_s': r.stamp_s, 'speeds': list(r.speeds_rad_s),
-                       'frictions': list(r.frictions), 'wear': json_number(r.wear),
-                       'wear_std': json_number(r.wear_std),
+        'estimates': [{'id': r.id, 'stamp_s': r.stamp_s, 'time': iso_time(r.stamp_s),
+                       'speeds': list(r.speeds_rad_s), 'frictions': list(r.frictions),
+                       'wear': json_number(r.wear), 'wear_std': json_number(std),
+                       'wear_interval': [json_number(r.wear_low), json_number(r.wear_high)],
                        'temperature_degc': json_number(r.temperature_degc),
-                       'p_value': json_number(r.p_value), 'alarm': r.alarm_active}
-                      for r in records]}
+                       'p_value': json_number(r.p_value), 'alarm': r.alarm_active,
+                       'valid': r.valid, 'invalid_reason': r.invalid_reason or None}
+                      for r, std in rows]}
     if emit_json(args, payload):
         return 0
-    print(f'robot {robot}, joint {joint}: {len(records)} estimate(s) shown; alarm '
-          f'{"LATCHED" if state.alarm_active else "clear"}')
-    header = ('id', 'stamp [s]', 'w', 'std w', 'T [degC]', 'p-value')
-    print('{:>5} {:>14} {:>7} {:>7} {:>9} {:>8}  alarm'.format(*header))
+    print(f'robot {clean_text(robot)}, joint {clean_text(joint)}: {len(records)} estimate(s) '
+          f'shown; alarm {"LATCHED" if state.alarm_active else "clear"}; times '
+          f'{"local" if args.local else "UTC"}')
+    header = ('id', 'time', 'w', '95 % interval of w', 'std w', 'T [degC]', 'p-value')
+    print('{:>5} {:<20} {:>7} {:<18} {:>7} {:>9} {:>8}  alarm'.format(*header))
 
     def cell(value: float, spec: str) -> str:  # '-' where the estimate reported none
         return format(value, spec) if math.isfinite(value) else '-'
-    for r in records:
-        print(f'{r.id:>5} {r.stamp_s:>14.1f} {cell(r.wear, ".2f"):>7} '
-              f'{cell(r.wear_std, ".2f"):>7} {cell(r.temperature_degc, ".2f"):>9} '
-              f'{cell(r.p_value, ".3g"):>8}  {"yes" if r.alarm_active else ""}')
+    for r, std in rows:
+        interval = (f'[{cell(r.wear_low, ".1f")}, {cell(r.wear_high, ".1f")}]'
+                    if math.isfinite(r.wear_low) else '-')
+        print(f'{r.id:>5} {iso_time(r.stamp_s, local=args.local):<20} '
+              f'{cell(r.wear, ".2f"):>7} {interval:<18} {cell(std, ".2f"):>7} '
+              f'{cell(r.temperature_degc, ".2f"):>9} {cell(r.p_value, ".3g"):>8}  '
+              + ('INVALID: ' + clean_text(r.invalid_reason) if not r.valid
+                 else 'yes' if r.alarm_active else ''))
     if args.csv:
-        print(f'levels written to {args.csv} (run: {PROG} audit {args.csv})')
+        print(f'levels written to {args.csv}; ' + audit_hint(args.csv, records))
     return 0
+
+
+def _row(record: Any) -> tuple[Any, float]:
+    """Return (record, the std of w-hat the estimate reported: NaN where it reports none)."""
+    from robot_wear_monitor.estimation.report import meaningful_std
+    return record, meaningful_std(std=record.wear_std, value=record.wear, low=record.wear_low,
+                                  high=record.wear_high, open_above=False)
+
+
+def audit_hint(csv: str, records: Any) -> str:
+    """Return what to run on the exported levels (audit needs 6 or more distinct speeds)."""
+    from robot_wear_monitor.audit.run import MIN_SPEEDS
+    speeds = sorted(float(v) for r in records for v in r.speeds_rad_s)
+    distinct = sum(1 for i, v in enumerate(speeds) if i == 0 or v > speeds[i - 1] * 1.02)
+    if distinct >= MIN_SPEEDS:
+        return f'run: {PROG} audit {csv}'
+    return (f'the audit needs levels at {MIN_SPEEDS} or more distinct speeds and these '
+            f"have {distinct} (the designed experiment's): plan extra experiments at other "
+            f'speeds (`{PROG} plan --speeds ...`) to audit the model on this joint')

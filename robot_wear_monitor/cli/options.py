@@ -132,6 +132,12 @@ def robot_name(text: str) -> str:
     return name
 
 
+def add_local(parser: argparse.ArgumentParser) -> None:
+    """Add ``--local``: times in the local time zone instead of UTC (ISO 8601 either way)."""
+    parser.add_argument('--local', action='store_true',
+                        help='times in the local time zone (default UTC)')
+
+
 def add_history(parser: argparse.ArgumentParser, *, help_text: str,
                 required: bool = False) -> None:
     """Add ``--history PATH|URL``: the wear history (an SQLite file or a PostgreSQL URL)."""
