@@ -1,0 +1,43 @@
+"""The shipped example tables: what the independent generator writes, and identify finds them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import make_examples
+import pytest
+
+from robot_wear_monitor.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / 'examples'
+
+
+def test_the_shipped_tables_are_what_the_generator_writes():
+    for name, text in make_examples.example_files().items():
+        assert (EXAMPLES / name).read_text(encoding='utf-8') == text, (
+            f'examples/{name} differs from test/make_examples.py: run it and commit')
+
+
+def test_identify_on_the_examples_recovers_the_joint_and_its_wear(tmp_path, capsys):
+    out = tmp_path / 'my_joint.yaml'
+    assert main(['identify', str(EXAMPLES / 'baseline.csv'), '--wear-test',
+                 str(EXAMPLES / 'wear_test.csv'), '--critical-experiment',
+                 str(make_examples.CRITICAL), '--out', str(out), '--json']) == 0
+    report = json.loads(capsys.readouterr().out)
+    nominal = report['nominal']['parameters']
+    truth = {'f_c_load': make_examples.JOINT['F_ctl'], 'f_s_load': make_examples.JOINT['F_stl'],
+             'phi_s_load': make_examples.JOINT['phi_stl']}
+    for name, value in truth.items():
+        fitted = nominal[name]
+        assert abs(fitted['value'] - value) <= 3 * fitted['std_error'], (name, fitted, value)
+    wear = report['wear']['parameters']
+    assert abs(wear['f_s_wear']['value'] - make_examples.JOINT['F_sw']) <= 3 * wear[
+        'f_s_wear']['std_error']
+    assert out.is_file()
+
+
+@pytest.mark.parametrize('name', ['baseline.csv', 'wear_test.csv'])
+def test_the_tables_hold_the_columns_the_readme_names(name):
+    header = (EXAMPLES / name).read_text(encoding='utf-8').splitlines()[0].split(',')
+    assert {'speed', 'friction', 'temperature', 'load', 'experiment'} <= set(header)
