@@ -19,6 +19,11 @@ from robot_wear_monitor.model.params import ParameterSet
 FloatArray = NDArray[np.float64]
 
 
+#: What the audit's friction numbers are in (the table's own unit; nothing converts it).
+FRICTION_UNIT_NOTE = ('normalised torque for levels from segment and history; effort / '
+                      '--torque-scale for raw runs, N.m with the default 1')
+
+
 @dataclass(frozen=True)
 class Effect:
     """An effect the audit traced and added to the model.
@@ -156,17 +161,18 @@ class AuditResult:
         lines = [f'audit of the {self.model} model on {self.n_levels} friction levels'
                  + (f' (identified per {self.group})' if self.group else ''),
                  f'  candidates: {", ".join(self.candidates) or "(none)"}',
-                 f'  held-out RMS error before: {self.rms_before:.4g}',
-                 f'  held-out RMS error after:  {self.rms_after:.4g}',
-                 f'  noise floor: {self.noise_floor:.4g} ({self.noise_floor_method})',
+                 f"  friction unit [f]: the table's ({FRICTION_UNIT_NOTE})",
+                 f'  held-out RMS error before: {self.rms_before:.4g} [f]',
+                 f'  held-out RMS error after:  {self.rms_after:.4g} [f]',
+                 f'  noise floor: {self.noise_floor:.4g} [f] ({self.noise_floor_method})',
                  f'  folds: {self.folds}']
         lines += [f'  left out: {text}' for text in self.excluded]
         if not self.effects:
             lines.append('  no effect added')
         for i, effect in enumerate(self.effects, start=1):
             lines.append(f'  effect {i}: {effect.name} [{", ".join(effect.variables)}], '
-                         f'size {effect.size_rms:.3g} rms, held-out error '
-                         f'{effect.rms_cv_before:.4g} -> {effect.rms_cv_after:.4g} '
+                         f'size {effect.size_rms:.3g} [f] rms, held-out error '
+                         f'{effect.rms_cv_before:.4g} -> {effect.rms_cv_after:.4g} [f] '
                          f'(log10 p {effect.log10_p:.1f})')
             for other in effect.confounded_with:
                 lines.append(f'    confounded with {other["candidate"]} (not added: no evidence '

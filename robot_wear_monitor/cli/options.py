@@ -82,6 +82,24 @@ def joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str] 
 
 # --------------------------------------------------------------------------- option builders
 
+def check_option(value: float | None, *, option: str, low: float, high: float, unit: str = '',
+                 low_open: bool = False) -> None:
+    """Raise InputError naming ``option`` unless ``value`` is finite and in [low, high].
+
+    ``low_open``: the low end is excluded (``> low``).  ``unit`` is printed after the numbers
+    (e.g. ``'rad/s'``); None passes (the option was not given).
+    """
+    import math
+    if value is None:
+        return
+    unit_text = f' {unit}' if unit else ''
+    ok = math.isfinite(value) and (value > low if low_open else value >= low) and value <= high
+    if not ok:
+        low_text = f'> {low:g}' if low_open else f'>= {low:g}'
+        raise InputError(f'{option}: must be {low_text} and <= {high:g}{unit_text}, got '
+                         f'{str(value)[:40]}{unit_text}')
+
+
 def add_params(parser: argparse.ArgumentParser) -> None:
     """Add ``--params FILE``: the friction-model parameter set."""
     parser.add_argument('--params', metavar='FILE',

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import add_params, params_from, parse_float_list
+from robot_wear_monitor.cli.options import (add_params, check_option, params_from,
+                                            parse_float_list)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'simulate friction experiments of a wearing joint into a ROS 2 bag'
@@ -35,12 +36,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_params(parser)
 
 
+#: The most experiments one ``simulate`` writes (a 10^5-experiment bag is about 90 GB).
+MAX_EXPERIMENTS = 100_000
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``simulate``: write the bag and its truth JSON beside it."""
+    from pathlib import Path
+
     from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                           JointSimConfig, simulate_scenario,
                                                           truth_path_for, write_truth_json)
     from robot_wear_monitor.recordings.bags import write_joint_state_bag
+    check_option(args.experiments, option='--experiments', low=1, high=MAX_EXPERIMENTS)
+    check_option(args.wear_final, option='--wear-final', low=0.0, high=1000.0)
+    check_option(args.sample_rate, option='--sample-rate', low=0.0, high=10_000.0, unit='Hz',
+                 low_open=True)
+    check_option(args.interval, option='--interval', low=0.0, high=1e7, unit='s',
+                 low_open=True)
+    for speed in args.speeds or ():
+        check_option(speed, option='--speeds', low=0.0, high=10_000.0, unit='rad/s',
+                     low_open=True)
+    if Path(args.out).exists() and not args.overwrite:  # before minutes of simulation
+        raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     params = params_from(args)
     config = accelerated_wear_scenario(
         n_experiments=args.experiments, speeds_rad_s=args.speeds, params=params,

@@ -48,6 +48,47 @@ def test_history_exports_the_replayed_levels_for_audit(replayed, capsys):
     assert np.all(np.bincount(distance.argmin(axis=1), minlength=4) == 5)
 
 
+def test_history_shows_what_the_estimate_reported_with_iso_times(replayed, capsys):
+    import datetime
+    _, _, history, summary = replayed
+    capsys.readouterr()
+    assert cli.main(['history', str(history)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].endswith('times UTC')
+    assert '95 % interval of w' in lines[1]
+    rows = lines[2:2 + len(summary['experiments'])]
+    for row, experiment in zip(rows, summary['experiments']):
+        when = datetime.datetime.fromtimestamp(experiment['stamp_s'], datetime.timezone.utc)
+        assert when.isoformat(timespec='seconds').replace('+00:00', 'Z') in row
+        low, high = experiment['wear_interval']
+        assert f'[{low:.1f}, {high:.1f}]' in row
+        # the std column shows the estimate's own: '-' where it reported none
+        std = experiment['wear_std']
+        cells = row.split(']')[1].split()
+        assert cells[0] == ('-' if std is None else f'{std:.2f}')
+    capsys.readouterr()
+    assert cli.main(['history', str(history), '--json']) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert [e['wear_std'] for e in shown['estimates']] == [
+        pytest.approx(e['wear_std']) if e['wear_std'] is not None else None
+        for e in summary['experiments']]
+    assert all(e['valid'] and e['time'].endswith('Z') for e in shown['estimates'])
+
+
+def test_history_escapes_control_characters_in_names(tmp_path, capsys):
+    from robot_wear_monitor.monitoring.history import HistoryRecord, open_history
+    path = tmp_path / 'h.sqlite3'
+    with open_history(path, robot='r\x1b[2J') as stored:
+        stored.append(HistoryRecord(
+            joint='j\nfake line', stamp_s=1.0, speeds_rad_s=(2.1,), frictions=(0.1,),
+            temperature_degc=40.0, temperature_std_degc=1.0, wear=1.0, wear_std=1.0, chi2=0.0,
+            dof=0, p_value=float('nan'), temperature_at_bound=False, wear_at_bound=False,
+            alarm_active=False, alarm_evidence=0.0, status_level=0, parameter_set='p'))
+    assert cli.main(['history', str(path)]) == 0
+    out = capsys.readouterr().out
+    assert '\x1b' not in out and 'j\\nfake line' in out and 'r\\x1b[2J' in out
+
+
 def test_history_bad_input_is_one_line_and_exit_2(replayed, capsys, tmp_path):
     _, _, history, _ = replayed
     assert cli.main(['history', str(tmp_path / 'none.sqlite3')]) == 2

@@ -90,7 +90,8 @@ def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
     plugin = storage_plugin(storage)
     target = Path(path)
     if target.exists() and not overwrite:
-        raise BagError(f'{target}: already exists (choose another path or overwrite)')
+        raise BagError(f'{target}: already exists (choose another path, or --overwrite to '
+                       'replace it)')
     if not target.parent.is_dir():
         raise BagError(f'{target}: the folder {target.parent} does not exist')
     stale = remove_stale_partials(target)
