@@ -16,6 +16,11 @@ from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.friction import wear_friction
 
 
+#: Units of the audit's usual variables on a figure's axis (others are the table's own).
+_UNITS = {'speed': ' [rad/s]', 'temperature': ' [degC]', 'load': ' [normalised]',
+          'wear': ' [-]', 'position': ' [rad]', 'time_s': ' [s]'}
+
+
 def _pyplot():
     import matplotlib
     matplotlib.use('Agg')
@@ -60,7 +65,7 @@ def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
         axis.plot(x, result.residual_after, '.', color='tab:blue', markersize=3,
                   label='after')
         axis.axhline(0.0, color='k', linewidth=0.6)
-        axis.set_xlabel(name + (' (traced)' if name in traced else ''),
+        axis.set_xlabel(name + _UNITS.get(name, '') + (' (traced)' if name in traced else ''),
                         color='tab:red' if name in traced else 'k')
         if name == 'speed' and np.ptp(np.log(table.numeric['speed'])) > 2:
             axis.set_xscale('log')
@@ -70,7 +75,7 @@ def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
         axis.tick_params(labelsize=7)
     for axis in axes.ravel()[len(names):]:
         axis.set_visible(False)
-    axes[0, 0].set_ylabel('residual')
+    axes[0, 0].set_ylabel("residual [table's friction unit]")
     axes[0, 0].legend(fontsize=7, markerscale=2)
     figure.suptitle(f'{result.model} model residuals before / after the audit '
                     f'({len(result.effects)} effect(s))', fontsize=9)
@@ -88,7 +93,7 @@ def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
                  label=f'noise floor ({result.noise_floor_method.split(" (")[0]})')
     axis.set_xticks(range(len(values)))
     axis.set_xticklabels(labels, rotation=20, fontsize=7, ha='right')
-    axis.set_ylabel('held-out RMS error', fontsize=8)
+    axis.set_ylabel("held-out RMS error [table's friction unit]", fontsize=8)
     axis.tick_params(labelsize=7)
     axis.legend(fontsize=7)
     figure.tight_layout()
@@ -160,9 +165,9 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
             axis.set_xscale('log')
         axis.set_xlabel(label, fontsize=8)
         axis.tick_params(labelsize=7)
-    axes[0, 0].set_ylabel('held-out residual of (5)', fontsize=8)
+    axes[0, 0].set_ylabel('held-out residual of (5) [normalised]', fontsize=8)
     if len(panels) == 4:
-        axes[0, 3].set_ylabel('error of (7)', fontsize=8)
+        axes[0, 3].set_ylabel('error of (7) [normalised]', fontsize=8)
     figure.suptitle(f'{result.params.name}: held-out error [mu, sigma] = '
                     f'[{nominal.held_out_mean:.2e}, {nominal.held_out_std:.2e}]', fontsize=9)
     figure.tight_layout()
@@ -181,7 +186,7 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
     left.plot(critical, [wear.critical_wear], 's', color='tab:red',
               label=f'K = {wear.critical_experiment} (w = {wear.critical_wear:g})')
     left.set_xlabel('experiment (index in time order)', fontsize=8)
-    left.set_ylabel('identified w', fontsize=8)
+    left.set_ylabel('identified w [-]', fontsize=8)
     left.legend(fontsize=7)
     rows = wear.experiment == wear.critical_experiment
     speed = wear_test.numeric['speed'][rows]
@@ -190,7 +195,7 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
     right.plot(grid, wear_friction(grid, wear.critical_wear, result.params.model), '-',
                color='tab:red', label='model (7)')
     right.set_xlabel('speed [rad/s]', fontsize=8)
-    right.set_ylabel('tau_f - tau_f0', fontsize=8)
+    right.set_ylabel('tau_f - tau_f0 [normalised]', fontsize=8)
     right.legend(fontsize=7)
     for axis in (left, right):
         axis.tick_params(labelsize=7)

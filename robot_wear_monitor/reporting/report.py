@@ -100,7 +100,7 @@ def plot_wear_trend(result: Any, path: str | os.PathLike, *, threshold: float,
     if np.any(np.isfinite(data['true_temperature'])):
         ax_t.plot(k, data['true_temperature'], color='black', lw=1, label='true T')
     ax_t.set_ylabel('T [degC]')
-    ax_t.set_xlabel('experiment')
+    ax_t.set_xlabel('experiment [index in time order]')
     ax_t.legend(loc='upper left', fontsize=8)
     ax_t.grid(alpha=0.3)
     return _save(plt, fig, path)
