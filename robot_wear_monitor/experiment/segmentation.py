@@ -11,15 +11,19 @@ where tau+ and tau- are the mean torques of the forward (positive velocity) and 
 Pipeline, shared by the streaming and the batch path so that both give identical levels:
 
 1. **Samples.**  A sample is (time [s], joint position [rad], joint velocity [rad/s], effort).  A
-   sample with a NaN/inf field is rejected (``non_finite``); one whose time does not increase
-   past the last accepted sample is rejected (``time_not_increasing``); a time step longer than
+   sample with a NaN/inf field is rejected (``non_finite``), one with a value no robot gives
+   (:data:`SAMPLE_LIMITS`: |position| > 1e6 rad, |velocity| > 1e6 rad/s, |effort| > 1e12) as
+   ``out_of_range``; one whose time does not increase past the last accepted sample (backwards
+   or a duplicate stamp) is rejected (``time_not_increasing``).  Each is rejected alone: the
+   samples around it stay one stream.  A time step between accepted samples longer than
    ``max_gap_s`` is counted (``time_gap``) and splits the stream.  From ``JointState`` messages,
    a message without the joint (``joint_missing``), with an empty effort/position/velocity array
    (``missing_effort``/``missing_position``/``missing_velocity``) or with an array whose length
    differs from ``name`` (``length_mismatch``) is rejected as a whole.
 2. **Moves.**  Motor speed = ``gear_ratio`` x joint velocity; normalised torque = effort /
    ``torque_scale``.  A move is a maximal run of accepted samples with the same direction and
-   motor speed above ``standstill_speed_rad_s``; a rejected sample or a gap cuts it.
+   motor speed above ``standstill_speed_rad_s``; a gap cuts it (a rejected sample alone does
+   not: its neighbours are at most ``max_gap_s`` apart, or the gap cuts).
 3. **Passes.**  In each move the constant-speed plateau is found: the speed level is the
    densest speed of the move (the speed with the most samples within the tolerance band of it,
    refined by a median), the plateau is the longest run of samples within
@@ -68,7 +72,11 @@ FloatArray = NDArray[np.float64]
 
 #: Sample and message rejection reasons, in the order they are checked.
 SAMPLE_REASONS = ('joint_missing', 'missing_position', 'missing_velocity', 'missing_effort',
-                  'length_mismatch', 'non_finite', 'time_not_increasing', 'time_gap')
+                  'length_mismatch', 'non_finite', 'out_of_range', 'time_not_increasing',
+                  'time_gap')
+#: Largest magnitudes of a sample's position [rad], velocity [rad/s] and effort (its unit)
+#: that a robot can report; beyond, the sample is ``out_of_range`` (and no sum overflows).
+SAMPLE_LIMITS = (1e6, 1e6, 1e12)
 #: Pass rejection reasons.
 PASS_REASONS = ('pass_too_short', 'pass_unpaired', 'pass_no_common_window',
                 'pass_torque_saturated')
@@ -422,10 +430,13 @@ class StreamingSegmenter:
         if not (math.isfinite(t) and math.isfinite(q) and math.isfinite(v)
                 and math.isfinite(e)):
             self.rejections['non_finite'] += 1
-            return self._close_move()
+            return []
+        if abs(q) > SAMPLE_LIMITS[0] or abs(v) > SAMPLE_LIMITS[1] or abs(e) > SAMPLE_LIMITS[2]:
+            self.rejections['out_of_range'] += 1
+            return []
         if t <= self._last_time:
             self.rejections['time_not_increasing'] += 1
-            return self._close_move()
+            return []
         levels: list[FrictionLevel] = []
         if t - self._last_time > config.max_gap_s and self._last_time > -math.inf:
             self.rejections['time_gap'] += 1
@@ -531,7 +542,6 @@ class ChunkSegmenter:
         self._pairer = _Pairer(config, self.rejections)
         self._time_max = -math.inf           # largest finite time seen (accepted or not)
         self._last_time = -math.inf          # time of the last accepted sample
-        self._rejected_since = False         # a rejected sample after the last accepted one
         self._sign = 0                       # sign of the move in progress
         self.fastest_speed_rad_s = 0.0       # of the accepted samples, motor side
         self.last_motion_s = -math.inf       # time of the last accepted sample in motion
@@ -566,18 +576,22 @@ class ChunkSegmenter:
             return []
         rejections = self.rejections
         finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
-        finite_time = np.where(finite, t, -np.inf)
+        with np.errstate(invalid='ignore'):
+            in_range = ((np.abs(q) <= SAMPLE_LIMITS[0]) & (np.abs(v) <= SAMPLE_LIMITS[1])
+                        & (np.abs(e) <= SAMPLE_LIMITS[2]))
+        _count(rejections, 'out_of_range', np.count_nonzero(finite & ~in_range))
+        usable = finite & in_range
+        finite_time = np.where(usable, t, -np.inf)
         running = np.maximum.accumulate(finite_time)
         before = np.maximum(running[:-1], self._time_max)
         previous_max = np.concatenate(([self._time_max], before))
         self._time_max = max(self._time_max, float(running[-1]))
-        accepted = finite & (t > previous_max)
+        accepted = usable & (t > previous_max)
         _count(rejections, 'non_finite', np.count_nonzero(~finite))
-        _count(rejections, 'time_not_increasing', np.count_nonzero(finite & ~accepted))
+        _count(rejections, 'time_not_increasing', np.count_nonzero(usable & ~accepted))
 
         index = np.flatnonzero(accepted)
         if index.size == 0:
-            self._rejected_since = True
             return []
         ta = t[index]
         gap = np.diff(ta, prepend=self._last_time) > config.max_gap_s
@@ -590,10 +604,9 @@ class ChunkSegmenter:
         moving = np.flatnonzero(sign)
         if moving.size:
             self.last_motion_s = float(ta[moving[-1]])
-        skipped = np.diff(index, prepend=-1) > 1  # rejected samples before this one
-        skipped[0] = index[0] > 0 or self._rejected_since
-        # A new move starts where the sign changes, after a gap or after rejected samples.
-        new_move = gap | skipped | (np.diff(sign, prepend=self._sign) != 0)
+        # A new move starts where the sign changes or after a gap (a rejected sample alone
+        # does not cut it: the time between its neighbours decides).
+        new_move = gap | (np.diff(sign, prepend=self._sign) != 0)
         starts = np.flatnonzero(new_move)
         levels: list[FrictionLevel] = []
         if starts.size and starts[0] == 0:
@@ -607,7 +620,6 @@ class ChunkSegmenter:
         last = int(starts[-1])
         self._extend(ta, qa, speed, ea, int(sign[last]), last, index.size)
         self._last_time = float(ta[-1])
-        self._rejected_since = bool(index[-1] < t.size - 1)
         return levels
 
     def finish(self) -> list[FrictionLevel]:
