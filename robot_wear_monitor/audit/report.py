@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robot_wear_monitor.atomic_files import save_figure
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.audit.identification_result import Identification
 from robot_wear_monitor.audit.result import AuditResult
@@ -81,7 +82,7 @@ def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
                     f'({len(result.effects)} effect(s))', fontsize=9)
     figure.tight_layout()
     residual_path = folder / f'{prefix}residuals.png'
-    figure.savefig(residual_path, dpi=dpi)
+    save_figure(figure, residual_path, dpi=dpi)
     plt.close(figure)
 
     figure, axis = plt.subplots(figsize=(5.5, 2.8))
@@ -98,7 +99,7 @@ def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
     axis.legend(fontsize=7)
     figure.tight_layout()
     error_path = folder / f'{prefix}errors.png'
-    figure.savefig(error_path, dpi=dpi)
+    save_figure(figure, error_path, dpi=dpi)
     plt.close(figure)
     return [residual_path, error_path]
 
@@ -172,7 +173,7 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
                     f'[{nominal.held_out_mean:.2e}, {nominal.held_out_std:.2e}]', fontsize=9)
     figure.tight_layout()
     paths = [folder / 'identify_residuals.png']
-    figure.savefig(paths[0], dpi=dpi)
+    save_figure(figure, paths[0], dpi=dpi)
     plt.close(figure)
     if wear is None or wear_test is None:
         return paths
@@ -201,6 +202,6 @@ def plot_identification(*, result: Identification, baseline: AuditTable,
         axis.tick_params(labelsize=7)
     figure.tight_layout()
     paths.append(folder / 'identify_wear.png')
-    figure.savefig(paths[1], dpi=dpi)
+    save_figure(figure, paths[1], dpi=dpi)
     plt.close(figure)
     return paths

@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 from types import ModuleType
-from typing import Sequence
+from typing import NoReturn, Sequence
 
 from robot_wear_monitor import __version__
 from robot_wear_monitor.cli import (audit, call, demo, design, estimate, fleet, history,
@@ -21,6 +21,7 @@ from robot_wear_monitor.cli import (audit, call, demo, design, estimate, fleet, 
                                     study)
 from robot_wear_monitor.cli.options import (parse_float_list, parse_range, PROG,
                                             resolve_json)
+from robot_wear_monitor.cli.outputs import check_outputs
 from robot_wear_monitor.errors import InputError
 
 __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'VERBS']
@@ -37,9 +38,16 @@ VERBS: dict[str, ModuleType] = {
 _ROS_VERBS = ('live', 'play', 'call')
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argparse parser whose syntax errors are one line on stderr (exit 2), like the rest."""
+
+    def error(self, message: str) -> NoReturn:  # noqa: D102 - argparse's hook
+        self.exit(2, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argparse parser of ``robot-wear-monitor`` with all its subcommands."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog=PROG, description='Wear monitoring of a robot joint from constant-speed friction '
                                'data (Bittencourt & Axelsson).')
     parser.add_argument('--version', action='version', version=f'%(prog)s {__version__}')
@@ -59,7 +67,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if '--ros-args' in argv:  # ROS arguments go to rclpy untouched (live, play)
         cut = argv.index('--ros-args')
         argv, ros_args = argv[:cut], argv[cut:]
-    args = parser.parse_args(argv)  # argparse exits with 2 and a usage line on bad syntax
+    try:
+        args = parser.parse_args(argv)  # a syntax error: one line on stderr, exit 2
+    except SystemExit as done:  # also --help and --version (exit 0)
+        return done.code if isinstance(done.code, int) else 2
     if ros_args and args.command not in _ROS_VERBS:
         parser.error(f'--ros-args is only for live and play, not {args.command}')
     args.ros_args = ros_args
@@ -67,6 +78,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     use_single_blas_thread()
     try:
         resolve_json(args, command=args.command)
+        check_outputs(args)
         return int(args.handler(args) or 0)
     except InputError as error:
         message = str(error).splitlines()[0] if str(error) else type(error).__name__
@@ -79,3 +91,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as error:  # a write that failed after the checks (disk full, ...)
+        where = f'{error.filename}: ' if error.filename else ''
+        print(f'{PROG} {args.command}: error: {where}{error.strerror or error}',
+              file=sys.stderr)
+        return 2

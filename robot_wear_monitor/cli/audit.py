@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, add_params, emit_json,
-                                            level_source_scales, params_from, PROG)
+                                            FINITE, level_source_scales, params_from, PROG)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'find and model what the friction model misses in measured friction levels'
@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              '(default for raw runs of several joints: joint)')
     add_json(parser, what='the JSON report', legacy_path=True)
     parser.add_argument('--plots', metavar='DIR', help='write the residual figures here')
-    parser.add_argument('--fdr', type=float, default=0.01,
+    parser.add_argument('--fdr', type=FINITE, default=0.01,
                         help='false-discovery rate of each step (default 0.01)')
     parser.add_argument('--max-effects', type=int, default=4,
                         help='add at most this many effects (default 4)')

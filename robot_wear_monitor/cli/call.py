@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import rclpy_missing, ros_args
+from robot_wear_monitor.cli.options import FINITE, rclpy_missing, ros_args
 from robot_wear_monitor.errors import InputError
 
 HELP = ("call the monitor's services: start or abort the friction experiment, reset the wear "
@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--node', metavar='NAME',
                         help="the node's name when it was renamed (default: "
                              'friction_experiment_runner or wear_estimator_node)')
-    parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
+    parser.add_argument('--timeout', type=FINITE, default=10.0, metavar='S',
                         help='seconds to wait for the service and for its answer (default 10)')
 
 

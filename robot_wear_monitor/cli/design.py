@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import (add_json, add_params, emit_json, params_from,
-                                            parse_float_list)
+                                            parse_float_list, SPEED_COUNT, TEMPERATURE_DEGC,
+                                            WEAR)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'optimal speed levels for N friction levels, eqs. (22)-(25)'
@@ -13,13 +14,14 @@ HELP = 'optimal speed levels for N friction levels, eqs. (22)-(25)'
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``design``."""
-    parser.add_argument('--n', type=int, required=True, help='number of speed levels N (>= 1)')
+    parser.add_argument('--n', type=SPEED_COUNT, required=True,
+                        help='number of speed levels N (1-20)')
     parser.add_argument('--grid', type=parse_float_list, metavar='V1,V2,...',
                         help='choose the best N speeds from this grid [rad/s] (Table V); '
                              'default: continuous optimum within the design bounds (Table IV)')
-    parser.add_argument('--temperature', type=float, metavar='DEGC',
+    parser.add_argument('--temperature', type=TEMPERATURE_DEGC, metavar='DEGC',
                         help='design temperature [degC] (default: from the parameter set)')
-    parser.add_argument('--wear', type=float, metavar='W',
+    parser.add_argument('--wear', type=WEAR, metavar='W',
                         help='design wear level (default: from the parameter set)')
     add_params(parser)
     add_json(parser)

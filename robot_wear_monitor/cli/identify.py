@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json,
+from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
                                             level_source_scales, parse_float_list)
 from robot_wear_monitor.errors import InputError
 
@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'experiment, the time index k)')
     parser.add_argument('--critical-experiment', metavar='K',
                         help='experiment of the wear test identified with w = --critical-wear')
-    parser.add_argument('--critical-wear', type=float, default=35.0, metavar='W',
+    parser.add_argument('--critical-wear', type=FINITE, default=35.0, metavar='W',
                         help="wear level of experiment K (default 35, the paper's convention)")
     parser.add_argument('--from-params', metavar='FILE',
                         help='reference parameter set for the fields the data cannot determine '
@@ -53,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--load-topic', metavar='TOPIC',
                         help='bag input: the load torque tau_l (normalised) recorded on this '
                              'topic (std_msgs/Float64), per level at its time')
-    parser.add_argument('--experiment-gap', type=float, default=10.0, metavar='S',
+    parser.add_argument('--experiment-gap', type=FINITE, default=10.0, metavar='S',
                         help='bag input: levels more than S seconds apart start a new '
                              'experiment (default 10)')
     parser.add_argument('--folds', type=int, default=5,

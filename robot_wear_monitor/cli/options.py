@@ -21,30 +21,67 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
+from robot_wear_monitor.yaml_files import shorten
 
 PROG = 'robot-wear-monitor'
 
 
 # --------------------------------------------------------------------------- argparse types
 
+#: The most values a comma list may hold, and the largest magnitude of each.
+MAX_LIST_VALUES = 1000
+MAX_MAGNITUDE = 1e9
+
+
 def parse_float_list(text: str) -> list[float]:
-    """Parse '2.1,8.7,15.3' into floats (argparse type); reject empty items, NaN and inf."""
-    items = [item.strip() for item in text.split(',')]
+    """Parse '2.1,8.7,15.3' into floats (argparse type); reject empty items, NaN and inf.
+
+    At most :data:`MAX_LIST_VALUES` values, each at most :data:`MAX_MAGNITUDE` in magnitude.
+    """
+    items = [item.strip() for item in text.split(',', MAX_LIST_VALUES)]
+    if len(items) > MAX_LIST_VALUES:
+        raise argparse.ArgumentTypeError(f'more than {MAX_LIST_VALUES} values')
     values = []
     for item in items:
         try:
             value = float(item)
         except ValueError:
-            raise argparse.ArgumentTypeError(f'not a number: {item!r} in {text!r}') from None
-        if value != value or value in (float('inf'), float('-inf')):
-            raise argparse.ArgumentTypeError(f'not a finite number: {item!r} in {text!r}')
+            raise argparse.ArgumentTypeError(f'not a number: {shorten(repr(item))}') from None
+        if not math.isfinite(value) or abs(value) > MAX_MAGNITUDE:
+            raise argparse.ArgumentTypeError(f'not a finite number of at most '
+                                             f'{MAX_MAGNITUDE:g}: {shorten(item)}')
         values.append(value)
     return values
+
+
+def bounded(low: float, high: float, *, unit: str = '', low_open: bool = False,
+            integer: bool = False) -> Callable[[str], float]:
+    """Return an argparse type: a finite number in [low, high] (``low_open``: (low, high]).
+
+    The error names the range and the unit; argparse adds the option's name and exits 2.
+    """
+    unit_text = f' {unit}' if unit else ''
+
+    def parse(text: str) -> float:
+        try:
+            value: float = int(text) if integer else float(text)
+        except ValueError:
+            kind = 'an integer' if integer else 'a number'
+            raise argparse.ArgumentTypeError(f'not {kind}: {shorten(repr(text))}') from None
+        ok = math.isfinite(value) and (value > low if low_open else value >= low) \
+            and value <= high
+        if not ok:
+            raise argparse.ArgumentTypeError(
+                f'must be {">" if low_open else ">="} {low:g} and <= {high:g}{unit_text}, got '
+                f'{shorten(text)}{unit_text}')
+        return value
+    return parse
 
 
 def parse_range(text: str) -> list[float]:
@@ -58,6 +95,8 @@ def parse_range(text: str) -> list[float]:
     if step <= 0 or stop < start:
         raise argparse.ArgumentTypeError(f'expected start <= stop and step > 0, got {text!r}')
     count = int(round((stop - start) / step)) + 1
+    if count > MAX_LIST_VALUES:
+        raise argparse.ArgumentTypeError(f'{count} values, more than {MAX_LIST_VALUES}')
     return [start + i * step for i in range(count)]
 
 
@@ -122,6 +161,16 @@ def add_joints(parser: argparse.ArgumentParser, *, help_text: str) -> None:
                         help=help_text)
 
 
+#: argparse types of the options with a physical range (one range per meaning).
+GEAR_RATIO = bounded(0.0, 1e4, low_open=True)
+TORQUE_SCALE = bounded(0.0, 1e9, low_open=True)
+TEMPERATURE_DEGC = bounded(-50.0, 200.0, unit='degC')
+WEAR = bounded(0.0, 1000.0)
+SPEED_COUNT = bounded(1, 20, integer=True)
+#: any other number: finite and at most 1e9 in magnitude
+FINITE = bounded(-MAX_MAGNITUDE, MAX_MAGNITUDE)
+
+
 def add_gear_ratio_and_torque_scale(parser: argparse.ArgumentParser, *, gear_default: str,
                                     scale_default: str | None = None) -> None:
     """Add ``--gear-ratio R`` and ``--torque-scale S`` (None when not given).
@@ -129,9 +178,9 @@ def add_gear_ratio_and_torque_scale(parser: argparse.ArgumentParser, *, gear_def
     ``gear_default`` and ``scale_default`` (default: the same) say where the value comes from
     when the option is not given.
     """
-    parser.add_argument('--gear-ratio', type=float, default=None, metavar='R',
+    parser.add_argument('--gear-ratio', type=GEAR_RATIO, default=None, metavar='R',
                         help=f'motor speed = R x joint speed (default: {gear_default})')
-    parser.add_argument('--torque-scale', type=float, default=None, metavar='S',
+    parser.add_argument('--torque-scale', type=TORQUE_SCALE, default=None, metavar='S',
                         help='normalised torque = effort / S (default: '
                              f'{scale_default or gear_default})')
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import (add_json, add_params, emit_json, params_from,
-                                            parse_float_list, warn_deprecated)
+from robot_wear_monitor.cli.options import (add_json, add_params, emit_json, FINITE, GEAR_RATIO,
+                                            params_from, parse_float_list, warn_deprecated)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'plan the friction experiment motion of one joint (JointTrajectory YAML/bag, CSV)'
@@ -24,37 +24,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                              'set (Table IV; --grid: Table V)')
     parser.add_argument('--grid', type=parse_float_list, metavar='V1,V2,...',
                         help='with --n: choose the N speeds from this grid [rad/s]')
-    parser.add_argument('--center', type=float, required=True, metavar='RAD',
+    parser.add_argument('--center', type=FINITE, required=True, metavar='RAD',
                         help='centre of the position window, joint side [rad]')
-    parser.add_argument('--half-range', type=float, required=True, metavar='RAD',
+    parser.add_argument('--half-range', type=FINITE, required=True, metavar='RAD',
                         help='half width of the window the constant-speed passes stay in [rad]')
-    parser.add_argument('--gear-ratio', type=float, required=True, metavar='R',
+    parser.add_argument('--gear-ratio', type=GEAR_RATIO, required=True, metavar='R',
                         help='motor speed = R x joint speed (1 for a direct drive; required: '
                              'the plan moves the robot, no default is safe)')
-    parser.add_argument('--max-acceleration', type=float, required=True, metavar='RAD_S2',
+    parser.add_argument('--max-acceleration', type=FINITE, required=True, metavar='RAD_S2',
                         help='joint acceleration limit [rad/s^2]')
-    parser.add_argument('--max-jerk', type=float, metavar='RAD_S3',
+    parser.add_argument('--max-jerk', type=FINITE, metavar='RAD_S3',
                         help='joint jerk limit [rad/s^3] (default: trapezoidal ramps)')
-    parser.add_argument('--max-speed', type=float, metavar='RAD_S',
+    parser.add_argument('--max-speed', type=FINITE, metavar='RAD_S',
                         help='joint speed limit [rad/s] (default: the fastest planned speed)')
     parser.add_argument('--position-limits', type=parse_float_list, metavar='LOW,HIGH',
                         help='joint position limits [rad], checked against the whole motion')
-    parser.add_argument('--target-std-error', type=float, default=1.0e-3, metavar='E',
+    parser.add_argument('--target-std-error', type=FINITE, default=1.0e-3, metavar='E',
                         help='wanted standard error of each friction level, normalised '
                              '(default 0.001)')
-    parser.add_argument('--noise-std', type=float, default=0.01, metavar='S',
+    parser.add_argument('--noise-std', type=FINITE, default=0.01, metavar='S',
                         help="the joint's torque noise per sample, normalised (default 0.01)")
-    parser.add_argument('--sample-rate', type=float, default=None, metavar='HZ',
+    parser.add_argument('--sample-rate', type=FINITE, default=None, metavar='HZ',
                         help='JointState rate the segmentation will see [Hz] (default 250)')
-    parser.add_argument('--rate', type=float, default=None, metavar='HZ', dest='legacy_rate',
+    parser.add_argument('--rate', type=FINITE, default=None, metavar='HZ', dest='legacy_rate',
                         help='deprecated spelling of --sample-rate (play --rate is a pace)')
-    parser.add_argument('--point-rate', type=float, default=50.0, metavar='HZ',
+    parser.add_argument('--point-rate', type=FINITE, default=50.0, metavar='HZ',
                         help='trajectory points per second (plus every phase end; default 50)')
-    parser.add_argument('--dwell', type=float, default=0.1, metavar='S',
+    parser.add_argument('--dwell', type=FINITE, default=0.1, metavar='S',
                         help='standstill at each turn [s] (default 0.1)')
-    parser.add_argument('--min-plateau', type=float, default=0.2, metavar='S',
+    parser.add_argument('--min-plateau', type=FINITE, default=0.2, metavar='S',
                         help="the segmentation's min_duration_s [s] (default 0.2)")
-    parser.add_argument('--trim', type=float, default=0.02, metavar='S',
+    parser.add_argument('--trim', type=FINITE, default=0.02, metavar='S',
                         help="the segmentation's trim_s [s] (default 0.02)")
     parser.add_argument('--min-samples', type=int, default=20,
                         help="the segmentation's min_samples (default 20)")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import rclpy_missing, ros_args
+from robot_wear_monitor.cli.options import FINITE, rclpy_missing, ros_args
 from robot_wear_monitor.errors import InputError
 
 HELP = 'play a recorded bag on the live ROS 2 graph, like ros2 bag play (needs rclpy)'
@@ -16,13 +16,13 @@ HELP = 'play a recorded bag on the live ROS 2 graph, like ros2 bag play (needs r
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``play``."""
     parser.add_argument('bag', metavar='BAG', help='recorded ROS 2 bag (MCAP or sqlite3)')
-    parser.add_argument('--rate', type=float, default=1.0,
+    parser.add_argument('--rate', type=FINITE, default=1.0,
                         help='multiple of the recorded pace (default 1.0)')
     parser.add_argument('--topics', nargs='+', metavar='TOPIC',
                         help='topics to play (default: every recorded topic)')
     parser.add_argument('--wait-for-subscribers', type=int, default=1, metavar='N',
                         help='subscribers each topic waits for before playing (default 1)')
-    parser.add_argument('--wait-timeout', type=float, default=10.0, metavar='S',
+    parser.add_argument('--wait-timeout', type=FINITE, default=10.0, metavar='S',
                         help='seconds to wait for them, then play anyway (default 10)')
 
 

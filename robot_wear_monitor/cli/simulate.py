@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import (add_params, check_option, params_from,
+from robot_wear_monitor.cli.options import (add_params, check_option, FINITE, params_from,
                                             parse_float_list)
 from robot_wear_monitor.errors import InputError
 
@@ -19,11 +19,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
                         default=[2.1, 28.5, 35.1, 41.7],
                         help='motor-side speeds [rad/s] (default: Table V, N = 4)')
-    parser.add_argument('--wear-final', type=float, default=60.0,
+    parser.add_argument('--wear-final', type=FINITE, default=60.0,
                         help='wear at the last experiment (default 60)')
-    parser.add_argument('--sample-rate', type=float, default=250.0, metavar='HZ',
+    parser.add_argument('--sample-rate', type=FINITE, default=250.0, metavar='HZ',
                         help='JointState rate [Hz] (default 250)')
-    parser.add_argument('--interval', type=float, default=3600.0, metavar='S',
+    parser.add_argument('--interval', type=FINITE, default=3600.0, metavar='S',
                         help='time between experiments [s] (default 3600)')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='bag storage (default mcap)')

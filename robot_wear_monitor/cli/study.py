@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import (add_json, add_params, emit_json, params_from,
-                                            parse_float_list, parse_range)
+from robot_wear_monitor.cli.options import (add_json, add_params, bounded, emit_json,
+                                            params_from, parse_float_list, parse_range,
+                                            SPEED_COUNT, WEAR)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'Monte Carlo bias/variance study of the wear estimator (Sec. IV-C, Fig. 8)'
@@ -13,14 +14,16 @@ HELP = 'Monte Carlo bias/variance study of the wear estimator (Sec. IV-C, Fig. 8
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``study``."""
-    parser.add_argument('--n', type=int, required=True, help='number of speed levels N (>= 1)')
+    parser.add_argument('--n', type=SPEED_COUNT, required=True,
+                        help='number of speed levels N (1-20)')
     parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',
                         help='speed levels [rad/s] (default: the optimal design for N)')
     parser.add_argument('--temperatures', type=parse_range, default=parse_range('30:50:1'),
                         metavar='START:STOP:STEP',
                         help='true temperatures [degC] (default 30:50:1)')
-    parser.add_argument('--wear', type=float, default=35.0, help='true wear level (default 35)')
-    parser.add_argument('--runs', type=int, default=1000, help='Monte Carlo runs per temperature')
+    parser.add_argument('--wear', type=WEAR, default=35.0, help='true wear level (default 35)')
+    parser.add_argument('--runs', type=bounded(1, 100_000, integer=True), default=1000,
+                        help='Monte Carlo runs per temperature (1-100000)')
     parser.add_argument('--seed', type=int, default=0, help='random seed')
     add_params(parser)
     add_json(parser)

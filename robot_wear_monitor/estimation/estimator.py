@@ -57,6 +57,9 @@ _T_PANELS, _T_NODES = 8, 8
 _Z_PANELS, _Z_NODES = 96, 8
 _Z_TAIL_SIGMAS = 12.0
 _GOLDEN_ITERATIONS = 36
+#: The most friction levels one experiment may have (the designs use 1-20; the cost of an
+#: estimate grows with N^2 and its interval's calibration with N).
+MAX_LEVELS = 100
 
 
 @dataclass(frozen=True)
@@ -172,10 +175,14 @@ def validate_speeds(speeds_rad_s: ArrayLike) -> FloatArray:
         raise InputError(f'speeds: expected a 1-D list of speeds, got shape {speeds.shape}')
     if speeds.size == 0:
         raise InputError('speeds: no speed levels given (N = 0)')
+    if speeds.size > MAX_LEVELS:
+        raise InputError(f'speeds: {speeds.size} levels, more than the {MAX_LEVELS} one '
+                         'experiment may have')
     if not np.all(np.isfinite(speeds)):
-        raise InputError(f'speeds: must be finite, got {speeds.tolist()}')
+        raise InputError(f'speeds: must be finite, got {str(speeds.tolist())[:80]}')
     if np.any(speeds <= 0):
-        raise InputError(f'speeds: must be > 0 rad/s (motor side), got {speeds.tolist()}')
+        raise InputError(f'speeds: must be > 0 rad/s (motor side), got '
+                         f'{str(speeds.tolist())[:80]}')
     return speeds
 
 

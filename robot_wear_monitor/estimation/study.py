@@ -17,6 +17,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robot_wear_monitor.atomic_files import save_figure
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import design_cost
 from robot_wear_monitor.estimation.estimator import estimate_wear, validate_speeds
@@ -191,8 +192,6 @@ def plot_study(results: Sequence[StudyResult], *, path: str) -> None:
     ax_var.legend(fontsize='small', ncol=2)
     fig.tight_layout()
     try:
-        fig.savefig(path, dpi=120)
-    except OSError as error:
-        raise InputError(f'plot: cannot write {path}: {error.strerror}') from None
+        save_figure(fig, path, dpi=120)
     finally:
         plt.close(fig)

@@ -28,9 +28,8 @@ from pathlib import Path
 import time
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 
-import yaml
-
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.yaml_files import load_yaml_text
 
 #: The robot of bags given without a manifest and without ``--robot``.
 DEFAULT_ROBOT = 'default'
@@ -255,10 +254,10 @@ def recording_start_ns(bag: Path) -> Optional[int]:
     if metadata is None or not metadata.is_file() or metadata.stat().st_size > 1 << 20:
         return None
     try:
-        info = yaml.safe_load(metadata.read_text(encoding='utf-8'))
+        info = load_yaml_text(metadata.read_text(encoding='utf-8'), source=str(metadata))
         return int(info['rosbag2_bagfile_information']['starting_time']
                    ['nanoseconds_since_epoch'])
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+    except (OSError, InputError, KeyError, TypeError, ValueError):
         return None
 
 

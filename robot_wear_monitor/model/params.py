@@ -23,6 +23,7 @@ import yaml
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.extensions import (extension_from_mapping, extension_to_mapping,
                                                  ExtensionError, ModelExtension)
+from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
 PACKAGE_NAME = 'robot_wear_monitor'
 DEFAULT_PARAMETER_FILE = 'irb6620_joint2.yaml'
@@ -120,11 +121,11 @@ def _number(value: Any, where: str, source: str) -> float:
         if isinstance(value, str):
             hint = (' (YAML reads numbers like 1e-3 as text: write 1.0e-3)'
                     if _looks_numeric(value) else '')
-        raise ParameterError(
-            f'{source}: {where}: expected a number, got {type(value).__name__} {value!r}{hint}')
+        raise ParameterError(f'{source}: {where}: expected a number, got '
+                             f'{type(value).__name__} {shorten(repr(value))}{hint}')
     number = float(value)
     if not math.isfinite(number):
-        raise ParameterError(f'{source}: {where}: must be finite, got {number}')
+        raise ParameterError(f'{source}: {where}: must be finite, got {shorten(number)}')
     return number
 
 
@@ -138,7 +139,7 @@ def _looks_numeric(text: str) -> bool:
 
 def _section(document: Mapping[str, Any], key: str, expected: tuple, source: str) -> dict:
     if key not in document:
-        raise ParameterError(f'{source}: missing section {key!r}')
+        raise ParameterError(f'{source}: missing section {shorten(repr(key))}')
     section = document[key]
     if not isinstance(section, Mapping):
         raise ParameterError(f'{source}: {key}: expected a mapping, got {type(section).__name__}')
@@ -180,7 +181,7 @@ def _check_constraints(params: ParameterSet, source: str) -> None:
     )
     for ok, where, rule, value in checks:
         if not ok:
-            raise ParameterError(f'{source}: {where}: {rule}, got {value}')
+            raise ParameterError(f'{source}: {where}: {rule}, got {shorten(value)}')
     for bound in (params.temperature_min_degc, params.temperature_max_degc,
                   params.design_temperature_degc):
         stribeck = model.phi_s0 + model.phi_s_temp * bound
@@ -198,10 +199,11 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
     known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS, _EXTENSION_SECTION}
     extra = sorted(set(document) - known)
     if extra:
-        raise ParameterError(f'{source}: unknown section {extra[0]!r}')
+        raise ParameterError(f'{source}: unknown section {shorten(repr(extra[0]))}')
     name = document.get('name')
     if not isinstance(name, str) or not name.strip():
-        raise ParameterError(f'{source}: name: expected a non-empty string, got {name!r}')
+        raise ParameterError(f'{source}: name: expected a non-empty string, got '
+                             f'{shorten(repr(name))}')
     coefficients: dict[str, float] = {}
     for key, expected in _MODEL_SECTIONS.items():
         coefficients.update(_section(document, key, expected, source))
@@ -261,16 +263,8 @@ def load_parameter_set(path: str | os.PathLike | None = None) -> ParameterSet:
 
     """
     file = Path(path) if path is not None else default_parameter_file()
-    source = str(file)
-    try:
-        text = file.read_text(encoding='utf-8')
-    except OSError as error:
-        raise ParameterError(f'{source}: cannot read parameter file: {error.strerror}') from None
-    try:
-        document = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        raise ParameterError(f'{source}: not valid YAML: {error}'.splitlines()[0]) from None
-    return parameter_set_from_mapping(document, source=source)
+    document = load_yaml_file(file, what='parameter file', error=ParameterError)
+    return parameter_set_from_mapping(document, source=str(file))
 
 
 def parameter_set_to_mapping(params: ParameterSet) -> dict:

@@ -15,13 +15,13 @@ import os
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
-import yaml
 
 from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
                                                  DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
                                                  WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
 from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
+from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
 WEAR_ESTIMATOR_NODE = 'wear_estimator_node'
@@ -350,31 +350,35 @@ def coerce_value(spec: ParameterSpec, value: Any, *, source: str = '<parameters>
     got = _type_name(value)
     if spec.type == 'double_array':
         if not isinstance(value, (list, tuple)):
-            raise ParameterError(f'{where}: expected a list of doubles, got {got} {value!r}')
+            raise ParameterError(f'{where}: expected a list of doubles, got {got} '
+                                 f'{shorten(repr(value))}')
         bad = [v for v in value if _type_name(v) != 'double']
         if bad:
             raise ParameterError(f'{where}: every element must be a double (write 2.0, not 2), '
-                                 f'got {bad[0]!r}')
+                                 f'got {shorten(repr(bad[0]))}')
         value = tuple(float(v) for v in value)
         if not all(math.isfinite(v) for v in value):
             raise ParameterError(f'{where}: elements must be finite')
     elif spec.type == 'string_array':
         if not isinstance(value, (list, tuple)):
-            raise ParameterError(f'{where}: expected a list of strings, got {got} {value!r}')
+            raise ParameterError(f'{where}: expected a list of strings, got {got} '
+                                 f'{shorten(repr(value))}')
         bad = [v for v in value if not isinstance(v, str)]
         if bad:
-            raise ParameterError(f'{where}: every element must be a string, got {bad[0]!r}')
+            raise ParameterError(f'{where}: every element must be a string, got '
+                                 f'{shorten(repr(bad[0]))}')
         value = tuple(value)
     elif got != spec.type:
         hint = ' (write it with a decimal point, e.g. 35.0)' if (
             spec.type == 'double' and got == 'integer') else ''
-        raise ParameterError(f'{where}: expected a {spec.type}, got {got} {value!r}{hint}')
+        raise ParameterError(f'{where}: expected a {spec.type}, got {got} '
+                             f'{shorten(repr(value))}{hint}')
     elif spec.type == 'double' and not math.isfinite(value):
-        raise ParameterError(f'{where}: must be finite, got {value}')
+        raise ParameterError(f'{where}: must be finite, got {shorten(value)}')
     if spec.check is not None:
         problem = spec.check(value)
         if problem:
-            raise ParameterError(f'{where}: {problem}, got {value!r}')
+            raise ParameterError(f'{where}: {problem}, got {shorten(repr(value))}')
     return value
 
 
@@ -387,7 +391,7 @@ def _specs(node_name: str) -> tuple[ParameterSpec, ...]:
     try:
         return NODE_PARAMETERS[node_name]
     except KeyError:
-        raise ParameterError(f'unknown node {node_name!r} (expected one of '
+        raise ParameterError(f'unknown node {shorten(repr(node_name))} (expected one of '
                              f'{", ".join(NODE_PARAMETERS)})') from None
 
 
@@ -404,7 +408,8 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
                      if name.rpartition('.')[2] not in per_joint or '.' not in name)
     if unknown:
         hint = (f'; per joint: <joint>.<{"|".join(per_joint)}>' if per_joint else '')
-        raise ParameterError(f'{source}: {node_name}: unknown parameter {unknown[0]!r} '
+        raise ParameterError(f'{source}: {node_name}: unknown parameter '
+                             f'{shorten(repr(unknown[0]))} '
                              f'(known: {", ".join(specs)}{hint})')
     result = {name: coerce_value(spec, spec.default, source='<defaults>')
               for name, spec in specs.items()}
@@ -484,12 +489,7 @@ def read_ros_parameters_file(path: str | os.PathLike, node_name: str) -> dict[st
     the node's own entries win.
     """
     source = str(path)
-    try:
-        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
-    except OSError as error:
-        raise ParameterError(f'{source}: cannot read parameter file: {error.strerror}') from None
-    except yaml.YAMLError as error:
-        raise ParameterError(f'{source}: not valid YAML: {error}'.splitlines()[0]) from None
+    document = load_yaml_file(path, what='node parameter file', error=ParameterError)
     if not isinstance(document, Mapping):
         raise ParameterError(f'{source}: expected a mapping of node names at the top level')
     merged: dict[str, Any] = {}
@@ -516,7 +516,7 @@ def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, 
     file = Path(path) if path is not None else default_node_config_file()
     raw = read_ros_parameters_file(file, node_name)
     own: dict[str, Any] = {}
-    document = yaml.safe_load(file.read_text(encoding='utf-8')) or {}
+    document = load_yaml_file(file, what='node parameter file', error=ParameterError) or {}
     for key in (node_name, '/' + node_name):
         if key in document:
             own.update(_flatten(document[key]['ros__parameters']))

@@ -18,6 +18,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from robot_wear_monitor.atomic_files import save_figure, write_text_atomic
 from robot_wear_monitor.model.params import ParameterSet
 
 
@@ -140,7 +141,7 @@ def _save(plt: Any, fig: Any, path: str | os.PathLike) -> Path:
     """Lay out ``fig``, save it as a PNG at ``path`` and close it."""
     fig.tight_layout()
     target = Path(path)
-    fig.savefig(target, dpi=110)
+    save_figure(fig, target, dpi=110)
     plt.close(fig)
     return target
 
@@ -228,7 +229,7 @@ def write_report(result: Any, folder: str | os.PathLike, *, threshold: float,
             f'{"**ALARM**" if update.alarm_active else ""} | '
             f'{("OK", "WARN", "ERROR", "STALE")[update.status.level]} |')
     target = folder / 'report.md'
-    target.write_text('\n'.join(lines) + '\n', encoding='utf-8')
+    write_text_atomic(target, '\n'.join(lines) + '\n')
     return target
 
 

@@ -186,8 +186,8 @@ def test_bag_without_the_joint_or_with_a_wrong_type(small_bag, tmp_path, capsys)
 
 
 @pytest.mark.parametrize('args, match', [
-    (['--gear-ratio', '-2'], 'gear_ratio: must be > 0'),
-    (['--torque-scale', '0'], 'torque_scale: must be > 0'),
+    (['--gear-ratio', '-2'], 'argument --gear-ratio: must be > 0'),
+    (['--torque-scale', '0'], 'argument --torque-scale: must be > 0'),
     (['--params', 'no_such.yaml'], 'cannot read parameter file'),
 ])
 def test_bad_parameters_exit_2(small_bag, tmp_path, capsys, args, match):

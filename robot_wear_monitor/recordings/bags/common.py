@@ -16,6 +16,7 @@ from rosbags.rosbag2 import Reader, StoragePlugin
 from rosbags.typesys import get_typestore, Stores
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.yaml_files import load_yaml_file
 
 FloatArray = NDArray[np.float64]
 
@@ -45,6 +46,8 @@ def open_reader(path: str | os.PathLike) -> Reader:
     bag = Path(path)
     if not bag.exists():
         raise BagError(f'{bag}: no such bag')
+    if (bag / 'metadata.yaml').is_file():  # bounded, no aliases, before rosbags reads it
+        load_yaml_file(bag / 'metadata.yaml', what='bag metadata', error=BagError)
     try:
         reader = Reader(bag)
         reader.open()

@@ -12,14 +12,13 @@ from __future__ import annotations
 from contextlib import contextmanager
 import os
 from pathlib import Path
-import shutil
 from typing import Any, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 from rosbags.rosbag2 import Writer
 
-from robot_wear_monitor.atomic_files import remove_stale_partials
+from robot_wear_monitor.atomic_files import remove_stale_partials, staging_folder
 from robot_wear_monitor.recordings.bags.cdr import Layout, parse_layout
 from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError, JOINT_STATE_TYPE,
                                                        JOINT_STATES_TOPIC, storage_plugin,
@@ -95,32 +94,26 @@ def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
     if not target.parent.is_dir():
         raise BagError(f'{target}: the folder {target.parent} does not exist')
     stale = remove_stale_partials(target)
-    staging = target.with_name(f'.{target.name}.partial-{os.getpid()}')
-    if staging.exists():
-        shutil.rmtree(staging)
-    staging.mkdir()
-    temporary = staging / target.name  # rosbags names the storage file after the folder
-    writer = Writer(temporary, version=BAG_VERSION, storage_plugin=plugin)
-    try:
-        writer.open()
-        bag_writer = BagWriter(writer)
-        bag_writer.removed_stale = stale
-        yield bag_writer
-        writer.close()
-        if target.exists():
-            old = staging / '.old'
-            os.replace(target, old)
-            os.replace(temporary, target)
-        else:
-            os.replace(temporary, target)
-    except BaseException:
+    with staging_folder(target) as staging:
+        temporary = staging / target.name  # rosbags names the storage file after the folder
+        writer = Writer(temporary, version=BAG_VERSION, storage_plugin=plugin)
         try:
+            writer.open()
+            bag_writer = BagWriter(writer)
+            bag_writer.removed_stale = stale
+            yield bag_writer
             writer.close()
-        except Exception:  # noqa: BLE001 - the original error is what matters
-            pass
-        raise
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+            if target.is_symlink():
+                raise BagError(f'{target}: is a symbolic link; refusing to replace it')
+            if target.exists():
+                os.replace(target, staging / '.old')
+            os.replace(temporary, target)
+        except BaseException:
+            try:
+                writer.close()
+            except Exception:  # noqa: BLE001 - the original error is what matters
+                pass
+            raise
 
 
 def _template(names: Sequence[str], frame_id: str) -> tuple[bytes, Layout]:

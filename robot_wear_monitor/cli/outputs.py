@@ -1,0 +1,62 @@
+"""Check every output a command names before it does any work (``main`` calls it first).
+
+A full disk or a read-only folder must not cost an hour of replay and then a traceback: the
+files (``--json-out``, ``--plot``, ``--csv``, ``--out-params``, a file ``--out``), the folders
+(``--plots``, a folder ``--out``) and an SQLite ``--history`` are checked here with
+:func:`robot_wear_monitor.atomic_files.check_writable`; what still fails later is an
+:class:`~robot_wear_monitor.atomic_files.OutputError` (exit 2, the path and the reason), and
+the safe writer leaves no partial file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from robot_wear_monitor.atomic_files import check_writable, OutputError
+
+#: Verbs whose ``--out`` is a folder (a bag, a report folder); elsewhere it is a file.
+FOLDER_OUT = ('simulate', 'replay', 'demo')
+
+
+def _check_folder(path: str, option: str) -> None:
+    target = check_writable(path, what=option, folder=True)
+    if target.is_dir() and not os.access(target, os.W_OK | os.X_OK):
+        raise OutputError(f'{option} {target}: the folder is not writable')
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Raise :class:`OutputError` for the first named output that cannot be written."""
+    from robot_wear_monitor.monitoring.history.backends import is_postgresql_url
+    command = getattr(args, 'command', '')
+    for attribute, option in (('json_out', '--json-out'), ('plot', '--plot'),
+                              ('out_params', '--out-params')):
+        value = getattr(args, attribute, None)
+        if value:
+            check_writable(value, what=option)
+    csv = getattr(args, 'csv', None)
+    if csv and csv != '-':
+        check_writable(csv, what='--csv')
+    plots = getattr(args, 'plots', None)
+    if plots:
+        if Path(plots).exists():
+            _check_folder(plots, '--plots')
+        else:  # made by the verb, with its parents
+            parent = next((p for p in Path(plots).absolute().parents if p.exists()), None)
+            if parent is None or not parent.is_dir() or not os.access(parent,
+                                                                      os.W_OK | os.X_OK):
+                raise OutputError(f'--plots {plots}: cannot create it under {parent}')
+    out = getattr(args, 'out', None)
+    if out and out != '-':
+        if command in FOLDER_OUT:
+            if command != 'replay' or not Path(out).exists():
+                _check_folder(out, '--out')
+        else:
+            check_writable(out, what='--out')
+    history = getattr(args, 'history', None)
+    if history and command != 'history' and str(history) != ':memory:' \
+            and not is_postgresql_url(history):
+        target = check_writable(history, what='--history')
+        if target.exists() and not os.access(target, os.R_OK | os.W_OK):
+            raise OutputError(f'--history {target}: the file is not writable')

@@ -1,0 +1,80 @@
+"""Reading YAML files other people wrote: bounded in size, no aliases, values cut in errors.
+
+A parameter set, a node configuration or a bag's ``metadata.yaml`` is untrusted input.  YAML
+aliases (``*name``) let a few hundred bytes expand to gigabytes ("billion laughs"), so they are
+refused while the document is composed, before anything is expanded; files over
+:data:`MAX_YAML_BYTES` are refused before they are read; and a value echoed in an error is cut
+to :data:`ECHO_LIMIT` characters (:func:`shorten`).  Only plain data is built (``SafeLoader``):
+no Python objects, no code.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from robot_wear_monitor.errors import InputError
+
+#: The largest YAML file read [bytes] (the packaged parameter set is 2 kB).
+MAX_YAML_BYTES = 1_000_000
+#: The most characters of a value an error message echoes.
+ECHO_LIMIT = 80
+
+
+def shorten(value: Any, limit: int = ECHO_LIMIT) -> str:
+    """Return ``repr``-free text of ``value`` cut to ``limit`` characters with an ellipsis."""
+    text = str(value)
+    text = ''.join(c if c.isprintable() else repr(c)[1:-1] for c in text[:limit + 1])
+    return text if len(text) <= limit else text[:limit - 1] + '\u2026'
+
+
+class _NoAliasLoader(yaml.SafeLoader):
+    """SafeLoader that refuses aliases when it meets them (nothing is expanded before)."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:  # noqa: D102 - yaml's hook
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise yaml.composer.ComposerError(
+                None, None, 'YAML aliases (*name) are not accepted', event.start_mark)
+        return super().compose_node(parent, index)
+
+
+def load_yaml_text(text: str, *, source: str, error: type[InputError] = InputError) -> Any:
+    """Return the document of YAML ``text``; raise ``error`` naming ``source`` when it is bad."""
+    if len(text) > MAX_YAML_BYTES:
+        raise error(f'{source}: {len(text)} characters, more than the {MAX_YAML_BYTES} a YAML '
+                    'file may have here')
+    try:
+        return yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader
+    except yaml.YAMLError as problem:
+        mark = getattr(problem, 'problem_mark', None)
+        where = f' (line {mark.line + 1}, column {mark.column + 1})' if mark else ''
+        what = getattr(problem, 'problem', None) or str(problem).splitlines()[0]
+        raise error(f'{source}: not valid YAML: {shorten(what)}{where}') from None
+    except RecursionError:
+        raise error(f'{source}: YAML nested too deeply') from None
+
+
+def load_yaml_file(path: str | os.PathLike, *, what: str = 'YAML file',
+                   error: type[InputError] = InputError) -> Any:
+    """Return the document of the YAML file at ``path`` (size checked before it is read).
+
+    Raises ``error`` (an :class:`InputError` type) naming the path: missing or unreadable, over
+    :data:`MAX_YAML_BYTES`, not valid YAML, or with aliases.
+    """
+    file = Path(path)
+    try:
+        size = file.stat().st_size
+        if size > MAX_YAML_BYTES:
+            raise error(f'{file}: {what} of {size} bytes, more than the limit of '
+                        f'{MAX_YAML_BYTES} bytes')
+        with open(file, encoding='utf-8') as stream:
+            text = stream.read(MAX_YAML_BYTES + 1)
+    except OSError as problem:
+        raise error(f'{file}: cannot read {what}: {problem.strerror}') from None
+    except UnicodeDecodeError:
+        raise error(f'{file}: {what} is not UTF-8 text') from None
+    return load_yaml_text(text, source=str(file), error=error)
