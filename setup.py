@@ -47,7 +47,7 @@ setup(
                  'flake8-class-newline>=1.6', 'flake8-comprehensions>=3.10',
                  'flake8-deprecated>=2.0', 'flake8-docstrings>=1.7',
                  'flake8-import-order>=0.18', 'flake8-quotes>=3.3', 'pydocstyle>=6.3',
-                 'mypy>=1.8', 'types-PyYAML>=6.0'],
+                 'mypy>=1.8', 'types-PyYAML>=6.0', 'hypothesis>=6.80'],
     },
     zip_safe=True,
     maintainer='robot_wear_monitor maintainers',

@@ -170,6 +170,53 @@ def staging_folder(path: str | os.PathLike) -> Iterator[Path]:
         shutil.rmtree(folder, ignore_errors=True)
 
 
+#: Suffix of the lock file of an output (``.<name>.lock`` beside it, removed when released).
+LOCK_SUFFIX = '.lock'
+
+
+@contextmanager
+def output_lock(path: str | os.PathLike, *, what: str = 'output') -> Iterator[None]:
+    """Be the only writer of the output ``path`` while the block runs, or raise OutputError.
+
+    An advisory lock (:func:`fcntl.flock`) on ``.<name>.lock`` beside the output, opened
+    without following a link; a second writer of the same output gets "in use by process N"
+    (exit 2) instead of both reporting success.  The lock file is removed on release; a writer
+    that finds its locked file replaced meanwhile locks the new one.
+    """
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path('.')
+    lock_path = parent / f'.{target.name}{LOCK_SUFFIX}'
+    while True:
+        try:
+            handle = os.open(lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o600)
+        except OSError as error:
+            raise OutputError(f'{what} {target}: cannot lock it ({_reason(error)})') from None
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(handle, 32).decode(errors='replace').strip() or 'another process'
+            os.close(handle)
+            raise OutputError(f'{what} {target}: in use by process {holder} (another writer '
+                              'of the same output); try again when it has finished') from None
+        try:
+            same = os.fstat(handle).st_ino == os.stat(lock_path, follow_symlinks=False).st_ino
+        except OSError:
+            same = False
+        if same:
+            break
+        os.close(handle)  # the file was removed and made anew meanwhile: lock the new one
+    try:
+        os.ftruncate(handle, 0)
+        os.write(handle, f'{os.getpid()}\n'.encode())
+        yield
+    finally:
+        try:
+            os.unlink(lock_path)
+        except OSError:
+            pass
+        os.close(handle)
+
+
 def _process_is_gone(pid: int) -> bool:
     """Return True when no process ``pid`` exists (a permission error means it exists)."""
     try:

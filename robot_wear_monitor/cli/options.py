@@ -206,10 +206,19 @@ def add_local(parser: argparse.ArgumentParser) -> None:
 
 
 def add_history(parser: argparse.ArgumentParser, *, help_text: str,
-                required: bool = False) -> None:
-    """Add ``--history PATH|URL``: the wear history (an SQLite file or a PostgreSQL URL)."""
+                required: bool = False, writer: bool = False) -> None:
+    """Add ``--history PATH|URL``: the wear history (an SQLite file or a PostgreSQL URL).
+
+    ``writer``: the verb writes the history, so it also takes ``--init``.
+    """
     parser.add_argument('--history', metavar='PATH|URL', required=required,
                         help=help_text + ': an SQLite file, or postgresql://USER@HOST:PORT/DB')
+    if writer:
+        parser.add_argument('--init', action='store_true',
+                            help='make a wear history in an existing empty file, or add one to '
+                                 'a PostgreSQL database that holds other tables (a missing '
+                                 'file is always created; a file of another program never '
+                                 'written)')
 
 
 def add_json(parser: argparse.ArgumentParser, *, what: str = 'one JSON object',

@@ -51,7 +51,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                  'per-joint values as <joint>: {gear_ratio: ...})')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='storage of OUT_BAG (default mcap)')
-    add_history(parser, help_text='also keep the wear history (with many bags: the output)')
+    add_history(parser, help_text='also keep the wear history (with many bags: the output)',
+                writer=True)
     parser.add_argument('--truth', metavar='JSON',
                         help='truth of a simulated bag (simulate writes BAG.truth.json), added '
                              'to the summary and the plot; nothing beside the bag is read '
@@ -96,6 +97,7 @@ def main(args: argparse.Namespace) -> int:
     result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
                         estimator_parameters=estimator, storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
+                        history_init=True if args.init else None,
                         progress=not args.no_progress, truth=truth, recover=not args.strict)
     if result.recovery is not None and not result.recovery.complete:
         print(f'warning: {args.bag}: unfinished recording ({result.recovery.reason}): read '
@@ -249,7 +251,7 @@ def main_batch(args: argparse.Namespace) -> int:
                               overwrite=args.overwrite, recover=not args.strict)
     if args.history is not None:  # made (or refused) once, before the workers start
         from robot_wear_monitor.monitoring.history import open_history
-        open_history(args.history).close()
+        open_history(args.history, init=True if args.init else None).close()
 
     def report(outcome: BagOutcome) -> None:  # a failure as it happens, above the bar
         if outcome.status == 'failed':

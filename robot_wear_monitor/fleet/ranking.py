@@ -15,6 +15,7 @@ import math
 from typing import Any, Iterable, Optional, Sequence
 
 from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.monitoring.diagnostics import clean_text
 from robot_wear_monitor.monitoring.history import FleetRow
 
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
@@ -121,8 +122,9 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
         s = row.state
         alarm = (f'LATCHED since {iso_time(s.alarm_since_stamp_s, local=local)}'
                  if s.alarm else 'no')
-        lines.append((s.robot, s.joint, _wear_text(s), _trend_text(s), alarm,
-                      _crossing_text(row, local), str(s.experiments),
+        lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
+                      _wear_text(s), _trend_text(s), alarm, _crossing_text(row, local),
+                      str(s.experiments),
                       iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]

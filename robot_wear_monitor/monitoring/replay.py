@@ -161,6 +161,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                experiment_parameters: Mapping[str, Any],
                estimator_parameters: Mapping[str, Any], storage: str = 'mcap',
                history_file: str | os.PathLike | None = None, overwrite: bool = False,
+               history_init: Optional[bool] = None,
                progress: bool = False, truth: Optional[list] = None,
                recover: bool = True, chunk_messages: int = 32768) -> ReplayResult:
     """Replay ``bag`` through the services; write the node outputs to ``out_bag`` if given.
@@ -193,6 +194,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                                recover=recover, require_joints=False,
                                chunk_messages=chunk_messages)
     history = WearHistory(history_file if history_file is not None else ':memory:',
+                          init=history_init,
                           robot=estimator_parameters.get('robot_id') or None)
     # one writer of a robot at a time: a second replay of the same robot into the history
     # waits, then restores the first one's rows (its trend is the sequential run's)

@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 from rosbags.rosbag2 import Writer
 
-from robot_wear_monitor.atomic_files import remove_stale_partials, staging_folder
+from robot_wear_monitor.atomic_files import (output_lock, remove_stale_partials,
+                                             staging_folder)
 from robot_wear_monitor.recordings.bags.cdr import Layout, parse_layout
 from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError, JOINT_STATE_TYPE,
                                                        JOINT_STATES_TOPIC, storage_plugin,
@@ -93,8 +94,8 @@ def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
                        'replace it)')
     if not target.parent.is_dir():
         raise BagError(f'{target}: the folder {target.parent} does not exist')
-    stale = remove_stale_partials(target)
-    with staging_folder(target) as staging:
+    with output_lock(target, what='bag'), staging_folder(target) as staging:
+        stale = remove_stale_partials(target)
         temporary = staging / target.name  # rosbags names the storage file after the folder
         writer = Writer(temporary, version=BAG_VERSION, storage_plugin=plugin)
         try:
