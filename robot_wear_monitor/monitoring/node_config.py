@@ -65,6 +65,14 @@ def _positive(value: float) -> Optional[str]:
     return None if value > 0 else 'must be > 0'
 
 
+def _gear_ratio(value: float) -> Optional[str]:
+    return None if 0 < value <= 1e4 else 'must be > 0 and <= 10000'
+
+
+def _torque_scale(value: float) -> Optional[str]:
+    return None if 0 < value <= 1e9 else 'must be > 0 and <= 1e9'
+
+
 def _non_negative(value: float) -> Optional[str]:
     return None if value >= 0 else 'must be >= 0'
 
@@ -154,9 +162,9 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINT,
     _JOINTS,
     ParameterSpec('gear_ratio', 'double', 150.0,
-                  'motor-side speed = joint-side velocity * gear_ratio [-]', _positive),
+                  'motor-side speed = joint-side velocity * gear_ratio [-]', _gear_ratio),
     ParameterSpec('torque_scale', 'double', 10.0,
-                  'normalised torque = effort / torque_scale [effort unit]', _positive),
+                  'normalised torque = effort / torque_scale [effort unit]', _torque_scale),
     _SPEEDS,
     ParameterSpec('experiment_speed_tolerance_rad_s', 'double', 1.0,
                   'a level belongs to an experiment speed within this tolerance, motor side '
