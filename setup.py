@@ -28,7 +28,8 @@ setup(
         'matplotlib>=3.6',
         'tqdm>=4.60',
         'rosbags>=0.10',
-        'mcap>=1.1',  # reads recordings cut off by a crash, record by record
+        'mcap>=1.1',  # the chunk index of MCAP bags; recordings cut off by a crash
+        'zstandard>=0.19', 'lz4>=4.0',  # MCAP chunk compressions (bulk reading)
         'threadpoolctl>=3.1',  # one BLAS thread: the linear algebra is small (blas_threads.py)
     ],
     extras_require={

@@ -294,7 +294,7 @@ class MultiDecoder:
 
     # -- decoding
 
-    def decode(self, raws: list, receive_ns: list[int]) -> dict[str, JointChunk]:
+    def decode(self, raws: list, receive_ns: Any) -> dict[str, JointChunk]:
         """Decode one chunk; return joint -> its samples of the chunk, in bag order."""
         if len(self.known) > _MAX_LAYOUTS:
             self._forget()  # between chunks, so that no tally of this chunk is lost
@@ -354,7 +354,7 @@ class MultiDecoder:
 
     def _read(self, layouts: list[_Known], members: list[int], assign: NDArray[np.int64],
               rows: NDArray[np.int64], data: bytes, record: int, count: int,
-              receive_ns: list[int], time_s: FloatArray,
+              receive_ns: Any, time_s: FloatArray,
               columns: dict[str, tuple[FloatArray, NDArray[np.bool_]]]) -> None:
         """Read the stamps and the joints of the messages of layouts sharing float offsets."""
         first = layouts[members[0]]

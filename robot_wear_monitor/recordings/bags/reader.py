@@ -24,6 +24,7 @@ from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChun
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
                                                        open_reader, TYPESTORE)
+from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
 
@@ -152,6 +153,34 @@ def read_scalar_topic(path: str | os.PathLike, *, topic: str
     return time_s[keep][order], value[keep][order], msgtype
 
 
+def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[tuple[list, list]]:
+    """Yield (bag times [ns], CDR bytes) of up to ``size`` messages from a message iterator."""
+    stamps: list = []
+    raws: list = []
+    for stamp, raw in pairs:
+        stamps.append(stamp)
+        raws.append(raw)
+        if len(raws) >= size:
+            yield stamps, raws
+            stamps, raws = [], []
+    if raws:
+        yield stamps, raws
+
+
+def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[tuple[Any, list]]:
+    """Yield (bag times [ns], CDR bytes) of whole MCAP chunks, at least ``size`` at a time."""
+    times: list = []
+    raws: list = []
+    for batch in bulk:
+        times.append(batch.log_time_ns)
+        raws.extend(batch.raws)
+        if len(raws) >= size:
+            yield np.concatenate(times), raws
+            times, raws = [], []
+    if raws:
+        yield np.concatenate(times), raws
+
+
 class JointStream:
     """Chunks of the samples of several joints of a bag; see :func:`iter_joint_chunks`.
 
@@ -193,6 +222,10 @@ class JointStream:
         self.progress = progress
         self.recover = recover
         self.require_joints = require_joints
+        #: read finished MCAP bags chunk by chunk (:mod:`.mcap_chunks`) when they qualify
+        self.bulk = os.environ.get('ROBOT_WEAR_MONITOR_BULK_READ', '1') != '0'
+        #: whether the last iteration used the bulk reader
+        self.bulk_read = False
         self.recovery: Recovery | None = None
         self.total_messages = 0
         bag = Path(path)
@@ -263,24 +296,27 @@ class JointStream:
         try:
             if reader is not None:
                 connections = joint_state_connections(reader, path, topic)
-                source: Iterator[Any] = ((t, raw) for _, t, raw in
-                                         reader.messages(connections=connections))
+                bulk = bulk_source(path, topic) if self.bulk else None
+                self.bulk_read = bulk is not None
+                if bulk is not None:
+                    reader.close()
+                    reader = None
+                    batches: Iterator[tuple[Any, list]] = _bulk_batches(
+                        bulk, self.chunk_messages)
+                else:
+                    batches = _batched(((t, raw) for _, t, raw in
+                                        reader.messages(connections=connections)),
+                                       self.chunk_messages)
             else:
                 assert unfinished is not None  # no reader: the recording is unfinished
-                source = iter_unfinished_mcap(Path(path), unfinished[0], topic, state)
+                batches = _batched(iter_unfinished_mcap(Path(path), unfinished[0], topic,
+                                                        state), self.chunk_messages)
             total = self.total_messages
-            raws: list = []
-            stamps: list = []
-            size = self.chunk_messages
             decoder = self._decoder
             while True:
                 gc.disable()  # the chunk holds many small objects; the collector rescans them
                 try:
-                    for stamp, raw in source:
-                        raws.append(raw)
-                        stamps.append(stamp)
-                        if len(raws) >= size:
-                            break
+                    stamps, raws = next(batches, (None, []))
                 except BagError:
                     raise
                 except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
@@ -293,7 +329,6 @@ class JointStream:
                 if not raws:
                     break
                 chunk = decoder.decode(raws, stamps)
-                raws, stamps = [], []
                 if self.progress is not None:
                     self.progress(decoder.messages, max(total, decoder.messages))
                 yield chunk

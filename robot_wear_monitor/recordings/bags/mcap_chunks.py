@@ -1,0 +1,230 @@
+"""The raw messages of one topic of a finished MCAP bag, a whole chunk at a time.
+
+rosbags iterates an MCAP bag message by message (a heap merge over its message sources, a few
+Python calls per message); for replay that is most of the reading time.  This module reads the
+same messages in bulk, with the ``mcap`` package only for the summary (channels and the chunk
+index):
+
+* each chunk is read with one ``read``, decompressed in one call (``zstandard``, ``lz4``) and
+  its records are split with numpy when the messages after the first one sit at a fixed stride
+  (the usual case: one JointState layout, one channel); otherwise record by record;
+* the messages of the topic's channels are returned in log-time order (ties: in file order),
+  chunk after chunk, as one :class:`RawBatch` per chunk (memoryviews into the chunk's bytes).
+
+:func:`bulk_source` says whether a bag qualifies: a finished rosbag2 folder of MCAP files (no
+file-level compression) whose files have a summary with a chunk index, and whose chunks do not
+overlap in time across the bag; anything else returns None and the caller reads with rosbags
+(a recording cut off by a crash goes through :mod:`.recovery` as before).  The messages, their
+order and their bag times are those rosbags yields (tested on every kind of bag the tests make).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import os
+from pathlib import Path
+import struct
+from typing import Iterator, Optional
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.yaml_files import load_yaml_file
+
+_MESSAGE = 0x05
+_CHUNK = 0x06
+_RECORD_HEAD = 9          # opcode (1) + length (8)
+_MESSAGE_HEAD = 22        # channel (2) + sequence (4) + log time (8) + publish time (8)
+_CHUNK_HEAD = struct.Struct('<QQQI')  # start, end, uncompressed size, crc
+
+
+@dataclass
+class RawBatch:
+    """The messages of the topic in one chunk: bag times [ns] and CDR bytes, in log-time order."""
+
+    log_time_ns: NDArray[np.int64]
+    raws: list
+
+
+@dataclass(frozen=True)
+class _Chunk:
+    file: Path
+    offset: int
+    length: int
+    start_ns: int
+    end_ns: int
+    compression: str
+
+
+class BulkSource:
+    """The chunks of a bag's MCAP files that hold the topic, in time order (see the module)."""
+
+    def __init__(self, chunks: list[_Chunk], channels: dict[Path, set[int]]) -> None:
+        """Keep the chunks (sorted, non-overlapping) and each file's channel ids of the topic."""
+        self.chunks = chunks
+        self.channels = channels
+
+    def __iter__(self) -> Iterator[RawBatch]:
+        """Yield one :class:`RawBatch` per chunk that holds messages of the topic."""
+        handles: dict[Path, object] = {}
+        try:
+            for chunk in self.chunks:
+                handle = handles.get(chunk.file)
+                if handle is None:
+                    handle = handles[chunk.file] = open(chunk.file, 'rb')
+                batch = _read_chunk(handle, chunk, self.channels[chunk.file])
+                if batch is not None:
+                    yield batch
+        finally:
+            for handle in handles.values():
+                handle.close()  # type: ignore[attr-defined]
+
+
+def _decompress(data: bytes, compression: str, size: int) -> bytes:
+    if compression == '':
+        return data
+    if compression == 'zstd':
+        import zstandard
+        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
+    if compression == 'lz4':
+        import lz4.frame  # type: ignore[import-untyped]
+        return lz4.frame.decompress(data)
+    raise InputError(f'unknown MCAP chunk compression {compression[:20]!r}')
+
+
+def _read_chunk(handle, chunk: _Chunk, channels: set[int]) -> Optional[RawBatch]:
+    handle.seek(chunk.offset)
+    record = handle.read(chunk.length)
+    if len(record) != chunk.length or record[0] != _CHUNK:
+        raise InputError(f'{chunk.file}: chunk at byte {chunk.offset} is cut or not a chunk')
+    _, _, size, _ = _CHUNK_HEAD.unpack_from(record, _RECORD_HEAD)
+    at = _RECORD_HEAD + _CHUNK_HEAD.size
+    (name_length,) = struct.unpack_from('<I', record, at)
+    at += 4 + name_length
+    (data_length,) = struct.unpack_from('<Q', record, at)
+    at += 8
+    data = _decompress(record[at:at + data_length], chunk.compression, size)
+    if len(data) != size:
+        raise InputError(f'{chunk.file}: chunk at byte {chunk.offset} decompresses to '
+                         f'{len(data)} bytes, its header says {size}')
+    return split_records(data, channels)
+
+
+def split_records(data: bytes, channels: set[int]) -> Optional[RawBatch]:
+    """Return the messages of ``channels`` among a chunk's records (None when there are none)."""
+    view = memoryview(data)
+    unpack = struct.unpack_from
+    starts: list[int] = []
+    ends: list[int] = []
+    times: list[int] = []
+    at, total = 0, len(data)
+    while at + _RECORD_HEAD <= total:
+        opcode = data[at]
+        (length,) = unpack('<Q', data, at + 1)
+        body = at + _RECORD_HEAD
+        if body + length > total:
+            raise InputError(f'a record of {length} bytes runs past the end of its chunk')
+        if opcode == _MESSAGE:
+            fixed = _fixed_stride(data, at, length)
+            if fixed is not None:
+                _take_stride(fixed, data, channels, starts, ends, times)
+                break
+            channel, _, log_time = unpack('<HIQ', data, body)
+            if channel in channels:
+                starts.append(body + _MESSAGE_HEAD)
+                ends.append(body + length)
+                times.append(log_time)
+        at = body + length
+    if not starts:
+        return None
+    log_time = np.asarray(times, dtype=np.int64)
+    order = np.argsort(log_time, kind='stable')
+    if np.any(np.diff(order) != 1):
+        starts = [starts[i] for i in order.tolist()]
+        ends = [ends[i] for i in order.tolist()]
+        log_time = log_time[order]
+    return RawBatch(log_time_ns=log_time,
+                    raws=[view[s:e] for s, e in zip(starts, ends)])
+
+
+def _fixed_stride(data: bytes, at: int, length: int) -> Optional[tuple[int, int, int]]:
+    """Return (first, stride, count) when every record from ``at`` on is a message of one size."""
+    stride = _RECORD_HEAD + length
+    rest = len(data) - at
+    if rest % stride or rest // stride < 2:
+        return None
+    count = rest // stride
+    rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
+        count, stride)
+    if np.any(rows[:, 0] != _MESSAGE):
+        return None
+    lengths = rows[:, 1:_RECORD_HEAD].copy().view('<u8').ravel()
+    if np.any(lengths != length):
+        return None
+    return at, stride, count
+
+
+def _take_stride(fixed: tuple[int, int, int], data: bytes, channels: set[int],
+                 starts: list[int], ends: list[int], times: list[int]) -> None:
+    """Add the messages of a run of same-size message records (numpy, no per-record parsing)."""
+    at, stride, count = fixed
+    rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
+        count, stride)
+    head = _RECORD_HEAD
+    channel = rows[:, head:head + 2].copy().view('<u2').ravel()
+    log_time = rows[:, head + 6:head + 14].copy().view('<u8').ravel().astype(np.int64)
+    keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
+    first = at + head + _MESSAGE_HEAD + stride * np.flatnonzero(keep)
+    starts.extend(first.tolist())
+    ends.extend((first + (stride - head - _MESSAGE_HEAD)).tolist())
+    times.extend(log_time[keep].tolist())
+
+
+def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
+    """Return the bulk reader of ``topic`` in the bag at ``path``, or None when it does not apply.
+
+    None for: an MCAP file given directly or a folder without ``metadata.yaml`` (unfinished:
+    :mod:`.recovery` reads it), sqlite3 storage, file-level compression, a file without a
+    summary or chunk index, a chunk compression other than none/zstd/lz4, and chunks that
+    overlap in time (rosbags then merges them message by message).
+    """
+    bag = Path(path)
+    metadata = bag / 'metadata.yaml'
+    if not bag.is_dir() or not metadata.is_file():
+        return None
+    try:
+        info = load_yaml_file(metadata, what='bag metadata')['rosbag2_bagfile_information']
+        if info.get('storage_identifier') != 'mcap' or info.get('compression_format'):
+            return None
+        files = [bag / name for name in info['relative_file_paths']]
+    except (InputError, KeyError, TypeError):
+        return None
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+    chunks: list[_Chunk] = []
+    channels: dict[Path, set[int]] = {}
+    for file in files:
+        try:
+            with open(file, 'rb') as stream:
+                summary = make_reader(stream).get_summary()
+        except (OSError, McapError, struct.error, ValueError):
+            return None
+        if summary is None or not summary.chunk_indexes:
+            return None
+        mine = {i for i, channel in summary.channels.items() if channel.topic == topic}
+        channels[file] = mine
+        for index in summary.chunk_indexes:
+            if index.compression not in ('', 'zstd', 'lz4'):
+                return None
+            if index.message_index_offsets and not mine & set(index.message_index_offsets):
+                continue  # no message of the topic in this chunk (by its message index)
+            chunks.append(_Chunk(file=file, offset=index.chunk_start_offset,
+                                 length=index.chunk_length,
+                                 start_ns=index.message_start_time,
+                                 end_ns=index.message_end_time,
+                                 compression=index.compression))
+    chunks.sort(key=lambda c: (c.start_ns, c.end_ns))
+    if any(a.end_ns >= b.start_ns for a, b in zip(chunks, chunks[1:])):
+        return None
+    return BulkSource(chunks, channels)
