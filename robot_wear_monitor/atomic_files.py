@@ -70,13 +70,40 @@ def check_writable(path: str | os.PathLike, *, what: str = 'output', folder: boo
     parent = target.parent if str(target.parent) else Path('.')
     if not parent.is_dir():
         raise OutputError(f'{what} {target}: the folder {parent} does not exist')
-    if not os.access(parent, os.W_OK | os.X_OK):
+    if not os.access(parent, os.W_OK | os.X_OK) or not _can_create_in(parent):
         raise OutputError(f'{what} {target}: the folder {parent} is not writable')
     if target.exists():
         if folder != target.is_dir():
             raise OutputError(f'{what} {target}: is a folder, not a file' if target.is_dir()
                               else f'{what} {target}: is a file, not a folder')
     return target
+
+
+def check_writable_file(path: str | os.PathLike, *, what: str) -> Path:
+    """Check that an existing file can be opened for writing in place (a database)."""
+    target = check_writable(path, what=what)
+    if target.exists():
+        try:
+            with open(target, 'r+b'):
+                pass
+        except OSError as error:
+            raise OutputError(f'{what} {target}: the file is not writable '
+                              f'({_reason(error)})') from None
+    return target
+
+
+def _can_create_in(folder: Path) -> bool:
+    """Return True when a file can be made in ``folder``.
+
+    A real probe: root, read-only mounts and immutable folders fool :func:`os.access`.
+    """
+    try:
+        handle, name = tempfile.mkstemp(prefix='.write-probe.', suffix=FILE_SUFFIX, dir=folder)
+    except OSError:
+        return False
+    os.close(handle)
+    os.unlink(name)
+    return True
 
 
 def _new_file_mode() -> int:

@@ -161,12 +161,44 @@ def test_an_output_that_cannot_be_written_is_refused_before_the_work(tmp_path, s
     assert time.monotonic() - start < 20
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason='root writes into read-only folders')
-def test_a_read_only_folder_is_refused(tmp_path, small_bag):  # pragma: no cover - as root
+@pytest.fixture
+def immutable(tmp_path):
+    """Yield a function that freezes a path with chattr +i (then even root cannot write)."""
+    made = []
+
+    def freeze(path):
+        done = subprocess.run(['chattr', '+i', str(path)], capture_output=True, text=True)
+        if done.returncode != 0:  # pragma: no cover - a file system without attributes
+            pytest.skip(f'chattr +i is not supported here ({done.stderr.strip()[:80]})')
+        made.append(path)
+        return path
+    yield freeze
+    for path in made:
+        subprocess.run(['chattr', '-i', str(path)], check=False)
+
+
+def test_a_folder_that_cannot_be_written_is_refused_before_the_work(tmp_path, small_bag,
+                                                                    immutable):
     folder = tmp_path / 'ro'
-    folder.mkdir(mode=0o555)
+    folder.mkdir()
+    immutable(folder)
+    start = time.monotonic()
     done = _cli('segment', small_bag, '--out', folder / 'levels.csv')
-    assert done.returncode == 2 and 'not writable' in done.stderr
+    assert done.returncode == 2 and 'is not writable' in done.stderr, done.stderr
+    assert 'Traceback' not in done.stderr and time.monotonic() - start < 20
+
+
+def test_a_read_only_history_is_refused_before_the_work(tmp_path, small_bag, immutable):
+    history = tmp_path / 'h.db'
+    assert main(['replay', str(small_bag), '--history', str(history), '--no-progress']) == 0
+    for leftover in tmp_path.glob('h.db-*'):
+        leftover.unlink()
+    immutable(history)
+    before = history.read_bytes()
+    done = _cli('replay', small_bag, '--history', history, '--json-out', tmp_path / 's.json')
+    assert done.returncode == 2 and '--history' in done.stderr and 'not writable' in \
+        done.stderr, done.stderr
+    assert history.read_bytes() == before and not (tmp_path / 's.json').exists()
 
 
 def test_check_writable_names_the_option_and_the_kind(tmp_path):

@@ -14,7 +14,7 @@ import argparse
 import os
 from pathlib import Path
 
-from robot_wear_monitor.atomic_files import check_writable, OutputError
+from robot_wear_monitor.atomic_files import check_writable, check_writable_file, OutputError
 
 #: Verbs whose ``--out`` is a folder (a bag, a report folder); elsewhere it is a file.
 FOLDER_OUT = ('simulate', 'replay', 'demo')
@@ -57,6 +57,4 @@ def check_outputs(args: argparse.Namespace) -> None:
     history = getattr(args, 'history', None)
     if history and command != 'history' and str(history) != ':memory:' \
             and not is_postgresql_url(history):
-        target = check_writable(history, what='--history')
-        if target.exists() and not os.access(target, os.R_OK | os.W_OK):
-            raise OutputError(f'--history {target}: the file is not writable')
+        check_writable_file(history, what='--history')

@@ -96,6 +96,55 @@ def test_a_saturated_drive_torque_is_named_and_its_levels_are_not_used(bags, tmp
         assert min(entry['speeds_rad_s']) > 30.0
 
 
+def test_estimate_says_when_a_fit_fails_instead_of_a_wear_value():
+    for levels in ('0.5,0.5,0.5,0.5', '0,0,0,0'):
+        command = [sys.executable, '-m', 'robot_wear_monitor.cli', 'estimate', '--speeds',
+                   '2.1,28.5,35.1,41.7', '--friction', levels]
+        text = subprocess.run(command, capture_output=True, text=True, check=True).stdout
+        assert 'CANNOT JUDGE' in text and 'INVALID: cannot judge the wear' in text
+        assert 'alarm               no' not in text
+        report = json.loads(subprocess.run(command + ['--json'], capture_output=True,
+                                           text=True, check=True).stdout)
+        assert report['valid'] is False and report['alarm'] is None
+        assert 'model_check' in report['invalid_checks'] or 'friction_range' in \
+            report['invalid_checks']
+
+
+def test_clean_data_reads_clean(bags, tmp_path):
+    done = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'replay',
+                           str(bags['right']), '--history', str(tmp_path / 'h.db'),
+                           '--no-progress'], capture_output=True, text=True, check=True)
+    assert 'rejected' not in done.stdout and 'WARNING' not in done.stdout
+    segment = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'segment',
+                              str(bags['right']), '--out', str(tmp_path / 'levels.csv')],
+                             capture_output=True, text=True, check=True)
+    assert 'rejected as bad data' not in segment.stderr
+    # the project's own simulator: its sweeps end in an unpaired pass and its experiments
+    # are apart; counted as routine, never as rejections
+    simulated = tmp_path / 'simulated'
+    subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'simulate', '--out',
+                    str(simulated), '--experiments', '2'], check=True, capture_output=True)
+    segment = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'segment',
+                              str(simulated), '--out', str(tmp_path / 'sim.csv')],
+                             capture_output=True, text=True, check=True)
+    assert 'routine:' in segment.stderr and 'rejected' not in segment.stderr
+    again = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'simulate',
+                            '--out', str(simulated)], capture_output=True, text=True)
+    assert again.returncode == 2 and '--overwrite' in again.stderr
+
+
+def test_the_history_export_says_what_audit_needs(bags, tmp_path):
+    history = tmp_path / 'h.db'
+    subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'replay',
+                    str(bags['right']), '--history', str(history), '--no-progress'],
+                   check=True, capture_output=True)
+    done = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'history',
+                           str(history), '--csv', str(tmp_path / 'levels.csv')],
+                          capture_output=True, text=True, check=True)
+    assert 'the audit needs levels at 6 or more distinct speeds and these have 4' in \
+        done.stdout
+
+
 def test_an_invalid_estimate_is_stored_and_the_fleet_cannot_judge_the_joint(bags, tmp_path):
     history = tmp_path / 'h.db'
     subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'replay',
