@@ -49,6 +49,9 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
     for name, values in columns.items():
         name = str(name).strip()
         array = np.asarray(values)
+        if name.lower() in CATEGORICAL_COLUMNS:  # groups, never numbers (joint 2 != 2 x joint 1)
+            text[name] = np.array([_category(v) for v in array])
+            continue
         if array.dtype.kind in 'fiub':
             numeric[name] = array.astype(float)
             continue
@@ -66,10 +69,47 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
         if bad.any():
             raise InputError(f'{source}: column {name!r} has NaN or inf values '
                              f'(first at row {int(np.argmax(bad)) + 1})')
-    if np.any(numeric['speed'] <= 0):
-        raise InputError(f"{source}: column 'speed' must be > 0 (the friction level of eq. (3) "
-                         'is direction independent: use |speed|)')
+    speed = numeric['speed']
+    if np.any(speed == 0):
+        raise InputError(f"{source}: column 'speed' is 0 at row {int(np.argmax(speed == 0)) + 2} "
+                         '(a standstill row is no friction level)')
+    if np.any(speed < 0):
+        numeric, text = _fold_direction(numeric, text, source)
     return AuditTable(numeric, text, source)
+
+
+#: Columns that name groups (a joint, a run, a direction, a robot, a pose): text, never numbers.
+CATEGORICAL_COLUMNS = ('joint', 'run', 'direction', 'robot', 'pose', 'test_set', 'axis')
+
+
+def _category(value: object) -> str:
+    """Return a group label: numbers written alike (2, 2.0 and ' 2' are one group)."""
+    text = str(value).strip()
+    try:
+        number = float(text)
+    except ValueError:
+        return text
+    return f'{number:g}' if number == number else text
+
+
+def _fold_direction(numeric: dict[str, FloatArray], text: dict[str, NDArray[np.str_]],
+                    source: str) -> tuple[dict[str, FloatArray], dict[str, NDArray[np.str_]]]:
+    """Turn signed speeds (one row per direction) into |speed| and a ``direction`` group.
+
+    The friction of a negative-speed row is its magnitude: a table whose frictions at negative
+    speeds are negative (the signed torque) has them negated; eq. (3)'s level is the symmetric
+    special case (the audit tests whether the direction matters).
+    """
+    if 'direction' in text or 'direction' in numeric:
+        raise InputError(f"{source}: signed speeds and a 'direction' column: give one of them")
+    speed = numeric['speed']
+    negative = speed < 0
+    friction = numeric['friction'].copy()
+    if np.median(friction[negative]) < 0:  # signed torques: the friction opposes the motion
+        friction[negative] = -friction[negative]
+    numeric = {**numeric, 'speed': np.abs(speed), 'friction': friction}
+    text = {**text, 'direction': np.where(negative, 'negative', 'positive')}
+    return numeric, text
 
 
 def read_level_table(path: str | Path, *, model: str = 'speed') -> AuditTable:

@@ -13,6 +13,7 @@ temperature [degC], wear w [-].
 from __future__ import annotations
 
 from dataclasses import replace
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,8 +73,9 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
                      after: ParameterSet | None) -> dict:
     """Return how the (T, w) estimates per experiment change with the added terms.
 
-    Errors are against the table's ``temperature`` (and ``wear``, else 0) columns.  Needs the
-    nominal or complete model and an ``experiment`` column.
+    Errors are against the table's ``temperature`` and ``wear`` columns, the truth of the
+    experiments; without a ``wear`` column no wear error is given (None: no basis), only how
+    the estimates change.  Needs the nominal or complete model and an ``experiment`` column.
     """
     if model == 'speed' or before is None or after is None:
         return {'applies': False, 'reason': 'the speed model has no temperature or wear'}
@@ -99,21 +101,24 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
                 results[label].append((estimate.temperature_degc, estimate.wear))
             truth_t.append(float(np.mean(table.numeric['temperature'][rows])))
             truth_w.append(float(np.mean(table.numeric['wear'][rows])) if 'wear' in
-                           table.numeric else 0.0)
+                           table.numeric else math.nan)
     except Exception as error:  # noqa: BLE001 - report, do not fail the audit
         return {'applies': False, 'reason': f'estimation failed: {error}'.splitlines()[0]}
     if not results['before']:
         return {'applies': False, 'reason': 'no experiment with two or more levels'}
     b, a = np.array(results['before']), np.array(results['after'])
     t_true, w_true = np.array(truth_t), np.array(truth_w)
+    has_wear = 'wear' in table.numeric
     return {'applies': True, 'n_experiments': len(b),
             'temperature_rms_error_before_degc': _rms(b[:, 0] - t_true),
             'temperature_rms_error_after_degc': _rms(a[:, 0] - t_true),
-            'wear_rms_error_before': _rms(b[:, 1] - w_true),
-            'wear_rms_error_after': _rms(a[:, 1] - w_true),
+            'wear_rms_error_before': _rms(b[:, 1] - w_true) if has_wear else None,
+            'wear_rms_error_after': _rms(a[:, 1] - w_true) if has_wear else None,
             'temperature_mean_abs_change_degc': float(np.mean(np.abs(a[:, 0] - b[:, 0]))),
             'wear_mean_abs_change': float(np.mean(np.abs(a[:, 1] - b[:, 1]))),
             'per_experiment': [{'temperature_before_degc': float(x[0]), 'wear_before': float(x[1]),
                                 'temperature_after_degc': float(z[0]), 'wear_after': float(z[1])}
                                for x, z in zip(b, a)],
-            'reference': "errors are against the table's temperature and wear columns"}
+            'reference': ("errors are against the table's temperature and wear columns"
+                          if has_wear else "errors are against the table's temperature column; "
+                          'no wear column: no wear error (no basis), only the change')}

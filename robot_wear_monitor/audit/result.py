@@ -108,6 +108,8 @@ class AuditResult:
             models; None for the speed model), what ``audit --out-params`` writes.
         offline: variable -> (default, how chosen) for the terms' variables that the service
             does not measure online (evaluated at the default there).
+        parameter_flags: fitted parameters at a bound of the fit or with a sign friction
+            cannot have, one sentence each (the speed model (4)).
 
     """
 
@@ -133,6 +135,7 @@ class AuditResult:
     excluded: tuple[str, ...] = ()
     extended_params: ParameterSet | None = None
     offline: Mapping[str, tuple] = field(default_factory=dict)
+    parameter_flags: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
@@ -148,6 +151,7 @@ class AuditResult:
             'parameters_after': self.parameters_after,
             'estimate_changes': self.estimate_changes, 'excluded': list(self.excluded),
             'added_terms': self._added_terms(),
+            'parameter_flags': list(self.parameter_flags),
             'offline_variables': [{'variable': k, 'default': v, 'how': how}
                                   for k, (v, how) in self.offline.items()]})
 
@@ -178,6 +182,8 @@ class AuditResult:
                 lines.append(f'    confounded with {other["candidate"]} (not added: no evidence '
                              f'of its own given this effect)')
         lines.append(f'  stopped: {self.stop_reason}')
+        lines += _parameter_lines(self.parameters_after)
+        lines += [f'  FLAG: {flag}' for flag in self.parameter_flags]
         for name, (value, how) in self.offline.items():
             lines.append(f'  not measured online: {name}, evaluated at {value!r} ({how}) by '
                          'the extended parameter set')
@@ -190,6 +196,17 @@ class AuditResult:
                 elif isinstance(value, str):
                     lines.append(f'  {key}: {value}')
         return '\n'.join(lines)
+
+
+def _parameter_lines(parameters: Mapping) -> list[str]:
+    """Return the fitted parameters as text: one line per group (or one for the model)."""
+    def values(mapping: Mapping) -> str:
+        return ', '.join(f'{name} {value:.4g}' for name, value in mapping.items()
+                         if isinstance(value, (int, float)))
+    if parameters and all(isinstance(v, Mapping) for v in parameters.values()):
+        return [f'  fitted ({key}): {values(group)}' for key, group in parameters.items()]
+    text = values(parameters)
+    return [f'  fitted: {text}'] if text else []
 
 
 def _finite(value: float) -> float:

@@ -181,7 +181,39 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         parameters_before=json_clean(base.describe(fit_before.theta, fit_before.coef)),
         parameters_after=json_clean(base.describe(fit.theta, fit.coef)),
         estimate_changes=changes, stop_reason=stop, excluded=excluded,
-        extended_params=extended, offline=offline)
+        extended_params=extended, offline=offline,
+        parameter_flags=speed_parameter_flags(base, fit.theta, fit.coef, table)
+        if model == 'speed' else ())
+
+
+def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
+                          table: AuditTable) -> tuple[str, ...]:
+    """Return the speed model's (4) fitted parameters at a bound or with an impossible sign.
+
+    The Stribeck speed phi_s and the exponent alpha are fitted within bounds (phi_s from the
+    lowest to 5 x the highest speed, 0.5 <= alpha <= 3): a value on a bound is where the data
+    pushed the fit out of what it can identify.  A friction model's Coulomb level F_c, Stribeck
+    rise F_s and viscous slope F_v are >= 0; a negative one fits the data's shape with a model
+    that is no friction (a torque offset, a missing direction, a bad sign convention).
+    """
+    lower, upper = base.bounds(table)
+    flags = []
+    described = base.describe(theta, coef)
+    for i, (key, values) in enumerate(described.items()):
+        where = '' if len(described) == 1 else f' ({key})'
+        for k, name in ((2 * i, 'phi_s'), (2 * i + 1, 'alpha')):
+            for bound, side in ((lower[k], 'lower'), (upper[k], 'upper')):
+                if abs(theta[k] - bound) <= 1e-6 * max(1.0, abs(bound)):
+                    shown = math.exp(bound) if name == 'phi_s' else bound
+                    flags.append(f'{name}{where} = {values[name]:.4g} sits on its {side} bound '
+                                 f'{shown:.4g}: not identified by these speeds')
+        for name, meaning in (('F_c', 'Coulomb level'), ('F_s', 'Stribeck rise'),
+                              ('F_v', 'viscous slope')):
+            if values[name] < 0:
+                flags.append(f'{name}{where} = {values[name]:.4g} < 0: a negative {meaning} is '
+                             'no friction (check the sign convention, a direction effect or '
+                             'a torque offset)')
+    return tuple(flags)
 
 
 def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray):

@@ -63,9 +63,14 @@ def main(args: argparse.Namespace) -> int:
     group = args.group
     if group is None and args.model == 'speed' and 'joint' in table.text:
         group = 'joint'
+    # the packaged set (one ABB joint, normalised torque) is not applied to another robot's
+    # data without --params: no T or w estimates, no errors without their basis
     result = run_audit(table=table, model=args.model, params=params, group=group,
-                       fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds)
+                       fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds,
+                       estimate=bool(args.params))
     report = result.to_dict()
+    if args.model != 'speed' and not args.params:
+        report['estimate_changes'] = {'applies': False, 'reason': NO_PARAMS}
     if args.out_params and result.extended_params is not None:
         from robot_wear_monitor.audit.export import write_parameter_set
         write_parameter_set(args.out_params, result.extended_params,
@@ -78,10 +83,18 @@ def main(args: argparse.Namespace) -> int:
     if emit_json(args, report):
         return 0
     print(result.summary())
+    if args.model != 'speed' and not args.params:
+        print(f'  T and w not estimated: {NO_PARAMS}')
     if args.out_params:
         print(f'extended parameter set written to {args.out_params} (use: {PROG} estimate '
               f'--params {args.out_params} ...)')
     return 0
+
+
+#: Why the audit estimates no T and w without --params.
+NO_PARAMS = ('no --params: the packaged parameter set (ABB IRB 6620 joint 2, normalised '
+             'torque) is not applied to data of another robot or unit; give --params FILE to '
+             'estimate T and w with the model found')
 
 
 def params_header(args: argparse.Namespace, result) -> str:

@@ -238,8 +238,12 @@ def test_cli_unknown_model_and_missing_file_exit_2(tmp_path, capsys):
 def test_table_checks():
     with pytest.raises(InputError, match='no rows'):
         table_from_columns({'speed': [], 'friction': []})
-    with pytest.raises(InputError, match="'speed' must be > 0"):
-        table_from_columns({'speed': [1.0, -1.0], 'friction': [0.1, 0.1]})
+    with pytest.raises(InputError, match='standstill row'):
+        table_from_columns({'speed': [1.0, 0.0], 'friction': [0.1, 0.1]})
+    signed = table_from_columns({'speed': [1.0, -1.0], 'friction': [0.1, -0.12]})
+    assert list(signed.numeric['speed']) == [1.0, 1.0]  # signed speeds: a direction group
+    assert list(signed.numeric['friction']) == [0.1, 0.12]
+    assert list(signed.text['direction']) == ['positive', 'negative']
     with pytest.raises(InputError, match='unknown model'):
         table_from_columns({'speed': [1.0], 'friction': [0.1]}, model='x')
     table = table_from_columns({'speed': [1, 2], 'friction': [0.1, 0.2], 'pose': ['a', 'b']})

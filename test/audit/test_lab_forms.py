@@ -1,0 +1,110 @@
+"""Friction data in the forms labs record them (part of the lab-data issue).
+
+Own generator here (a speed-only curve (4) with a direction offset, in N.m, repeated runs):
+signed speeds (one row per direction, signed torque), a numeric joint column, a table without
+a wear column, and fitted parameters that are no friction, each with its known truth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_wear_monitor.audit.data import table_from_columns
+from robot_wear_monitor.audit.fitting import speed_base
+from robot_wear_monitor.audit.run import run_audit, speed_parameter_flags
+from robot_wear_monitor.cli import main
+from robot_wear_monitor.errors import InputError
+
+SPEEDS = np.geomspace(0.01, 1.6, 20)  # rad/s, both directions
+NOISE = 0.01  # N.m
+
+
+def curve(speed, *, coulomb=1.2, stribeck=0.6, phi=0.05, alpha=1.4, viscous=0.8):
+    """Return the friction magnitude of model (4) [N.m] at |speed| [rad/s]."""
+    v = np.abs(speed)
+    return coulomb + stribeck * np.exp(-(v / phi) ** alpha) + viscous * v
+
+
+def signed_columns(*, seed=0, repeats=3, offset=0.15):
+    """Rows per speed and direction; torque signed; the negative direction ``offset`` higher."""
+    rng = np.random.default_rng(seed)
+    speed = np.concatenate([SPEEDS, -SPEEDS])
+    speed = np.tile(speed, repeats)
+    magnitude = curve(speed) + np.where(speed < 0, offset, 0.0)
+    torque = np.sign(speed) * magnitude + rng.normal(0, NOISE, speed.size)
+    run = np.repeat(np.arange(repeats), 2 * SPEEDS.size)
+    return {'speed': speed, 'friction': torque, 'experiment': run}
+
+
+def test_signed_speeds_become_a_direction_group_and_the_offset_is_found():
+    table = table_from_columns(signed_columns())
+    assert np.all(table.numeric['speed'] > 0)
+    assert set(table.text['direction']) == {'positive', 'negative'}
+    assert np.all(table.numeric['friction'] > 0)  # signed torque folded to its magnitude
+    result = run_audit(table=table, model='speed', estimate=False)
+    assert any('direction' in effect.variables for effect in result.effects), result.summary()
+    assert result.rms_after < 0.6 * result.rms_before
+    assert result.rms_after < 2.0 * NOISE
+
+
+def test_signed_speeds_with_a_direction_column_or_a_zero_speed_are_refused():
+    columns = signed_columns()
+    with pytest.raises(InputError, match="signed speeds and a 'direction' column"):
+        table_from_columns({**columns, 'direction': np.where(columns['speed'] > 0, 'a', 'b')})
+    columns['speed'] = columns['speed'].copy()
+    columns['speed'][3] = 0.0
+    with pytest.raises(InputError, match='standstill row'):
+        table_from_columns(columns)
+
+
+def test_a_numeric_joint_column_is_a_group_and_joints_are_fitted_apart(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    rows = []
+    for joint, scale in ((1, 1.0), (2, 7.0)):
+        for run in range(3):
+            f = scale * curve(SPEEDS) + rng.normal(0, NOISE, SPEEDS.size)
+            rows += [(joint, run + 10 * joint, v, x) for v, x in zip(SPEEDS, f)]
+    path = tmp_path / 'joints.csv'
+    path.write_text('joint,experiment,speed,friction\n' + ''.join(
+        f'{j},{e},{float(v)!r},{float(x)!r}\n' for j, e, v, x in rows))
+    assert main(['audit', str(path), '--json']) == 0
+    import json
+    report = json.loads(capsys.readouterr().out)
+    assert report['group'] == 'joint' and set(report['parameters_after']) == {'1', '2'}
+    coulomb = {k: v['F_c'] for k, v in report['parameters_after'].items()}
+    assert coulomb['2'] / coulomb['1'] == pytest.approx(7.0, rel=0.1)
+    assert 'joint' not in report['candidates']  # a group, never a number to be linear in
+
+
+def test_no_wear_error_without_a_wear_column_and_no_packaged_set_without_params(capsys):
+    from pathlib import Path
+    baseline = Path(__file__).resolve().parents[2] / 'examples' / 'baseline.csv'
+    assert main(['audit', str(baseline), '--model', 'nominal', '--json']) == 0
+    import json
+    report = json.loads(capsys.readouterr().out)
+    assert report['estimate_changes']['applies'] is False
+    assert 'no --params' in report['estimate_changes']['reason']
+    params = Path(__file__).resolve().parents[2] / 'config' / 'irb6620_joint2.yaml'
+    assert main(['audit', str(baseline), '--model', 'nominal', '--params', str(params),
+                 '--json']) == 0
+    changes = json.loads(capsys.readouterr().out)['estimate_changes']
+    assert changes['applies'] is True and changes['wear_rms_error_before'] is None
+    assert changes['temperature_rms_error_before_degc'] is not None
+    assert 'no wear column' in changes['reference']
+
+
+def test_parameters_that_are_no_friction_or_sit_on_a_bound_are_flagged():
+    rng = np.random.default_rng(4)
+    speed = np.tile(SPEEDS, 3)
+    offset = curve(speed) - 2.0 + rng.normal(0, NOISE, speed.size)  # a torque offset
+    table = table_from_columns({'speed': speed, 'friction': offset,
+                                'experiment': np.repeat(np.arange(3), SPEEDS.size)})
+    result = run_audit(table=table, model='speed', estimate=False)
+    assert any(flag.startswith('F_c = ') and '< 0' in flag for flag in result.parameter_flags)
+    assert 'FLAG: F_c' in result.summary() and 'fitted (all): F_c' in result.summary()
+    base = speed_base(table, None)
+    lower, upper = base.bounds(table)
+    theta = np.array([np.log(0.05), upper[1]])  # alpha on its upper bound
+    flags = speed_parameter_flags(base, theta, np.array([1.0, 0.5, 0.8]), table)
+    assert flags == ('alpha = 3 sits on its upper bound 3: not identified by these speeds',)
