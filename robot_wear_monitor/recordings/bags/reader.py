@@ -168,16 +168,24 @@ def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[tuple[list
 
 
 def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[tuple[Any, list]]:
-    """Yield (bag times [ns], CDR bytes) of whole MCAP chunks, at least ``size`` at a time."""
+    """Yield (bag times [ns], CDR bytes) of ``size`` messages at a time from whole MCAP chunks.
+
+    The batches are those of the message-by-message path (``size`` each, the last one shorter),
+    so that the chunks a reader yields do not depend on how the bag is read.
+    """
     times: list = []
     raws: list = []
+    held = 0
     for batch in bulk:
         times.append(batch.log_time_ns)
         raws.extend(batch.raws)
-        if len(raws) >= size:
-            yield np.concatenate(times), raws
-            times, raws = [], []
-    if raws:
+        held += len(batch.raws)
+        while held >= size:
+            stamps = np.concatenate(times)
+            yield stamps[:size], raws[:size]
+            times, raws = [stamps[size:]], raws[size:]
+            held -= size
+    if held:
         yield np.concatenate(times), raws
 
 
