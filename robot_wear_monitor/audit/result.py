@@ -12,6 +12,7 @@ from typing import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from robot_wear_monitor.audit.noise import LackOfFit
 from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import extension_to_mapping
 from robot_wear_monitor.model.params import ParameterSet
@@ -110,6 +111,8 @@ class AuditResult:
             does not measure online (evaluated at the default there).
         parameter_flags: fitted parameters at a bound of the fit or with a sign friction
             cannot have, one sentence each (the speed model (4)).
+        lack_of_fit: the final model against the pure error of replicated conditions (repeated
+            runs at the same speed and direction), None without replicates.
 
     """
 
@@ -136,6 +139,7 @@ class AuditResult:
     extended_params: ParameterSet | None = None
     offline: Mapping[str, tuple] = field(default_factory=dict)
     parameter_flags: tuple[str, ...] = ()
+    lack_of_fit: LackOfFit | None = None
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
@@ -152,6 +156,7 @@ class AuditResult:
             'estimate_changes': self.estimate_changes, 'excluded': list(self.excluded),
             'added_terms': self._added_terms(),
             'parameter_flags': list(self.parameter_flags),
+            'lack_of_fit': None if self.lack_of_fit is None else self.lack_of_fit.to_dict(),
             'offline_variables': [{'variable': k, 'default': v, 'how': how}
                                   for k, (v, how) in self.offline.items()]})
 
@@ -170,6 +175,8 @@ class AuditResult:
                  f'  held-out RMS error after:  {self.rms_after:.4g} [f]',
                  f'  noise floor: {self.noise_floor:.4g} [f] ({self.noise_floor_method})',
                  f'  folds: {self.folds}']
+        if self.lack_of_fit is not None:
+            lines.append(f'  replicates: {self.lack_of_fit.statement()}')
         lines += [f'  left out: {text}' for text in self.excluded]
         if not self.effects:
             lines.append('  no effect added')

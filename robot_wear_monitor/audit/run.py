@@ -33,7 +33,7 @@ from robot_wear_monitor.audit.export import (added_terms, base_model, extended_p
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, design_matrix, Fit,
                                               fit_model, group_codes, nominal_base, orthonormal,
                                               speed_base)
-from robot_wear_monitor.audit.noise import noise_floor
+from robot_wear_monitor.audit.noise import lack_of_fit, noise_floor
 from robot_wear_monitor.audit.result import AuditResult, Effect
 from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
 from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, periodic_scan,
@@ -157,6 +157,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         floor_vars.append(group)
     floor, floor_method = noise_floor(table=table, residual=fit.residual, n_parameters=n_params,
                                       variables=list(dict.fromkeys(floor_vars)))
+    replicates = lack_of_fit(table=table, residual=fit.residual, n_parameters=n_params,
+                             variables=list(dict.fromkeys(floor_vars)))
     extended: ParameterSet | None = None
     offline: dict[str, Any] = {}
     changes = None
@@ -183,7 +185,7 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         estimate_changes=changes, stop_reason=stop, excluded=excluded,
         extended_params=extended, offline=offline,
         parameter_flags=speed_parameter_flags(base, fit.theta, fit.coef, table)
-        if model == 'speed' else ())
+        if model == 'speed' else (), lack_of_fit=replicates)
 
 
 def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,

@@ -108,3 +108,33 @@ def test_parameters_that_are_no_friction_or_sit_on_a_bound_are_flagged():
     theta = np.array([np.log(0.05), upper[1]])  # alpha on its upper bound
     flags = speed_parameter_flags(base, theta, np.array([1.0, 0.5, 0.8]), table)
     assert flags == ('alpha = 3 sits on its upper bound 3: not identified by these speeds',)
+
+
+def _replicated(extra=None, *, seed=6, runs=4):
+    rng = np.random.default_rng(seed)
+    speed = np.tile(SPEEDS, runs) * (1 + rng.normal(0, 0.002, SPEEDS.size * runs))
+    friction = curve(speed) + rng.normal(0, NOISE, speed.size)
+    if extra is not None:
+        friction = friction + extra(speed)
+    return table_from_columns({'speed': speed, 'friction': friction,
+                               'experiment': np.repeat(np.arange(runs), SPEEDS.size)})
+
+
+def test_replicate_runs_give_the_pure_error_and_a_passing_lack_of_fit_test():
+    result = run_audit(table=_replicated(), model='speed', estimate=False)
+    lof = result.lack_of_fit
+    assert lof is not None and lof.groups == SPEEDS.size  # speeds scattered 0.2 %: one set-point
+    assert lof.pure_error == pytest.approx(NOISE, rel=0.25)
+    assert lof.p_value > 0.01 and 'to the replicate scatter' in lof.statement()
+    assert 'replicates: lack of fit against the pure error' in result.summary()
+
+
+def test_lack_of_fit_names_the_speeds_the_model_cannot_explain():
+    def bump(v):  # a resonance near 0.3 rad/s that no term of model (4) has
+        return 0.08 * np.exp(-((np.log(v) - np.log(0.3)) / 0.15) ** 2)
+    result = run_audit(table=_replicated(bump), model='speed', estimate=False, max_effects=0)
+    lof = result.lack_of_fit
+    assert lof is not None and lof.p_value < 1e-6
+    low, high = lof.speed_range
+    assert low <= 0.3 <= high and high < 1.0 and low > 0.05
+    assert 'the model cannot explain the speeds' in result.to_dict()['lack_of_fit']['statement']
