@@ -16,6 +16,7 @@ import io
 import os
 from typing import Any, Mapping, Optional, Sequence
 
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 
 #: Columns of the level CSV, in order.
@@ -62,6 +63,9 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
                                        ('torque_scale', torque_scale)) if val is not None}
     config = kuka_segmenter_config(**overrides)
     result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    if not result.levels:
+        raise InputError(f'{path}: no friction level: '
+                         f'{explain_raw_run(v, result.rejections, config)}')
     rows: list[tuple[FrictionLevel, Any, str]] = [(level, '', config.joint)
                                                   for level in result.levels]
     if speeds_rad_s:
@@ -70,6 +74,40 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
         rows = [(level, k, config.joint) for k, x in enumerate(done) for level in x.levels]
     return SegmentedLevels(rows=rows, rejections=dict(result.rejections),
                            n_levels=len(result.levels))
+
+
+def explain_raw_run(velocity: Any, rejections: Mapping[str, int], config: Any) -> str:
+    """Return why a raw run gave no friction level, in words with its speeds [rad/s].
+
+    Too slow to tell from standstill (the typical speed is at the standstill threshold), one
+    direction only (eq. (3) needs a pass each way at one speed), passes never paired, or no
+    constant-speed plateau.
+    """
+    import numpy as np
+    speed = np.abs(np.asarray(velocity, dtype=float)) * config.gear_ratio
+    speed = speed[np.isfinite(speed)]
+    threshold = config.standstill_speed_rad_s
+    if speed.size == 0:
+        return 'no finite velocity sample'
+    typical = float(np.median(speed))
+    if not float(speed.max()) > threshold or typical <= threshold:
+        return (f'too slow to tell from standstill at {typical:.3g} rad/s (the standstill '
+                f'threshold is {threshold:g} rad/s; fastest sample {float(speed.max()):.3g} '
+                'rad/s)')
+    signed = np.asarray(velocity, dtype=float) * config.gear_ratio
+    forward = int(np.count_nonzero(signed > threshold))
+    backward = int(np.count_nonzero(signed < -threshold))
+    if min(forward, backward) < 0.05 * max(forward, backward):
+        way = 'forward' if forward > backward else 'backward'
+        return (f'the joint moves one way only ({way}, at about {typical:.3g} rad/s): eq. (3) '
+                'needs a pass each way at the same speed (runs that move one way each are not '
+                'paired across files)')
+    if rejections.get('pass_unpaired', 0) or rejections.get('pass_no_common_window', 0):
+        return ('passes each way, but none paired with one the other way at the same speed '
+                f'over a common position window (unpaired {rejections.get("pass_unpaired", 0)}, '
+                f'no common window {rejections.get("pass_no_common_window", 0)})')
+    return (f'no constant-speed plateau of {config.min_duration_s:g} s or more '
+            f'({rejections.get("pass_too_short", 0)} passes too short)')
 
 
 def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, Any],

@@ -138,3 +138,26 @@ def test_lack_of_fit_names_the_speeds_the_model_cannot_explain():
     low, high = lof.speed_range
     assert low <= 0.3 <= high and high < 1.0 and low > 0.05
     assert 'the model cannot explain the speeds' in result.to_dict()['lack_of_fit']['statement']
+
+
+def _raw_run(path, velocity, torque, dt=0.005):
+    position = np.cumsum(velocity) * dt
+    rows = zip(np.arange(velocity.size) * dt, position, velocity, torque)
+    path.write_text('t_s,q_rad,dq_rad_s,tau_measured_Nm\n' + ''.join(
+        ','.join(repr(float(x)) for x in row) + '\n' for row in rows))
+    return path
+
+
+@pytest.mark.parametrize('speed, reason', [
+    (0.3, 'the joint moves one way only (forward, at about 0.3 rad/s)'),
+    (0.0017, 'too slow to tell from standstill at 0.00'),
+])
+def test_a_raw_run_without_levels_is_exit_2_with_the_reason(tmp_path, capsys, speed, reason):
+    rng = np.random.default_rng(1)
+    n = 2000
+    run = _raw_run(tmp_path / 'run.csv', speed + rng.normal(0, 0.002, n),
+                   curve(np.full(n, speed)) + rng.normal(0, NOISE, n))
+    out = tmp_path / 'levels.csv'
+    assert main(['segment', str(run), '--out', str(out)]) == 2
+    assert reason in capsys.readouterr().err
+    assert not out.exists()  # no header-only table that reads as "no levels, all fine"
