@@ -10,7 +10,7 @@ import csv
 import gzip
 import os
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -181,9 +181,14 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     [s], ``cycle`` (index of the level in its run), ``load_torque`` = |tau+ + tau-|/2 [N.m]
     (the gravity load the level was measured under, the tau_l of eq. (5)) and
     ``run_duration`` [s].
+
+    Runs that move one way only (one file per speed and direction) give no level alone; their
+    passes are paired across files: a forward and a backward pass of the same joint at the same
+    speed over a common position window form eq. (3) across runs (gravity cancels), with
+    ``experiment`` naming both files.  A one-way run without such a partner is reported.
     """
+    from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_kuka_run
-    from robot_wear_monitor.experiment.segmentation import segment_batch
 
     settings = config if config is not None else kuka_segmenter_config()
     sign = -1.0 if flip_sign else 1.0
@@ -191,38 +196,83 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         'speed', 'friction', 'friction_std_error', 'experiment', 'joint', 'pose',
         'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration')}
     rejected: list[str] = []
+    one_way: list[tuple[str, Any, Any]] = []  # (run name, run, pass) of one-way runs
+
+    def add(level: Any, run: Any, experiment: str, i: int, duration: float) -> None:
+        pose = 'new_pose' if 'new_pose' in run.test_set else 'standard'
+        columns['speed'].append(level.speed_rad_s)
+        columns['friction'].append(sign * level.friction)
+        columns['friction_std_error'].append(level.friction_std_error)
+        columns['experiment'].append(experiment)
+        columns['joint'].append(f'joint{run.joint}' if run.joint else run.test_set)
+        columns['pose'].append(pose)
+        columns['position_centre'].append(0.5 * (level.position_min_rad
+                                                 + level.position_max_rad))
+        columns['position_span'].append(level.position_max_rad - level.position_min_rad)
+        columns['time'].append(0.5 * (level.start_time_s + level.end_time_s))
+        columns['cycle'].append(float(i))
+        columns['load_torque'].append(0.5 * abs(level.tau_forward + level.tau_backward))
+        columns['run_duration'].append(duration)
+
     for path in paths:
         run = read_kuka_run(path)
+        name = Path(path).name.split('.')[0]
         result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
                                velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
                                config=settings)
         if not result.levels:
-            rejected.append(Path(path).name)
+            passes = one_way_passes(time_s=run.t_s, position_rad=run.q_rad,
+                                    velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
+                                    config=settings)
+            if passes and len({p.direction for p in passes}) == 1:
+                one_way += [(name, run, p) for p in passes]
+            else:
+                rejected.append(Path(path).name)
             continue
-        pose = 'new_pose' if 'new_pose' in run.test_set else 'standard'
         duration = float(run.t_s[-1] - run.t_s[0])
         for i, level in enumerate(result.levels):
-            columns['speed'].append(level.speed_rad_s)
-            columns['friction'].append(sign * level.friction)
-            columns['friction_std_error'].append(level.friction_std_error)
-            columns['experiment'].append(Path(path).name.split('.')[0])
-            columns['joint'].append(f'joint{run.joint}' if run.joint else run.test_set)
-            columns['pose'].append(pose)
-            columns['position_centre'].append(0.5 * (level.position_min_rad
-                                                     + level.position_max_rad))
-            columns['position_span'].append(level.position_max_rad - level.position_min_rad)
-            columns['time'].append(0.5 * (level.start_time_s + level.end_time_s))
-            columns['cycle'].append(float(i))
-            columns['load_torque'].append(0.5 * abs(level.tau_forward + level.tau_backward))
-            columns['run_duration'].append(duration)
+            add(level, run, name, i, duration)
+    unpaired = _pair_one_way_runs(one_way, settings, add)
     if not columns['speed']:
-        raise InputError(f'no friction level found in {len(paths)} raw run(s)')
+        detail = (f'; {len(unpaired)} run(s) move one way only and have no run the other way '
+                  f'at the same speed over a common position window: {", ".join(unpaired[:5])}'
+                  if unpaired else '')
+        raise InputError(f'no friction level found in {len(paths)} raw run(s){detail}')
     if len(set(columns['pose'])) == 1:
         del columns['pose']
     if len(set(columns['joint'])) == 1:
         del columns['joint']
     table = table_from_columns(columns, source=f'{len(paths)} raw runs', model=model)
     return table
+
+
+def _pair_one_way_runs(one_way: list, settings: Any, add: Any) -> list[str]:
+    """Pair the passes of one-way runs across files (eq. (3) across runs); return the unpaired.
+
+    Each forward pass takes the first backward pass of another file of the same joint at the
+    same speed that shares a position window with it; each pass is used once.
+    """
+    from robot_wear_monitor.experiment.segmentation import pair_passes, same_speed
+    used: set[int] = set()
+    paired_names: set[str] = set()
+    for i, (name, run, forward) in enumerate(one_way):
+        if forward.direction < 0 or i in used:
+            continue
+        for j, (other, partner_run, backward) in enumerate(one_way):
+            if j in used or backward.direction > 0 or other == name or \
+                    partner_run.joint != run.joint or not same_speed(forward, backward,
+                                                                     settings):
+                continue
+            level, _ = pair_passes(forward, backward, settings)
+            if level is None:
+                continue
+            used.update((i, j))
+            paired_names.update((name, other))
+            duration = float(max(run.t_s[-1] - run.t_s[0],
+                                 partner_run.t_s[-1] - partner_run.t_s[0]))
+            add(level, run, f'{name}+{other}', 0, duration)
+            break
+    return sorted({name for name, _, _ in one_way} - paired_names)
 
 
 def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states',

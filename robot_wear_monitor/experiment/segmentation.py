@@ -201,8 +201,12 @@ def pick_joint(*, name: Sequence[str], position: Sequence[float], velocity: Sequ
 # --------------------------------------------------------------------------- passes and pairs
 
 @dataclass(frozen=True)
-class _Pass:
-    """Constant-speed samples of one move: time [s], position [rad], motor speed, torque."""
+class Pass:
+    """Constant-speed samples of one move: time [s], position [rad], motor speed, torque.
+
+    ``direction`` is +1 or -1; ``level_rad_s`` the speed level [rad/s, motor side]; the arrays
+    (shape (n,)) are the plateau's samples, torque normalised (effort / ``torque_scale``).
+    """
 
     direction: int
     time_s: FloatArray
@@ -235,7 +239,7 @@ _TIME_EPS_S = 1e-6
 
 def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: FloatArray,
                   torque: FloatArray, direction: int, config: SegmenterConfig,
-                  rejections: Counter) -> _Pass | None:
+                  rejections: Counter) -> Pass | None:
     """Find the constant-speed plateau of one move; None (counted) when it is unusable.
 
     ``speed_rad_s`` is the signed motor speed; moves shorter than ``min_duration_s`` in total
@@ -275,8 +279,8 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
             rejections['pass_no_common_window'] += 1
             return None
         t, q, v, e = t[in_window], q[in_window], v[in_window], e[in_window]
-    return _Pass(direction=direction, time_s=t, position_rad=q, speed_rad_s=v, torque=e,
-                 level_rad_s=level)
+    return Pass(direction=direction, time_s=t, position_rad=q, speed_rad_s=v, torque=e,
+                level_rad_s=level)
 
 
 def _torque_at(position: FloatArray, torque: FloatArray, centre: float) -> tuple[float, float]:
@@ -303,11 +307,14 @@ class _Pairer:
     def __init__(self, config: SegmenterConfig, rejections: Counter) -> None:
         self._config = config
         self._rejections = rejections
-        self._pending: _Pass | None = None
+        self._pending: Pass | None = None
         self.passes = 0  # constant-speed passes found (paired or not)
+        self.found: list[Pass] | None = None  # every pass, when a caller keeps them
 
-    def add(self, new: _Pass) -> list[FrictionLevel]:
+    def add(self, new: Pass) -> list[FrictionLevel]:
         self.passes += 1
+        if self.found is not None:
+            self.found.append(new)
         old, self._pending = self._pending, new
         if old is None:
             return []
@@ -331,34 +338,66 @@ class _Pairer:
             self._rejections['pass_unpaired'] += 1
             self._pending = None
 
-    def _pair(self, first: _Pass, second: _Pass) -> tuple[FrictionLevel | None, str]:
-        """Return the level of two opposite passes, or None and the reason (a pass reason)."""
-        forward, backward = (first, second) if first.direction > 0 else (second, first)
-        low = max(forward.position_rad.min(), backward.position_rad.min())
-        high = min(forward.position_rad.max(), backward.position_rad.max())
-        if high <= low or high - low < self._config.min_window_rad:
+    def _pair(self, first: Pass, second: Pass) -> tuple[FrictionLevel | None, str]:
+        return pair_passes(first, second, self._config)
+
+
+def one_way_passes(*, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
+                   effort: ArrayLike, config: SegmenterConfig) -> list[Pass]:
+    """Return every constant-speed pass of a recording (paired or not), in time order.
+
+    For runs that move one way only (one file per speed and direction): their passes are
+    paired across files with :func:`pair_passes`.
+    """
+    segmenter = ChunkSegmenter(config)
+    segmenter._pairer.found = []
+    segmenter.add(time_s=time_s, position_rad=position_rad, velocity_rad_s=velocity_rad_s,
+                  effort=effort)
+    segmenter.finish()
+    return list(segmenter._pairer.found)
+
+
+def same_speed(first: Pass, second: Pass, config: SegmenterConfig) -> bool:
+    """Return True when two passes are at one speed level (within twice the tolerance)."""
+    return abs(first.level_rad_s - second.level_rad_s) <= 2.0 * _tolerance(
+        max(first.level_rad_s, second.level_rad_s), config)
+
+
+def pair_passes(first: Pass, second: Pass, config: SegmenterConfig
+                ) -> tuple[FrictionLevel | None, str]:
+    """Return the level of eq. (3) of two opposite passes, or None and the reason.
+
+    Both passes are cut to their common position window (at least ``min_window_rad`` wide,
+    ``min_samples`` samples each); tau+ and tau- are their torques at the window centre (a
+    line fitted in position, so a gravity slope cancels).  Reasons: ``pass_no_common_window``,
+    ``pass_torque_saturated``.
+    """
+    forward, backward = (first, second) if first.direction > 0 else (second, first)
+    low = max(forward.position_rad.min(), backward.position_rad.min())
+    high = min(forward.position_rad.max(), backward.position_rad.max())
+    if high <= low or high - low < config.min_window_rad:
+        return None, 'pass_no_common_window'
+    parts = []
+    for p in (forward, backward):
+        inside = (p.position_rad >= low) & (p.position_rad <= high)
+        if np.count_nonzero(inside) < config.min_samples:
             return None, 'pass_no_common_window'
-        parts = []
-        for p in (forward, backward):
-            inside = (p.position_rad >= low) & (p.position_rad <= high)
-            if np.count_nonzero(inside) < self._config.min_samples:
-                return None, 'pass_no_common_window'
-            parts.append((p.time_s[inside], p.position_rad[inside], p.speed_rad_s[inside],
-                          p.torque[inside]))
-        (tf, qf, vf, ef), (tb, qb, vb, eb) = parts
-        clipped = sorted((_at_extreme(ef), _at_extreme(eb)))
-        if clipped[1] >= SATURATED_FRACTION and clipped[0] < _PARTNER_FRACTION:
-            return None, 'pass_torque_saturated'
-        centre = 0.5 * (low + high)
-        mean_f, var_f = _torque_at(qf, ef, centre)
-        mean_b, var_b = _torque_at(qb, eb, centre)
-        speed = 0.5 * (float(np.mean(np.abs(vf))) + float(np.mean(np.abs(vb))))
-        return FrictionLevel(
-            speed_rad_s=speed, friction=0.5 * (mean_f - mean_b),
-            friction_std_error=0.5 * math.sqrt(var_f / ef.size + var_b / eb.size),
-            tau_forward=mean_f, tau_backward=mean_b, n_forward=int(ef.size),
-            n_backward=int(eb.size), position_min_rad=float(low), position_max_rad=float(high),
-            start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1]))), ''
+        parts.append((p.time_s[inside], p.position_rad[inside], p.speed_rad_s[inside],
+                      p.torque[inside]))
+    (tf, qf, vf, ef), (tb, qb, vb, eb) = parts
+    clipped = sorted((_at_extreme(ef), _at_extreme(eb)))
+    if clipped[1] >= SATURATED_FRACTION and clipped[0] < _PARTNER_FRACTION:
+        return None, 'pass_torque_saturated'
+    centre = 0.5 * (low + high)
+    mean_f, var_f = _torque_at(qf, ef, centre)
+    mean_b, var_b = _torque_at(qb, eb, centre)
+    speed = 0.5 * (float(np.mean(np.abs(vf))) + float(np.mean(np.abs(vb))))
+    return FrictionLevel(
+        speed_rad_s=speed, friction=0.5 * (mean_f - mean_b),
+        friction_std_error=0.5 * math.sqrt(var_f / ef.size + var_b / eb.size),
+        tau_forward=mean_f, tau_backward=mean_b, n_forward=int(ef.size),
+        n_backward=int(eb.size), position_min_rad=float(low), position_max_rad=float(high),
+        start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1]))), ''
 
 
 def _at_extreme(torque: FloatArray) -> float:

@@ -161,3 +161,49 @@ def test_a_raw_run_without_levels_is_exit_2_with_the_reason(tmp_path, capsys, sp
     assert main(['segment', str(run), '--out', str(out)]) == 2
     assert reason in capsys.readouterr().err
     assert not out.exists()  # no header-only table that reads as "no levels, all fine"
+
+
+ONE_WAY_SPEEDS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0)
+
+
+def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0):
+    """Write a run that moves once across [-0.5, 0.5] rad at ``speed`` one way (KUKA columns)."""
+    import gzip
+    travel = 1.0
+    n_move = int(round(travel / speed * rate))
+    n_still = int(0.5 * rate)
+    q_move = np.linspace(-0.5, 0.5, n_move) if direction > 0 else np.linspace(0.5, -0.5, n_move)
+    q = np.concatenate([np.full(n_still, q_move[0]), q_move, np.full(n_still, q_move[-1])])
+    v = np.concatenate([np.zeros(n_still), np.full(n_move, direction * speed),
+                        np.zeros(n_still)])
+    tau = gravity * np.cos(q) + np.sign(v) * curve(np.abs(v)) + rng.normal(0, NOISE, q.size)
+    t = np.arange(q.size) / rate
+    label = f'{speed:g}'.replace('.', 'p')
+    name = folder / f'joint2_{"fwd" if direction > 0 else "bwd"}_vel_{label}.csv.gz'
+    with gzip.open(name, 'wt') as stream:
+        stream.write('t_s,q_rad,dq_rad_s,tau_measured_Nm\n')
+        for row in zip(t, q, v + rng.normal(0, 1e-4, q.size), tau):
+            stream.write(','.join(repr(float(x)) for x in row) + '\n')
+    return name
+
+
+def test_one_way_runs_are_paired_across_files_and_gravity_cancels(tmp_path):
+    from robot_wear_monitor.audit.data import table_from_raw_runs
+    rng = np.random.default_rng(8)
+    files = [_one_way(tmp_path, v, d, rng=rng) for v in ONE_WAY_SPEEDS for d in (1, -1)]
+    table = table_from_raw_runs(sorted(files), flip_sign=False)
+    assert table.n_rows == len(ONE_WAY_SPEEDS)
+    order = np.argsort(table.numeric['speed'])
+    speeds = table.numeric['speed'][order]
+    np.testing.assert_allclose(speeds, ONE_WAY_SPEEDS, rtol=0.02)
+    # eq. (3) across the two files: the gravity torque (5 N.m x cos q) cancels
+    np.testing.assert_allclose(table.numeric['friction'][order], curve(speeds), atol=0.01)
+    assert all('+' in e for e in table.text['experiment'])
+
+
+def test_one_way_runs_without_a_partner_are_named(tmp_path):
+    from robot_wear_monitor.audit.data import table_from_raw_runs
+    rng = np.random.default_rng(9)
+    files = [_one_way(tmp_path, v, 1, rng=rng) for v in ONE_WAY_SPEEDS[:2]]
+    with pytest.raises(InputError, match='move one way only and have no run the other way'):
+        table_from_raw_runs(files, flip_sign=False)
