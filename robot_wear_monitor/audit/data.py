@@ -188,7 +188,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     ``experiment`` naming both files.  A one-way run without such a partner is reported.
     """
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
-    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_kuka_run
+    from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
+                                                      slow_run_config)
 
     settings = config if config is not None else kuka_segmenter_config()
     sign = -1.0 if flip_sign else 1.0
@@ -220,10 +221,15 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
                                velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
                                config=settings)
+        slow = slow_run_config(settings, run.dq_rad_s) if not result.levels else None
+        if slow is not None:  # slower than the standstill threshold: the noise decides
+            result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
+                                   velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
+                                   config=slow)
         if not result.levels:
             passes = one_way_passes(time_s=run.t_s, position_rad=run.q_rad,
                                     velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
-                                    config=settings)
+                                    config=slow or settings)
             if passes and len({p.direction for p in passes}) == 1:
                 one_way += [(name, run, p) for p in passes]
             else:

@@ -57,12 +57,18 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     levels are in no experiment).
     """
     from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
-    from robot_wear_monitor.recordings.tables import kuka_segmenter_config, read_raw_csv
+    from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_raw_csv,
+                                                      slow_run_config)
     t, q, v, e = read_raw_csv(path)
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
                                        ('torque_scale', torque_scale)) if val is not None}
     config = kuka_segmenter_config(**overrides)
     result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    slow = slow_run_config(config, v) if not result.levels else None
+    if slow is not None:  # slower than the standstill threshold: the data's noise decides
+        config = slow
+        result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e,
+                               config=config)
     if not result.levels:
         raise InputError(f'{path}: no friction level: '
                          f'{explain_raw_run(v, result.rejections, config)}')

@@ -12,8 +12,9 @@ For the segmenter, the iiwa's sensors are on the link side, so ``gear_ratio`` is
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import gzip
+import math
 import os
 from pathlib import Path
 import re
@@ -178,3 +179,28 @@ def kuka_segmenter_config(**overrides) -> SegmenterConfig:
         'max_gap_s': 0.05}
     settings.update(overrides)
     return SegmenterConfig(**settings)
+
+
+def slow_run_config(config: SegmenterConfig, velocity_rad_s: Any) -> SegmenterConfig | None:
+    """Return settings whose standstill threshold follows the run's speed noise, or None.
+
+    For a run slower than the configured standstill threshold (motor side): the velocity's
+    noise std is estimated from its sample-to-sample differences (median absolute deviation),
+    and the threshold becomes 5 noise std, the absolute speed band 3 noise std (at most the
+    configured ones).  None when the noise is as large as the run's speed (then the run is too
+    slow to tell from standstill) or the run is not slower than the threshold.
+    """
+    v = np.asarray(velocity_rad_s, dtype=float) * config.gear_ratio
+    v = v[np.isfinite(v)]
+    if v.size < 10:
+        return None
+    typical = float(np.median(np.abs(v)))
+    if typical > config.standstill_speed_rad_s:
+        return None
+    noise = 1.4826 * float(np.median(np.abs(np.diff(v)))) / math.sqrt(2.0)
+    standstill = 5.0 * noise
+    if not 0.0 < standstill < 0.5 * typical:
+        return None
+    return replace(config, standstill_speed_rad_s=standstill,
+                   speed_tolerance_rad_s=min(config.speed_tolerance_rad_s,
+                                             max(3.0 * noise, 0.05 * typical)))

@@ -207,3 +207,32 @@ def test_one_way_runs_without_a_partner_are_named(tmp_path):
     files = [_one_way(tmp_path, v, 1, rng=rng) for v in ONE_WAY_SPEEDS[:2]]
     with pytest.raises(InputError, match='move one way only and have no run the other way'):
         table_from_raw_runs(files, flip_sign=False)
+
+
+def _back_and_forth(path, speed, *, velocity_noise, rng, rate=200.0, cycles=3):
+    """A run back and forth across 0.02 rad at ``speed`` [rad/s] (KUKA columns)."""
+    n_move = int(round(0.02 / speed * rate))
+    n_still = int(0.5 * rate)
+    v = np.concatenate([np.concatenate([np.zeros(n_still), np.full(n_move, speed),
+                                        np.zeros(n_still), np.full(n_move, -speed)])
+                        for _ in range(cycles)])
+    q = np.cumsum(v) / rate
+    tau = 2.0 * np.cos(q) + np.sign(v) * curve(np.abs(v)) + rng.normal(0, NOISE, v.size)
+    return _raw_run(path, v + rng.normal(0, velocity_noise, v.size), tau, dt=1.0 / rate)
+
+
+def test_the_standstill_threshold_follows_the_speed_noise_of_a_slow_run(tmp_path, capsys):
+    rng = np.random.default_rng(10)
+    quiet = _back_and_forth(tmp_path / 'quiet.csv', 0.0017, velocity_noise=1e-5, rng=rng)
+    out = tmp_path / 'levels.csv'
+    assert main(['segment', str(quiet), '--out', str(out)]) == 0
+    rows = out.read_text().splitlines()[1:]
+    assert len(rows) >= 2
+    header = out.read_text().splitlines()[0].split(',')
+    speed = [float(r.split(',')[header.index('speed')]) for r in rows]
+    friction = [float(r.split(',')[header.index('friction')]) for r in rows]
+    np.testing.assert_allclose(speed, 0.0017, rtol=0.05)
+    np.testing.assert_allclose(friction, float(curve(np.array([0.0017]))[0]), atol=0.02)
+    noisy = _back_and_forth(tmp_path / 'noisy.csv', 0.0017, velocity_noise=3e-3, rng=rng)
+    assert main(['segment', str(noisy), '--out', str(tmp_path / 'n.csv')]) == 2
+    assert 'too slow to tell from standstill at' in capsys.readouterr().err
