@@ -210,7 +210,7 @@ def test_one_way_runs_without_a_partner_are_named(tmp_path):
 
 
 def _back_and_forth(path, speed, *, velocity_noise, rng, rate=200.0, cycles=3):
-    """A run back and forth across 0.02 rad at ``speed`` [rad/s] (KUKA columns)."""
+    """Write a run back and forth across 0.02 rad at ``speed`` [rad/s] (KUKA columns)."""
     n_move = int(round(0.02 / speed * rate))
     n_still = int(0.5 * rate)
     v = np.concatenate([np.concatenate([np.zeros(n_still), np.full(n_move, speed),
