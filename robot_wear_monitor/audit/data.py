@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import gzip
+import math
 import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -167,7 +168,8 @@ def table_from_levels(levels: Sequence, *, extra: Mapping[str, Sequence] | None 
 
 
 def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
-                        config=None, model: str = 'speed') -> AuditTable:
+                        config=None, model: str = 'speed',
+                        known_torque: str | None = None) -> AuditTable:
     """Segment KUKA-style raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
 
     Every forward/backward pair of a run gives one level (segmentation of
@@ -185,7 +187,9 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     Runs that move one way only (one file per speed and direction) give no level alone; their
     passes are paired across files: a forward and a backward pass of the same joint at the same
     speed over a common position window form eq. (3) across runs (gravity cancels), with
-    ``experiment`` naming both files.  A one-way run without such a partner is reported.
+    ``experiment`` naming both files.  A one-way run without such a partner gives its friction
+    as the pass's torque minus ``known_torque``, a column of the run with a torque the user
+    knows (gravity, a model torque; the torque's unit); without one it is reported.
     """
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
@@ -198,6 +202,7 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration')}
     rejected: list[str] = []
     one_way: list[tuple[str, Any, Any]] = []  # (run name, run, pass) of one-way runs
+    one_way_files: dict[str, tuple[Any, Any]] = {}  # run name -> (path, settings)
 
     def add(level: Any, run: Any, experiment: str, i: int, duration: float) -> None:
         pose = 'new_pose' if 'new_pose' in run.test_set else 'standard'
@@ -232,6 +237,7 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                                     config=slow or settings)
             if passes and len({p.direction for p in passes}) == 1:
                 one_way += [(name, run, p) for p in passes]
+                one_way_files[name] = (path, slow or settings)
             else:
                 rejected.append(Path(path).name)
             continue
@@ -239,11 +245,20 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         for i, level in enumerate(result.levels):
             add(level, run, name, i, duration)
     unpaired = _pair_one_way_runs(one_way, settings, add)
+    if known_torque is not None:
+        for name in unpaired:
+            path, used = one_way_files[name]
+            run = read_kuka_run(path)
+            for i, level in enumerate(_known_torque_levels(path, run, known_torque, used)):
+                add(level, run, name, i, float(run.t_s[-1] - run.t_s[0]))
+        unpaired = []
     if not columns['speed']:
         detail = (f'; {len(unpaired)} run(s) move one way only and have no run the other way '
                   f'at the same speed over a common position window: {", ".join(unpaired[:5])}'
                   if unpaired else '')
-        raise InputError(f'no friction level found in {len(paths)} raw run(s){detail}')
+        raise InputError(f'no friction level found in {len(paths)} raw run(s){detail}'
+                         + ('' if not unpaired or known_torque else
+                            ' (give --known-torque COLUMN to subtract a known torque)'))
     if len(set(columns['pose'])) == 1:
         del columns['pose']
     if len(set(columns['joint'])) == 1:
@@ -279,6 +294,34 @@ def _pair_one_way_runs(one_way: list, settings: Any, add: Any) -> list[str]:
             add(level, run, f'{name}+{other}', 0, duration)
             break
     return sorted({name for name, _, _ in one_way} - paired_names)
+
+
+def _known_torque_levels(path: Any, run: Any, column: str, settings: Any) -> list:
+    """Return one level per pass of a one-way run: direction x (torque - known torque)."""
+    from robot_wear_monitor.experiment.levels import FrictionLevel
+    from robot_wear_monitor.experiment.segmentation import one_way_passes
+    from robot_wear_monitor.recordings.tables import read_raw_csv
+    (known,) = read_raw_csv(path, columns=(column,))
+    passes = one_way_passes(time_s=run.t_s, position_rad=run.q_rad,
+                            velocity_rad_s=run.dq_rad_s,
+                            effort=run.tau_measured_Nm - known, config=settings)
+    levels = []
+    for p in passes:
+        friction = p.direction * float(np.mean(p.torque))
+        spread = float(np.std(p.torque, ddof=1)) / math.sqrt(p.torque.size) \
+            if p.torque.size > 1 else math.nan
+        inside = (run.t_s >= p.time_s[0]) & (run.t_s <= p.time_s[-1])
+        load = float(np.mean(known[inside]))  # the known torque: the load of eq. (3)
+        levels.append(FrictionLevel(
+            speed_rad_s=float(np.mean(np.abs(p.speed_rad_s))), friction=friction,
+            friction_std_error=spread, tau_forward=load + friction,
+            tau_backward=load - friction,
+            n_forward=int(p.torque.size) if p.direction > 0 else 0,
+            n_backward=int(p.torque.size) if p.direction < 0 else 0,
+            position_min_rad=float(p.position_rad.min()),
+            position_max_rad=float(p.position_rad.max()),
+            start_time_s=float(p.time_s[0]), end_time_s=float(p.time_s[-1])))
+    return levels
 
 
 def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states',
@@ -331,8 +374,12 @@ def is_bag(path: str | os.PathLike) -> bool:
 
 def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str | None = None,
                     topic: str = '/joint_states', flip_sign: bool = True,
-                    gear_ratio: float = 1.0, torque_scale: float = 1.0) -> AuditTable:
+                    gear_ratio: float = 1.0, torque_scale: float = 1.0,
+                    known_torque: str | None = None) -> AuditTable:
     """Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
+
+    ``known_torque``: the column of raw runs subtracted from one-way runs without a partner
+    (see :func:`table_from_raw_runs`).
 
     * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
     * a CSV with ``t_s, q_rad, dq_rad_s, tau_measured_Nm``: one raw run, segmented;
@@ -353,9 +400,11 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
         runs = list_kuka_runs(file)
         if not runs:
             raise InputError(f'{file}: no raw runs (*.csv.gz) and no bag metadata.yaml here')
-        return table_from_raw_runs(runs, flip_sign=flip_sign, model=model)
+        return table_from_raw_runs(runs, flip_sign=flip_sign, model=model,
+                                   known_torque=known_torque)
     if _is_raw_run(file):
-        return table_from_raw_runs([file], flip_sign=flip_sign, model=model)
+        return table_from_raw_runs([file], flip_sign=flip_sign, model=model,
+                                   known_torque=known_torque)
     return read_level_table(file, model=model)
 
 

@@ -58,6 +58,7 @@ def main(args: argparse.Namespace) -> int:
     params = params_from(args) if args.model != 'speed' or args.params else None
     gear_ratio, torque_scale = level_source_scales(args)
     table = load_audit_data(args.data, model=args.model, joint=args.joint, topic=args.topic,
+                            known_torque=args.known_torque,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale)
     group = args.group

@@ -91,7 +91,7 @@ def main(args: argparse.Namespace) -> int:
             gear_ratio=gear_ratio, torque_scale=torque_scale,
             temperature_topic=args.temperature_topic, load_topic=args.load_topic,
             experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
-            load_column=args.load_column)
+            load_column=args.load_column, known_torque=args.known_torque)
 
     baseline = levels(args.baseline, 'BASELINE')
     wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None

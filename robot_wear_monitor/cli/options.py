@@ -311,6 +311,10 @@ def add_level_source(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
     parser.add_argument('--raw-sign', action='store_true',
                         help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    parser.add_argument('--known-torque', metavar='COLUMN',
+                        help='raw runs that move one way only and have no run the other way: '
+                             'a column of a known torque (gravity, a model torque; the '
+                             "torque's unit) subtracted to give the friction")
     add_gear_ratio_and_torque_scale(parser, gear_default='1; bag input only')
 
 

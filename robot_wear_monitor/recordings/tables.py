@@ -90,7 +90,7 @@ def parse_run_name(path: str | os.PathLike) -> tuple[str, int, float]:
 
 
 def read_raw_csv(path: str | os.PathLike, *,
-                 columns: tuple[str, str, str, str] = KUKA_COLUMNS) -> tuple[FloatArray, ...]:
+                 columns: tuple[str, ...] = KUKA_COLUMNS) -> tuple[FloatArray, ...]:
     """Read a (gzip) CSV with a header row; return the named columns as float arrays (n,).
 
     Raises:

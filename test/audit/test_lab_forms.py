@@ -166,7 +166,7 @@ def test_a_raw_run_without_levels_is_exit_2_with_the_reason(tmp_path, capsys, sp
 ONE_WAY_SPEEDS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0)
 
 
-def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0):
+def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0, tag=''):
     """Write a run that moves once across [-0.5, 0.5] rad at ``speed`` one way (KUKA columns)."""
     import gzip
     travel = 1.0
@@ -179,7 +179,7 @@ def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0):
     tau = gravity * np.cos(q) + np.sign(v) * curve(np.abs(v)) + rng.normal(0, NOISE, q.size)
     t = np.arange(q.size) / rate
     label = f'{speed:g}'.replace('.', 'p')
-    name = folder / f'joint2_{"fwd" if direction > 0 else "bwd"}_vel_{label}.csv.gz'
+    name = folder / f'joint2_{"fwd" if direction > 0 else "bwd"}{tag}_vel_{label}.csv.gz'
     with gzip.open(name, 'wt') as stream:
         stream.write('t_s,q_rad,dq_rad_s,tau_measured_Nm\n')
         for row in zip(t, q, v + rng.normal(0, 1e-4, q.size), tau):
@@ -236,3 +236,25 @@ def test_the_standstill_threshold_follows_the_speed_noise_of_a_slow_run(tmp_path
     noisy = _back_and_forth(tmp_path / 'noisy.csv', 0.0017, velocity_noise=3e-3, rng=rng)
     assert main(['segment', str(noisy), '--out', str(tmp_path / 'n.csv')]) == 2
     assert 'too slow to tell from standstill at' in capsys.readouterr().err
+
+
+def test_a_one_way_run_without_a_partner_uses_a_known_torque_column(tmp_path, capsys):
+    import gzip
+    rng = np.random.default_rng(11)
+    for speed, tag in [(v, t) for v in ONE_WAY_SPEEDS for t in ('', '_b', '_c')]:
+        path = _one_way(tmp_path, speed, 1, rng=rng, tag=tag)
+        lines = gzip.open(path, 'rt').read().splitlines()
+        q = [float(line.split(',')[1]) for line in lines[1:]]
+        with gzip.open(path, 'wt') as stream:  # the user's gravity model: 5 N.m x cos q
+            stream.write(lines[0] + ',gravity_Nm\n')
+            stream.write(''.join(f'{line},{float(5.0 * np.cos(x))!r}\n'
+                                 for line, x in zip(lines[1:], q)))
+    assert main(['audit', str(tmp_path), '--raw-sign', '--json']) == 2
+    assert '--known-torque COLUMN' in capsys.readouterr().err
+    assert main(['audit', str(tmp_path), '--raw-sign', '--known-torque', 'gravity_Nm',
+                 '--json']) == 0
+    import json
+    report = json.loads(capsys.readouterr().out)
+    fitted = report['parameters_after']['all']
+    assert fitted['F_c'] == pytest.approx(1.2, abs=0.1)
+    assert fitted['F_v'] == pytest.approx(0.8, abs=0.15)
