@@ -159,6 +159,21 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                                       variables=list(dict.fromkeys(floor_vars)))
     replicates = lack_of_fit(table=table, residual=fit.residual, n_parameters=n_params,
                              variables=list(dict.fromkeys(floor_vars)))
+    if replicates is not None:
+        # repeated runs at one condition: the pure error is the floor (model-free); the
+        # nearest-neighbour estimate is kept beside it in the method text
+        floor_method = (f'replicates: pure error of {replicates.groups} repeated conditions '
+                        f'({replicates.pure_dof} degrees of freedom); nearest neighbour '
+                        f'{floor:.4g}') if floor_method == 'nearest neighbour' else floor_method
+        floor = replicates.pure_error if floor_method.startswith('replicates: pure') \
+            else floor
+        if math.isfinite(replicates.p_value) and replicates.p_value < fdr:
+            where = ('' if replicates.speed_range is None else
+                     f' (speeds {replicates.speed_range[0]:.4g} to '
+                     f'{replicates.speed_range[1]:.4g})')
+            stop += ('; lack of fit remains against the replicate error'
+                     + ('' if stop.startswith('maximum') else ' and no candidate explains it')
+                     + where)
     extended: ParameterSet | None = None
     offline: dict[str, Any] = {}
     changes = None

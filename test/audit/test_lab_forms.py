@@ -138,6 +138,18 @@ def test_lack_of_fit_names_the_speeds_the_model_cannot_explain():
     low, high = lof.speed_range
     assert low <= 0.3 <= high and high < 1.0 and low > 0.05
     assert 'the model cannot explain the speeds' in result.to_dict()['lack_of_fit']['statement']
+    assert result.stop_reason.endswith(f'lack of fit remains against the replicate error '
+                                       f'(speeds {low:.4g} to {high:.4g})')
+    assert result.noise_floor == pytest.approx(lof.pure_error)
+    assert result.noise_floor_method.startswith('replicates: pure error of')
+    # let the audit look for the effect: a smooth term in speed explains the resonance
+    found = run_audit(table=_replicated(lambda v: 0.08 * np.exp(
+        -((np.log(v) - np.log(0.3)) / 0.15) ** 2)), model='speed', estimate=False)
+    assert found.effects and found.effects[0].variables == ('speed',)
+    # the goal: within 1.5 x the replicate error, or a lack-of-fit statement naming the speeds
+    assert found.rms_after < 1.5 * found.lack_of_fit.pure_error or (
+        'lack of fit remains against the replicate error' in found.stop_reason
+        and '(speeds 0.1' in found.stop_reason)
 
 
 def _raw_run(path, velocity, torque, dt=0.005):
