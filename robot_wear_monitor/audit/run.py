@@ -157,8 +157,14 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         floor_vars.append(group)
     floor, floor_method = noise_floor(table=table, residual=fit.residual, n_parameters=n_params,
                                       variables=list(dict.fromkeys(floor_vars)))
+    # a replicate repeats the model's conditions (speed, its variables, the groups and the
+    # categories); measurements made along the way (a time, a window centre) are no condition
+    conditions = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
+                              ('speed', 'friction')] + list(table.text)
+    if group is not None:
+        conditions.append(group)
     replicates = lack_of_fit(table=table, residual=fit.residual, n_parameters=n_params,
-                             variables=list(dict.fromkeys(floor_vars)))
+                             variables=list(dict.fromkeys(conditions)))
     if replicates is not None:
         # repeated runs at one condition: the pure error is the floor (model-free); the
         # nearest-neighbour estimate is kept beside it in the method text

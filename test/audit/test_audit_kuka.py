@@ -42,6 +42,19 @@ def test_speed_model_misses_the_window_and_gravity_load_effects(kuka_audit):
     json.dumps(result.to_dict(), allow_nan=False)
 
 
+def test_the_replicate_error_and_the_lack_of_fit_statement_on_measured_data(kuka_audit):
+    # the cycles of a run repeat its speed: their scatter is the pure error of the data
+    lof = kuka_audit.lack_of_fit
+    assert lof is not None and lof.pure_dof > 500
+    assert 0.01 < lof.pure_error < kuka_audit.rms_after
+    # the goal: within 1.5 x the replicate error, or a statement naming the speeds
+    assert kuka_audit.rms_after <= 1.5 * lof.pure_error or (
+        lof.p_value < 0.01 and lof.speed_range is not None
+        and 'the model cannot explain the speeds' in lof.statement()
+        and 'lack of fit remains against the replicate error' in kuka_audit.stop_reason)
+    assert kuka_audit.noise_floor == lof.pure_error
+
+
 def test_single_raw_run_is_read_and_segmented(kuka_dir):
     table = load_audit_data(kuka_dir / 'raw_runs' / 'joint6_vel_p5.csv.gz')
     assert table.n_rows >= 4
