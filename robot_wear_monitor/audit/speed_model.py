@@ -1,13 +1,15 @@
 """The speed-only friction model (4) identified from levels without temperature or load.
 
 :func:`identify_speed_model` fits (4) per group (e.g. per joint) with the shared variable
-projection core, with standard errors and the held-out error by experiment.
+projection core, with standard errors and the held-out error by experiment;
+:func:`speed_only_parameter_set` makes a parameter set of it for levels that vary in speed
+only (the set says that temperature, load and wear were not identified).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Mapping
+from dataclasses import dataclass, replace
+from typing import Mapping, Optional
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,7 +18,9 @@ from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, multistart_fit,
                                               parameter_errors, speed_base)
 from robot_wear_monitor.audit.identification_result import Parameter
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.json_values import json_clean
+from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
 
@@ -115,3 +119,82 @@ def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds
                                folds=fold_text + (f' within each {group}' if group else ''),
                                fit_rms=float(np.sqrt(np.mean(residual ** 2))),
                                n_levels=table.n_rows, excluded=excluded)
+
+
+@dataclass(frozen=True)
+class SpeedOnlySet:
+    """A parameter set from levels without temperature or load variation (model (4) only).
+
+    Attributes:
+        params: the set: model (4) as the nominal model at the data's conditions (the
+            temperature and load terms zero), the wear model borrowed, sigma = the held-out
+            std; ``not_identified`` temperature, load and wear.
+        fit: the symmetric fit (all levels) with standard errors.
+        per_direction: the fit per direction when the levels have a ``direction`` group with
+            both directions (None otherwise); the set holds the symmetric fit of eq. (3).
+
+    """
+
+    params: ParameterSet
+    fit: SpeedIdentification
+    per_direction: Optional[SpeedIdentification]
+
+    def summary(self) -> str:
+        """Return the report: the fitted terms with standard errors, what is not identified."""
+        lines = [f'identified the speed model (4) on {self.fit.n_levels} friction levels '
+                 f'(no temperature or load variation: {self.params.friction_unit})']
+        for label, fit in (('all levels', self.fit), ('per direction', self.per_direction)):
+            if fit is None:
+                continue
+            for group, values in fit.groups.items():
+                shown = group if label == 'per direction' else label
+                lines.append(f'  {shown}: ' + ', '.join(
+                    f'{p.name} {p.value:.4g} +- {p.std_error:.2g}' for p in values.values()))
+        lines.append(f'  held-out error [mu, sigma] = [{self.fit.held_out_mean:.3e}, '
+                     f'{self.fit.held_out_std:.3e}] ({self.fit.folds})')
+        lines += [f'  warning: {w}' for w in self.fit.warnings]
+        lines.append(f'  not identified: {", ".join(self.params.not_identified)}: the set '
+                     'refuses to estimate wear and temperature and to design an experiment; '
+                     'give levels that vary them (and a wear test) for a complete set')
+        return '\n'.join(lines)
+
+    def to_dict(self) -> dict:
+        """Return the JSON report."""
+        return json_clean({'kind': 'speed_only', 'fit': self.fit.to_dict(),
+                           'per_direction': None if self.per_direction is None
+                           else self.per_direction.to_dict(),
+                           'not_identified': list(self.params.not_identified),
+                           'friction_unit': self.params.friction_unit,
+                           'name': self.params.name})
+
+
+def speed_only_parameter_set(*, table: AuditTable, from_params: ParameterSet, name: str,
+                             friction_unit: str, n_folds: int = 5) -> SpeedOnlySet:
+    """Identify model (4) with standard errors and write it as a (speed-only) parameter set.
+
+    The nominal model (5) at the data's conditions is model (4): f_c0 = F_c, f_s0 = F_s,
+    phi_s0 = phi_s, f_v0 = F_v, alpha, with the load and temperature terms zero.  The speed
+    range of the set is the data's; the wear model, the load estimate, the temperature bounds
+    and the alarm come from ``from_params`` and are marked not identified where they matter.
+    """
+    if not name or not name.strip():
+        raise InputError('--name must not be empty')
+    fit = identify_speed_model(table=table, group=None, n_folds=n_folds)
+    if 'all' not in fit.groups:
+        raise InputError(f'{table.source}: the speed model (4) needs 6 or more distinct speeds')
+    per_direction = None
+    if 'direction' in table.text and len(set(table.text['direction'].tolist())) == 2:
+        per_direction = identify_speed_model(table=table, group='direction', n_folds=n_folds)
+    values = {k: p.value for k, p in fit.groups['all'].items()}
+    model = replace(from_params.model, f_c0=values['F_c'], f_c_load=0.0, f_s0=values['F_s'],
+                    f_s_load=0.0, f_s_temp=0.0, f_v0=values['F_v'], f_v_temp=0.0,
+                    phi_s0=values['phi_s'], phi_s_temp=0.0, alpha=values['alpha'],
+                    extension=None)
+    speed = table.numeric['speed']
+    params = from_params.with_overrides(
+        name=name.strip(), model=model, sigma=max(fit.held_out_std, 1e-12),
+        speed_min_rad_s=float(speed.min()), speed_max_rad_s=float(speed.max()),
+        speed_separation_rad_s=0.0,
+        not_identified=('temperature', 'load', 'wear'), friction_unit=friction_unit,
+        source=f'identify {table.source}')
+    return SpeedOnlySet(params=params, fit=fit, per_direction=per_direction)

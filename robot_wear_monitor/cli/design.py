@@ -33,6 +33,7 @@ def main(args: argparse.Namespace) -> int:
 
     from robot_wear_monitor.estimation.design import best_grid_design, optimal_design
     params = params_from(args)
+    params.require('wear', purpose='designing the experiment (22)-(25)')
     if args.n < 1:
         raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')
     if args.grid is not None:

@@ -12,7 +12,7 @@ import argparse
 import math
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
-                                            level_source_scales, parse_float_list)
+                                            level_source_scales, parse_float_list, PROG)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'identify a parameter set (models (5), (7), sigma) from friction levels'
@@ -58,6 +58,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'experiment (default 10)')
     parser.add_argument('--folds', type=int, default=5,
                         help='cross-validation folds of the held-out error (default 5)')
+    parser.add_argument('--speed-only', action='store_true',
+                        help='levels without temperature or load variation: identify the '
+                             'speed model (4) at their conditions and write a set that says '
+                             'temperature, load and wear were not identified')
+    parser.add_argument('--friction-unit', metavar='UNIT',
+                        help='the unit of the levels, stated in the set (default: N.m for raw '
+                             'runs read with torque scale 1, else normalised)')
     add_level_source(parser)
 
 
@@ -93,7 +100,15 @@ def main(args: argparse.Namespace) -> int:
             experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
             load_column=args.load_column, known_torque=args.known_torque)
 
-    baseline = levels(args.baseline, 'BASELINE')
+    if args.speed_only:
+        return _speed_only(args, from_params, gear_ratio, torque_scale)
+    try:
+        baseline = levels(args.baseline, 'BASELINE')
+    except InputError as error:
+        if _varies_in_conditions(args, gear_ratio, torque_scale):
+            raise
+        raise InputError(f'{error} (levels that vary in speed only: --speed-only identifies '
+                         'the speed model (4) at their conditions)') from None
     wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None
     result = identify(baseline=baseline, from_params=from_params,
                       name=args.name or default_set_name(args.baseline),
@@ -107,6 +122,61 @@ def main(args: argparse.Namespace) -> int:
     if args.plots:
         report['figures'] = [str(p) for p in plot_identification(
             result=result, baseline=baseline, wear_test=wear_test, out_dir=args.plots)]
+    if emit_json(args, report):
+        return 0
+    print(result.summary())
+    print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
+    return 0
+
+
+def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float,
+                          torque_scale: float) -> bool:
+    """Return True when the baseline gives temperature and load (columns, topics) that vary."""
+    import numpy as np
+
+    from robot_wear_monitor.audit.data import load_audit_data
+    if any((args.temperature_topic, args.load_topic, args.temperature_column,
+            args.load_column)):
+        return True
+    table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
+                            flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
+                            torque_scale=torque_scale, known_torque=args.known_torque)
+    return all(name in table.numeric and np.unique(table.numeric[name]).size > 1
+               for name in ('temperature', 'load'))
+
+
+def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
+                torque_scale: float) -> int:
+    """Identify model (4) from levels that vary in speed only; write the speed-only set."""
+    from pathlib import Path
+
+    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.audit.data import is_bag, load_audit_data
+    from robot_wear_monitor.audit.identify_inputs import default_set_name
+    from robot_wear_monitor.audit.speed_model import speed_only_parameter_set
+    from robot_wear_monitor.model.params import load_parameter_set, parameter_set_yaml_text
+    if args.wear_test or args.critical_experiment:
+        raise InputError(f'{args.baseline}: --speed-only identifies model (4) only; a wear '
+                         'test (7) needs the nominal model (5), from levels with temperature '
+                         'and load that vary')
+    table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
+                            flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
+                            torque_scale=torque_scale, known_torque=args.known_torque)
+    source = Path(args.baseline)
+    raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
+    unit = args.friction_unit or ('N.m' if raw and torque_scale == 1.0 else 'normalised')
+    result = speed_only_parameter_set(table=table, from_params=from_params,
+                                      name=args.name or default_set_name(args.baseline),
+                                      friction_unit=unit, n_folds=args.folds)
+    header = (f'Speed-only parameter set from {PROG} identify {args.baseline}: model (4) at '
+              "the data's conditions.\nNot identified: temperature, load, wear (borrowed from "
+              f'{from_params.name}); the set refuses to estimate wear.\n'
+              f'Friction unit: {unit}.')
+    write_text_atomic(args.out, parameter_set_yaml_text(result.params, header=header))
+    loaded = load_parameter_set(args.out)
+    report = result.to_dict()
+    report['out'] = str(args.out)
+    report['loaded_back'] = loaded.name == result.params.name
     if emit_json(args, report):
         return 0
     print(result.summary())

@@ -60,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
     if Path(args.out).exists() and not args.overwrite:  # before minutes of simulation
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     params = params_from(args)
+    params.require('wear', 'temperature', 'load', purpose='simulating a wearing joint')
     config = accelerated_wear_scenario(
         n_experiments=args.experiments, speeds_rad_s=args.speeds, params=params,
         seed=args.seed, wear_final=args.wear_final, experiment_interval_s=args.interval,

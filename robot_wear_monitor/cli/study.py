@@ -35,6 +35,7 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.estimation.design import optimal_design
     from robot_wear_monitor.estimation.study import plot_study, run_study
     params = params_from(args)
+    params.require('wear', purpose='the Monte Carlo study of the estimator')
     if args.n < 1:
         raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')
     if args.speeds is not None and len(args.speeds) != args.n:

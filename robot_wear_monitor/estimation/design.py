@@ -66,6 +66,7 @@ def fisher_information(*, speeds_rad_s: ArrayLike, params: ParameterSet,
         F, shape (..., 2, 2), in the order (T, w).
 
     """
+    params.require('wear', purpose='designing the experiment (22)-(25)')
     speeds = np.asarray(speeds_rad_s, dtype=float)
     t = params.design_temperature_degc if temperature_degc is None else temperature_degc
     w = params.design_wear if wear is None else wear

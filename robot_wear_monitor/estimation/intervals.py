@@ -499,10 +499,11 @@ def calibration_key(speeds_t: tuple, params: ParameterSet, level: float, runs: i
     """Return the key of a calibration: a hash of everything its numbers depend on.
 
     The parameter set enters by its values (model, sigma, load, temperature range, wear
-    range), not its name or file, so a copy of a set elsewhere shares the calibration.
+    range), not its name, file or identification notes, so a copy of a set elsewhere shares
+    the calibration.
     """
     values = [(f.name, repr(getattr(params, f.name))) for f in fields(params)
-              if f.name not in ('name', 'source')]
+              if f.name not in ('name', 'source', 'not_identified', 'friction_unit')]
     text = json.dumps([CALIBRATION_VERSION, [repr(float(v)) for v in speeds_t], values,
                        repr(float(level)), int(runs), int(seed), list(CALIBRATION_WEAR)])
     return hashlib.sha256(text.encode()).hexdigest()[:32]

@@ -102,6 +102,7 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
     """
     from robot_wear_monitor.estimation.estimator import estimate_wear
     from robot_wear_monitor.estimation.intervals import wear_intervals
+    params.require('wear', purpose='estimating wear (16)')
     estimates = estimate_wear(speeds_rad_s, frictions, params=params)
     est = estimates[0]
     interval = wear_intervals(speeds_rad_s, frictions, params=params, estimates=estimates)[0]

@@ -81,6 +81,24 @@ class ParameterSet:
     wear_threshold: float
     wear_warning: float
     source: str = '<built-in>'
+    #: what the set's data could not identify (``temperature``, ``load``, ``wear``): the terms
+    #: in them are zero or borrowed, and what needs them is refused (:meth:`require`)
+    not_identified: tuple[str, ...] = ()
+    #: the unit of the friction levels the set describes (``normalised`` or e.g. ``N.m``)
+    friction_unit: str = 'normalised'
+
+    def require(self, *what: str, purpose: str) -> None:
+        """Raise ParameterError when the set did not identify one of ``what`` (e.g. 'wear').
+
+        ``purpose`` says what needs it, e.g. ``'estimating wear'``.
+        """
+        missing = [w for w in what if w in self.not_identified]
+        if missing:
+            raise ParameterError(
+                f'{self.source}: parameter set {self.name!r} did not identify '
+                f'{" and ".join(missing)} (its data had no {" or ".join(missing)} variation): '
+                f'{purpose} needs it; identify it from data that vary it (identify --wear-test '
+                'for wear)')
 
     def with_overrides(self, **changes: Any) -> 'ParameterSet':
         """Return a copy with some scalar fields replaced, validated like a loaded file."""
@@ -101,6 +119,9 @@ _MODEL_SECTIONS = {
 }
 #: Optional section of the terms an audit added (model/extensions.py).
 _EXTENSION_SECTION = 'added_terms'
+#: Optional section of what the identification could not identify, and the friction unit.
+_IDENTIFICATION_SECTION = 'identification'
+IDENTIFIABLE = ('temperature', 'load', 'wear')
 # section -> {yaml key: ParameterSet field}
 _SCALAR_SECTIONS = {
     'noise': {'sigma': 'sigma'},
@@ -196,7 +217,8 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
     if not isinstance(document, Mapping):
         raise ParameterError(
             f'{source}: expected a mapping at the top level, got {type(document).__name__}')
-    known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS, _EXTENSION_SECTION}
+    known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS, _EXTENSION_SECTION,
+             _IDENTIFICATION_SECTION}
     extra = sorted(set(document) - known)
     if extra:
         raise ParameterError(f'{source}: unknown section {shorten(repr(extra[0]))}')
@@ -207,7 +229,7 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
     coefficients: dict[str, float] = {}
     for key, expected in _MODEL_SECTIONS.items():
         coefficients.update(_section(document, key, expected, source))
-    scalars: dict[str, float] = {}
+    scalars: dict[str, Any] = {}
     for key, mapping in _SCALAR_SECTIONS.items():
         values = _section(document, key, tuple(mapping), source)
         scalars.update({mapping[k]: v for k, v in values.items()})
@@ -218,9 +240,30 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
         except ExtensionError as error:
             raise ParameterError(f'{source}: {error}') from None
     params = ParameterSet(name=name, model=FrictionModel(**coefficients, extension=extension),
-                          source=source, **scalars)
+                          source=source, **scalars,
+                          **_identification(document.get(_IDENTIFICATION_SECTION), source))
     _check_constraints(params, source)
     return params
+
+
+def _identification(section: Any, source: str) -> dict[str, Any]:
+    """Return the ParameterSet fields of the optional ``identification`` section."""
+    if section is None:
+        return {}
+    if not isinstance(section, Mapping):
+        raise ParameterError(f'{source}: identification: expected a mapping')
+    extra = sorted(set(section) - {'not_identified', 'friction_unit', 'identified'})
+    if extra:
+        raise ParameterError(f'{source}: identification: unknown key {shorten(repr(extra[0]))}')
+    missing = section.get('not_identified', []) or []
+    if not isinstance(missing, list) or any(m not in IDENTIFIABLE for m in missing):
+        raise ParameterError(f'{source}: identification.not_identified: a list of '
+                             f'{", ".join(IDENTIFIABLE)}, got {shorten(repr(missing))}')
+    unit = section.get('friction_unit', 'normalised')
+    if not isinstance(unit, str) or not unit.strip() or len(unit) > 40:
+        raise ParameterError(f'{source}: identification.friction_unit: a short text, got '
+                             f'{shorten(repr(unit))}')
+    return {'not_identified': tuple(missing), 'friction_unit': unit.strip()}
 
 
 def packaged_config_file(file_name: str) -> Path:
@@ -279,6 +322,12 @@ def parameter_set_to_mapping(params: ParameterSet) -> dict:
         document[key] = {k: float(getattr(params, f)) for k, f in mapping.items()}
     if params.model.extension is not None and params.model.extension.terms:
         document[_EXTENSION_SECTION] = extension_to_mapping(params.model.extension)
+    if params.not_identified or params.friction_unit != 'normalised':
+        document[_IDENTIFICATION_SECTION] = {
+            'identified': [t for t in ('speed',) + IDENTIFIABLE
+                           if t not in params.not_identified],
+            'not_identified': list(params.not_identified),
+            'friction_unit': params.friction_unit}
     return document
 
 

@@ -47,6 +47,7 @@ class EstimatorConfig:
         """Build from validated ``wear_estimator_node`` parameters (see node_config)."""
         if params is None:
             params = load_parameter_set(values.get('parameter_set_file') or None)
+        params.require('wear', purpose='the wear estimator')
         return cls(joint=values['joint'], params=params,
                    alarm=AlarmPolicy(threshold=values['wear_threshold'],
                                      healthy=values['wear_healthy'],

@@ -270,3 +270,40 @@ def test_a_one_way_run_without_a_partner_uses_a_known_torque_column(tmp_path, ca
     fitted = report['parameters_after']['all']
     assert fitted['F_c'] == pytest.approx(1.2, abs=0.1)
     assert fitted['F_v'] == pytest.approx(0.8, abs=0.15)
+
+
+def test_identify_makes_a_speed_only_set_that_says_what_it_cannot_do(tmp_path, capsys):
+    import json
+    columns = signed_columns(repeats=4, offset=0.0)
+    path = tmp_path / 'curve.csv'
+    path.write_text('speed,friction,experiment\n' + ''.join(
+        f'{float(v)!r},{float(f)!r},{int(e)}\n' for v, f, e in zip(
+            columns['speed'], columns['friction'], columns['experiment'])))
+    out = tmp_path / 'lab.yaml'
+    assert main(['identify', str(path), '--out', str(out)]) == 2  # the old answer stays
+    assert '--speed-only identifies the speed model (4)' in capsys.readouterr().err
+    assert main(['identify', str(path), '--out', str(out), '--speed-only', '--friction-unit',
+                 'N.m', '--json']) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report['kind'] == 'speed_only' and report['loaded_back']
+    fitted = report['fit']['groups']['all']
+    for name, truth in (('F_c', 1.2), ('F_s', 0.6), ('phi_s', 0.05), ('F_v', 0.8)):
+        value, error = fitted[name]['value'], fitted[name]['std_error']
+        assert abs(value - truth) <= 3 * error + 1e-3, (name, value, error)
+    assert set(report['per_direction']['groups']) == {'positive', 'negative'}
+    from robot_wear_monitor.model.params import load_parameter_set
+    params = load_parameter_set(out)
+    assert params.not_identified == ('temperature', 'load', 'wear')
+    assert params.friction_unit == 'N.m'
+    assert 'not_identified:' in out.read_text() and 'friction_unit: N.m' in out.read_text()
+    # what needs temperature, load or wear is refused, naming the set and why
+    assert main(['estimate', '--speeds', '0.1,0.5,1.0', '--friction', '1.3,1.6,2.0',
+                 '--params', str(out)]) == 2
+    assert 'did not identify wear' in capsys.readouterr().err
+    assert main(['design', '--n', '2', '--params', str(out)]) == 2
+    assert 'designing the experiment' in capsys.readouterr().err
+    assert main(['simulate', '--out', str(tmp_path / 'bag'), '--params', str(out)]) == 2
+    # a wear test needs the nominal model, which these levels cannot give
+    assert main(['identify', str(path), '--out', str(tmp_path / 'x.yaml'), '--speed-only',
+                 '--wear-test', str(path), '--critical-experiment', '1']) == 2
+    assert 'a wear test (7) needs the nominal model (5)' in capsys.readouterr().err
