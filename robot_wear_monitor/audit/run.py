@@ -115,7 +115,22 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     effects: list[Effect] = []
     steps: list[dict] = []
     stop = 'maximum number of effects reached'
+    # a replicate repeats the model's conditions (speed, its variables, the groups and the
+    # categories); measurements made along the way (a time, a window centre) are no condition
+    conditions = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
+                              ('speed', 'friction')] + list(table.text)
+    if group is not None:
+        conditions.append(group)
+    conditions = list(dict.fromkeys(conditions))
     for _ in range(max_effects):
+        adequate = lack_of_fit(table=table, residual=fit.residual, n_parameters=(
+            orthonormal(design_matrix(base, fit.theta, table, terms)).shape[1]
+            + len(base.theta0)), variables=conditions)
+        if adequate is not None and math.isfinite(adequate.p_value) and \
+                adequate.p_value >= fdr:
+            stop = (f'the model explains the data to the replicate error (lack of fit '
+                    f'p = {adequate.p_value:.2g} >= {fdr:g})')
+            break
         rejected: list[str] = []
         accepted = None
         while len(rejected) < MAX_TRIES:
@@ -157,14 +172,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         floor_vars.append(group)
     floor, floor_method = noise_floor(table=table, residual=fit.residual, n_parameters=n_params,
                                       variables=list(dict.fromkeys(floor_vars)))
-    # a replicate repeats the model's conditions (speed, its variables, the groups and the
-    # categories); measurements made along the way (a time, a window centre) are no condition
-    conditions = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
-                              ('speed', 'friction')] + list(table.text)
-    if group is not None:
-        conditions.append(group)
     replicates = lack_of_fit(table=table, residual=fit.residual, n_parameters=n_params,
-                             variables=list(dict.fromkeys(conditions)))
+                             variables=conditions)
     if replicates is not None:
         # repeated runs at one condition: the pure error is the floor (model-free); the
         # nearest-neighbour estimate is kept beside it in the method text

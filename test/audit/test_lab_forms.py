@@ -127,6 +127,9 @@ def test_replicate_runs_give_the_pure_error_and_a_passing_lack_of_fit_test():
     assert lof.pure_error == pytest.approx(NOISE, rel=0.25)
     assert lof.p_value > 0.01 and 'to the replicate scatter' in lof.statement()
     assert 'replicates: lack of fit against the pure error' in result.summary()
+    # nothing left to explain: the audit stops on the lack-of-fit test, adds nothing
+    assert result.stop_reason.startswith('the model explains the data to the replicate error')
+    assert not result.effects
 
 
 def test_lack_of_fit_names_the_speeds_the_model_cannot_explain():
