@@ -277,7 +277,7 @@ def test_a_one_way_run_without_a_partner_uses_a_known_torque_column(tmp_path, ca
 
 def test_identify_makes_a_speed_only_set_that_says_what_it_cannot_do(tmp_path, capsys):
     import json
-    columns = signed_columns(repeats=4, offset=0.0)
+    columns = signed_columns(repeats=4, offset=0.15)  # the negative direction 0.15 N.m higher
     path = tmp_path / 'curve.csv'
     path.write_text('speed,friction,experiment\n' + ''.join(
         f'{float(v)!r},{float(f)!r},{int(e)}\n' for v, f, e in zip(
@@ -289,11 +289,15 @@ def test_identify_makes_a_speed_only_set_that_says_what_it_cannot_do(tmp_path, c
                  'N.m', '--json']) == 0
     report = json.loads(capsys.readouterr().out)
     assert report['kind'] == 'speed_only' and report['loaded_back']
-    fitted = report['fit']['groups']['all']
-    for name, truth in (('F_c', 1.2), ('F_s', 0.6), ('phi_s', 0.05), ('F_v', 0.8)):
+    fitted = report['fit']['groups']['all']  # eq. (3): the mean of the two directions
+    for name, truth in (('F_c', 1.2 + 0.075), ('F_s', 0.6), ('phi_s', 0.05), ('F_v', 0.8)):
         value, error = fitted[name]['value'], fitted[name]['std_error']
         assert abs(value - truth) <= 3 * error + 1e-3, (name, value, error)
-    assert set(report['per_direction']['groups']) == {'positive', 'negative'}
+    directions = report['per_direction']['groups']
+    for direction, coulomb in (('positive', 1.2), ('negative', 1.35)):
+        value, error = directions[direction]['F_c']['value'], \
+            directions[direction]['F_c']['std_error']
+        assert abs(value - coulomb) <= 3 * error + 1e-3, (direction, value, error)
     from robot_wear_monitor.model.params import load_parameter_set
     params = load_parameter_set(out)
     assert params.not_identified == ('temperature', 'load', 'wear')
