@@ -113,6 +113,7 @@ class AuditResult:
             cannot have, one sentence each (the speed model (4)).
         lack_of_fit: the final model against the pure error of replicated conditions (repeated
             runs at the same speed and direction), None without replicates.
+        rms_by_group: group -> (held-out RMS error before, after) when fitted per ``group``.
 
     """
 
@@ -140,6 +141,7 @@ class AuditResult:
     offline: Mapping[str, tuple] = field(default_factory=dict)
     parameter_flags: tuple[str, ...] = ()
     lack_of_fit: LackOfFit | None = None
+    rms_by_group: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
@@ -156,6 +158,8 @@ class AuditResult:
             'estimate_changes': self.estimate_changes, 'excluded': list(self.excluded),
             'added_terms': self._added_terms(),
             'parameter_flags': list(self.parameter_flags),
+            'rms_by_group': {k: {'before': b, 'after': a}
+                             for k, (b, a) in self.rms_by_group.items()},
             'lack_of_fit': None if self.lack_of_fit is None else self.lack_of_fit.to_dict(),
             'offline_variables': [{'variable': k, 'default': v, 'how': how}
                                   for k, (v, how) in self.offline.items()]})
@@ -175,6 +179,9 @@ class AuditResult:
                  f'  held-out RMS error after:  {self.rms_after:.4g} [f]',
                  f'  noise floor: {self.noise_floor:.4g} [f] ({self.noise_floor_method})',
                  f'  folds: {self.folds}']
+        for key, (before, after) in self.rms_by_group.items():
+            lines.append(f'  held-out RMS error of {self.group} {key}: {before:.4g} -> '
+                         f'{after:.4g} [f]')
         if self.lack_of_fit is not None:
             lines.append(f'  replicates: {self.lack_of_fit.statement()}')
         lines += [f'  left out: {text}' for text in self.excluded]

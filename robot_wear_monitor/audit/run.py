@@ -109,8 +109,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
 
     fit = fit_model(base, table, [], base.theta0)
     fit_before = fit
-    cv_before, _ = cv_rms(base, table, [], fit.theta, folds)
-    cv_now = cv_before
+    cv_before, held_before = cv_rms(base, table, [], fit.theta, folds)
+    cv_now, held_now = cv_before, held_before
     terms: list[Term] = []
     effects: list[Effect] = []
     steps: list[dict] = []
@@ -142,8 +142,9 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                 break
             trial_terms = terms + [step['term']]
             trial_fit = fit_model(base, table, trial_terms, fit.theta)
-            cv_trial, _ = cv_rms(base, table, _fold_terms(base, terms, step['term'], fit.theta),
-                                 trial_fit.theta, folds)
+            cv_trial, held_trial = cv_rms(
+                base, table, _fold_terms(base, terms, step['term'], fit.theta),
+                trial_fit.theta, folds)
             step['report']['rms_cv_with_term'] = cv_trial
             if cv_trial <= cv_now * (1.0 - min_gain):
                 accepted = step
@@ -163,7 +164,7 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                               float(np.ptp(change)), dict(term.info),
                               step['report']['chosen']['candidate'],
                               tuple(step['report']['chosen']['confounded_with'])))
-        terms, fit, cv_now = trial_terms, trial_fit, cv_trial
+        terms, fit, cv_now, held_now = trial_terms, trial_fit, cv_trial, held_trial
     n_params = (orthonormal(design_matrix(base, fit.theta, table, terms)).shape[1]
                 + len(base.theta0))
     floor_vars = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
@@ -215,7 +216,22 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         estimate_changes=changes, stop_reason=stop, excluded=excluded,
         extended_params=extended, offline=offline,
         parameter_flags=speed_parameter_flags(base, fit.theta, fit.coef, table)
-        if model == 'speed' else (), lack_of_fit=replicates)
+        if model == 'speed' else (), lack_of_fit=replicates,
+        rms_by_group=_rms_by_group(table, group, held_before, held_now))
+
+
+def _rms_by_group(table: AuditTable, group: str | None, before: np.ndarray,
+                  after: np.ndarray) -> dict[str, tuple[float, float]]:
+    """Return group -> (held-out RMS before, after) [friction units]; {} without a group.
+
+    Joints whose friction differs sevenfold are not pooled into one number: each has its own.
+    """
+    if group is None:
+        return {}
+    labels = as_text(table, group)
+    return {str(key): (float(np.sqrt(np.mean(before[labels == key] ** 2))),
+                       float(np.sqrt(np.mean(after[labels == key] ** 2))))
+            for key in sorted(set(labels.tolist()))}
 
 
 def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,

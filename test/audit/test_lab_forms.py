@@ -75,6 +75,10 @@ def test_a_numeric_joint_column_is_a_group_and_joints_are_fitted_apart(tmp_path,
     coulomb = {k: v['F_c'] for k, v in report['parameters_after'].items()}
     assert coulomb['2'] / coulomb['1'] == pytest.approx(7.0, rel=0.1)
     assert 'joint' not in report['candidates']  # a group, never a number to be linear in
+    # each joint its own held-out error: a sevenfold friction is not pooled with the other
+    errors = report['rms_by_group']
+    assert set(errors) == {'1', '2'} and errors['2']['after'] < 3 * NOISE
+    assert errors['1']['after'] < 3 * NOISE
 
 
 def test_no_wear_error_without_a_wear_column_and_no_packaged_set_without_params(capsys):
