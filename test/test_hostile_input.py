@@ -199,6 +199,8 @@ def test_a_read_only_history_is_refused_before_the_work(tmp_path, small_bag, imm
     assert done.returncode == 2 and '--history' in done.stderr and 'not writable' in \
         done.stderr, done.stderr
     assert history.read_bytes() == before and not (tmp_path / 's.json').exists()
+    shown = _cli('fleet', '--history', history)  # reading a read-only history is fine
+    assert shown.returncode == 0 and 'joint_2' in shown.stdout, shown.stderr
 
 
 def test_check_writable_names_the_option_and_the_kind(tmp_path):

@@ -18,6 +18,8 @@ from robot_wear_monitor.atomic_files import check_writable, check_writable_file,
 
 #: Verbs whose ``--out`` is a folder (a bag, a report folder); elsewhere it is a file.
 FOLDER_OUT = ('simulate', 'replay', 'demo')
+#: Verbs that write the ``--history`` they are given (``fleet`` only reads it).
+HISTORY_WRITERS = ('replay', 'live')
 
 
 def _check_folder(path: str, option: str) -> None:
@@ -55,6 +57,6 @@ def check_outputs(args: argparse.Namespace) -> None:
         else:
             check_writable(out, what='--out')
     history = getattr(args, 'history', None)
-    if history and command != 'history' and str(history) != ':memory:' \
+    if history and command in HISTORY_WRITERS and str(history) != ':memory:' \
             and not is_postgresql_url(history):
         check_writable_file(history, what='--history')
