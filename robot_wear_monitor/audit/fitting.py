@@ -333,6 +333,27 @@ def _solve_nonnegative(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatA
     return coef, orthonormal(x[:, free]) if free.any() else np.zeros((len(y), 0))
 
 
+def _anchor_weight(solved: tuple, y: FloatArray, lower: FloatArray,
+                   upper: FloatArray) -> FloatArray:
+    """Return the weights of the anchor residuals weight * (theta - start) of :func:`fit_model`.
+
+    A Gaussian prior on theta centred on the start, one bound width wide: weight = s / width,
+    s^2 the residual variance at the start.  Shifting theta by a whole bound width costs as
+    much as one level's noise, so the prior is negligible wherever the data determine theta.
+    Where they do not (a Stribeck speed above the group's speeds, a Stribeck amplitude near
+    zero), the sum of squares is flat to rounding in theta, and without the anchor the end
+    point would follow rounding (the number of BLAS threads) rather than the data; with it
+    the minimum is unique and stays near the start.
+    """
+    x, coef, q = solved
+    r = x @ coef - y
+    dof = max(len(y) - q.shape[1] - len(lower), 1)
+    s = math.sqrt(max(float(r @ r) / dof, 1e-300))
+    width = upper - lower
+    width = np.where(np.isfinite(width) & (width > 0), width, 1.0)
+    return s / width
+
+
 def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray,
               max_nfev: int = 100, nonnegative: bool = False) -> Fit:
     """Variable projection: nonlinear theta by least_squares, amplitudes by QR inside.
@@ -375,9 +396,17 @@ def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray
 
     lower, upper = base.bounds(table)
     start = np.clip(theta0, lower + 1e-9, upper - 1e-9)
-    result = optimize.least_squares(residual, start, jac=jacobian,
+    weight = _anchor_weight(solve(start), y, lower, upper)
+
+    def anchored_residual(theta: FloatArray) -> FloatArray:
+        return np.concatenate([residual(theta), weight * (theta - start)])
+
+    def anchored_jacobian(theta: FloatArray) -> FloatArray:
+        return np.vstack([jacobian(theta), np.diag(weight)])
+
+    result = optimize.least_squares(anchored_residual, start, jac=anchored_jacobian,
                                     bounds=(lower, upper), x_scale='jac',
-                                    max_nfev=max_nfev, method='trf')
+                                    max_nfev=max_nfev, method='trf', ftol=1e-12, xtol=1e-10)
     theta = result.x
     x, coef, _ = solve(theta)
     prediction = x @ coef
