@@ -406,7 +406,8 @@ def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray
 
     result = optimize.least_squares(anchored_residual, start, jac=anchored_jacobian,
                                     bounds=(lower, upper), x_scale='jac',
-                                    max_nfev=max_nfev, method='trf', ftol=1e-12, xtol=1e-10)
+                                    max_nfev=max_nfev, method='trf', ftol=1e-14, xtol=1e-12,
+                                    gtol=1e-12)
     theta = result.x
     x, coef, _ = solve(theta)
     prediction = x @ coef

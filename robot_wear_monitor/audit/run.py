@@ -276,7 +276,7 @@ def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray
     name = term.variables[0]
 
     def for_training(train: AuditTable) -> list[Term]:
-        fit = fit_model(base, train, terms, theta, max_nfev=40)
+        fit = fit_model(base, train, terms, theta, max_nfev=200)
         q0 = orthonormal(design_matrix(base, fit.theta, train, terms))
         x = train.numeric[name]
         variable = make_variable(train, name)

@@ -71,11 +71,12 @@ def periodic_scan(basis_of: Callable[[float], FloatArray], frequencies: FloatArr
     (log p, df).  The grid's best frequency is refined by a bounded scalar search; the p-value
     is Bonferroni-corrected for the number of whole periods the scan spans.
     """
-    best = (math.inf, 1.0 / frequencies[0])
-    for f in frequencies:
-        log_p, _ = test(basis_of(f))
-        if log_p < best[0]:
-            best = (log_p, 1.0 / f)
+    scanned = np.array([test(basis_of(f))[0] for f in frequencies])
+    # peaks that agree to rounding (1e-9 of the log p) are a tie: the lowest frequency wins,
+    # so that the choice does not follow the summation order of the BLAS
+    lowest = float(scanned.min())
+    first = int(np.flatnonzero(scanned <= lowest + 1e-9 * max(1.0, abs(lowest)))[0])
+    best = (float(scanned[first]), 1.0 / float(frequencies[first]))
     step = float(frequencies[1] - frequencies[0]) if len(frequencies) > 1 else 0.1 / best[1]
     f0 = 1.0 / best[1]
     refined = optimize.minimize_scalar(lambda f: test(basis_of(f))[0],
