@@ -11,15 +11,11 @@ history rows.
 import math
 import sqlite3
 
-import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 
 import foreign_recordings as fr
-from robot_wear_monitor.estimation import estimator as core
-from robot_wear_monitor.estimation.batch import estimate_wear_rows
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
-from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.monitoring import estimator_service
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
@@ -133,32 +129,3 @@ def test_foreign_recorder_bags(tmp_path, monkeypatch, imperfections, storage, fi
     del experiment, estimator  # the config is valid (raises otherwise)
     _compare(bag, tmp_path, monkeypatch, experiments=len(recording.experiments),
              config_file=config, joints=list(joints))
-
-
-def test_estimate_wear_rows_equals_estimate_wear_row_by_row():
-    """Rows at their own speeds (N = 1..6, at the bounds too) equal estimate_wear exactly."""
-    params = load_parameter_set(None)
-    rng = np.random.default_rng(3)
-    speeds, frictions = [], []
-    for i in range(60):
-        n = [1, 2, 3, 4, 4, 4, 6][i % 7]
-        design = np.sort(rng.uniform(1.0, 45.0, n))
-        wear = [0.0, 5.0, 40.0, 90.0][i % 4]
-        temperature = [params.temperature_min_degc, 35.0, params.temperature_max_degc][i % 3]
-        level = core.fm.friction(design, params.load_mean, temperature, wear, params.model)
-        speeds.append(design)
-        frictions.append(level + rng.normal(0.0, params.sigma, n) * (i % 5))
-    rows = estimate_wear_rows(speeds, frictions, params=params)
-    assert len(rows) == len(speeds)
-    fields = ('temperature_degc', 'wear', 'covariance', 'temperature_at_bound', 'wear_at_bound',
-              'chi2', 'dof', 'p_value', 'speeds_rad_s')
-    on_bound = 0
-    for s, f, row in zip(speeds, frictions, rows):
-        alone = core.estimate_wear(s, f, params=params)
-        assert row.n_levels == alone.n_levels and len(row) == 1
-        for name in fields:
-            a, b = getattr(alone, name), getattr(row, name)
-            assert a.dtype == b.dtype and a.shape == b.shape
-            assert np.array_equal(a, b, equal_nan=True), name
-        on_bound += bool(alone.wear_at_bound[0] or alone.temperature_at_bound[0])
-    assert on_bound >= 5  # the bounds' held-variable steps are compared too
