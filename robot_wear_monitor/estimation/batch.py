@@ -91,7 +91,10 @@ def _estimate_stacked(speeds: list[FloatArray], values: list[FloatArray],
     problems = [core._WhitenedProblem(s.copy(), params) for s in speeds]
     stacked = _StackedProblem.of(problems, params)
     data_w = stacked.apply(np.concatenate(values))
-    starts = [p.grid_starts(d[None, :]) for p, d in zip(problems, data_w)]
+    starts = []
+    for problem, row in zip(problems, data_w):
+        starts.append(problem.grid_starts(row[None, :]))
+        problem._grid_cache = None  # one start grid in memory at a time (flat memory)
     t0 = np.concatenate([s[0] for s in starts])
     w0 = np.concatenate([s[1] for s in starts])
     count, k = t0.shape

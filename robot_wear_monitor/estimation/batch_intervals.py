@@ -186,6 +186,7 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     profiles = [one._Profile(s.copy(), params, _extended_grid(grid, w).copy())
                 for s, w in zip(speeds, w_hat)]
     profile = _StackedProfile(profiles)
+    del profiles  # stacked: one copy in memory
     index = np.arange(len(speeds))
     data = profile.whitened(vals, index)
     # _WearLikelihood, N >= 2
