@@ -1,6 +1,7 @@
 """Replay against rosbags merely reading the same messages, whole processes, at two bag lengths.
 
-    python3 bench/bench_replay.py [--experiments 60] [--long 600] [--repeat 3] [--keep DIR]
+    python3 bench/bench_replay.py [--experiments 60] [--long 600] [--mid 150] [--repeat 3]
+                                  [--keep DIR]
 
 Simulates accelerated wear scenarios of ``--experiments`` and ``--long`` experiments into MCAP
 bags of /joint_states (6 joints, 250 Hz), then, in one run, for each bag, every figure a whole
@@ -15,9 +16,11 @@ new process (interpreter start-up and imports included), the fastest of ``--repe
 Prints the seconds and messages per second of each, the ratios replay throughput / bytes-only
 throughput and replay / read, and the verdict against the targets of the replay speed issue:
 replay >= 1.0 x the bytes-only process at the long bag (aim 2 x) and >= 0.7 x at the short one;
-the replay's peak RSS should not grow with the bag's length.  Also prints what start-up alone
-costs (an empty interpreter, numpy, scipy, the replay's imports) so that the short bag's ratio
-can be read against it.
+the replay's peak RSS should not grow with the bag's length.  The replay estimates 64
+experiments at a time: the short bag's one batch runs after its reading, a longer bag's batches
+overlap the reading, so memory is compared between a ``--mid`` bag (one run) and the long one.
+Also prints what start-up alone costs (an empty interpreter, numpy, scipy, the replay's
+imports) so that the short bag's ratio can be read against it.
 
 The package's modules are byte-compiled first (as an installed package is), like rosbags' in
 site-packages.  ``--all-joints`` adds the replay of all six joints.
@@ -134,6 +137,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--experiments', type=int, default=60, help='the short bag')
     parser.add_argument('--long', type=int, default=600, help='the long bag (0: skip)')
+    parser.add_argument('--mid', type=int, default=150,
+                        help='a bag of more than 64 experiments for the memory check (0: skip)')
     parser.add_argument('--repeat', type=int, default=3, help='runs per figure (the fastest)')
     parser.add_argument('--all-joints', action='store_true', help='add --joint all replays')
     parser.add_argument('--keep', metavar='DIR', help='keep the bags in DIR (and reuse them)')
@@ -179,9 +184,16 @@ def main(argv=None):
     if args.long:
         short_rss = results[args.experiments]['replay'][1]
         long_rss = results[args.long]['replay'][1]
-        print(f'replay peak RSS {short_rss / 1024:.0f} MB at {args.experiments} experiments, '
-              f'{long_rss / 1024:.0f} MB at {args.long} ({(long_rss - short_rss) / 1024:+.0f} '
-              f'MB): {"flat" if long_rss < 1.25 * short_rss else "GROWS"}')
+        text = (f'replay peak RSS: {short_rss / 1024:.0f} MB at {args.experiments} experiments, '
+                f'{long_rss / 1024:.0f} MB at {args.long}')
+        if args.mid:
+            mid_bag = _write_bag_in_child(folder, args.mid)
+            mid_rss = _run_once(_REPLAY, *_replay_args(mid_bag, folder / 'out_mid', *joint))[1]
+            grows = long_rss - mid_rss > 0.1 * mid_rss
+            text += (f', {mid_rss / 1024:.0f} MB at {args.mid} '
+                     f'({(long_rss - mid_rss) / 1024:+.0f} MB from {args.mid} to {args.long}): '
+                     + ('GROWS' if grows else 'flat'))
+        print(text)
     return 0
 
 
