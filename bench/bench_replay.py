@@ -8,7 +8,8 @@ bags of /joint_states (6 joints, 250 Hz), then, in one run, for each bag, every 
 new process (interpreter start-up and imports included), the fastest of ``--repeat`` runs:
 
 * **bytes only**: a process that iterates rosbags' raw messages of the bag (no decoding);
-* **read**: a process that iterates and deserialises every JointState (``deserialize_cdr``);
+* **read**: a process that iterates and deserialises every JointState (``deserialize_cdr``;
+  one run at the long bag, where it takes minutes);
 * **replay**: ``robot-wear-monitor replay BAG --out OUT`` for one joint (reading,
   segmentation, estimation, intervals, trend, alarm, every output topic written);
 * the peak resident memory (VmHWM) of each process.
@@ -30,6 +31,7 @@ import argparse
 import compileall
 import os
 from pathlib import Path
+import resource
 import subprocess
 import sys
 import tempfile
@@ -94,34 +96,45 @@ def _write_bag_in_child(folder: Path, experiments: int) -> Path:
     return bag
 
 
-def _run_once(code: str, *args: str) -> tuple[float, int, str]:
-    """Run ``code`` in a new interpreter; return (wall s, peak RSS kB, first stdout line)."""
-    start = time.perf_counter()
+def _cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _run_once(code: str, *args: str) -> tuple[float, int, str, float]:
+    """Run ``code`` in a new interpreter; return (wall s, peak RSS kB, stdout line, CPU s)."""
+    start, cpu = time.perf_counter(), _cpu_s()
     done = subprocess.run([sys.executable, '-c', code, *args], capture_output=True, text=True,
                           env=dict(os.environ))
     elapsed = time.perf_counter() - start
+    cpu = _cpu_s() - cpu
     if done.returncode != 0:
         raise SystemExit(f'{args[:1]} failed ({done.returncode}): {done.stderr.strip()}')
     rss = int(done.stderr.strip().splitlines()[-1].split()[-1])
     lines = done.stdout.strip().splitlines()
-    return elapsed, rss, lines[0] if lines else ''
+    return elapsed, rss, lines[0] if lines else '', cpu
 
 
-def _fastest(code: str, *args: str, repeat: int) -> tuple[float, int, str]:
-    """Return the fastest of ``repeat`` runs (the one least disturbed by other work)."""
-    return min(_run_once(code, *args) for _ in range(repeat))
+def _fastest(code: str, *args: str, repeat: int) -> tuple[float, int, str, float]:
+    """Return the fastest of ``repeat`` runs (the one least disturbed by other work).
+
+    The CPU seconds are the least of the runs too (user + system of the process).
+    """
+    runs = [_run_once(code, *args) for _ in range(repeat)]
+    best = min(runs)
+    return best[0], best[1], best[2], min(run[3] for run in runs)
 
 
 def _replay_args(bag: Path, out: Path, *extra: str) -> list[str]:
     return ['replay', str(bag), '--out', str(out), '--overwrite', '--no-progress', *extra]
 
 
-def _measure(bag: Path, folder: Path, joint: list[str], repeat: int,
+def _measure(bag: Path, folder: Path, joint: list[str], repeat: int, read_repeat: int,
              all_joints: bool) -> dict:
-    """Return label -> (seconds, peak RSS kB, line) of every process for one bag."""
+    """Return label -> (seconds, peak RSS kB, line, CPU s) of every process for one bag."""
     figures = {
         'bytes only': _fastest(_BYTES_ONLY, str(bag), repeat=repeat),
-        'read': _fastest(_READ, str(bag), repeat=repeat),
+        'read': _fastest(_READ, str(bag), repeat=read_repeat),
         'replay': _fastest(_REPLAY, *_replay_args(bag, folder / f'out_{bag.name}', *joint),
                            repeat=repeat),
     }
@@ -156,21 +169,26 @@ def main(argv=None):
     print(f'{os.cpu_count()} cores, Python {sys.version.split()[0]}, fastest of {args.repeat}; '
           f'bags in {folder}')
     for label, code in _STARTUP.items():
-        seconds, rss, _ = _fastest(code, repeat=args.repeat)
-        print(f'start-up, {label:42s}: {seconds:6.2f} s, peak RSS {rss / 1024:5.0f} MB')
+        seconds, rss, _, cpu = _fastest(code, repeat=args.repeat)
+        print(f'start-up, {label:42s}: {seconds:6.2f} s (CPU {cpu:5.2f} s), peak RSS '
+              f'{rss / 1024:5.0f} MB')
     results = {}
     for n in sizes:
         bag = bags[n]
-        figures = results[n] = _measure(bag, folder, joint, args.repeat, args.all_joints)
+        # the read of the long bag (a reference, no target) once: it takes minutes
+        figures = results[n] = _measure(bag, folder, joint, args.repeat,
+                                        args.repeat if n == sizes[0] else 1, args.all_joints)
         count = int(figures['bytes only'][2])
         print(f'--- {n} experiments: {count} JointState messages (6 joints, 250 Hz)')
         raw_s, read_s = figures['bytes only'][0], figures['read'][0]
-        for label, (seconds, rss, line) in figures.items():
-            text = (f'{label:22s}: {seconds:6.2f} s {count / seconds:10,.0f} msg/s, '
-                    f'peak RSS {rss / 1024:5.0f} MB')
+        raw_cpu = figures['bytes only'][3]
+        for label, (seconds, rss, line, cpu) in figures.items():
+            text = (f'{label:22s}: {seconds:6.2f} s {count / seconds:10,.0f} msg/s (CPU '
+                    f'{cpu:5.2f} s), peak RSS {rss / 1024:5.0f} MB')
             if label.startswith('replay'):
-                text += (f'; {raw_s / seconds:4.2f} x the bytes-only process, '
-                         f'{read_s / seconds:4.2f} x the read  [{line}]')
+                text += (f'; {raw_s / seconds:4.2f} x the bytes-only process '
+                         f'(CPU: {raw_cpu / cpu:4.2f} x), {read_s / seconds:4.2f} x the read  '
+                         f'[{line}]')
             print(text)
     print('--- verdict (replay throughput / bytes-only process throughput)')
     targets = {args.experiments: (0.7, None)}
@@ -178,9 +196,11 @@ def main(argv=None):
         targets[args.long] = (1.0, 2.0)
     for n, (target, aim) in targets.items():
         ratio = results[n]['bytes only'][0] / results[n]['replay'][0]
+        cpu_ratio = results[n]['bytes only'][3] / results[n]['replay'][3]
         verdict = 'MET' if ratio >= target else 'NOT MET'
         print(f'{n:5d} experiments: {ratio:4.2f} x (target >= {target:.1f} x'
-              + (f', aim {aim:.0f} x' if aim else '') + f'): {verdict}')
+              + (f', aim {aim:.0f} x' if aim else '') + f'): {verdict}  (CPU seconds: '
+              f'{cpu_ratio:4.2f} x)')
     if args.long:
         short_rss = results[args.experiments]['replay'][1]
         long_rss = results[args.long]['replay'][1]
