@@ -1,24 +1,34 @@
-"""Replay rate against rosbags reading the same bag, and peak memory against the bag's length.
+"""Replay against rosbags merely reading the same messages, whole processes, at two bag lengths.
 
-    python3 bench/bench_replay.py [--experiments 60] [--long 600] [--keep DIR]
+    python3 bench/bench_replay.py [--experiments 60] [--long 600] [--mid 150] [--repeat 3]
+                                  [--keep DIR]
 
-Simulates an accelerated wear scenario of ``--experiments`` experiments into an MCAP bag of
-/joint_states (6 joints, 250 Hz), then, in one run:
+Simulates accelerated wear scenarios of ``--experiments`` and ``--long`` experiments into MCAP
+bags of /joint_states (6 joints, 250 Hz), then, in one run, for each bag, every figure a whole
+new process (interpreter start-up and imports included), the fastest of ``--repeat`` runs:
 
-* rosbags' raw message iteration (bytes only) and iteration with deserialisation of every
-  JointState (``deserialize_cdr``: the plain read of the same message bytes), in this process;
-* ``robot-wear-monitor replay`` as a new process, start-up included (imports, reading,
-  segmentation, estimation, intervals, trend, writing every output topic), for one joint with
-  the speeds found in the data (the default), one joint with the speeds configured (no
-  discovery), and all six joints (``--joint all``);
-* the peak resident memory of the replay process for this bag and for a ``--long`` bag
-  (0: skipped): the replay streams the bag in chunks, so the two should differ little.
+* **bytes only**: a process that iterates rosbags' raw messages of the bag (no decoding);
+* **read**: a process that iterates and deserialises every JointState (``deserialize_cdr``;
+  one run at the long bag, where it takes minutes);
+* **replay**: ``robot-wear-monitor replay BAG --out OUT`` for one joint (reading,
+  segmentation, estimation, intervals, trend, alarm, every output topic written);
+* the peak resident memory (VmHWM) of each process.
 
-Prints messages per second for each and the ratios (replay throughput / read throughput);
-each figure is the fastest of three runs.
+Prints the seconds and messages per second of each, the ratios replay throughput / bytes-only
+throughput and replay / read, and the verdict against the targets of the replay speed issue:
+replay >= 1.0 x the bytes-only process at the long bag (aim 2 x) and >= 0.7 x at the short one;
+the replay's peak RSS should not grow with the bag's length.  The replay estimates 64
+experiments at a time: the short bag's one batch runs after its reading, a longer bag's batches
+overlap the reading, so memory is compared between a ``--mid`` bag (one run) and the long one.
+Also prints what start-up alone costs (an empty interpreter, numpy, scipy, the replay's
+imports) so that the short bag's ratio can be read against it.
+
+The package's modules are byte-compiled first (as an installed package is), like rosbags' in
+site-packages.  ``--all-joints`` adds the replay of all six joints.
 """
 
 import argparse
+import compileall
 import os
 from pathlib import Path
 import resource
@@ -27,131 +37,183 @@ import sys
 import tempfile
 import time
 
-from rosbags.rosbag2 import Reader
-
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
-from robot_wear_monitor.recordings.bags import TYPESTORE, write_joint_state_bag
+from robot_wear_monitor.recordings.bags import write_joint_state_bag
 
-# runs the CLI's main in a child and prints its peak RSS (kB, VmHWM of /proc: getrusage's
-# maxrss would carry the parent's peak over the exec) on stderr's last line
-_CHILD = ('import sys\n'
-          'from robot_wear_monitor.cli import main\n'
-          'code = main(sys.argv[1:])\n'
-          'peak = [line.split()[1] for line in open("/proc/self/status")'
-          ' if line.startswith("VmHWM")][0]\n'
-          'print("peak_rss_kb", peak, file=sys.stderr)\n'
-          'sys.exit(code)\n')
+_PEAK = ('peak = [line.split()[1] for line in open("/proc/self/status")'
+         ' if line.startswith("VmHWM")][0]\n'
+         'print("peak_rss_kb", peak, file=sys.stderr)\n')
+#: the replay CLI in a child, its peak RSS (kB, VmHWM of /proc: getrusage's maxrss would carry
+#: the parent's peak over the exec) on stderr's last line
+_REPLAY = ('import sys\n'
+           'from robot_wear_monitor.cli import main\n'
+           'code = main(sys.argv[1:])\n' + _PEAK + 'sys.exit(code)\n')
+_BYTES_ONLY = ('import sys\n'
+               'from rosbags.rosbag2 import Reader\n'
+               'with Reader(sys.argv[1]) as reader:\n'
+               '    count = sum(1 for _ in reader.messages())\n'
+               'print(count)\n' + _PEAK)
+_READ = ('import sys\n'
+         'from rosbags.rosbag2 import Reader\n'
+         'from rosbags.typesys import get_typestore, Stores\n'
+         'store = get_typestore(Stores.ROS2_JAZZY)\n'
+         'with Reader(sys.argv[1]) as reader:\n'
+         '    count = sum(1 for c, _, data in reader.messages()\n'
+         '                if store.deserialize_cdr(data, c.msgtype) is not None)\n'
+         'print(count)\n' + _PEAK)
+_STARTUP = {
+    'empty interpreter': 'import sys\n' + _PEAK,
+    'import numpy': 'import sys, numpy\n' + _PEAK,
+    'import numpy, scipy.linalg, scipy.special': 'import sys, numpy, scipy.linalg, '
+                                                 'scipy.special\n' + _PEAK,
+    "the replay's imports": ('import sys\n'
+                             'import robot_wear_monitor.cli, robot_wear_monitor.cli.replay\n'
+                             'import robot_wear_monitor.monitoring.replay\n'
+                             'import robot_wear_monitor.estimation.batch_intervals\n'
+                             'import robot_wear_monitor.estimation.trend\n' + _PEAK),
+}
 
 
-def _write_bag(folder: Path, experiments: int) -> tuple[Path, object]:
+def _write_bag(folder: Path, experiments: int) -> Path:
     scenario = simulate_scenario(
         config=accelerated_wear_scenario(n_experiments=experiments, seed=0), seed=0)
     bag = folder / f'scenario_{experiments}'
     write_joint_state_bag(bag, stamps_s=scenario.time_s, names=scenario.joint_names,
                           position=scenario.position_rad, velocity=scenario.velocity_rad_s,
                           effort=scenario.effort, overwrite=True)
-    return bag, scenario
+    return bag
 
 
 def _write_bag_in_child(folder: Path, experiments: int) -> Path:
-    """Write the long bag from a child process (the simulation holds it all in memory)."""
+    """Write a bag from a child process (the simulation holds it all in memory)."""
+    bag = folder / f'scenario_{experiments}'
+    if (bag / 'metadata.yaml').is_file():
+        return bag  # --keep: made by an earlier run
     code = ('import sys; from pathlib import Path; sys.path.insert(0, sys.argv[1]); '
             'import bench_replay; bench_replay._write_bag(Path(sys.argv[2]), int(sys.argv[3]))')
     subprocess.run([sys.executable, '-c', code, str(Path(__file__).parent), str(folder),
                     str(experiments)], check=True)
-    return folder / f'scenario_{experiments}'
+    return bag
 
 
-def _replay(bag: Path, out: Path, *extra: str, repeat: int = 3) -> tuple[float, int, str]:
-    """Run the replay CLI in new processes; return the fastest (wall s, peak RSS kB, stdout).
-
-    The fastest of ``repeat`` runs: the figure least disturbed by other work on the machine.
-    """
-    return min(_replay_once(bag, out, *extra) for _ in range(repeat))
+def _cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
-def _replay_once(bag: Path, out: Path, *extra: str) -> tuple[float, int, str]:
-    """Run the replay CLI in a new process; return (wall s, peak RSS kB, stdout)."""
-    command = [sys.executable, '-c', _CHILD, 'replay', str(bag), '--out', str(out),
-               '--overwrite', '--no-progress', *extra]
-    start = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, env=dict(os.environ))
+def _run_once(code: str, *args: str) -> tuple[float, int, str, float]:
+    """Run ``code`` in a new interpreter; return (wall s, peak RSS kB, stdout line, CPU s)."""
+    start, cpu = time.perf_counter(), _cpu_s()
+    done = subprocess.run([sys.executable, '-c', code, *args], capture_output=True, text=True,
+                          env=dict(os.environ))
     elapsed = time.perf_counter() - start
+    cpu = _cpu_s() - cpu
     if done.returncode != 0:
-        raise SystemExit(f'replay failed ({done.returncode}): {done.stderr.strip()}')
+        raise SystemExit(f'{args[:1]} failed ({done.returncode}): {done.stderr.strip()}')
     rss = int(done.stderr.strip().splitlines()[-1].split()[-1])
-    return elapsed, rss, done.stdout.strip().splitlines()[0]
+    lines = done.stdout.strip().splitlines()
+    return elapsed, rss, lines[0] if lines else '', cpu
 
 
-def _seconds(function) -> float:
-    start = time.perf_counter()
-    function()
-    return time.perf_counter() - start
+def _fastest(code: str, *args: str, repeat: int) -> tuple[float, int, str, float]:
+    """Return the fastest of ``repeat`` runs (the one least disturbed by other work).
+
+    The CPU seconds are the least of the runs too (user + system of the process).
+    """
+    runs = [_run_once(code, *args) for _ in range(repeat)]
+    best = min(runs)
+    return best[0], best[1], best[2], min(run[3] for run in runs)
+
+
+def _replay_args(bag: Path, out: Path, *extra: str) -> list[str]:
+    return ['replay', str(bag), '--out', str(out), '--overwrite', '--no-progress', *extra]
+
+
+def _measure(bag: Path, folder: Path, joint: list[str], repeat: int, read_repeat: int,
+             all_joints: bool) -> dict:
+    """Return label -> (seconds, peak RSS kB, line, CPU s) of every process for one bag."""
+    figures = {
+        'bytes only': _fastest(_BYTES_ONLY, str(bag), repeat=repeat),
+        'read': _fastest(_READ, str(bag), repeat=read_repeat),
+        'replay': _fastest(_REPLAY, *_replay_args(bag, folder / f'out_{bag.name}', *joint),
+                           repeat=repeat),
+    }
+    if all_joints:
+        figures['replay, all 6 joints'] = _fastest(
+            _REPLAY, *_replay_args(bag, folder / f'out6_{bag.name}', '--joint', 'all',
+                                   *joint[2:]), repeat=repeat)
+    return figures
 
 
 def main(argv=None):
-    """Run the benchmark and print one line per measurement."""
+    """Run the benchmark and print one line per measurement and the verdict."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--experiments', type=int, default=60)
-    parser.add_argument('--long', type=int, default=600,
-                        help='experiments of the bag for the memory comparison (0: skip)')
-    parser.add_argument('--keep', metavar='DIR', help='keep the bags in DIR')
+    parser.add_argument('--experiments', type=int, default=60, help='the short bag')
+    parser.add_argument('--long', type=int, default=600, help='the long bag (0: skip)')
+    parser.add_argument('--mid', type=int, default=150,
+                        help='a bag of more than 64 experiments for the memory check (0: skip)')
+    parser.add_argument('--repeat', type=int, default=3, help='runs per figure (the fastest)')
+    parser.add_argument('--all-joints', action='store_true', help='add --joint all replays')
+    parser.add_argument('--keep', metavar='DIR', help='keep the bags in DIR (and reuse them)')
     args = parser.parse_args(argv)
     folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix='bench_replay_'))
     folder.mkdir(parents=True, exist_ok=True)
-    bag, scenario = _write_bag(folder, args.experiments)
-    config = folder / 'speeds.yaml'
-    speeds = ', '.join(f'{v:.1f}' for v in scenario.truth[0].speeds_rad_s)
-    config.write_text(f'friction_experiment_node:\n  ros__parameters:\n'
-                      f'    experiment_speeds_rad_s: [{speeds}]\n')
-    joint = ['--joint', scenario.joint, '--gear-ratio', str(scenario.config.gear_ratio),
-             '--torque-scale', str(scenario.config.torque_scale)]
-
-    def raw():
-        with Reader(bag) as reader:
-            return sum(1 for _ in reader.messages())
-
-    def deserialised():
-        with Reader(bag) as reader:
-            return sum(1 for c, _, data in reader.messages()
-                       if TYPESTORE.deserialize_cdr(data, c.msgtype) is not None)
-
-    count = raw()
-    raw_s = min(_seconds(raw) for _ in range(3))
-    read_s = min(_seconds(deserialised) for _ in range(3))
-    _replay_once(bag, folder / 'warm', *joint)  # a design's first run may store its calibration
-    runs = {
-        'replay, 1 joint, speeds found': _replay(bag, folder / 'out1', *joint),
-        'replay, 1 joint, speeds set': _replay(bag, folder / 'out2', *joint, '--config',
-                                               str(config)),
-        'replay, all 6 joints': _replay(bag, folder / 'out6', '--joint', 'all',
-                                        '--gear-ratio', str(scenario.config.gear_ratio),
-                                        '--torque-scale', str(scenario.config.torque_scale)),
-    }
-    print(f'bag: {count} JointState messages (6 joints), {args.experiments} experiments, '
-          f'{bag}')
-    print(f'rosbags raw iteration (bytes)       : {raw_s:6.2f} s {count / raw_s:10,.0f} msg/s')
-    print(f'rosbags iterate + deserialise (read): {read_s:6.2f} s {count / read_s:10,.0f} msg/s')
-    for label, (seconds, rss, line) in runs.items():
-        print(f'{label:36s}: {seconds:6.2f} s {count / seconds:10,.0f} msg/s, '
-              f'{read_s / seconds:4.2f} of the read rate, {raw_s / seconds:4.2f} of the raw '
-              f'iteration; peak RSS {rss / 1024:5.0f} MB  [{line}]')
-    found = runs['replay, 1 joint, speeds found'][0]
-    configured = runs['replay, 1 joint, speeds set'][0]
-    print(f'discovery costs {100 * (found / configured - 1):+.1f} % of the replay time '
-          f'(speeds found vs set)')
+    package = Path(__file__).resolve().parents[1] / 'robot_wear_monitor'
+    compileall.compile_dir(str(package), quiet=1)
+    config = accelerated_wear_scenario(n_experiments=args.experiments, seed=0)
+    joint = ['--joint', config.joint.joint, '--gear-ratio', str(config.joint.gear_ratio),
+             '--torque-scale', str(config.joint.torque_scale)]
+    sizes = [args.experiments] + ([args.long] if args.long else [])
+    bags = {n: _write_bag_in_child(folder, n) for n in sizes}
+    _run_once(_REPLAY, *_replay_args(bags[sizes[0]], folder / 'warm', *joint))  # calibration
+    print(f'{os.cpu_count()} cores, Python {sys.version.split()[0]}, fastest of {args.repeat}; '
+          f'bags in {folder}')
+    for label, code in _STARTUP.items():
+        seconds, rss, _, cpu = _fastest(code, repeat=args.repeat)
+        print(f'start-up, {label:42s}: {seconds:6.2f} s (CPU {cpu:5.2f} s), peak RSS '
+              f'{rss / 1024:5.0f} MB')
+    results = {}
+    for n in sizes:
+        bag = bags[n]
+        # the read of the long bag (a reference, no target) once: it takes minutes
+        figures = results[n] = _measure(bag, folder, joint, args.repeat,
+                                        args.repeat if n == sizes[0] else 1, args.all_joints)
+        count = int(figures['bytes only'][2])
+        print(f'--- {n} experiments: {count} JointState messages (6 joints, 250 Hz)')
+        raw_s, read_s = figures['bytes only'][0], figures['read'][0]
+        raw_cpu = figures['bytes only'][3]
+        for label, (seconds, rss, line, cpu) in figures.items():
+            text = (f'{label:22s}: {seconds:6.2f} s {count / seconds:10,.0f} msg/s (CPU '
+                    f'{cpu:5.2f} s), peak RSS {rss / 1024:5.0f} MB')
+            if label.startswith('replay'):
+                text += (f'; {raw_s / seconds:4.2f} x the bytes-only process '
+                         f'(CPU: {raw_cpu / cpu:4.2f} x), {read_s / seconds:4.2f} x the read  '
+                         f'[{line}]')
+            print(text)
+    print('--- verdict (replay throughput / bytes-only process throughput)')
+    targets = {args.experiments: (0.7, None)}
     if args.long:
-        long_bag = _write_bag_in_child(folder, args.long)
-        with Reader(long_bag) as reader:
-            long_count = sum(1 for _ in reader.messages())
-        seconds, rss, line = _replay(long_bag, folder / 'out_long', *joint, repeat=1)
-        short_rss = runs['replay, 1 joint, speeds found'][1]
-        print(f'replay, 1 joint, {args.long} experiments: {seconds:6.2f} s '
-              f'{long_count / seconds:10,.0f} msg/s; peak RSS {rss / 1024:5.0f} MB against '
-              f'{short_rss / 1024:5.0f} MB for {args.experiments} experiments '
-              f'({(rss - short_rss) / 1024:+.0f} MB)  [{line}]')
-    print(f'this process: peak RSS '
-          f'{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB')
+        targets[args.long] = (1.0, 2.0)
+    for n, (target, aim) in targets.items():
+        ratio = results[n]['bytes only'][0] / results[n]['replay'][0]
+        cpu_ratio = results[n]['bytes only'][3] / results[n]['replay'][3]
+        verdict = 'MET' if ratio >= target else 'NOT MET'
+        print(f'{n:5d} experiments: {ratio:4.2f} x (target >= {target:.1f} x'
+              + (f', aim {aim:.0f} x' if aim else '') + f'): {verdict}  (CPU seconds: '
+              f'{cpu_ratio:4.2f} x)')
+    if args.long:
+        short_rss = results[args.experiments]['replay'][1]
+        long_rss = results[args.long]['replay'][1]
+        text = (f'replay peak RSS: {short_rss / 1024:.0f} MB at {args.experiments} experiments, '
+                f'{long_rss / 1024:.0f} MB at {args.long}')
+        if args.mid:
+            mid_bag = _write_bag_in_child(folder, args.mid)
+            mid_rss = _run_once(_REPLAY, *_replay_args(mid_bag, folder / 'out_mid', *joint))[1]
+            grows = long_rss - mid_rss > 0.1 * mid_rss
+            text += (f', {mid_rss / 1024:.0f} MB at {args.mid} '
+                     f'({(long_rss - mid_rss) / 1024:+.0f} MB from {args.mid} to {args.long}): '
+                     + ('GROWS' if grows else 'flat'))
+        print(text)
     return 0
 
 

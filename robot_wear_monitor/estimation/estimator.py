@@ -255,6 +255,8 @@ class _WhitenedProblem:
 
     def __init__(self, speeds: FloatArray, params: ParameterSet) -> None:
         self.speeds = speeds
+        #: the speeds of every row, broadcast against (B, N) ((1, N): one design for all rows)
+        self.speed_rows = speeds[None, :]
         self.params = params
         covariance = fm.marginal_covariance(speeds, sigma=params.sigma,
                                             load_std=params.load_std, model=params.model)
@@ -280,7 +282,7 @@ class _WhitenedProblem:
 
     def evaluate(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> tuple:
         """Return whitened residuals (B, N), Jacobian of the model (B, N, 2) and cost (B,)."""
-        g = fm.friction_with_gradients(self.speeds[None, :], self.params.load_mean,
+        g = fm.friction_with_gradients(self.speed_rows, self.params.load_mean,
                                        t[:, None], w[:, None], self.params.model)
         residual = data_w - self.apply(g.friction)
         jacobian = np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
@@ -308,13 +310,13 @@ class _WhitenedProblem:
                 - np.einsum('bn,bnij->bij', residual, curvature))
 
     def _jacobian(self, t: FloatArray, w: FloatArray) -> FloatArray:
-        g = fm.friction_with_gradients(self.speeds[None, :], self.params.load_mean,
+        g = fm.friction_with_gradients(self.speed_rows, self.params.load_mean,
                                        t[:, None], w[:, None], self.params.model)
         return np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
 
     def cost(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> FloatArray:
         """Return the cost of (16), shape (B,), at the points (t, w)."""
-        f = fm.friction(self.speeds[None, :], self.params.load_mean, t[:, None], w[:, None],
+        f = fm.friction(self.speed_rows, self.params.load_mean, t[:, None], w[:, None],
                         self.params.model)
         residual = data_w - self.apply(f)
         return np.einsum('bn,bn->b', residual, residual)
@@ -338,7 +340,11 @@ class _WhitenedProblem:
         n_t, n_w = grid_t.size, grid_w.size
         # w-major order, so that the minimum over T runs along contiguous memory
         ww, tt = (a.ravel() for a in np.meshgrid(grid_w, grid_t, indexing='ij'))
-        model_w = self.model_w(tt[:, None], ww[:, None])
+        # the model (8) is tau_f0(T) + tilde tau_f(w): each part once per grid line, summed
+        model = self.params.model
+        nominal = fm.nominal_friction(self.speeds, self.params.load_mean, grid_t[:, None], model)
+        wear = fm.wear_friction(self.speeds, grid_w[:, None], model)
+        model_w = self.apply((nominal[None, :, :] + wear[:, None, :]).reshape(ww.size, -1))
         # |d - g|^2 = |d|^2 - 2 d.g + |g|^2; the first term does not change the argmin
         norm2 = np.einsum('kn,kn->k', model_w, model_w)
         minus_2g = -2.0 * model_w.T
@@ -369,6 +375,10 @@ class _WhitenedProblem:
             starts[start:start + chunk] = (
                 pick * n_t + np.take_along_axis(best_t, pick, axis=1))
         return tt[starts], ww[starts]
+
+    def rows(self, index: NDArray[np.intp]) -> '_WhitenedProblem':
+        """Return the problem of the rows ``index`` (all rows share these speeds: itself)."""
+        return self
 
     def project(self, t: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Project onto the box T_min <= T <= T_max, w >= 0."""
@@ -441,8 +451,9 @@ def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: Flo
         if idx.size == 0:
             break
         d, ti, wi, lam = data_w[idx], t[idx], w[idx], damping[idx]
-        residual, jacobian, cost = problem.evaluate(d, ti, wi)
-        hessian = problem.hessian(d, ti, wi, residual, jacobian)
+        active_rows = problem.rows(idx)
+        residual, jacobian, cost = active_rows.evaluate(d, ti, wi)
+        hessian = active_rows.hessian(d, ti, wi, residual, jacobian)
         descent = np.einsum('bni,bn->bi', jacobian, residual)  # = -grad(cost)/2
         at_low_t = ti <= problem.t_min + 1e-12 * span_t
         at_high_t = ti >= problem.t_max - 1e-12 * span_t
@@ -468,7 +479,7 @@ def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: Flo
                 break
             cand_t, cand_w = problem.project(ti[pending] + alpha[pending] * step[pending, 0],
                                              wi[pending] + alpha[pending] * step[pending, 1])
-            cand_cost = problem.cost(d[pending], cand_t, cand_w)
+            cand_cost = active_rows.rows(pending).cost(d[pending], cand_t, cand_w)
             ok = cand_cost < cost[pending]
             good = pending[ok]
             new_t[good], new_w[good], new_cost[good] = cand_t[ok], cand_w[ok], cand_cost[ok]

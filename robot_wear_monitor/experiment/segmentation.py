@@ -256,11 +256,13 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
               - np.searchsorted(ordered, ordered - band, side='left'))
     level = float(ordered[int(np.argmax(counts))])
     for _ in range(2):
-        inside = np.abs(speed - level) <= _tolerance(level, config)
-        if not inside.any():
+        # the median of the speeds within the band: those of ``ordered``, already sorted
+        near = ordered[np.abs(ordered - level) <= _tolerance(level, config)]
+        if not near.size:
             rejections['pass_too_short'] += 1
             return None
-        level = float(np.median(speed[inside]))
+        half = near.size // 2
+        level = float(near[half] if near.size % 2 else (near[half - 1] + near[half]) / 2.0)
     start, stop = _longest_run(np.abs(speed - level) <= _tolerance(level, config))
     if config.trim_s > 0 and stop > start:
         run = time_s[start:stop]

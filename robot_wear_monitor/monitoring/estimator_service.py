@@ -31,6 +31,7 @@ from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_num
                                                        meaningful_std, STD_NOT_REPORTED,
                                                        trend_values)
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.monitoring.prepared import Prepared, PreparedEstimates
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC)
 # EstimatorConfig and WearUpdate live in wear_update; imported from here by existing callers
@@ -95,6 +96,8 @@ class WearEstimatorService:
         self.invalid_estimates = 0
         self.last_update: Optional[WearUpdate] = None
         self.last_rejection = ''
+        #: estimates made ahead by :meth:`prepare` (a replay's experiments at hand)
+        self.prepared = PreparedEstimates()
 
     def _new_trend(self) -> WearTrend:
         from robot_wear_monitor.estimation.trend import TrendConfig, WearTrend
@@ -173,6 +176,18 @@ class WearEstimatorService:
         if configured:
             calibrate_cutoffs(speeds, params=self.config.params)
 
+    def prepare(self, levels: Sequence[FrictionLevelsMessage]) -> int:
+        """Estimate several experiments' levels together, ahead of their one-by-one handling.
+
+        :meth:`process_levels` then takes each one's estimate instead of computing it (the
+        same numbers); the trend, alarm and history still advance one experiment at a time,
+        in order.  Only the default estimator prepares; returns how many were prepared.
+        """
+        if self._estimate is not _default_estimate:
+            return 0
+        return self.prepared.prepare(levels, joint=self.config.joint, params=self.config.params,
+                                     trend_grid=self.wear_trend.wear_grid)
+
     # ----------------------------------------------------------------- inputs
 
     def reject(self, reason: str, detail: str = '') -> None:
@@ -218,9 +233,11 @@ class WearEstimatorService:
                                               f's is estimate {known} of the history; skipped')
             return None
         batch = None
+        prepared = self.prepared.take(levels)  # what a replay computed ahead, if anything
         try:
             if self._estimate is _default_estimate:  # keep the batch for the interval
-                batch = _estimate_batch(speeds, frictions, params=self.config.params)
+                batch = (prepared.estimates if prepared is not None
+                         else _estimate_batch(speeds, frictions, params=self.config.params))
                 estimate = batch[0]
             else:
                 estimate = self._estimate(speeds, frictions, params=self.config.params)
@@ -238,7 +255,8 @@ class WearEstimatorService:
         raised = False
         if plausibility.valid:
             interval, trend = self._interval_and_trend(speeds, frictions,
-                                                       stamp_s=levels.stamp_s, estimates=batch)
+                                                       stamp_s=levels.stamp_s, estimates=batch,
+                                                       prepared=prepared)
             raised = self.latch.update(
                 wear=wear, wear_std=wear_std,
                 probability_above_threshold=(math.nan if trend is None
@@ -294,22 +312,30 @@ class WearEstimatorService:
                 f'{fmt_number(self.latch.evidence, 3)}')
 
     def _interval_and_trend(self, speeds: np.ndarray, frictions: np.ndarray, *,
-                            stamp_s: float, estimates: Optional[WearEstimates] = None
+                            stamp_s: float, estimates: Optional[WearEstimates] = None,
+                            prepared: Optional[Prepared] = None
                             ) -> tuple[Optional[WearInterval], Optional[TrendEstimate]]:
         """Return the 95 % intervals of (w, T) and the updated trend (None where they fail).
 
         ``estimates``: the estimator's batch result for these levels, if the default estimator
-        made it (the interval needs the ML estimate; it is not computed twice).
+        made it (the interval needs the ML estimate; it is not computed twice).  ``prepared``:
+        the interval and trend row computed ahead (:meth:`prepare`), used where present.
         """
         from robot_wear_monitor.estimation.intervals import wear_intervals
         interval = trend = None
         try:
-            interval = wear_intervals(speeds, frictions, params=self.config.params,
-                                      estimates=estimates)[0]
+            interval = (prepared.intervals if prepared is not None
+                        and prepared.intervals is not None and estimates is prepared.estimates
+                        else wear_intervals(speeds, frictions, params=self.config.params,
+                                            estimates=estimates))[0]
         except (InputError, ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             self.reject('interval_failed', str(error).splitlines()[0] if str(error) else '')
         try:
-            row = self._likelihood_rows(speeds, frictions)[0]
+            row = (prepared.trend_row_on(self.wear_trend.wear_grid) if prepared is not None
+                   else None)
+            if row is None:
+                row = self._likelihood_rows(speeds, frictions)
+            row = row[0]
             trend = self.wear_trend.update(time_s=stamp_s, log_likelihood=row)
         except (InputError, ValueError, FloatingPointError) as error:
             self.reject('trend_failed', str(error).splitlines()[0] if str(error) else '')

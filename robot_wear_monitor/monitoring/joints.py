@@ -34,7 +34,8 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        per_joint_outputs, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.monitoring.topics import (FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS,
                                                   RESET_SERVICE)
-from robot_wear_monitor.recordings.messages import MessageKit
+from robot_wear_monitor.recordings.messages import (friction_levels_from_msg, MessageError,
+                                                    MessageKit)
 
 ParametersFor = Callable[[str], Mapping[str, Any]]
 
@@ -270,6 +271,26 @@ class WearEstimatorFleet:
             self._reject('joint_refused', f'{joint!r}: {self.refused[joint]}')
             return None, None
         return service, service.handle_friction_levels(msg)
+
+    def prepare(self, msgs: Sequence[Any]) -> int:
+        """Estimate the levels of several ``friction_levels`` messages ahead, per joint.
+
+        Each joint's estimator that exists already prepares its messages' estimates
+        (:meth:`WearEstimatorService.prepare`); :meth:`handle_friction_levels` then handles
+        every message as without.  Returns how many estimates were prepared.
+        """
+        by_service: dict[str, list] = {}
+        for msg in msgs:
+            try:
+                levels = friction_levels_from_msg(msg)
+            except MessageError:
+                continue
+            joint = (next(iter(self.services), None) if not self.per_joint
+                     else levels.joint)
+            if joint in self.services:
+                by_service.setdefault(joint, []).append(levels)
+        return sum(self.services[joint].prepare(levels)
+                   for joint, levels in by_service.items())
 
     def _reject(self, reason: str, detail: str) -> None:
         self.rejections[reason] = self.rejections.get(reason, 0) + 1

@@ -163,7 +163,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                history_file: str | os.PathLike | None = None, overwrite: bool = False,
                history_init: Optional[bool] = None,
                progress: bool = False, truth: Optional[list] = None,
-               recover: bool = True, chunk_messages: int = 32768) -> ReplayResult:
+               recover: bool = True, chunk_messages: int = 32768,
+               batch_experiments: int = 64) -> ReplayResult:
     """Replay ``bag`` through the services; write the node outputs to ``out_bag`` if given.
 
     The monitored joints are those of the parameters (``joint``, or ``joints``, or every joint
@@ -171,6 +172,11 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     ``metadata.yaml``, or an MCAP file given directly) is read up to its last complete message
     (``recover``; the result's ``recovery`` says where it stops); its complete experiments are
     estimated.
+
+    Completed experiments are estimated ``batch_experiments`` at a time (one batched
+    refinement, :meth:`WearEstimatorFleet.prepare`), then handed to the estimators one by one
+    in time order: the trend, alarm, history and outputs are those of one-by-one estimation,
+    number for number (1: no batching).
 
     Raises:
         BagError: the input bag is missing, corrupt, truncated, lacks the topic or has the
@@ -213,8 +219,22 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                           message_count=0, sample_count=0, truth=truth)
 
     def run(writer: Any) -> None:
-        def publish(service: FrictionExperimentService, experiment: Any) -> None:
-            msg = service.friction_levels_message(KIT, experiment)
+        pending: list = []  # (service, experiment, friction_levels message), in time order
+
+        def flush() -> None:  # estimate the pending experiments together, then one by one
+            if batch_experiments > 1:
+                estimators.prepare([msg for _, _, msg in pending])
+            for service, experiment, msg in pending:
+                publish(service, experiment, msg)
+            pending.clear()
+
+        def queue(done: list) -> None:
+            pending.extend((service, experiment, service.friction_levels_message(KIT, experiment))
+                           for service, experiment in in_time_order(done))
+            if len(pending) >= batch_experiments:
+                flush()
+
+        def publish(service: FrictionExperimentService, experiment: Any, msg: Any) -> None:
             stamp_ns = stamp_to_nanoseconds(experiment.end_time_s)
             if writer is not None:
                 writer.write(bag_topic(FRICTION_LEVELS_TOPIC), msg, stamp_ns)
@@ -241,8 +261,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                 done += [(service, experiment) for experiment in service.add_recording(
                     time_s=samples.time_s, position_rad=samples.position_rad,
                     velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)]
-            for service, experiment in in_time_order(done):
-                publish(service, experiment)
+            queue(done)
+        flush()
         if stream.recovery is not None and not stream.recovery.complete:
             for service in experiments.services.values():
                 dropped = service.drop_interrupted()
@@ -250,8 +270,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                     result.notes.append(
                         f'joint {service.joint!r}: the experiment in progress at the cut '
                         f'({dropped} complete levels) is not estimated')
-        for service, experiment in in_time_order(experiments.finish()):
-            publish(service, experiment)
+        queue(experiments.finish())
+        flush()
 
     try:
         with bar:

@@ -304,15 +304,24 @@ class MultiDecoder:
         receive = None
         before = len(self.seen)
         first_rows: dict[str, tuple[int, int]] = {}  # new joint -> (message, column)
-        sizes = np.fromiter(map(len, raws), dtype=np.int64, count=count)
+        rows_of_one_size = getattr(raws, 'array', None)  # mcap_chunks.RawRows: one numpy step
+        sizes = (np.full(count, rows_of_one_size.shape[1], dtype=np.int64)
+                 if rows_of_one_size is not None
+                 else np.fromiter(map(len, raws), dtype=np.int64, count=count))
         columns: dict[str, tuple[FloatArray, NDArray[np.bool_]]] = {}
         order = np.argsort(sizes, kind='stable')
         bounds = np.flatnonzero(np.diff(sizes[order])) + 1
         for rows in np.split(order, bounds):
             size = int(sizes[rows[0]])
             record = _record_size(size)
-            after = bytes(record - 4 - size)
-            data = bytes(4) + (after + bytes(4)).join([raws[i] for i in rows.tolist()]) + after
+            if rows_of_one_size is not None:  # the same bytes as the join below
+                block = np.zeros((rows.size, record), dtype=np.uint8)
+                block[:, 4:4 + size] = rows_of_one_size
+                data: Any = block
+            else:
+                after = bytes(record - 4 - size)
+                data = bytes(4) + (after + bytes(4)).join([raws[i] for i in rows.tolist()]) \
+                    + after
             words = np.frombuffer(data, dtype='<u8').reshape(rows.size, record // 8)
             layouts, assign = self._match(raws, rows, words, size)
             tally = np.bincount(assign[assign >= 0], minlength=len(layouts))

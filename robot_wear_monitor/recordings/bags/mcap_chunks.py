@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import os
 from pathlib import Path
 import struct
-from typing import Iterator, Optional
+from typing import Any, Iterator, Optional
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,12 +39,43 @@ _MESSAGE_HEAD = 22        # channel (2) + sequence (4) + log time (8) + publish 
 _CHUNK_HEAD = struct.Struct('<QQQI')  # start, end, uncompressed size, crc
 
 
+class RawRows:
+    """Messages of one size as the rows of a uint8 array (count, size): a sequence of bytes.
+
+    What a chunk of same-size records gives without a Python object per message; indexing
+    gives one message (a memoryview), slicing a :class:`RawRows`, and :attr:`array` is read by
+    the decoder in one numpy step.
+    """
+
+    def __init__(self, array: NDArray[np.uint8]) -> None:
+        """Keep the (count, size) array (a view into the chunk's bytes is fine)."""
+        self.array = array
+
+    def __len__(self) -> int:
+        """Return the number of messages."""
+        return int(self.array.shape[0])
+
+    def __getitem__(self, index: Any) -> Any:
+        """Return message ``index`` (memoryview), or a :class:`RawRows` for a slice."""
+        if isinstance(index, slice):
+            return RawRows(self.array[index])
+        return memoryview(self.array[index])
+
+    def __iter__(self) -> Iterator[memoryview]:
+        """Iterate over the messages (memoryviews)."""
+        return (memoryview(row) for row in self.array)
+
+
 @dataclass
 class RawBatch:
-    """The messages of the topic in one chunk: bag times [ns] and CDR bytes, in log-time order."""
+    """The messages of the topic in one chunk: bag times [ns] and CDR bytes, in log-time order.
+
+    ``raws``: a list of memoryviews, or a :class:`RawRows` when the chunk's messages of the
+    topic are records of one size (the usual case).
+    """
 
     log_time_ns: NDArray[np.int64]
-    raws: list
+    raws: Any
 
 
 @dataclass(frozen=True)
@@ -127,6 +158,10 @@ def split_records(data: bytes, channels: set[int]) -> Optional[RawBatch]:
             raise InputError(f'a record of {length} bytes runs past the end of its chunk')
         if opcode == _MESSAGE:
             fixed = _fixed_stride(data, at, length)
+            if fixed is not None and not starts:
+                rows = _stride_rows(fixed, data, channels)
+                if rows is not None:
+                    return rows
             if fixed is not None:
                 _take_stride(fixed, data, channels, starts, ends, times)
                 break
@@ -163,6 +198,31 @@ def _fixed_stride(data: bytes, at: int, length: int) -> Optional[tuple[int, int,
     if np.any(lengths != length):
         return None
     return at, stride, count
+
+
+def _stride_rows(fixed: tuple[int, int, int], data: bytes,
+                 channels: set[int]) -> Optional[RawBatch]:
+    """Return the messages of a chunk that is one run of same-size records, as rows.
+
+    None when the run has no message of ``channels`` (or the caller should list them one by
+    one); the order is the log-time order (stable), as :func:`split_records` gives it.
+    """
+    at, stride, count = fixed
+    rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
+        count, stride)
+    head = _RECORD_HEAD
+    channel = rows[:, head:head + 2].copy().view('<u2').ravel()
+    log_time = rows[:, head + 6:head + 14].copy().view('<u8').ravel().astype(np.int64)
+    keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
+    if not keep.any():
+        return None
+    payload = rows[:, head + _MESSAGE_HEAD:]
+    if not keep.all():
+        payload, log_time = payload[keep], log_time[keep]
+    order = np.argsort(log_time, kind='stable')
+    if np.any(np.diff(order) != 1):
+        payload, log_time = payload[order], log_time[order]
+    return RawBatch(log_time_ns=log_time, raws=RawRows(payload))
 
 
 def _take_stride(fixed: tuple[int, int, int], data: bytes, channels: set[int],

@@ -24,7 +24,7 @@ from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChun
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
                                                        open_reader, TYPESTORE)
-from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource
+from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource, RawRows
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
 
@@ -174,19 +174,42 @@ def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[tuple[Any, list]]:
     so that the chunks a reader yields do not depend on how the bag is read.
     """
     times: list = []
-    raws: list = []
+    pieces: list = []  # lists of memoryviews and RawRows, in order
     held = 0
     for batch in bulk:
         times.append(batch.log_time_ns)
-        raws.extend(batch.raws)
+        pieces.append(batch.raws)
         held += len(batch.raws)
         while held >= size:
             stamps = np.concatenate(times)
-            yield stamps[:size], raws[:size]
-            times, raws = [stamps[size:]], raws[size:]
+            taken, pieces = _split_pieces(pieces, size)
+            yield stamps[:size], _joined(taken)
+            times = [stamps[size:]]
             held -= size
     if held:
-        yield np.concatenate(times), raws
+        yield np.concatenate(times), _joined(pieces)
+
+
+def _split_pieces(pieces: list, size: int) -> tuple[list, list]:
+    """Return the pieces of the first ``size`` messages and those of the rest."""
+    taken: list = []
+    for i, piece in enumerate(pieces):
+        if size <= 0:
+            return taken, pieces[i:]
+        if len(piece) > size:
+            return taken + [piece[:size]], [piece[size:]] + pieces[i + 1:]
+        taken.append(piece)
+        size -= len(piece)
+    return taken, []
+
+
+def _joined(pieces: list) -> Any:
+    """Return the messages of ``pieces`` as one RawRows (all rows of one size) or a list."""
+    if pieces and all(isinstance(p, RawRows) for p in pieces) and \
+            len({p.array.shape[1] for p in pieces}) == 1:
+        return RawRows(pieces[0].array if len(pieces) == 1
+                       else np.concatenate([p.array for p in pieces]))
+    return [raw for piece in pieces for raw in piece]
 
 
 class JointStream:

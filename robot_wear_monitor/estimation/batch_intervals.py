@@ -1,0 +1,224 @@
+"""Intervals and likelihood rows of many experiments at once, each at its own measured speeds.
+
+The companion of :mod:`robot_wear_monitor.estimation.batch` for
+:func:`~robot_wear_monitor.estimation.intervals.wear_intervals` and
+:func:`~robot_wear_monitor.estimation.intervals.profile_log_likelihood`.  Each row keeps its own
+profile (whitening, model on the wear and temperature grids: built exactly as for one
+experiment), the profiles are stacked, and the grid profiles and the root searches of the
+interval ends run once for all rows, every row with its own matrices.  The products are the
+same matrix products as for one experiment (one per row, same shapes and memory layout), so
+row ``i`` equals the one-experiment result number for number (tested).
+
+Rows with one level (N = 1), whose likelihood is the marginal (17), go one by one.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import special
+
+from robot_wear_monitor.estimation import intervals as one
+from robot_wear_monitor.estimation.estimator import WearEstimates
+from robot_wear_monitor.model import friction as fm
+from robot_wear_monitor.model.params import ParameterSet
+
+FloatArray = NDArray[np.float64]
+
+
+class _StackedProfile:
+    """The :class:`~robot_wear_monitor.estimation.intervals._Profile` of B rows, stacked."""
+
+    def __init__(self, profiles: Sequence[one._Profile]) -> None:
+        first = profiles[0]
+        self.params, self.grid, self.t_grid = first.params, first.grid, first.t_grid
+        self.t_min, self.t_max = first.t_min, first.t_max
+        self.speeds = np.stack([p.speeds for p in profiles])           # (B, N)
+        self.whiten = np.stack([p.whiten for p in profiles])           # (B, N, N)
+        self.const = np.array([p.const for p in profiles])             # (B,)
+        self.nom = np.stack([p.nom for p in profiles])                 # (B, K, N)
+        self.wear = np.stack([p.wear for p in profiles])               # (B, G, N)
+        self.nom2 = np.stack([p.nom2 for p in profiles])               # (B, K)
+        self.wear2 = np.stack([p.wear2 for p in profiles])             # (B, G)
+        self.cross = np.stack([p.cross for p in profiles])             # (B, G, K)
+
+    @staticmethod
+    def _t(stack: FloatArray) -> FloatArray:
+        """Return every row's matrix transposed (a view: each row as ``matrix.T``)."""
+        return np.swapaxes(stack, -1, -2)
+
+    def _times(self, values: FloatArray, stack: FloatArray) -> FloatArray:
+        """Return ``values[i] @ stack[i].T`` per row: (R, M, N) x (R, P, N) -> (R, M, P)."""
+        return np.matmul(values, self._t(stack))
+
+    def whitened(self, values: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
+        """Return the rows' values whitened, (R, N) (one (1, N) product per row)."""
+        return self._times(values[:, None, :], self.whiten[rows])[:, 0, :]
+
+    def grid_profiles(self, data: FloatArray, *, want_t: bool) -> tuple:
+        """Return min_T cost (B, G) and (if want_t) min_w cost (B, K), as per row alone."""
+        d2 = np.einsum('bn,bn->b', data, data)
+        p_t = self.nom2 - self._times(2.0 * data[:, None, :], self.nom)[:, 0, :]
+        q_w = self.wear2 - self._times(2.0 * data[:, None, :], self.wear)[:, 0, :]
+        b = data.shape[0]
+        g, k = self.cross.shape[1:]
+        prof_w = np.empty((b, g))
+        prof_t = np.empty((b, k)) if want_t else None
+        chunk = max(1, one._CHUNK_CELLS // (g * k))
+        for s in range(0, b, chunk):
+            cube = self.cross[s:s + chunk] + p_t[s:s + chunk, None, :]
+            cube += q_w[s:s + chunk, :, None]
+            prof_w[s:s + chunk] = one._parabola_min(cube, self.t_grid)[0]
+            if prof_t is not None:
+                prof_t[s:s + chunk] = one._parabola_min(np.swapaxes(cube, 1, 2), self.grid)[0]
+        prof_w += d2[:, None]
+        if prof_t is not None:
+            prof_t += d2[:, None]
+        return prof_w, prof_t
+
+    def cost_at_wear(self, data: FloatArray, w: FloatArray,
+                     rows: NDArray[np.intp]) -> FloatArray:
+        """Return min over T of the cost at one w per row of ``rows``, (R,)."""
+        c = self._times(fm.wear_friction(self.speeds[rows], w[:, None], self.params.model)
+                        [:, None, :], self.whiten[rows])[:, 0, :]
+        e = data - c
+        cost = (np.einsum('bn,bn->b', e, e)[:, None] + self.nom2[rows]
+                - self._times(2.0 * e[:, None, :], self.nom[rows])[:, 0, :])
+        return one._parabola_min(cost, self.t_grid)[0]
+
+    def cost_at_temperature(self, data: FloatArray, t: FloatArray,
+                            rows: NDArray[np.intp]) -> FloatArray:
+        """Return min over the wear grid of the cost at one T per row of ``rows``, (R,)."""
+        f0 = fm.nominal_friction(self.speeds[rows], self.params.load_mean, t[:, None],
+                                 self.params.model)
+        a = self._times(f0[:, None, :], self.whiten[rows])[:, 0, :]
+        e = data - a
+        cost = (np.einsum('bn,bn->b', e, e)[:, None] + self.wear2[rows]
+                - self._times(2.0 * e[:, None, :], self.wear[rows])[:, 0, :])
+        return one._parabola_min(cost, self.grid)[0]
+
+
+def _extended_grid(grid: FloatArray, w_hat: float) -> FloatArray:
+    """Return the wear grid of one row's T profile (as ``_WearLikelihood`` extends it)."""
+    target = 1.5 * max(float(w_hat), 0.0)
+    if target > grid[-1]:
+        count = int(min(np.ceil((target - grid[-1]) / one._COARSE_STEP), 200))
+        return np.concatenate([grid, np.linspace(grid[-1], target, count + 1)[1:]])
+    return grid
+
+
+def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArray],
+                        estimates: Sequence[WearEstimates], *, params: ParameterSet,
+                        trend_grid: Optional[FloatArray] = None, level: float = 0.95
+                        ) -> tuple[list[one.WearIntervals], list[Optional[FloatArray]]]:
+    """Return the intervals of B experiments (one batch of 1 per row) and their trend rows.
+
+    Row ``i`` equals ``wear_intervals(speeds[i], values[i], params=params,
+    estimates=estimates[i], level=level)`` (default grid, calibrated cutoff), and its trend
+    row ``profile_log_likelihood(speeds[i], values[i], params=params,
+    wear_grid=trend_grid)`` (None without ``trend_grid``).  ``values[i]``: shape (1, N).
+
+    Raises:
+        InputError: as the one-experiment functions.
+
+    """
+    grid = one._validate_grid(one.wear_grid(params.wear_max))
+    checked = [one._validate(s, v) for s, v in zip(speeds, values)]
+    speeds = [s for s, _ in checked]
+    values = [v for _, v in checked]
+    out: list[Optional[one.WearIntervals]] = [None] * len(speeds)
+    groups: dict[tuple, list[int]] = {}
+    for i, (s, v) in enumerate(zip(speeds, values)):
+        if s.size == 1 or v.shape[0] != 1 or len(estimates[i]) != 1:
+            out[i] = one.wear_intervals(s, v, params=params, level=level,
+                                        estimates=estimates[i])
+            continue
+        calibration = one.calibrate_cutoffs(s, params=params, level=level)
+        extended = _extended_grid(grid, float(estimates[i].wear[0]))
+        groups.setdefault((s.size, id(calibration), extended.tobytes()), []).append(i)
+    for rows in groups.values():
+        for i, result in zip(rows, _intervals_stacked(
+                [speeds[i] for i in rows], [values[i] for i in rows],
+                [estimates[i] for i in rows], params, grid, level)):
+            out[i] = result
+    trend_rows: list[Optional[FloatArray]] = [None] * len(speeds)
+    if trend_grid is not None:
+        trend_rows = _likelihood_rows(speeds, values, params, trend_grid)
+    return [r for r in out if r is not None], trend_rows
+
+
+def _likelihood_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArray],
+                     params: ParameterSet, trend_grid: FloatArray
+                     ) -> list[Optional[FloatArray]]:
+    """Return profile_log_likelihood of every row (N >= 2 rows stacked), shape (1, G) each."""
+    grid = one._validate_grid(trend_grid)
+    rows: list[Optional[FloatArray]] = [None] * len(speeds)
+    by_size: dict[int, list[int]] = {}
+    for i, (s, v) in enumerate(zip(speeds, values)):
+        s, v = one._validate(s, v)
+        if s.size == 1 or v.shape[0] != 1:
+            rows[i] = one.profile_log_likelihood(s, v, params=params, wear_grid=grid)
+        else:
+            by_size.setdefault(s.size, []).append(i)
+    for group in by_size.values():
+        stacked = _StackedProfile([one._Profile(np.asarray(speeds[i], dtype=float).copy(),
+                                                params, grid.copy()) for i in group])
+        index = np.arange(len(group))
+        data = stacked.whitened(np.concatenate([np.asarray(values[i], dtype=float)
+                                                for i in group]), index)
+        cost, _ = stacked.grid_profiles(data, want_t=False)
+        like = stacked.const[:, None] - 0.5 * cost
+        for j, i in enumerate(group):
+            rows[i] = like[j:j + 1]
+    return rows
+
+
+def _intervals_stacked(speeds: list, values: list, estimates: list, params: ParameterSet,
+                       grid: FloatArray, level: float) -> list[one.WearIntervals]:
+    """Return :func:`wear_intervals` of rows of equal N, calibration and extended grid."""
+    speeds = [np.asarray(s, dtype=float) for s in speeds]
+    vals = np.concatenate([np.asarray(v, dtype=float) for v in values])
+    w_hat = np.concatenate([np.asarray(e.wear, dtype=float) for e in estimates])
+    t_hat = np.concatenate([np.asarray(e.temperature_degc, dtype=float) for e in estimates])
+    half_q = 0.5 * float(special.chdtri(1, 1.0 - level))
+    profiles = [one._Profile(s.copy(), params, _extended_grid(grid, w).copy())
+                for s, w in zip(speeds, w_hat)]
+    profile = _StackedProfile(profiles)
+    del profiles  # stacked: one copy in memory
+    index = np.arange(len(speeds))
+    data = profile.whitened(vals, index)
+    # _WearLikelihood, N >= 2
+    cost_w, cost_t = profile.grid_profiles(data, want_t=True)
+    like_rows = profile.const[:, None] - 0.5 * cost_w[:, :grid.size]
+    model = fm.friction(profile.speeds, params.load_mean, t_hat[:, None], w_hat[:, None],
+                        params.model)
+    residual = data - profile.whitened(model, index)
+    l_hat = profile.const - 0.5 * np.einsum('bn,bn->b', residual, residual)
+    l_max = np.maximum(l_hat, like_rows.max(axis=1))
+
+    def at_wear(w: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
+        return profile.const[rows] - 0.5 * profile.cost_at_wear(data[rows], w, rows)
+    # wear_intervals, calibrated cutoff (one calibration for the group)
+    calibration = one.calibrate_cutoffs(speeds[0], params=params, level=level)
+    half_c = 0.5 * calibration.at(grid)
+
+    def wear_func(w: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
+        return at_wear(w, rows) + 0.5 * calibration.at(w)
+    wear_low, wear_high, open_end = one._hull(like_rows + half_c[None, :], grid, l_max, w_hat,
+                                              l_hat + 0.5 * calibration.at(w_hat), wear_func)
+    wear_low = np.maximum(wear_low, 0.0)
+    joint_t = profile.const[:, None] - 0.5 * cost_t
+
+    def temp_func(t: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
+        return profile.const[rows] - 0.5 * profile.cost_at_temperature(data[rows], t, rows)
+    lt_max = np.maximum(l_hat, joint_t.max(axis=1))
+    t_low, t_high, _ = one._hull(joint_t, profile.t_grid, lt_max - half_q, t_hat, l_hat,
+                                 temp_func)
+    t_low = np.clip(t_low, profile.t_min, profile.t_max)
+    t_high = np.clip(t_high, profile.t_min, profile.t_max)
+    return [one.WearIntervals(wear_low=wear_low[i:i + 1], wear_high=wear_high[i:i + 1],
+                              temperature_low=t_low[i:i + 1], temperature_high=t_high[i:i + 1],
+                              wear_high_at_grid_end=open_end[i:i + 1], level=float(level))
+            for i in index]
