@@ -43,8 +43,8 @@ setup(
         'dask': ['distributed>=2023.1'],
         # The maintenance team's web dashboard (robot-wear-monitor dashboard) and its users.
         'dashboard': ['argon2-cffi>=21.3'],
-        'test': ['pytest>=7', 'argon2-cffi>=21.3', 'mcap-ros2-support>=0.5', 'psycopg[binary]>=3.1',
-                 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
+        'test': ['pytest>=7', 'argon2-cffi>=21.3', 'mcap-ros2-support>=0.5',
+                 'psycopg[binary]>=3.1', 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
                  # ament_flake8's checks and plugins, ament_pep257, mypy
                  'flake8>=6', 'flake8-blind-except>=0.2', 'flake8-builtins>=2.0',
                  'flake8-class-newline>=1.6', 'flake8-comprehensions>=3.10',
