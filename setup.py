@@ -47,7 +47,9 @@ setup(
                       'python-multipart>=0.0.9', 'plotly>=5.0', 'swagger-ui-bundle>=1.1'],
         # The maintenance team's web dashboard (robot-wear-monitor dashboard) and its users.
         'dashboard': ['argon2-cffi>=21.3', 'httpx>=0.24'],
-        'test': ['pytest>=7', 'argon2-cffi>=21.3', 'httpx>=0.24', 'aiosmtpd>=1.4', 'mcap-ros2-support>=0.5',
+        'test': ['pytest>=7', 'argon2-cffi>=21.3', 'mcap-ros2-support>=0.5',
+                 # notifications: the webhook client and the tests' SMTP server
+                 'httpx>=0.24', 'aiosmtpd>=1.4',
                  'psycopg[binary]>=3.1', 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
                  # ament_flake8's checks and plugins, ament_pep257, mypy
                  'flake8>=6', 'flake8-blind-except>=0.2', 'flake8-builtins>=2.0',
