@@ -41,12 +41,12 @@ setup(
         'postgresql': ['psycopg[binary]>=3.1'],
         # Re-analysis of many recordings on an existing Dask cluster (replay --dask ADDRESS).
         'dask': ['distributed>=2023.1'],
-        # The maintenance team's web dashboard (robot-wear-monitor dashboard): FastAPI under
-        # uvicorn, Jinja2 pages, Plotly.js and Swagger UI served from their Python packages.
-        'dashboard': ['fastapi>=0.110', 'uvicorn>=0.29', 'Jinja2>=3.1', 'itsdangerous>=2.1',
-                      'python-multipart>=0.0.9', 'plotly>=5.0', 'swagger-ui-bundle>=1.1'],
-        # The maintenance team's web dashboard (robot-wear-monitor dashboard) and its users.
-        'dashboard': ['argon2-cffi>=21.3', 'httpx>=0.24'],
+        # The maintenance team's web dashboard (robot-wear-monitor dashboard) and its users:
+        # FastAPI under uvicorn, Jinja2 pages, Plotly.js and Swagger UI served from their
+        # Python packages, argon2 password hashes, httpx for the notifications' webhooks.
+        'dashboard': ['argon2-cffi>=21.3', 'httpx>=0.24', 'fastapi>=0.110', 'uvicorn>=0.29',
+                      'Jinja2>=3.1', 'itsdangerous>=2.1', 'python-multipart>=0.0.9',
+                      'plotly>=5.0', 'swagger-ui-bundle>=1.1'],
         'test': ['pytest>=7', 'argon2-cffi>=21.3', 'mcap-ros2-support>=0.5',
                  # notifications: the webhook client and the tests' SMTP server
                  'httpx>=0.24', 'aiosmtpd>=1.4',
@@ -60,7 +60,7 @@ setup(
                  # the dashboard and its server and browser tests (headless Chromium)
                  'fastapi>=0.110', 'uvicorn>=0.29', 'Jinja2>=3.1', 'itsdangerous>=2.1',
                  'python-multipart>=0.0.9', 'plotly>=5.0', 'swagger-ui-bundle>=1.1',
-                 'httpx>=0.24', 'selenium>=4.10'],
+                 'selenium>=4.10'],
     },
     zip_safe=True,
     maintainer='robot_wear_monitor maintainers',
