@@ -13,18 +13,23 @@ the trend columns (NULL in old rows).  Version 3: ``robot`` on every estimate an
 ``recordings`` lists the recordings a batch re-analysis replayed completely (robot and content
 fingerprint), so that a re-run skips them.  Version 4: ``invalid_reason`` on every estimate
 ('' for a valid one, the plausibility checks' verdict for one the monitor could not judge; old
-rows are valid).
+rows are valid).  Version 5 (the maintenance team's dashboard): alarm events may also be
+'acknowledged' and carry the user, the owner and the planned maintenance date (SQLite rebuilds
+``alarm_events`` for its new CHECK; ids and rows are kept); ``users`` (dashboard accounts,
+argon2 hashes), ``notifications`` (one row per notification event sent, unique key) and the
+indexes of the dashboard's queries (the fleet alarm log newest first, per robot).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.monitoring.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
-TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings')
+TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
+          'notifications')
 
 _SQLITE_V1 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -88,9 +93,50 @@ _SQLITE_V3 = (
 
 _V4 = ("ALTER TABLE estimates ADD COLUMN invalid_reason TEXT NOT NULL DEFAULT ''",)
 
+#: The alarm events of version 5 (SQLite cannot change a CHECK: the table is rebuilt).
+_EVENT_KINDS_CHECK = "CHECK (event IN ('raised', 'reset', 'acknowledged'))"
+_EVENT_V5_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, estimate_id, '
+                     'note')
+
+_SQLITE_V5 = (
+    f"""CREATE TABLE alarm_events_v5 (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    robot TEXT NOT NULL DEFAULT 'default',
+    joint TEXT NOT NULL,
+    stamp_s REAL NOT NULL,
+    wall_time_s REAL NOT NULL,
+    event TEXT NOT NULL {_EVENT_KINDS_CHECK},
+    wear REAL,
+    estimate_id INTEGER REFERENCES estimates (id),
+    note TEXT NOT NULL DEFAULT '',
+    user_name TEXT NOT NULL DEFAULT '',
+    owner TEXT NOT NULL DEFAULT '',
+    planned_maintenance TEXT NOT NULL DEFAULT '')""",
+    f'INSERT INTO alarm_events_v5 ({_EVENT_V5_COLUMNS}) SELECT {_EVENT_V5_COLUMNS} '
+    'FROM alarm_events ORDER BY id',
+    'DROP TABLE alarm_events',
+    'ALTER TABLE alarm_events_v5 RENAME TO alarm_events',
+    'CREATE INDEX alarm_events_robot_joint ON alarm_events (robot, joint, id)',
+    'CREATE INDEX alarm_events_robot ON alarm_events (robot, id)',
+    """CREATE TABLE users (
+    name TEXT PRIMARY KEY,
+    role TEXT NOT NULL CHECK (role IN ('viewer', 'maintainer')),
+    password_hash TEXT NOT NULL,
+    created_wall_time_s REAL NOT NULL)""",
+    """CREATE TABLE notifications (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    event_key TEXT NOT NULL UNIQUE,
+    robot TEXT,
+    joint TEXT,
+    kind TEXT,
+    wall_time_s REAL,
+    channel TEXT,
+    payload TEXT)""",
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4}
+                                                 4: _V4, 5: _SQLITE_V5}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -138,5 +184,29 @@ _POSTGRESQL_V3 = (
     PRIMARY KEY (robot, fingerprint))""",
 )
 
+_POSTGRESQL_V5 = (
+    'ALTER TABLE alarm_events DROP CONSTRAINT IF EXISTS alarm_events_event_check',
+    f'ALTER TABLE alarm_events ADD CONSTRAINT alarm_events_event_check {_EVENT_KINDS_CHECK}',
+    "ALTER TABLE alarm_events ADD COLUMN user_name TEXT NOT NULL DEFAULT ''",
+    "ALTER TABLE alarm_events ADD COLUMN owner TEXT NOT NULL DEFAULT ''",
+    "ALTER TABLE alarm_events ADD COLUMN planned_maintenance TEXT NOT NULL DEFAULT ''",
+    'CREATE INDEX alarm_events_robot ON alarm_events (robot, id)',
+    """CREATE TABLE users (
+    name TEXT PRIMARY KEY,
+    role TEXT NOT NULL CHECK (role IN ('viewer', 'maintainer')),
+    password_hash TEXT NOT NULL,
+    created_wall_time_s DOUBLE PRECISION NOT NULL)""",
+    """CREATE TABLE notifications (
+    id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    event_key TEXT NOT NULL UNIQUE,
+    robot TEXT,
+    joint TEXT,
+    kind TEXT,
+    wall_time_s DOUBLE PRECISION,
+    channel TEXT,
+    payload TEXT)""",
+)
+
 #: PostgreSQL: version -> its steps, oldest first.
-POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4}
+POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
+                                                     5: _POSTGRESQL_V5}
