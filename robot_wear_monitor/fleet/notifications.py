@@ -9,13 +9,13 @@ same on every pass and in every process:
 * ``forecast_crossing``: the forecast crossing of the wear threshold (the fleet view's date,
   or the trend already past the threshold) at most ``forecast_horizon_days`` ahead of
   ``now_s``, once per alarm cycle (key ``forecast_crossing/ROBOT/JOINT/cycle-STAMP``, the stamp
-  of the joint's last reset, ``cycle-0`` before the first): not while the alarm is latched
-  (the alarm says more);
+  of the joint's last reset, ``cycle-0`` before the first);
 * ``joint_stale``: no experiment for longer than the fleet view's stale limit, once per stale
   episode (key ``joint_stale/ROBOT/JOINT/last-STAMP``, the stamp of the last experiment).
 
 An acknowledged alarm (the dashboard's acknowledge) stops every notification of that joint until
-it is reset.  Robot and joint names are percent-encoded in the keys.
+it is reset.  Robot and joint names are percent-encoded in the keys (replaced by their SHA-256
+when very long).
 
 Each event goes to every channel (``webhook:NAME``, ``email``) of the configuration.  Before a
 send the notifier claims ``KEY@CHANNEL`` in the history (:meth:`WearHistory.claim_notification`,
@@ -32,6 +32,7 @@ never twice).
 from __future__ import annotations
 
 from dataclasses import dataclass
+import hashlib
 import logging
 import math
 import threading
@@ -53,6 +54,8 @@ __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
            'notify_forever', 'notify_once', 'RetryPolicy', 'SentNotification', 'WebhookConfig']
 
 _LOG = logging.getLogger('robot_wear_monitor.notifications')
+#: Longer percent-encoded robot/joint parts of a key are replaced by their SHA-256.
+_MAX_WHERE_CHARS = 300
 
 
 @dataclass(frozen=True)
@@ -150,6 +153,8 @@ def due_events(*, history: WearHistory, config: NotificationConfig,
         if getattr(s, 'acknowledged', False):
             continue
         where = f'{_name(s.robot)}/{_name(s.joint)}'
+        if len(where) > _MAX_WHERE_CHARS:  # the history keeps keys of up to 512 characters
+            where = 'sha256-' + hashlib.sha256(f'{s.robot}\x00{s.joint}'.encode()).hexdigest()
         facts = _facts(view)
 
         def add(kind: str, key: str, starts_s: float, summary: str) -> None:
@@ -160,7 +165,7 @@ def due_events(*, history: WearHistory, config: NotificationConfig,
         if 'alarm_raised' in config.events and s.alarm:
             add('alarm_raised', _stamp(s.alarm_since_stamp_s), s.alarm_since_stamp_s,
                 f'wear alarm raised ({describe_wear(view)})')
-        if 'forecast_crossing' in config.events and not s.alarm and _crossing_inside(
+        if 'forecast_crossing' in config.events and _crossing_inside(
                 view, now_s=now_s, horizon_s=config.forecast_horizon_s):
             when = ('the trend is past the wear threshold' if s.crossing_experiments <= 0
                     else f'the wear threshold is forecast to be crossed by '
