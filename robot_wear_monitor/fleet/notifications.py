@@ -150,7 +150,7 @@ def due_events(*, history: WearHistory, config: NotificationConfig,
     events: list[DueEvent] = []
     for view in fleet_view(history.fleet(), now_s=now_s):
         s = view.state
-        if getattr(s, 'acknowledged', False):
+        if s.acknowledged:
             continue
         where = f'{_name(s.robot)}/{_name(s.joint)}'
         if len(where) > _MAX_WHERE_CHARS:  # the history keeps keys of up to 512 characters
