@@ -124,7 +124,8 @@ def latch_events(backend: Any, *, robot: str, joint: str
     return latch, event_from_row(rows[0]) if rows else None
 
 
-def _latest_estimate(backend: Any, robot: str, joint: str) -> tuple[Optional[int], Optional[float]]:
+def _latest_estimate(backend: Any, robot: str,
+                     joint: str) -> tuple[Optional[int], Optional[float]]:
     rows = backend.execute('SELECT id, wear FROM estimates WHERE robot = ? AND joint = ? '
                            'ORDER BY id DESC LIMIT 1', (robot, joint))
     return (int(rows[0][0]), float(rows[0][1])) if rows else (None, None)
@@ -196,7 +197,8 @@ def alarm_log(backend: Any, *, robot: Optional[str] = None, joint: Optional[str]
     when ``robot`` is None); ``before_id`` keeps the events older than that id (the next page);
     ``limit`` at most that many.
     """
-    conditions, params = [], []
+    conditions: list[str] = []
+    params: list[Any] = []
     for column, value in (('robot', robot), ('joint', joint)):
         if value is not None:
             conditions.append(f'{column} = ?')
