@@ -12,7 +12,9 @@ setup(
     version='0.3.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
     # the interval calibrations that ship (estimation/intervals.py, SHIPPED_CALIBRATIONS)
-    package_data={PACKAGE_NAME + '.estimation': ['calibrations.json']},
+    package_data={PACKAGE_NAME + '.estimation': ['calibrations.json'],
+                  # the dashboard's pages, style and scripts (served by the app itself)
+                  PACKAGE_NAME + '.dashboard': ['templates/*.html', 'static/*']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),

@@ -66,8 +66,10 @@ def api_fleet(request: Request, robot: Optional[str] = Query(None, description='
 
 @router.get('/robots/{robot}/joints/{joint}', summary="One joint's wear story")
 def api_joint(request: Request, robot: str, joint: str) -> Response:
-    """Return one joint: every experiment (w-hat, 95 % interval, trend, T-hat, p-value), the
-    forecast cone, the friction levels of the last experiments with the model, the alarm log.
+    """Return one joint's wear story.
+
+    Every experiment (w-hat, 95 % interval, trend, T-hat, p-value), the forecast cone, the
+    friction levels of the last experiments with the model, the alarm log.
     """
     payload = joint_json(history_of(request), robot=robot, joint=joint, now_s=time.time(),
                          parameter_sets=request.app.state.parameter_sets)

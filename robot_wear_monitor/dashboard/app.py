@@ -116,7 +116,7 @@ def create_app(settings: DashboardSettings) -> FastAPI:
 
     pool = HistoryPool(settings.history)
     app = FastAPI(title='robot_wear_monitor dashboard', version=__version__,
-                  description='The fleet of a wear history: joints worst first, one joint\'s '
+                  description="The fleet of a wear history: joints worst first, one joint's "
                               'wear story, the alarm log. Wear w: 0 new, 100 failure; '
                               'temperatures degC; speeds motor side rad/s; frictions '
                               'normalised; times s since the epoch (UTC).',

@@ -104,7 +104,7 @@ def logout(request: Request, csrf_token: str = Form('')) -> Response:
 @router.get('/')
 def fleet_page(request: Request, robot: Optional[str] = None,
                state: Optional[str] = None) -> HTMLResponse:
-    """The fleet, worst first, with counts per state and filters by robot and state."""
+    """Show the fleet, worst first, with counts per state and filters by robot and state."""
     fleet = fleet_json(history_of(request), now_s=time.time(),
                        parameter_sets=request.app.state.parameter_sets,
                        robot=robot or None, state=state if state in STATES else None)
@@ -165,7 +165,7 @@ def _message(error: Exception) -> str:
 @router.get('/alarms')
 def alarms_page(request: Request, robot: Optional[str] = None, joint: Optional[str] = None,
                 limit: int = Query(500, ge=1, le=100000)) -> HTMLResponse:
-    """The fleet's alarm log, newest first: raised, acknowledged and reset, who and why."""
+    """Show the fleet's alarm log, newest first: raised, acknowledged and reset, who and why."""
     events = alarm_log(history_of(request), robot=robot or None, joint=joint or None,
                        limit=limit)
     return render(request, 'alarms.html', events=events, robot=robot or '', joint=joint or '',
@@ -175,7 +175,7 @@ def alarms_page(request: Request, robot: Optional[str] = None, joint: Optional[s
 @router.get('/alarms.csv')
 def alarms_csv(request: Request, robot: Optional[str] = None,
                joint: Optional[str] = None) -> Response:
-    """The alarm log as CSV for audits (the columns of ``history --alarms --csv``)."""
+    """Return the alarm log as CSV for audits (the columns of ``history --alarms --csv``)."""
     events = alarm_log(history_of(request), robot=robot or None, joint=joint or None)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator='\n')
@@ -196,5 +196,5 @@ def _csv_cell(value: Any) -> str:
 
 @router.get('/docs')
 def docs_page(request: Request) -> HTMLResponse:
-    """The OpenAPI page (Swagger UI served by the app itself)."""
+    """Show the OpenAPI page (Swagger UI served by the app itself)."""
     return render(request, 'docs.html')

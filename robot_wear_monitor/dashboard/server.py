@@ -11,7 +11,7 @@ from __future__ import annotations
 import ipaddress
 import os
 import socket
-from typing import Optional
+from typing import Any, Optional
 
 from robot_wear_monitor.errors import InputError
 
@@ -25,7 +25,7 @@ def is_loopback(host: str) -> bool:
     except ValueError:
         pass
     try:
-        addresses = {info[4][0] for info in socket.getaddrinfo(host, None)}
+        addresses = {str(info[4][0]) for info in socket.getaddrinfo(host, None)}
     except OSError:
         return False
     return bool(addresses) and all(ipaddress.ip_address(a.split('%')[0]).is_loopback
@@ -47,7 +47,7 @@ def check_listen(*, host: str, tls_cert: Optional[str], tls_key: Optional[str],
                      'is in front')
 
 
-def serve(app: object, *, host: str, port: int, tls_cert: Optional[str] = None,
+def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
           tls_key: Optional[str] = None) -> None:
     """Serve ``app`` with uvicorn until interrupted (HTTPS when a certificate is given)."""
     import uvicorn

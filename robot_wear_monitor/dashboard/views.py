@@ -44,7 +44,8 @@ class ParameterSets:
         self._lock = threading.Lock()
         self._by_name: dict[str, ParameterSet] = {}
         self.default = load_parameter_set()
-        for path in sorted(default_parameter_file().parent.glob('*.yaml')):
+        packaged: list[str | Path] = sorted(default_parameter_file().parent.glob('*.yaml'))
+        for path in packaged:
             try:
                 params = load_parameter_set(path)
             except Exception:  # noqa: BLE001 - not a parameter set (e.g. a node config)
@@ -179,7 +180,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     views = fleet_view(history.fleet(), now_s=now_s)
     rows = [fleet_row_json(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0]
                            .wear_threshold) for v in views]
-    counts = {name: 0 for name in STATES}
+    counts = dict.fromkeys(STATES, 0)
     for row in rows:
         counts[row['state']] += 1
     robots = sorted({row['robot'] for row in rows})
@@ -195,7 +196,7 @@ def event_json(event: Any) -> dict[str, Any]:
     return {
         'id': getattr(event, 'id', None), 'robot': event.robot, 'joint': event.joint,
         'event': event.event, 'stamp_s': _number(event.stamp_s),
-        'time': iso_time(wall if wall is not None else event.stamp_s),
+        'time': iso_time(event.stamp_s),  # a raise: its experiment; else the moment
         'wall_time_s': wall, 'wear': _number(event.wear), 'note': event.note,
         'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
