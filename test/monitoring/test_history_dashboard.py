@@ -343,3 +343,30 @@ def test_a_version_6_history_is_refused(history_location):
     assert SCHEMA_VERSION == 5
     with pytest.raises(HistoryError, match='schema version 6, this version reads 5'):
         WearHistory(history_location)
+
+
+def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_path):
+    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view
+    with WearHistory(tmp_path / 'h.db', robot='cell_1') as history:
+        _raise(history, 0, joint='joint_2')
+        _raise(history, 1, joint='joint_3', wear=60.0)
+        history.append(_record(2, joint='joint_4', wear=5.0))
+        history.acknowledge_alarm(joint='joint_2', user='ana', owner='ben', comment='',
+                                  planned_maintenance='2026-12-01')
+        rows = fleet_view(history.fleet(), now_s=200.0)
+    # acknowledged or not, a latched alarm ranks by its wear (joint_3's is the higher)
+    assert [(r.state.joint, r.state.alarm, r.state.acknowledged) for r in rows] == [
+        ('joint_3', True, False), ('joint_2', True, True), ('joint_4', False, False)]
+    rows = [rows[1], rows[0], rows[2]]
+    payload = [r.as_json() for r in rows]
+    assert (payload[0]['acknowledged'], payload[0]['acknowledged_by'],
+            payload[0]['planned_maintenance']) == (True, 'ana', '2026-12-01')
+    assert payload[0]['acknowledged_time_s'] == rows[0].state.acknowledged_wall_time_s
+    assert (payload[1]['acknowledged'], payload[1]['acknowledged_by'],
+            payload[1]['acknowledged_time_s']) == (False, None, None)
+    table = fleet_table(rows).splitlines()
+    assert 'acknowledged by ana, service planned 2026-12-01' in table[1]
+    assert 'acknowledged' not in table[2] and 'LATCHED' in table[2]
+    csv_rows = fleet_csv_rows(rows)
+    assert csv_rows[0][-2:] == ['acknowledged_by', 'planned_service_date']
+    assert [r[-2:] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''], ['', '']]
