@@ -607,6 +607,17 @@ def test_the_notify_verb_once_and_its_exit_codes(tmp_path, webhook, capsys):
     err = capsys.readouterr().err
     assert 'FAILED alarm_raised cell_9 joint_1 via webhook:ops after 3 tries: HTTP 503' in err
     assert 'tried again on the next pass (1 of 2)' in err
+    # the operator's view: the history's notification log, newest first
+    assert cli_main(['notify', '--history', str(history_path), '--log', '--json']) == 0
+    log = json.loads(capsys.readouterr().out)
+    assert [row['status'] for row in log] == ['failure', 'failed'] + ['sent'] * 4
+    assert log[0]['payload']['error'] == 'HTTP 503 Service Unavailable'
+    assert cli_main(['notify', '--history', str(history_path), '--log', '2']) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[0].endswith(
+        'webhook:ops  alarm_raised  cell_9  joint_1  FAILED pass 1 of 2 after 3 tries: '
+        'HTTP 503 Service Unavailable')
+    assert lines[1].endswith('webhook:ops  alarm_raised  cell_9  joint_1  failed')
     (tmp_path / 'bad.yaml').write_text('webhooks: [{url: x}]\n')
     assert cli_main(['notify', '--history', str(history_path), '--config',
                      str(tmp_path / 'bad.yaml'), '--once']) == 2
