@@ -235,7 +235,11 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
                                               joint=event.joint, kind=event.kind,
                                               channel=channel, payload=record):
                 continue  # another notifier has it
-            result = send()
+            try:
+                result = send()
+            except Exception as problem:  # a channel never stops the pass (claim kept)
+                result = SendResult(delivered=False, attempts=1,
+                                    error=f'{type(problem).__name__}: {str(problem)[:200]}')
             if not result.delivered:
                 failed_channels.add(channel)
                 history.claim_notification(

@@ -288,7 +288,7 @@ def test_the_webhook_payload_and_the_email_say_what_the_history_holds(tmp_path, 
 def test_names_from_recordings_are_encoded_in_links_and_kept_out_of_mail_headers(
         tmp_path, webhook, smtp):
     config = _config(tmp_path, webhook=webhook, smtp=smtp, events=['alarm_raised'])
-    robot, joint = 'cell/1 <img src=x onerror=alert(1)>', 'joint\r\nBcc: x@evil.example'
+    robot, joint = 'Zelle/1 \u00fc <img src=x onerror=alert(1)>', 'joint\r\nBcc: x@evil.example'
     with WearHistory(tmp_path / 'h.db') as history:
         history.append(_record(robot, joint, T0, wear=90.0, alarm=True), events=[
             AlarmEvent(robot=robot, joint=joint, stamp_s=T0, event='raised', wear=90.0)])
@@ -297,10 +297,13 @@ def test_names_from_recordings_are_encoded_in_links_and_kept_out_of_mail_headers
     [alert] = webhook.alerts()[0]['alerts']
     assert alert['labels']['robot'] == robot and alert['labels']['joint'] == joint
     assert alert['generatorURL'] == (
-        f'{DASHBOARD}/robots/cell%2F1%20%3Cimg%20src%3Dx%20onerror%3Dalert%281%29%3E/joints/'
+        f'{DASHBOARD}/robots/Zelle%2F1%20%C3%BC%20%3Cimg%20src%3Dx%20onerror%3Dalert%281%29%3E/'
+        'joints/'
         'joint%0D%0ABcc%3A%20x%40evil.example')
     [message] = smtp.messages
     assert message['Bcc'] is None and '\\r\\n' in message['Subject']
+    assert message['Subject'].startswith('[robot-wear-monitor] Zelle/1 \u00fc <img')
+    assert robot in message.get_content()
     assert smtp.envelopes[0][1] == ['maintenance@example.local', 'lead@example.local']
 
 
