@@ -6,8 +6,9 @@ joint (:class:`~robot_wear_monitor.monitoring.joints.WearEstimatorFleet`; the
 ``friction_levels`` of a joint go to its estimator by ``header.frame_id``): every completed
 experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
 late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger; with
-``joints``: ``~/<joint>/reset_alarm``); the SQLite history restores the trend and the alarm
-after a restart.  With ``joints`` the outputs of a joint are under ``<joint>/``.
+``joints``: ``~/<joint>/reset_alarm``; not offered with ``reset_service_enabled`` false, when
+resets must go through the dashboard); the history restores the trend and the alarm after a
+restart.  With ``joints`` the outputs of a joint are under ``<joint>/``.
 """
 
 import sys
@@ -99,16 +100,19 @@ class WearEstimatorNode(Node):
             publishers[topic] = self.create_publisher(
                 _TYPES[topic], output_topic(topic, joint, per_joint=per_joint), _QOS[topic])
         self.publishers_by_joint[joint] = publishers
-        self.reset_services[joint] = self.create_service(
-            Trigger, reset_service_name(joint, per_joint=per_joint),
-            lambda request, response: self.on_reset_alarm(request, response, joint=joint))
+        if self.parameters['reset_service_enabled']:
+            self.reset_services[joint] = self.create_service(
+                Trigger, reset_service_name(joint, per_joint=per_joint),
+                lambda request, response: self.on_reset_alarm(request, response, joint=joint))
         publishers[ALARM_TOPIC].publish(alarm_to_msg(self.kit, active=service.latch.active))
         config = service.config
         self.get_logger().info(
             f'joint {joint!r}, parameter set {config.params.name!r}, alarm at '
             f'w >= {config.alarm.threshold}; history {self.history.path}: '
             f'{service.restored_estimates} estimates restored, alarm '
-            f'{"LATCHED" if service.latch.active else "clear"}')
+            f'{"LATCHED" if service.latch.active else "clear"}'
+            + ('' if self.parameters['reset_service_enabled'] else
+               '; no reset service (reset_service_enabled false)'))
 
     def publish_alarm(self, joint=None):
         """Publish the latched alarm state of a joint (default: every joint)."""
