@@ -126,6 +126,7 @@ function showJoint(data) {
   const friction = layout('Friction levels of the last experiments and the model at their T-hat, w-hat',
     'friction [normalised]');
   friction.xaxis = {title: {text: 'motor-side speed [rad/s]'}};
+  friction.legend = {orientation: 'v', title: {text: 'experiment (UTC)'}};
   Plotly.react('friction-chart', frictionTraces(data), friction, {displaylogo: false});
   showEvents(data.events);
 }
