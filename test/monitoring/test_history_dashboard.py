@@ -76,6 +76,10 @@ def _check_migrated(history, events):
     assert [(r.robot, r.joint, r.alarm, r.acknowledged) for r in fleet] == [
         ('cell_1', 'joint_2', True, False), ('cell_2', 'joint_1', False, False),
         ('cell_1', 'joint_3', False, False)]
+    # the per-joint summary of the fleet view was filled from the old rows
+    assert [(r.experiments, r.first_stamp_s, r.last_stamp_s) for r in fleet] == [
+        (6, 1.7e9, 1.7e9 + 5 * 3600.0), (2, 1.7e9, 1.7e9 + 3600.0),
+        (4, 1.7e9, 1.7e9 + 3 * 3600.0)]
     # the new features work on the migrated history
     history.acknowledge_alarm(joint='joint_2', robot='cell_1', user='ana', owner='ben',
                               comment='gear box ordered', planned_maintenance='2026-12-01')
@@ -370,3 +374,22 @@ def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_p
     csv_rows = fleet_csv_rows(rows)
     assert csv_rows[0][-2:] == ['acknowledged_by', 'planned_service_date']
     assert [r[-2:] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''], ['', '']]
+
+
+def test_the_joint_summary_follows_every_append_and_skips_reruns(history_location):
+    with WearHistory(history_location, robot='cell_1') as history:
+        for k in (3, 1, 2):  # stored out of stamp order: the first stamp is the smallest
+            history.append(_record(k, joint='joint_2'))
+        assert history.append(_record(1, joint='joint_2')) is None  # a re-run adds nothing
+        history.append(_record(0, joint='joint_2', robot='cell_2'))
+        last = history.append(_record(9, joint='joint_3'))
+        rows = {(r.robot, r.joint): r for r in history.fleet()}
+    assert {key: (r.experiments, r.first_stamp_s, r.last_stamp_s) for key, r in rows.items()} \
+        == {('cell_1', 'joint_2'): (3, 101.0, 102.0), ('cell_2', 'joint_2'): (1, 100.0, 100.0),
+            ('cell_1', 'joint_3'): (1, 109.0, 109.0)}
+    summary = _raw(history_location, 'SELECT robot, joint, last_id, experiments, first_stamp_s '
+                                     'FROM joint_summary')
+    assert sorted(summary) == sorted(_raw(
+        history_location, 'SELECT robot, joint, MAX(id), COUNT(*), MIN(stamp_s) FROM estimates '
+                          'GROUP BY robot, joint'))
+    assert ('cell_1', 'joint_3', last, 1, 109.0) in summary

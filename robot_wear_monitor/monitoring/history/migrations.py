@@ -16,8 +16,11 @@ fingerprint), so that a re-run skips them.  Version 4: ``invalid_reason`` on eve
 rows are valid).  Version 5 (the maintenance team's dashboard): alarm events may also be
 'acknowledged' and carry the user, the owner and the planned maintenance date (SQLite rebuilds
 ``alarm_events`` for its new CHECK; ids and rows are kept); ``users`` (dashboard accounts,
-argon2 hashes), ``notifications`` (one row per notification event sent, unique key) and the
-indexes of the dashboard's queries (the fleet alarm log newest first, per robot).
+argon2 hashes), ``notifications`` (one row per notification event sent, unique key),
+``joint_summary`` (per robot and joint: the latest estimate's id, the count and the first
+stamp, kept by every append in the same transaction, filled from the rows on migration, so
+that the fleet view reads one row per joint whatever the number of estimates) and the index
+of the fleet's alarm log per robot, newest first.
 """
 
 from __future__ import annotations
@@ -29,7 +32,23 @@ SCHEMA_VERSION = 5
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
-          'notifications')
+          'notifications', 'joint_summary')
+
+#: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
+JOINT_SUMMARY_REBUILD = (
+    'DELETE FROM joint_summary',
+    'INSERT INTO joint_summary (robot, joint, last_id, experiments, first_stamp_s) '
+    'SELECT robot, joint, MAX(id), COUNT(*), MIN(stamp_s) FROM estimates GROUP BY robot, joint',
+)
+
+#: Count one new estimate (robot, joint, its id, its stamp) into ``joint_summary``.
+JOINT_SUMMARY_ADD = (
+    'INSERT INTO joint_summary (robot, joint, last_id, experiments, first_stamp_s) '
+    'VALUES (?, ?, ?, 1, ?) ON CONFLICT (robot, joint) DO UPDATE SET '
+    'last_id = CASE WHEN excluded.last_id > joint_summary.last_id THEN excluded.last_id '
+    'ELSE joint_summary.last_id END, experiments = joint_summary.experiments + 1, '
+    'first_stamp_s = CASE WHEN excluded.first_stamp_s < joint_summary.first_stamp_s '
+    'THEN excluded.first_stamp_s ELSE joint_summary.first_stamp_s END')
 
 _SQLITE_V1 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -132,6 +151,14 @@ _SQLITE_V5 = (
     wall_time_s REAL,
     channel TEXT,
     payload TEXT)""",
+    """CREATE TABLE joint_summary (
+    robot TEXT NOT NULL,
+    joint TEXT NOT NULL,
+    last_id INTEGER NOT NULL,
+    experiments INTEGER NOT NULL,
+    first_stamp_s REAL NOT NULL,
+    PRIMARY KEY (robot, joint))""",
+    JOINT_SUMMARY_REBUILD[1],
 )
 
 #: SQLite: version -> its steps, oldest first.
@@ -205,6 +232,14 @@ _POSTGRESQL_V5 = (
     wall_time_s DOUBLE PRECISION,
     channel TEXT,
     payload TEXT)""",
+    """CREATE TABLE joint_summary (
+    robot TEXT NOT NULL,
+    joint TEXT NOT NULL,
+    last_id BIGINT NOT NULL,
+    experiments BIGINT NOT NULL,
+    first_stamp_s DOUBLE PRECISION NOT NULL,
+    PRIMARY KEY (robot, joint))""",
+    JOINT_SUMMARY_REBUILD[1],
 )
 
 #: PostgreSQL: version -> its steps, oldest first.

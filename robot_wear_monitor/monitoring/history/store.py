@@ -24,7 +24,8 @@ from robot_wear_monitor.monitoring.history import users as user_accounts
 from robot_wear_monitor.monitoring.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.monitoring.history.backends import (
     is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend, SqliteBackend)
-from robot_wear_monitor.monitoring.history.migrations import SCHEMA_VERSION, TABLES
+from robot_wear_monitor.monitoring.history.migrations import (
+    JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.monitoring.history.records import (
     AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
     RestoredState)
@@ -217,6 +218,8 @@ class WearHistory:
             if not rows:
                 return None
             estimate_id = int(rows[0][0])
+            self._backend.execute(JOINT_SUMMARY_ADD, (robot, joint, estimate_id,
+                                                      float(record.stamp_s)))
             for event in events:
                 self._insert_event(event, estimate_id)
         return estimate_id
@@ -454,21 +457,21 @@ class WearHistory:
         """Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
 
         ``robot`` keeps one robot's joints (all robots when None).  Three queries whatever the
-        fleet's size: the latest estimate and the count per (robot, joint), the last raise or
-        reset per (robot, joint) (the latch) and the last acknowledgement per (robot, joint).
+        fleet's size: the latest estimate and the count per (robot, joint) (``joint_summary``:
+        one row per joint, not a scan of the estimates), the last raise or reset per (robot,
+        joint) (the latch) and the last acknowledgement per (robot, joint).
         """
         where, params = ('WHERE robot = ? ', (_check_name('robot', robot),)) \
             if robot is not None else ('', ())
         event_where = 'AND robot = ? ' if robot is not None else ''
         with self._guard('cannot read the wear history'):
             latest = self._backend.execute(
-                'SELECT e.robot, e.joint, c.n, c.first_stamp, e.stamp_s, e.wall_time_s, e.wear, '
-                'e.wear_std, e.wear_low, e.wear_high, e.trend_wear, e.trend_low, e.trend_high, '
-                'e.crossing_experiments, e.crossing_time_s, e.alarm_evidence, e.status_level, '
-                'e.parameter_set, e.invalid_reason FROM estimates e JOIN (SELECT robot, joint, '
-                'MAX(id) AS last_id, '
-                'COUNT(*) AS n, MIN(stamp_s) AS first_stamp FROM estimates ' + where
-                + 'GROUP BY robot, joint) c ON e.id = c.last_id', params)
+                'SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
+                'e.wall_time_s, e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, '
+                'e.trend_low, e.trend_high, e.crossing_experiments, e.crossing_time_s, '
+                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason FROM '
+                'joint_summary s JOIN estimates e ON e.id = s.last_id '
+                + where.replace('robot', 's.robot'), params)
             latches = self._backend.execute(
                 'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id FROM alarm_events a JOIN '
                 f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {alarms.LATCH_EVENTS} '
