@@ -19,6 +19,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -121,7 +122,22 @@ class WearEstimatorNode(Node):
                 alarm_to_msg(self.kit, active=self.fleet.services[name].latch.active))
 
     def publish_diagnostics(self):
-        """Publish every joint's current diagnostics (periodic, like diagnostic_updater)."""
+        """Publish every joint's current diagnostics (periodic, like diagnostic_updater).
+
+        First take over the resets stored in the history meanwhile (the dashboard's): the
+        joint's alarm is published clear at once.
+        """
+        for joint, service in self.fleet.services.items():
+            try:
+                event = service.follow_history_reset()
+            except InputError as error:  # a lost history server: said once per period
+                self.get_logger().error(f'{joint!r}: {error}')
+                break
+            if event is not None:
+                self.get_logger().warning(
+                    f'reset_alarm of {joint!r} stored in the history by '
+                    f'{event.user or "the ROS service"!r}: {event.note[:200]!r}')
+                self.publish_alarm(joint)
         msg = self.fleet.diagnostics_message(self.kit, stamp_s=node_time_s(self))
         if msg is not None:
             self.diagnostics_publisher.publish(msg)

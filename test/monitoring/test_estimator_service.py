@@ -203,11 +203,19 @@ def test_the_trend_rule_raises_on_the_trend_and_a_reset_starts_a_new_segment(tmp
 
 def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_estimator(
         history_location, tmp_path, request):
-    """The dashboard's reset (history.reset_alarm) and ~/reset_alarm restore the same state."""
+    """The dashboard's reset (history.reset_alarm) and ~/reset_alarm restore the same state.
+
+    Three estimators after the same experiments: restarted after a reset stored through the
+    history, restarted after ~/reset_alarm, and one that runs on while the dashboard resets
+    (it takes the reset over before its next experiment); all go on like the node that was
+    reset by its service and never stopped.
+    """
     if history_location.startswith('postgresql'):
         other = request.getfixturevalue('postgresql_server').create_database()
+        running_location = request.getfixturevalue('postgresql_server').create_database()
     else:
         other = str(tmp_path / 'ros.sqlite3')
+        running_location = str(tmp_path / 'running.sqlite3')
     rng = np.random.default_rng(9)
     truth = [*np.linspace(10.0, 60.0, 12), 60.0, 60.0, 5.0]  # then the old level, then new
     levels = [_levels_of(k, w, rng) for k, w in enumerate(truth)]
@@ -224,6 +232,13 @@ def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_esti
             node.reset_alarm(stamp_s=3600.0 * 12.5)  # ~/reset_alarm, then the node stops
         node.history.close()
     live.reset_alarm(stamp_s=3600.0 * 12.5)
+    running = _real_service(WearHistory(running_location), alarm=policy)
+    for lv in levels[:12]:
+        running.process_levels(lv)
+    assert running.follow_history_reset() is None  # nothing new: its own raise
+    with WearHistory(running_location) as dashboard_connection:
+        dashboard_connection.reset_alarm(joint='joint_2', user='ana', reason='gear replaced')
+    assert running.latch.active  # until it looks
     with WearHistory(history_location) as history:  # the dashboard, while no node runs
         old_evidence = history.records(joint='joint_2')[-1].alarm_evidence
         assert old_evidence >= policy.evidence_to_raise  # enough to raise again at once
@@ -236,10 +251,11 @@ def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_esti
         assert restarted.wear_trend.segment == 1  # the trend restarted after the last estimate
     for k, lv in enumerate(levels[12:]):
         a, b, c = dashboard.process_levels(lv), ros.process_levels(lv), live.process_levels(lv)
+        d = running.process_levels(lv)
         if k == 0:  # w-hat at the old level: the fresh evidence alone does not raise
             assert a.wear > 50.0 and not a.alarm_active
             assert 0.0 < dashboard.latch.evidence < policy.evidence_to_raise
-        for other_update, other_service in ((b, ros), (c, live)):
+        for other_update, other_service in ((b, ros), (c, live), (d, running)):
             assert (a.alarm_active, a.alarm_raised) == (other_update.alarm_active,
                                                         other_update.alarm_raised)
             assert dashboard.latch.evidence == pytest.approx(other_service.latch.evidence)
@@ -248,5 +264,7 @@ def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_esti
             assert a.trend.probability_above_threshold == pytest.approx(
                 other_update.trend.probability_above_threshold, abs=1e-9)
     assert a.alarm_active  # the second experiment at the old level raises it again: new evidence
-    dashboard.history.close()
-    ros.history.close()
+    assert [e.event for e in running.history.events(joint='joint_2')] == [
+        'raised', 'reset', 'raised']  # the reset taken over was not stored twice
+    for service in (dashboard, ros, running):
+        service.history.close()

@@ -2,8 +2,9 @@
 
 A probe node looks at the graph as any other node would: with the switch off, the estimator's
 own services (its parameter services) are discovered but no reset service; with the default,
-the reset service is there and answers.  A reset through the history (the dashboard's way) is
-what the next start of the node restores.
+the reset service is there and answers.  A reset through the history (the dashboard's way)
+reaches the running node (its alarm is published clear within its diagnostics period) and is
+what its next start restores.
 """
 
 from conftest import require_rclpy
@@ -12,10 +13,12 @@ rclpy = require_rclpy()
 
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402, I100
 from rclpy.parameter import Parameter  # noqa: E402
+from std_msgs.msg import Bool  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from robot_wear_monitor.monitoring.history import (  # noqa: E402
     AlarmEvent, HistoryRecord, open_history)
+from robot_wear_monitor.nodes.qos import ALARM_QOS  # noqa: E402
 from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode  # noqa: E402
 
 RESET = '/wear_estimator_node/reset_alarm'
@@ -52,6 +55,8 @@ def test_the_reset_service_is_offered_only_when_enabled(ros_context, tmp_path):
     executor = SingleThreadedExecutor()
     probe = rclpy.create_node('reset_switch_probe')
     executor.add_node(probe)
+    alarm = []
+    probe.create_subscription(Bool, 'wear_alarm', lambda m: alarm.append(m.data), ALARM_QOS)
 
     node = WearEstimatorNode(parameter_overrides=[
         Parameter('history_file', value=str(history)),
@@ -62,9 +67,13 @@ def test_the_reset_service_is_offered_only_when_enabled(ros_context, tmp_path):
     names = _services(executor, probe, until=lambda n: PARAMETER_SERVICE in n)
     assert PARAMETER_SERVICE in names  # the node is on the graph, its services discovered
     assert not any(name.endswith('reset_alarm') for name in names), sorted(names)
-    # resets go through the history (the dashboard); the next start restores them
+    _services(executor, probe, until=lambda n: alarm == [True], timeout_s=5.0)
+    assert alarm == [True]  # latched, restored from the history
+    # resets go through the history (the dashboard): the running node takes them over
     with open_history(history, init=False) as store:
         store.reset_alarm(joint='joint_2', user='ana', reason='gear replaced')
+    _services(executor, probe, until=lambda n: alarm[-1] is False, timeout_s=5.0)
+    assert alarm == [True, False] and not node.service.latch.active
     executor.remove_node(node)
     node.destroy_node()
     _services(executor, probe, until=lambda n: PARAMETER_SERVICE not in n)
@@ -72,7 +81,8 @@ def test_the_reset_service_is_offered_only_when_enabled(ros_context, tmp_path):
     node = WearEstimatorNode(parameter_overrides=[Parameter('history_file', value=str(history))])
     executor.add_node(node)
     assert node.get_parameter('reset_service_enabled').value is True  # the default
-    assert not node.service.latch.active and node.service.latch.evidence == 0.0
+    assert not node.service.latch.active and node.service.latch.evidence == 0.0  # restored
+    assert node.service.wear_trend.segment == 1
     names = _services(executor, probe, until=lambda n: RESET in n)
     assert RESET in names
     client = probe.create_client(Trigger, RESET)

@@ -453,6 +453,16 @@ class WearHistory:
         return RestoredState(records=records, alarm_active=active, alarm_evidence=evidence,
                              last_event=last_event)
 
+    def latch_event(self, *, joint: str, robot: Optional[str] = None) -> Optional[AlarmEvent]:
+        """Return the last raise or reset of the robot's ``joint`` (None: never raised).
+
+        One indexed query: a running estimator polls it to take over a reset stored by
+        someone else (the dashboard).
+        """
+        with self._guard('cannot read the wear history'):
+            return alarms.latch_events(self._backend, robot=self._robot(robot),
+                                       joint=_check_name('joint', joint))[0]
+
     def fleet(self, *, robot: Optional[str] = None) -> list[FleetRow]:
         """Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
 
