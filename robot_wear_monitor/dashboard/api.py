@@ -14,30 +14,25 @@ import time
 from typing import Any, Optional
 
 from fastapi import APIRouter, HTTPException, Query, Request
-from starlette.responses import JSONResponse, Response
+from starlette.responses import Response
 
 from robot_wear_monitor.dashboard.app import history_of
 from robot_wear_monitor.dashboard.views import alarm_log, fleet_json, joint_json, STATES
 
 router = APIRouter(prefix='/api', tags=['api'])
 
-#: Keys left out of the ETag (they change at every call without news).
-_VOLATILE = ('now_s',)
-
-
-def etag_of(payload: dict[str, Any]) -> str:
-    """Return the ETag of a payload: a hash of its content without the volatile keys."""
-    stable = {k: v for k, v in payload.items() if k not in _VOLATILE}
-    digest = hashlib.sha256(json.dumps(stable, sort_keys=True, default=str).encode())
-    return f'"{digest.hexdigest()[:32]}"'
-
 
 def json_with_etag(request: Request, payload: dict[str, Any]) -> Response:
-    """Return the payload as JSON with its ETag, or 304 when the client has it already."""
-    tag = etag_of(payload)
+    """Return the payload as JSON with its ETag, or 304 when the client has it already.
+
+    The ETag is a hash of the JSON text (made once, sent as it is).
+    """
+    body = json.dumps(payload, ensure_ascii=False, allow_nan=False,
+                      separators=(',', ':')).encode()
+    tag = f'"{hashlib.sha256(body).hexdigest()[:32]}"'
     if request.headers.get('if-none-match') == tag:
         return Response(status_code=304, headers={'ETag': tag})
-    return JSONResponse(payload, headers={'ETag': tag})
+    return Response(body, media_type='application/json', headers={'ETag': tag})
 
 
 def _state(value: Optional[str]) -> Optional[str]:
@@ -60,7 +55,8 @@ def api_fleet(request: Request, robot: Optional[str] = Query(None, description='
     """
     payload = fleet_json(history_of(request), now_s=time.time(),
                          parameter_sets=request.app.state.parameter_sets,
-                         robot=robot or None, state=_state(state))
+                         robot=robot or None, state=_state(state),
+                         cache=request.app.state.fleet_cache)
     return json_with_etag(request, payload)
 
 

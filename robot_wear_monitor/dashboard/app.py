@@ -22,7 +22,7 @@ from starlette.responses import FileResponse
 
 from robot_wear_monitor import __version__
 from robot_wear_monitor.dashboard.auth import LoginLimiter, new_secret_key, RequireSession
-from robot_wear_monitor.dashboard.views import ParameterSets
+from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
 
 HERE = Path(__file__).resolve().parent
 #: How long a session lasts without a new login [s].
@@ -125,6 +125,7 @@ def create_app(settings: DashboardSettings) -> FastAPI:
     app.state.settings = settings
     app.state.pool = pool
     app.state.parameter_sets = ParameterSets(settings.params)
+    app.state.fleet_cache = FleetCache()
     app.state.limiter = LoginLimiter(max_failures=settings.max_failures,
                                      window_s=settings.window_s)
     app.state.templates = _templates()

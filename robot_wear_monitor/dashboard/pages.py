@@ -13,7 +13,6 @@ import csv
 import io
 import time
 from typing import Any, Optional
-from urllib.parse import quote
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request
 from starlette.responses import HTMLResponse, RedirectResponse, Response
@@ -22,15 +21,10 @@ from robot_wear_monitor.dashboard.app import history_of
 from robot_wear_monitor.dashboard.auth import (client_address, csrf_ok, csrf_token,
                                                current_user, safe_next, start_session)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
-                                                joint_json, STATES)
+                                                joint_json, joint_url, STATES)
 from robot_wear_monitor.monitoring.history import HistoryError
 
 router = APIRouter(include_in_schema=False)
-
-
-def joint_url(robot: str, joint: str) -> str:
-    """Return the path of a joint's page (names percent-encoded)."""
-    return f'/robots/{quote(robot, safe="")}/joints/{quote(joint, safe="")}'
 
 
 def render(request: Request, template: str, *, status_code: int = 200,
@@ -107,7 +101,8 @@ def fleet_page(request: Request, robot: Optional[str] = None,
     """Show the fleet, worst first, with counts per state and filters by robot and state."""
     fleet = fleet_json(history_of(request), now_s=time.time(),
                        parameter_sets=request.app.state.parameter_sets,
-                       robot=robot or None, state=state if state in STATES else None)
+                       robot=robot or None, state=state if state in STATES else None,
+                       cache=request.app.state.fleet_cache)
     return render(request, 'fleet.html', fleet=fleet, states=STATES)
 
 

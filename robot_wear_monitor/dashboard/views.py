@@ -12,7 +12,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 import threading
+import time
 from typing import Any, Iterable, Optional, Sequence
+from urllib.parse import quote
 
 import numpy as np
 
@@ -66,6 +68,73 @@ class ParameterSets:
                               f'{self.default.name!r} ({Path(self.default.source).name})')
 
 
+def history_version(history: Any) -> tuple:
+    """Return what changes whenever the history gets a row: the last estimate and event ids.
+
+    Estimates and alarm events are only ever added (ids grow), so equal versions mean equal
+    fleets.  Two index lookups.
+    """
+    rows = history._backend.execute(  # noqa: SLF001 - a read the history has no method for
+        'SELECT (SELECT MAX(id) FROM estimates), (SELECT MAX(id) FROM alarm_events)')
+    return (history.path, *rows[0])
+
+
+class FleetCache:
+    """The history's fleet rows, read again only when the history changed.
+
+    The pages poll every few seconds; between two experiments the fleet query is skipped.
+    Staleness is judged anew at every call (:func:`fleet_view` on the cached rows).  The JSON
+    of a row is kept too (:meth:`row_json`): a new experiment makes one row anew, not all.
+    """
+
+    def __init__(self) -> None:
+        """Start empty."""
+        self._lock = threading.Lock()
+        self._version: Optional[tuple] = None
+        self._rows: list = []
+        self._json: dict[tuple, dict[str, Any]] = {}
+
+    def row_json(self, view: FleetView, *, threshold: float) -> dict[str, Any]:
+        """Return :func:`fleet_row_json` of ``view``, made once per row state."""
+        key = (repr(view.state), view.stale, view.crossing_time_s, threshold)
+        with self._lock:
+            found = self._json.get(key)
+        if found is None:
+            found = fleet_row_json(view, threshold=threshold)
+            with self._lock:
+                if len(self._json) > 4 * max(1000, len(self._rows)):
+                    self._json.clear()  # rows of states long gone
+                self._json[key] = found
+        return found
+
+    def rows(self, history: Any) -> list:
+        """Return ``history.fleet()``, from the cache when the history has not changed."""
+        version = history_version(history)
+        with self._lock:
+            if version == self._version:
+                return self._rows
+        rows = history.fleet()
+        with self._lock:
+            self._version, self._rows = version, rows
+        return rows
+
+
+def joint_url(robot: str, joint: str) -> str:
+    """Return the path of a joint's page (names percent-encoded)."""
+    return f'/robots/{quote(robot, safe="")}/joints/{quote(joint, safe="")}'
+
+
+def utc_text(stamp_s: Optional[float]) -> str:
+    """Return a stamp [s since the epoch] as ISO 8601 UTC to the second ('-' when unknown).
+
+    The text of :func:`robot_wear_monitor.fleet.ranking.iso_time`, made faster (the fleet page
+    writes thousands).
+    """
+    if stamp_s is None or not math.isfinite(stamp_s) or not -1e11 < stamp_s < 2.5e11:
+        return iso_time(stamp_s)
+    return time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime(stamp_s))
+
+
 def _number(value: Optional[float]) -> Optional[float]:
     return None if value is None else finite_or_none(float(value))
 
@@ -114,7 +183,7 @@ def _crossing_text(view: FleetView) -> str:
         return 'crossed (trend past the threshold)'
     text = f'in {crossing:.0f} experiments'
     if view.crossing_time_s is not None:
-        text += f' (~{iso_time(view.crossing_time_s)[:10]})'
+        text += f' (~{utc_text(view.crossing_time_s)[:10]})'
     return text
 
 
@@ -136,7 +205,7 @@ def _bar(state: Any, threshold: float) -> dict[str, float]:
 def _alarm_text(state: Any) -> str:
     if not state.alarm:
         return 'clear'
-    text = f'LATCHED since {iso_time(state.alarm_since_stamp_s)}'
+    text = f'LATCHED since {utc_text(state.alarm_since_stamp_s)}'
     if getattr(state, 'acknowledged', False):
         text += f'; acknowledged by {getattr(state, "acknowledged_by", "")}'
         if getattr(state, 'planned_maintenance', ''):
@@ -155,38 +224,42 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
         'acknowledged_s': _number(getattr(state, 'acknowledged_wall_time_s', math.nan)),
         'planned_maintenance': getattr(state, 'planned_maintenance', '') or None,
         'parameter_set': state.parameter_set,
-        'alarm_since': iso_time(state.alarm_since_stamp_s) if state.alarm else None,
-        'last_experiment': iso_time(state.last_stamp_s),
-        'crossing_date': (iso_time(view.crossing_time_s)[:10]
+        'alarm_since': utc_text(state.alarm_since_stamp_s) if state.alarm else None,
+        'last_experiment': utc_text(state.last_stamp_s),
+        'crossing_date': (utc_text(view.crossing_time_s)[:10]
                           if view.crossing_time_s is not None else None),
-        'bar': _bar(state, threshold),
+        'bar': _bar(state, threshold), 'url': joint_url(state.robot, state.joint),
         'text': {'wear': _interval_text(state.wear if not state.invalid_reason else math.nan,
                                         state.wear_low, state.wear_high),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
                  'crossing': _crossing_text(view), 'alarm': _alarm_text(state),
-                 'last': iso_time(state.last_stamp_s) + (' STALE' if view.stale else ''),
+                 'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })
     return row
 
 
 def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
-               robot: Optional[str] = None, state: Optional[str] = None) -> dict[str, Any]:
+               robot: Optional[str] = None, state: Optional[str] = None,
+               cache: Optional[FleetCache] = None) -> dict[str, Any]:
     """Return the fleet worst first, the counts per state and the robots, as one dict.
 
-    ``robot`` and ``state`` filter the rows (the counts are those of the whole fleet).
+    ``robot`` and ``state`` filter the rows (the counts are those of the whole fleet);
+    ``cache``: the fleet rows of an unchanged history are not read again.
     """
-    views = fleet_view(history.fleet(), now_s=now_s)
-    rows = [fleet_row_json(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0]
-                           .wear_threshold) for v in views]
+    views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
+                       now_s=now_s)
+    make = cache.row_json if cache is not None else fleet_row_json
+    rows = [make(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0].wear_threshold)
+            for v in views]
     counts = dict.fromkeys(STATES, 0)
     for row in rows:
         counts[row['state']] += 1
     robots = sorted({row['robot'] for row in rows})
     shown = [row for row in rows if (robot is None or row['robot'] == robot)
              and (state is None or row['state'] == state)]
-    return {'now_s': now_s, 'counts': counts, 'joints': len(rows), 'robots': robots,
+    return {'counts': counts, 'joints': len(rows), 'robots': robots,
             'robot': robot, 'state': state, 'rows': shown}
 
 
@@ -196,7 +269,7 @@ def event_json(event: Any) -> dict[str, Any]:
     return {
         'id': getattr(event, 'id', None), 'robot': event.robot, 'joint': event.joint,
         'event': event.event, 'stamp_s': _number(event.stamp_s),
-        'time': iso_time(event.stamp_s),  # a raise: its experiment; else the moment
+        'time': utc_text(event.stamp_s),  # a raise: its experiment; else the moment
         'wall_time_s': wall, 'wear': _number(event.wear), 'note': event.note,
         'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
@@ -225,7 +298,7 @@ def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str]
 def _experiment_json(record: Any) -> dict[str, Any]:
     p_value = _number(record.p_value)
     return {
-        'id': record.id, 'stamp_s': record.stamp_s, 'time': iso_time(record.stamp_s),
+        'id': record.id, 'stamp_s': record.stamp_s, 'time': utc_text(record.stamp_s),
         'wear': _number(record.wear), 'wear_low': _number(record.wear_low),
         'wear_high': _number(record.wear_high), 'trend_wear': _number(record.trend_wear),
         'trend_low': _number(record.trend_low), 'trend_high': _number(record.trend_high),
@@ -268,7 +341,7 @@ def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[
     steps = np.linspace(0.0, late, 25)
     times = last.stamp_s + steps * spacing
     return {
-        'time_s': times.tolist(), 'time': [iso_time(t) for t in times],
+        'time_s': times.tolist(), 'time': [utc_text(t) for t in times],
         'wear': np.minimum(last.trend_wear + rate * steps, threshold).tolist(),
         'high': np.minimum(high + rate * steps, threshold).tolist(),
         'low': np.minimum(low + rate * steps, threshold).tolist(),
@@ -276,9 +349,9 @@ def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[
         'crossing_high_experiments': late, 'crossing_time_s': last.stamp_s + crossing * spacing,
         'crossing_low_time_s': last.stamp_s + early * spacing,
         'crossing_high_time_s': last.stamp_s + late * spacing,
-        'crossing': iso_time(last.stamp_s + crossing * spacing),
-        'crossing_low': iso_time(last.stamp_s + early * spacing),
-        'crossing_high': iso_time(last.stamp_s + late * spacing),
+        'crossing': utc_text(last.stamp_s + crossing * spacing),
+        'crossing_low': utc_text(last.stamp_s + early * spacing),
+        'crossing_high': utc_text(last.stamp_s + late * spacing),
         'rate_per_experiment': rate, 'spacing_s': spacing,
     }
 
@@ -302,7 +375,7 @@ def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dic
         if math.isfinite(temperature) and math.isfinite(wear):
             model = friction(grid, params.load_mean, temperature, max(0.0, wear),
                              params.model).tolist()
-        out.append({'id': record.id, 'time': iso_time(record.stamp_s),
+        out.append({'id': record.id, 'time': utc_text(record.stamp_s),
                     'speeds_rad_s': speeds[order].tolist(),
                     'frictions': np.asarray(record.frictions, dtype=float)[order].tolist(),
                     'model_speeds_rad_s': grid.tolist(), 'model_frictions': model,
@@ -321,7 +394,7 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
     state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s)
                   if v.state.joint == joint), None)
     return {
-        'robot': robot, 'joint': joint, 'threshold': threshold, 'now_s': now_s,
+        'robot': robot, 'joint': joint, 'threshold': threshold,
         'parameter_set': records[-1].parameter_set, 'model_note': note or None,
         'model_check_p_value': MODEL_CHECK_P_VALUE,
         'state': fleet_row_json(state, threshold=threshold) if state is not None else None,
