@@ -2,7 +2,7 @@
 
 :func:`create_app` builds the app for one wear history.  Everything the browser loads comes
 from here (no CDN): the app's style and scripts (``static/``), Plotly.js from the installed
-``plotly`` Python package and Swagger UI from ``swagger-ui-bundle`` (the OpenAPI page
+``plotly`` Python package and Swagger UI from ``fastapi-offline`` (the OpenAPI page
 ``/docs``).  FastAPI's own ``/docs`` (which loads Swagger UI from a CDN) is off.
 """
 
@@ -38,9 +38,13 @@ def plotly_js_path() -> Path:
 
 
 def swagger_ui_folder() -> Path:
-    """Return the Swagger UI files of the installed ``swagger-ui-bundle`` package."""
-    import swagger_ui_bundle
-    return Path(swagger_ui_bundle.swagger_ui_path)
+    """Return the Swagger UI 5 files of the installed ``fastapi-offline`` package.
+
+    (Swagger UI 5 reads the OpenAPI 3.1 that FastAPI writes; 4.x does not.)
+    """
+    import fastapi_offline
+    return Path(fastapi_offline.__file__).resolve().parent / 'static'
+
 
 
 class HistoryPool:

@@ -140,6 +140,11 @@ def test_fleet_worst_first_then_a_joint_with_one_point_per_experiment(server, br
     assert failed == pytest.approx([18.0])
     assert browser.execute_script(
         "return document.getElementById('friction-chart').data.length;") >= 2
+    # the OpenAPI page works offline: Swagger UI from the app lists the API's routes
+    browser.get(server + '/docs')
+    paths = _wait(browser, lambda d: [n.text for n in d.find_elements(
+        _by('CSS_SELECTOR'), '.opblock-summary-path')], 'the OpenAPI page')
+    assert '/api/fleet' in paths and '/api/alarms' in paths
 
 
 def test_maintainer_acknowledges_then_resets_with_a_reason(server, browser, history):
