@@ -46,7 +46,6 @@ def swagger_ui_folder() -> Path:
     return Path(fastapi_offline.__file__).resolve().parent / 'static'
 
 
-
 class HistoryPool:
     """One open wear history per server thread (connections are not shared across threads)."""
 
