@@ -19,6 +19,7 @@ against the targets (fleet page < 300 ms, joint page < 200 ms).
 
 import argparse
 from dataclasses import replace
+import os
 from pathlib import Path
 import random
 import statistics
@@ -122,6 +123,7 @@ def measure(location: str, *, repeats: int) -> dict[str, float]:
                 times.append(time.perf_counter() - begin)
                 assert response.status_code == 200, (path, response.status_code)
             out[name] = 1000.0 * statistics.median(times)
+            out[name + ' min'] = 1000.0 * min(times)
             out[name + ' bytes'] = len(response.content)
     return out
 
@@ -129,14 +131,16 @@ def measure(location: str, *, repeats: int) -> dict[str, float]:
 def report(kind: str, figures: dict[str, float], fill_s: float, args: argparse.Namespace) -> None:
     """Print the figures of one backend against the targets."""
     print(f'\n{kind}: {args.joints} joints x {args.experiments} experiments '
-          f'({args.joints * args.experiments} estimates), written in {fill_s:.0f} s')
+          f'({args.joints * args.experiments} estimates), written in {fill_s:.0f} s; load '
+          f'average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; median (fastest)')
     for name, value in figures.items():
-        if name.endswith(' bytes'):
+        if name.endswith((' bytes', ' min')):
             continue
         target = TARGETS_MS.get(name)
         verdict = '' if target is None else (
             f'  target < {target:.0f} ms: {"met" if value < target else "MISSED"}')
-        print(f'  {name:<30} {value:8.1f} ms  ({figures[name + " bytes"] / 1024:.0f} KiB)'
+        print(f'  {name:<30} {value:7.1f} ms ({figures[name + " min"]:6.1f})  '
+              f'{figures[name + " bytes"] / 1024:5.0f} KiB'
               + verdict)
 
 
