@@ -5,6 +5,7 @@ The server runs in a thread on 127.0.0.1 with a free port, over a history with k
 where they are missing these tests skip, except in CI (``CI`` set), where they fail.
 """
 
+from dataclasses import replace
 import os
 import socket
 import threading
@@ -217,6 +218,16 @@ def test_new_experiments_appear_without_a_reload(server, browser, history):
     _wait(browser, lambda d: row.find_element(_by('CSS_SELECTOR'), '.c-experiments').text
           == str(EXPERIMENTS + 1), 'the new experiment on the fleet page')
     assert browser.execute_script('return window.notReloaded === true;')  # the same page
+    # a joint new to the history gets its row, in its place (crossing in 4: second)
+    with open_history(history) as stored:
+        stored.append(replace(record('welder_7', 'joint_3', 0, now_s=time.time()),
+                              joint='joint_6', crossing_experiments=2.0, wear=31.0))
+    _wait(browser, lambda d: _rows(d)[1] == ('welder_7', 'joint_6'), 'the new joint')
+    new = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-joint="joint_6"]')
+    assert new.find_element(_by('CSS_SELECTOR'), '.c-joint a').get_attribute('href') == \
+        server + joint_url('welder_7', 'joint_6')
+    assert new.find_element(_by('CSS_SELECTOR'), '.c-wear .num').text.startswith('31.0 [')
+    assert browser.execute_script('return window.notReloaded === true;')
     browser.get(server + joint_url('press_line', 'joint_1'))
     assert len(_wear_trace(browser)['x']) == EXPERIMENTS + 1
     browser.execute_script('window.notReloaded = true;')
