@@ -21,7 +21,7 @@ from robot_wear_monitor.dashboard.app import history_of
 from robot_wear_monitor.dashboard.auth import (client_address, csrf_ok, csrf_token,
                                                current_user, safe_next, start_session)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
-                                                joint_json, joint_url, STATES)
+                                                fleet_row_html, joint_json, joint_url, STATES)
 from robot_wear_monitor.monitoring.history import HistoryError
 
 router = APIRouter(include_in_schema=False)
@@ -103,7 +103,7 @@ def fleet_page(request: Request, robot: Optional[str] = None,
                        parameter_sets=request.app.state.parameter_sets,
                        robot=robot or None, state=state if state in STATES else None,
                        cache=request.app.state.fleet_cache)
-    return render(request, 'fleet.html', fleet=fleet, states=STATES)
+    return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html)
 
 
 @router.get('/robots/{robot}/joints/{joint}')
