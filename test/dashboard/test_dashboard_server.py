@@ -254,6 +254,18 @@ def test_maintainer_acknowledges_then_resets(client, history):
     assert 'gearbox replaced' in client.get(url).text
 
 
+def test_a_removed_maintainer_can_no_longer_reset(client, history):
+    _as(client, 'mia')
+    url = joint_url('press_line', 'joint_2')
+    token = csrf_of(client.get(url).text)
+    with open_history(history) as stored:
+        stored.remove_user(name='mia')
+    assert client.post(url + '/reset', data={'reason': 'gearbox replaced',
+                                             'csrf_token': token}).status_code == 403
+    with open_history(history, init=False) as stored:
+        assert stored.restore(joint='joint_2', robot='press_line').alarm_active
+
+
 def test_alarm_log_csv_holds_the_log(client, history):
     _as(client, 'mia')
     url = joint_url('press_line', 'joint_2')
