@@ -317,3 +317,26 @@ def test_logout_ends_the_session(client):
     assert client.post('/logout', data={'csrf_token': token},
                        follow_redirects=False).status_code == 303
     assert client.get('/api/fleet').status_code == 401
+
+
+def test_same_story_on_sqlite_and_postgresql(history_location):
+    """The API's order, an acknowledge and a reset on both stores of the history."""
+    make_fleet(history_location)
+    app = create_app(DashboardSettings(history=history_location))
+    with fastapi_testclient.TestClient(app) as client:
+        _as(client, 'mia')
+        rows = client.get('/api/fleet').json()['rows']
+        assert [(r['robot'], r['joint']) for r in rows] == ORDER
+        url = joint_url('press_line', 'joint_2')
+        token = csrf_of(client.get(url).text)
+        client.post(url + '/acknowledge', data={'owner': 'B', 'comment': 'ordered',
+                                                'csrf_token': token})
+        assert client.get('/api/fleet').json()['rows'][0]['state'] == 'acknowledged'
+        client.post(url + '/reset', data={'reason': 'replaced', 'csrf_token': token})
+        after = {(r['robot'], r['joint']): r for r in client.get('/api/fleet').json()['rows']}
+        reset = after[('press_line', 'joint_2')]
+        assert not reset['alarm'] and reset['state'] == 'ok'
+        assert [e['event'] for e in client.get('/api/alarms').json()] == [
+            'reset', 'acknowledged', 'raised']
+    with open_history(history_location, init=False) as stored:
+        assert not stored.restore(joint='joint_2', robot='press_line').alarm_active
