@@ -393,3 +393,17 @@ def test_the_joint_summary_follows_every_append_and_skips_reruns(history_locatio
         history_location, 'SELECT robot, joint, MAX(id), COUNT(*), MIN(stamp_s) FROM estimates '
                           'GROUP BY robot, joint'))
     assert ('cell_1', 'joint_3', last, 1, 109.0) in summary
+
+
+def test_the_latest_ids_change_with_every_new_row(history_location):
+    with WearHistory(history_location) as history:
+        assert history.latest_ids() == (0, 0)
+        first = history.append(_record(0))
+        assert history.latest_ids() == (first, 0)
+        raised = _raise(history, 1)
+        event = history.latest_ids()[1]
+        assert history.latest_ids()[0] == raised and event > 0
+        ack = history.acknowledge_alarm(joint='joint_2', user='ana', owner='ben', comment='')
+        assert history.latest_ids() == (raised, ack.id) and ack.id > event
+        history.add_user(name='ana', role='viewer', password='12345678')
+        assert history.latest_ids() == (raised, ack.id)

@@ -453,6 +453,17 @@ class WearHistory:
         return RestoredState(records=records, alarm_active=active, alarm_evidence=evidence,
                              last_event=last_event)
 
+    def latest_ids(self) -> tuple[int, int]:
+        """Return the ids of the newest estimate and alarm event (0 when none), in one query.
+
+        They change whenever a row the fleet view or the alarm log shows is added (ids only
+        grow): a cache of those views is current while they are the same.
+        """
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute('SELECT (SELECT MAX(id) FROM estimates), '
+                                         '(SELECT MAX(id) FROM alarm_events)')
+        return int(rows[0][0] or 0), int(rows[0][1] or 0)
+
     def latch_event(self, *, joint: str, robot: Optional[str] = None) -> Optional[AlarmEvent]:
         """Return the last raise or reset of the robot's ``joint`` (None: never raised).
 
