@@ -407,3 +407,40 @@ def test_the_latest_ids_change_with_every_new_row(history_location):
         assert history.latest_ids() == (raised, ack.id) and ack.id > event
         history.add_user(name='ana', role='viewer', password='12345678')
         assert history.latest_ids() == (raised, ack.id)
+
+
+def _at_once(location, action, workers=6):
+    """Run ``action(history)`` in ``workers`` threads at once, each its own connection."""
+    outcomes: list = []
+    start = threading.Barrier(workers)
+
+    def worker():
+        with WearHistory(location, robot='cell_1') as history:
+            start.wait()
+            try:
+                outcomes.append(action(history))
+            except HistoryError as error:
+                outcomes.append(str(error))
+
+    threads = [threading.Thread(target=worker) for _ in range(workers)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=120)
+    return outcomes
+
+
+def test_people_acting_at_once_store_one_acknowledgement_and_one_reset(history_location):
+    with WearHistory(history_location, robot='cell_1') as history:
+        _raise(history, 0)
+    acks = _at_once(history_location, lambda h: h.acknowledge_alarm(
+        joint='joint_2', user='ana', owner='ben', comment='', planned_maintenance=''))
+    assert sum(isinstance(o, AlarmEvent) for o in acks) == 1
+    assert sum('already acknowledged' in str(o) for o in acks) == 5
+    resets = _at_once(history_location, lambda h: h.reset_alarm(joint='joint_2', user='cy',
+                                                                reason='replaced'))
+    assert sum(isinstance(o, AlarmEvent) for o in resets) == 1
+    assert sum('no latched alarm to reset' in str(o) for o in resets) == 5
+    with WearHistory(history_location, robot='cell_1') as history:
+        assert [e.event for e in history.events(joint='joint_2')] == [
+            'raised', 'acknowledged', 'reset']

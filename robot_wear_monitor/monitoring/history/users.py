@@ -118,8 +118,8 @@ def verify_user(backend: Any, *, name: str, password: str) -> Optional[User]:
 
     An unknown or malformed name costs one argon2 verification too (against a dummy hash).
     """
-    from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
     hasher = _hasher()
+    from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
     rows = []
     if isinstance(name, str) and _NAME.fullmatch(name):
         rows = backend.execute('SELECT name, role, created_wall_time_s, password_hash FROM '
