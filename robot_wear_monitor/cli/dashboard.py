@@ -17,7 +17,7 @@ import sys
 from robot_wear_monitor.cli.options import PROG
 from robot_wear_monitor.errors import InputError
 
-HELP = ('web dashboard of a wear history: the fleet worst first, each joint\'s wear story, '
+HELP = ("web dashboard of a wear history: the fleet worst first, each joint's wear story, "
         'accountable acknowledge and reset (and its users: dashboard user add|list|remove)')
 ROLES = ('viewer', 'maintainer')
 
