@@ -12,7 +12,9 @@ setup(
     version='0.3.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
     # the interval calibrations that ship (estimation/intervals.py, SHIPPED_CALIBRATIONS)
-    package_data={PACKAGE_NAME + '.estimation': ['calibrations.json']},
+    package_data={PACKAGE_NAME + '.estimation': ['calibrations.json'],
+                  # the dashboard's pages, style and scripts (served by the app itself)
+                  PACKAGE_NAME + '.dashboard': ['templates/*.html', 'static/*']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
@@ -41,14 +43,26 @@ setup(
         'postgresql': ['psycopg[binary]>=3.1'],
         # Re-analysis of many recordings on an existing Dask cluster (replay --dask ADDRESS).
         'dask': ['distributed>=2023.1'],
-        'test': ['pytest>=7', 'mcap-ros2-support>=0.5', 'psycopg[binary]>=3.1',
-                 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
+        # The maintenance team's web dashboard (robot-wear-monitor dashboard) and its users:
+        # FastAPI under uvicorn, Jinja2 pages, Plotly.js and Swagger UI served from their
+        # Python packages, argon2 password hashes, httpx for the notifications' webhooks.
+        'dashboard': ['argon2-cffi>=21.3', 'httpx>=0.24', 'fastapi>=0.110', 'uvicorn>=0.29',
+                      'Jinja2>=3.1', 'itsdangerous>=2.1', 'python-multipart>=0.0.9',
+                      'plotly>=5.0', 'fastapi-offline>=1.7'],
+        'test': ['pytest>=7', 'argon2-cffi>=21.3', 'mcap-ros2-support>=0.5',
+                 # notifications: the webhook client and the tests' SMTP server
+                 'httpx>=0.24', 'aiosmtpd>=1.4',
+                 'psycopg[binary]>=3.1', 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
                  # ament_flake8's checks and plugins, ament_pep257, mypy
                  'flake8>=6', 'flake8-blind-except>=0.2', 'flake8-builtins>=2.0',
                  'flake8-class-newline>=1.6', 'flake8-comprehensions>=3.10',
                  'flake8-deprecated>=2.0', 'flake8-docstrings>=1.7',
                  'flake8-import-order>=0.18', 'flake8-quotes>=3.3', 'pydocstyle>=6.3',
-                 'mypy>=1.8', 'types-PyYAML>=6.0', 'hypothesis>=6.80'],
+                 'mypy>=1.8', 'types-PyYAML>=6.0', 'hypothesis>=6.80',
+                 # the dashboard and its server and browser tests (headless Chromium)
+                 'fastapi>=0.110', 'uvicorn>=0.29', 'Jinja2>=3.1', 'itsdangerous>=2.1',
+                 'python-multipart>=0.0.9', 'plotly>=5.0', 'fastapi-offline>=1.7',
+                 'selenium>=4.10'],
     },
     zip_safe=True,
     maintainer='robot_wear_monitor maintainers',

@@ -16,9 +16,9 @@ from types import ModuleType
 from typing import NoReturn, Sequence
 
 from robot_wear_monitor import __version__
-from robot_wear_monitor.cli import (audit, call, demo, design, estimate, fleet, history,
-                                    identify, live, plan, play, replay, segment, simulate,
-                                    study)
+from robot_wear_monitor.cli import (audit, call, dashboard, demo, design, estimate, fleet,
+                                    history, identify, live, notify, plan, play, replay,
+                                    segment, simulate, study)
 from robot_wear_monitor.cli.options import (parse_float_list, parse_range, PROG,
                                             resolve_json)
 from robot_wear_monitor.cli.outputs import check_outputs
@@ -31,7 +31,7 @@ VERBS: dict[str, ModuleType] = {
     'design': design, 'plan': plan, 'estimate': estimate, 'study': study,
     'simulate': simulate, 'segment': segment, 'replay': replay, 'demo': demo, 'audit': audit,
     'history': history, 'fleet': fleet, 'live': live, 'play': play, 'call': call,
-    'identify': identify,
+    'identify': identify, 'notify': notify, 'dashboard': dashboard,
 }
 
 #: Verbs that pass a ``--ros-args ...`` tail to rclpy.

@@ -1,14 +1,25 @@
-"""``robot-wear-monitor history``: the stored wear history; its levels as a CSV for audit."""
+"""``robot-wear-monitor history``: the stored wear history; its levels as a CSV for audit.
+
+``--alarms``: the fleet's alarm log instead (raised, acknowledged and reset events of every
+robot, newest first, with who and why) as a table, ``--csv`` or ``--json``, for audits.
+"""
 
 from __future__ import annotations
 
 import argparse
+import csv
+import io
+import sys
 from typing import Any
 
 from robot_wear_monitor.cli.options import add_json, add_local, add_robot, emit_json, PROG
 from robot_wear_monitor.errors import InputError
 
 HELP = 'show the stored wear history and export its friction levels for audit'
+
+#: The columns of ``history --alarms --csv`` (and the keys of its ``--json`` rows).
+ALARM_LOG_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
+                     'planned_maintenance', 'note')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -17,9 +28,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='wear history: an SQLite file, or postgresql://USER@HOST:PORT/DB')
     add_robot(parser, help_text='robot to show (default: the only robot stored)')
     parser.add_argument('--joint', help='joint to show (default: the only joint stored)')
-    parser.add_argument('--last', type=int, metavar='K', help='show only the last K estimates')
-    parser.add_argument('--csv', metavar='LEVELS', help='export the friction levels as a CSV '
-                        'table for `robot-wear-monitor audit`')
+    parser.add_argument('--last', type=int, metavar='K', help='show only the last K estimates '
+                        '(with --alarms: the newest K events)')
+    parser.add_argument('--csv', metavar='LEVELS', nargs='?', const='-',
+                        help='export the friction levels as a CSV table for '
+                        '`robot-wear-monitor audit`; with --alarms: print the alarm log as CSV '
+                        '(or write it to the file LEVELS)')
+    parser.add_argument('--alarms', action='store_true',
+                        help="show the fleet's alarm log: raised, acknowledged and reset "
+                        'events of every robot (or --robot, --joint), newest first, with user, '
+                        'owner, planned maintenance and note')
     add_local(parser)
     add_json(parser)
 
@@ -38,6 +56,10 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'{args.database}: no such wear history database')
     if args.last is not None and args.last < 1:
         raise InputError(f'--last must be >= 1, got {args.last}')
+    if args.alarms:
+        return alarm_log_main(args)
+    if args.csv == '-':
+        raise InputError('--csv needs the file to write the levels to: --csv LEVELS')
     with open_history(args.database, init=False) as history:
         robots = history.robots()
         robot = args.robot
@@ -114,3 +136,62 @@ def audit_hint(csv: str, records: Any) -> str:
     return (f'the audit needs levels at {MIN_SPEEDS} or more distinct speeds and these '
             f"have {distinct} (the designed experiment's): plan extra experiments at other "
             f'speeds (`{PROG} plan --speeds ...`) to audit the model on this joint')
+
+
+def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
+    """Return the alarm events as rows of :data:`ALARM_LOG_COLUMNS` (plus raw times, ids)."""
+    from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.monitoring.diagnostics import json_number
+    return [{'id': e.id, 'time': iso_time(e.stamp_s, local=local), 'robot': e.robot,
+             'joint': e.joint, 'event': e.event,
+             'wear': None if e.wear is None else json_number(e.wear), 'user': e.user,
+             'owner': e.owner, 'planned_maintenance': e.planned_maintenance, 'note': e.note,
+             'stamp_s': json_number(e.stamp_s), 'wall_time_s': json_number(e.wall_time_s),
+             'estimate_id': e.estimate_id} for e in events]
+
+
+def alarm_log_main(args: argparse.Namespace) -> int:
+    """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
+    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    from robot_wear_monitor.monitoring.history import open_history
+
+    if args.csv and (args.json or args.json_out):
+        raise InputError('--alarms: give --csv or --json, not both')
+    with open_history(args.database, init=False) as history:
+        events = history.alarm_log(robot=args.robot, joint=args.joint, limit=args.last)
+    rows = alarm_log_rows(events, local=args.local)
+    if emit_json(args, {'robot': args.robot, 'joint': args.joint, 'alarms': rows}):
+        return 0
+    if args.csv:
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator='\n')
+        writer.writerow(ALARM_LOG_COLUMNS)
+        for row in rows:
+            writer.writerow(['' if row[c] is None else
+                             format(row[c], '.6g') if c == 'wear' else row[c]
+                             for c in ALARM_LOG_COLUMNS])
+        if args.csv == '-':
+            sys.stdout.write(buffer.getvalue())
+        else:
+            try:
+                write_text_atomic(args.csv, buffer.getvalue())
+            except OSError as error:
+                raise InputError(f'{args.csv}: cannot write: {error.strerror}') from None
+            print(f'{len(rows)} alarm events written to {args.csv}')
+        return 0
+    print(f'{len(rows)} alarm event(s), newest first; times '
+          f'{"local" if args.local else "UTC"}')
+    header = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner', 'planned',
+              'note')
+    lines = [(str(r['id']), r['time'], clean_text(r['robot'], limit=40),
+              clean_text(r['joint'], limit=40), r['event'],
+              '-' if r['wear'] is None else f'{r["wear"]:.1f}', clean_text(r['user'], limit=40),
+              clean_text(r['owner'], limit=40), r['planned_maintenance'] or '-',
+              clean_text(r['note'], limit=120)) for r in rows]
+    widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
+              for i, h in enumerate(header)]
+    print('  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip())
+    for line in lines:
+        print('  '.join(c.ljust(w) for c, w in zip(line, widths)).rstrip())
+    return 0

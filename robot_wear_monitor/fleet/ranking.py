@@ -2,9 +2,11 @@
 
 Order (the maintenance team's): a latched alarm first; then the forecast crossing of the wear
 threshold soonest (in experiments); then the highest upper bound of the 95 % interval of w.
-A joint is ``stale`` when it has had no experiment for longer than :data:`STALE_FACTOR` times
-its usual interval (the median time between its experiments), counted up to ``now``.  The
-crossing gets a date when the joint's experiment rate is known (two experiments or more).
+A latched alarm may be acknowledged (someone took it on; it stays latched and first): the
+views name who and the planned maintenance date.  A joint is ``stale`` when it has had no
+experiment for longer than :data:`STALE_FACTOR` times its usual interval (the median time
+between its experiments), counted up to ``now``.  The crossing gets a date when the joint's
+experiment rate is known (two experiments or more).
 """
 
 from __future__ import annotations
@@ -52,6 +54,9 @@ class FleetView:
             'usual_interval_s': finite_or_none(s.usual_interval_s),
             'stale': self.stale, 'status_level': int(s.status_level),
             'valid': not s.invalid_reason, 'invalid_reason': s.invalid_reason or None,
+            'acknowledged': bool(s.acknowledged), 'acknowledged_by': s.acknowledged_by or None,
+            'acknowledged_time_s': finite_or_none(s.acknowledged_wall_time_s),
+            'planned_maintenance': s.planned_maintenance or None,
         }
 
 
@@ -110,7 +115,18 @@ def _trend_text(state: FleetRow) -> str:
 
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
-                 'crossing_date', 'stale', 'valid')
+                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_service_date')
+
+
+def _alarm_text(state: FleetRow, local: bool) -> str:
+    if not state.alarm:
+        return 'no'
+    text = f'LATCHED since {iso_time(state.alarm_since_stamp_s, local=local)}'
+    if state.acknowledged:
+        text += f', acknowledged by {clean_text(state.acknowledged_by, limit=40)}'
+        if state.planned_maintenance:
+            text += f', service planned {state.planned_maintenance}'
+    return text
 
 
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
@@ -120,8 +136,7 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     lines = []
     for row in rows:
         s = row.state
-        alarm = (f'LATCHED since {iso_time(s.alarm_since_stamp_s, local=local)}'
-                 if s.alarm else 'no')
+        alarm = _alarm_text(s, local)
         lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
                       _wear_text(s), _trend_text(s), alarm, _crossing_text(row, local),
                       str(s.experiments),
@@ -147,5 +162,7 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[li
                     number(s.crossing_experiments),
                     iso_time(row.crossing_time_s, local=local)
                     if row.crossing_time_s is not None else '',
-                    'yes' if row.stale else 'no', 'no' if s.invalid_reason else 'yes'])
+                    'yes' if row.stale else 'no', 'no' if s.invalid_reason else 'yes',
+                    s.acknowledged_by if s.acknowledged else '',
+                    s.planned_maintenance if s.acknowledged else ''])
     return out

@@ -89,6 +89,9 @@ class WearEstimatorService:
         self.wear_trend = self._rebuild_trend(restored.records)
         self.latch = AlarmLatch(config.alarm, active=restored.alarm_active,
                                 evidence=restored.alarm_evidence)
+        #: the id of the last raise or reset this estimator knows of (see follow_history_reset)
+        self._latch_event_id = (restored.last_event.id if restored.last_event is not None
+                                else None)
         self.restored_estimates = len(restored.records)
         self.experiments = len(restored.records)
         self.rejections: Counter[str] = Counter()
@@ -225,6 +228,7 @@ class WearEstimatorService:
         if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(frictions))):
             self.reject('not_finite', 'a speed or friction level is NaN or infinite')
             return None
+        self.follow_history_reset()
         known = self.history.find_estimate(joint=self.config.joint, stamp_s=levels.stamp_s)
         if known is not None:
             # the same experiment again (a re-run of a recording into the same history, a
@@ -350,12 +354,32 @@ class WearEstimatorService:
         was_active = self.latch.reset()
         self._reset_trend()
         last_id = self.trend[-1].id if self.trend else None
-        self.history.record_event(AlarmEvent(joint=self.config.joint, stamp_s=stamp_s,
-                                             event='reset', wear=None, note=note,
-                                             estimate_id=last_id))
+        stored = self.history.record_event(AlarmEvent(joint=self.config.joint, stamp_s=stamp_s,
+                                                      event='reset', wear=None, note=note,
+                                                      estimate_id=last_id))
+        self._latch_event_id = stored.id
         if was_active:
             return True, 'wear alarm cleared; evidence and trend reset'
         return True, 'no wear alarm was active; evidence and trend reset'
+
+    def follow_history_reset(self) -> Optional[AlarmEvent]:
+        """Take over a reset stored in the history by someone else; return it (else None).
+
+        The dashboard resets an alarm in the history (``WearHistory.reset_alarm``) while this
+        estimator runs: it clears the latch and the evidence and restarts the trend exactly as
+        :meth:`reset_alarm` does (and as a restart would restore it), without storing a second
+        event.  Called before each experiment and by the node's periodic timer (one indexed
+        query).
+        """
+        event = self.history.latch_event(joint=self.config.joint)
+        if event is None or event.id == self._latch_event_id:
+            return None
+        self._latch_event_id = event.id
+        if event.event != 'reset':
+            return None  # this estimator's own raise
+        self.latch.reset()
+        self._reset_trend()
+        return event
 
     # ----------------------------------------------------------------- diagnostics
 

@@ -244,6 +244,10 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
                   'the robot these joints belong to: the key of its rows in a fleet history '
                   'and part of the /diagnostics hardware_id (ROBOT/JOINT); empty: the robot '
                   '"default" and hardware_id the joint alone'),
+    ParameterSpec('reset_service_enabled', 'bool', True,
+                  'offer ~/reset_alarm (std_srvs/Trigger; with joints ~/<joint>/reset_alarm); '
+                  'false: no reset service, resets go through the dashboard (stored in the '
+                  'history with user and reason)'),
 )
 
 #: The friction_experiment_runner's parameters (validated against each other and against the

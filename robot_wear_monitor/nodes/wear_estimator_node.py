@@ -6,8 +6,9 @@ joint (:class:`~robot_wear_monitor.monitoring.joints.WearEstimatorFleet`; the
 ``friction_levels`` of a joint go to its estimator by ``header.frame_id``): every completed
 experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
 late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger; with
-``joints``: ``~/<joint>/reset_alarm``); the SQLite history restores the trend and the alarm
-after a restart.  With ``joints`` the outputs of a joint are under ``<joint>/``.
+``joints``: ``~/<joint>/reset_alarm``; not offered with ``reset_service_enabled`` false, when
+resets must go through the dashboard); the history restores the trend and the alarm after a
+restart.  With ``joints`` the outputs of a joint are under ``<joint>/``.
 """
 
 import sys
@@ -18,6 +19,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -99,16 +101,19 @@ class WearEstimatorNode(Node):
             publishers[topic] = self.create_publisher(
                 _TYPES[topic], output_topic(topic, joint, per_joint=per_joint), _QOS[topic])
         self.publishers_by_joint[joint] = publishers
-        self.reset_services[joint] = self.create_service(
-            Trigger, reset_service_name(joint, per_joint=per_joint),
-            lambda request, response: self.on_reset_alarm(request, response, joint=joint))
+        if self.parameters['reset_service_enabled']:
+            self.reset_services[joint] = self.create_service(
+                Trigger, reset_service_name(joint, per_joint=per_joint),
+                lambda request, response: self.on_reset_alarm(request, response, joint=joint))
         publishers[ALARM_TOPIC].publish(alarm_to_msg(self.kit, active=service.latch.active))
         config = service.config
         self.get_logger().info(
             f'joint {joint!r}, parameter set {config.params.name!r}, alarm at '
             f'w >= {config.alarm.threshold}; history {self.history.path}: '
             f'{service.restored_estimates} estimates restored, alarm '
-            f'{"LATCHED" if service.latch.active else "clear"}')
+            f'{"LATCHED" if service.latch.active else "clear"}'
+            + ('' if self.parameters['reset_service_enabled'] else
+               '; no reset service (reset_service_enabled false)'))
 
     def publish_alarm(self, joint=None):
         """Publish the latched alarm state of a joint (default: every joint)."""
@@ -117,7 +122,22 @@ class WearEstimatorNode(Node):
                 alarm_to_msg(self.kit, active=self.fleet.services[name].latch.active))
 
     def publish_diagnostics(self):
-        """Publish every joint's current diagnostics (periodic, like diagnostic_updater)."""
+        """Publish every joint's current diagnostics (periodic, like diagnostic_updater).
+
+        First take over the resets stored in the history meanwhile (the dashboard's): the
+        joint's alarm is published clear at once.
+        """
+        for joint, service in self.fleet.services.items():
+            try:
+                event = service.follow_history_reset()
+            except InputError as error:  # a lost history server: said once per period
+                self.get_logger().error(f'{joint!r}: {error}')
+                break
+            if event is not None:
+                self.get_logger().warning(
+                    f'reset_alarm of {joint!r} stored in the history by '
+                    f'{event.user or "the ROS service"!r}: {event.note[:200]!r}')
+                self.publish_alarm(joint)
         msg = self.fleet.diagnostics_message(self.kit, stamp_s=node_time_s(self))
         if msg is not None:
             self.diagnostics_publisher.publish(msg)

@@ -8,7 +8,7 @@ from conftest import REPO_ROOT
 from robot_wear_monitor import cli
 
 VERBS = ('design', 'plan', 'estimate', 'study', 'simulate', 'segment', 'replay', 'demo',
-         'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify')
+         'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify', 'dashboard')
 
 
 def test_every_verb_is_a_module_with_help_add_arguments_and_main():

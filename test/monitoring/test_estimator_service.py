@@ -199,3 +199,72 @@ def test_the_trend_rule_raises_on_the_trend_and_a_reset_starts_a_new_segment(tmp
     assert ok and 'trend reset' in message
     after = svc.process_levels(_levels_of(13, 0.0, rng))
     assert after.trend.segment == 1 and after.trend.wear < 20.0 and not after.alarm_active
+
+
+def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_estimator(
+        history_location, tmp_path, request):
+    """The dashboard's reset (history.reset_alarm) and ~/reset_alarm restore the same state.
+
+    Three estimators after the same experiments: restarted after a reset stored through the
+    history, restarted after ~/reset_alarm, and one that runs on while the dashboard resets
+    (it takes the reset over before its next experiment); all go on like the node that was
+    reset by its service and never stopped.
+    """
+    if history_location.startswith('postgresql'):
+        other = request.getfixturevalue('postgresql_server').create_database()
+        running_location = request.getfixturevalue('postgresql_server').create_database()
+    else:
+        other = str(tmp_path / 'ros.sqlite3')
+        running_location = str(tmp_path / 'running.sqlite3')
+    rng = np.random.default_rng(9)
+    truth = [*np.linspace(10.0, 60.0, 12), 60.0, 60.0, 5.0]  # then the old level, then new
+    levels = [_levels_of(k, w, rng) for k, w in enumerate(truth)]
+    policy = AlarmPolicy(rule='estimate', evidence_to_raise=12.0)
+    live = _real_service(WearHistory(':memory:'), alarm=policy)  # the ROS node, never stopped
+    for location in (history_location, other):
+        node = _real_service(WearHistory(location), alarm=policy)
+        for lv in levels[:12]:
+            node.process_levels(lv)
+            if location == other:
+                live.process_levels(lv)
+        assert node.latch.active
+        if location == other:
+            node.reset_alarm(stamp_s=3600.0 * 12.5)  # ~/reset_alarm, then the node stops
+        node.history.close()
+    live.reset_alarm(stamp_s=3600.0 * 12.5)
+    running = _real_service(WearHistory(running_location), alarm=policy)
+    for lv in levels[:12]:
+        running.process_levels(lv)
+    assert running.follow_history_reset() is None  # nothing new: its own raise
+    with WearHistory(running_location) as dashboard_connection:
+        dashboard_connection.reset_alarm(joint='joint_2', user='ana', reason='gear replaced')
+    assert running.latch.active  # until it looks
+    with WearHistory(history_location) as history:  # the dashboard, while no node runs
+        old_evidence = history.records(joint='joint_2')[-1].alarm_evidence
+        assert old_evidence >= policy.evidence_to_raise  # enough to raise again at once
+        history.reset_alarm(joint='joint_2', user='ana', reason='gear box replaced',
+                            stamp_s=3600.0 * 12.5)
+    dashboard = _real_service(WearHistory(history_location), alarm=policy)
+    ros = _real_service(WearHistory(other), alarm=policy)
+    for restarted in (dashboard, ros):
+        assert not restarted.latch.active and restarted.latch.evidence == 0.0
+        assert restarted.wear_trend.segment == 1  # the trend restarted after the last estimate
+    for k, lv in enumerate(levels[12:]):
+        a, b, c = dashboard.process_levels(lv), ros.process_levels(lv), live.process_levels(lv)
+        d = running.process_levels(lv)
+        if k == 0:  # w-hat at the old level: the fresh evidence alone does not raise
+            assert a.wear > 50.0 and not a.alarm_active
+            assert 0.0 < dashboard.latch.evidence < policy.evidence_to_raise
+        for other_update, other_service in ((b, ros), (c, live), (d, running)):
+            assert (a.alarm_active, a.alarm_raised) == (other_update.alarm_active,
+                                                        other_update.alarm_raised)
+            assert dashboard.latch.evidence == pytest.approx(other_service.latch.evidence)
+            assert a.trend.segment == other_update.trend.segment == 1
+            assert a.trend.wear == pytest.approx(other_update.trend.wear, abs=1e-9)
+            assert a.trend.probability_above_threshold == pytest.approx(
+                other_update.trend.probability_above_threshold, abs=1e-9)
+    assert a.alarm_active  # the second experiment at the old level raises it again: new evidence
+    assert [e.event for e in running.history.events(joint='joint_2')] == [
+        'raised', 'reset', 'raised']  # the reset taken over was not stored twice
+    for service in (dashboard, ros, running):
+        service.history.close()

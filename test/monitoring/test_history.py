@@ -113,7 +113,7 @@ def test_a_rerun_of_the_same_experiment_adds_nothing(history_location):
 
 def test_failed_transaction_leaves_nothing(history_location):
     with WearHistory(history_location) as history:
-        with pytest.raises(HistoryError, match='raised or reset'):
+        with pytest.raises(HistoryError, match='raised, reset or acknowledged'):
             history.append(_record(0), events=[AlarmEvent(joint='joint_2', stamp_s=1.0,
                                                           event='bogus', wear=1.0)])
         assert history.records(joint='joint_2') == ()
@@ -380,6 +380,12 @@ def test_eight_writers_at_once_lose_nothing_and_duplicate_nothing(
         assert writer.returncode == 0 and out.strip() == 'ok', err
     records, events = _content(history_location)
     assert (records, events) == _content(sequential)
+    # the fleet view's per-joint summary, kept by each append, counted every row once
+    kept = _execute(history_location, 'SELECT robot, joint, last_id, experiments, '
+                    'first_stamp_s FROM joint_summary')
+    counted = _execute(history_location, 'SELECT robot, joint, MAX(id), COUNT(*), '
+                       'MIN(stamp_s) FROM estimates GROUP BY robot, joint')
+    assert sorted(kept) == sorted(counted) and len(kept) == 18
     assert len(records) == 9 * 12 and len(events) == 9 * 1
     assert len({r[:3] for r in records}) == len(records)
 

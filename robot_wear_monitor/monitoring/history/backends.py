@@ -217,6 +217,9 @@ class SqliteBackend:
     def lock_migration(self) -> None:
         """Nothing: ``BEGIN IMMEDIATE`` already excludes other writers."""
 
+    def lock_in_transaction(self, key: int) -> None:
+        """Nothing: ``BEGIN IMMEDIATE`` already excludes other writers."""
+
     def tables(self) -> set[str]:
         """Return the table names, without SQLite's own ones."""
         return {row[0] for row in self.execute(
@@ -300,6 +303,13 @@ class PostgresqlBackend:
     def lock_migration(self) -> None:
         """Wait for other processes changing the layout (a transaction-scoped advisory lock)."""
         self.execute('SELECT pg_advisory_xact_lock(?)', (_MIGRATION_LOCK_KEY,))
+
+    def lock_in_transaction(self, key: int) -> None:
+        """Hold the advisory lock ``key`` until the transaction ends (a check, then a write).
+
+        Use keys other than the writer locks' (a writer holds its lock for a whole run).
+        """
+        self.execute('SELECT pg_advisory_xact_lock(?)', (key,))
 
     def tables(self) -> set[str]:
         """Return the names of the tables of the current schema."""

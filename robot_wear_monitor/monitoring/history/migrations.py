@@ -13,18 +13,42 @@ the trend columns (NULL in old rows).  Version 3: ``robot`` on every estimate an
 ``recordings`` lists the recordings a batch re-analysis replayed completely (robot and content
 fingerprint), so that a re-run skips them.  Version 4: ``invalid_reason`` on every estimate
 ('' for a valid one, the plausibility checks' verdict for one the monitor could not judge; old
-rows are valid).
+rows are valid).  Version 5 (the maintenance team's dashboard): alarm events may also be
+'acknowledged' and carry the user, the owner and the planned maintenance date (SQLite rebuilds
+``alarm_events`` for its new CHECK; ids and rows are kept); ``users`` (dashboard accounts,
+argon2 hashes), ``notifications`` (one row per notification event sent, unique key),
+``joint_summary`` (per robot and joint: the latest estimate's id, the count and the first
+stamp, kept by every append in the same transaction, filled from the rows on migration, so
+that the fleet view reads one row per joint whatever the number of estimates) and the index
+of the fleet's alarm log per robot, newest first.
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.monitoring.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
-TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings')
+TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
+          'notifications', 'joint_summary')
+
+#: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
+JOINT_SUMMARY_REBUILD = (
+    'DELETE FROM joint_summary',
+    'INSERT INTO joint_summary (robot, joint, last_id, experiments, first_stamp_s) '
+    'SELECT robot, joint, MAX(id), COUNT(*), MIN(stamp_s) FROM estimates GROUP BY robot, joint',
+)
+
+#: Count one new estimate (robot, joint, its id, its stamp) into ``joint_summary``.
+JOINT_SUMMARY_ADD = (
+    'INSERT INTO joint_summary (robot, joint, last_id, experiments, first_stamp_s) '
+    'VALUES (?, ?, ?, 1, ?) ON CONFLICT (robot, joint) DO UPDATE SET '
+    'last_id = CASE WHEN excluded.last_id > joint_summary.last_id THEN excluded.last_id '
+    'ELSE joint_summary.last_id END, experiments = joint_summary.experiments + 1, '
+    'first_stamp_s = CASE WHEN excluded.first_stamp_s < joint_summary.first_stamp_s '
+    'THEN excluded.first_stamp_s ELSE joint_summary.first_stamp_s END')
 
 _SQLITE_V1 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -88,9 +112,58 @@ _SQLITE_V3 = (
 
 _V4 = ("ALTER TABLE estimates ADD COLUMN invalid_reason TEXT NOT NULL DEFAULT ''",)
 
+#: The alarm events of version 5 (SQLite cannot change a CHECK: the table is rebuilt).
+_EVENT_KINDS_CHECK = "CHECK (event IN ('raised', 'reset', 'acknowledged'))"
+_EVENT_V5_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, estimate_id, '
+                     'note')
+
+_SQLITE_V5 = (
+    f"""CREATE TABLE alarm_events_v5 (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    robot TEXT NOT NULL DEFAULT 'default',
+    joint TEXT NOT NULL,
+    stamp_s REAL NOT NULL,
+    wall_time_s REAL NOT NULL,
+    event TEXT NOT NULL {_EVENT_KINDS_CHECK},
+    wear REAL,
+    estimate_id INTEGER REFERENCES estimates (id),
+    note TEXT NOT NULL DEFAULT '',
+    user_name TEXT NOT NULL DEFAULT '',
+    owner TEXT NOT NULL DEFAULT '',
+    planned_maintenance TEXT NOT NULL DEFAULT '')""",
+    f'INSERT INTO alarm_events_v5 ({_EVENT_V5_COLUMNS}) SELECT {_EVENT_V5_COLUMNS} '
+    'FROM alarm_events ORDER BY id',
+    'DROP TABLE alarm_events',
+    'ALTER TABLE alarm_events_v5 RENAME TO alarm_events',
+    'CREATE INDEX alarm_events_robot_joint ON alarm_events (robot, joint, id)',
+    'CREATE INDEX alarm_events_robot ON alarm_events (robot, id)',
+    """CREATE TABLE users (
+    name TEXT PRIMARY KEY,
+    role TEXT NOT NULL CHECK (role IN ('viewer', 'maintainer')),
+    password_hash TEXT NOT NULL,
+    created_wall_time_s REAL NOT NULL)""",
+    """CREATE TABLE notifications (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    event_key TEXT NOT NULL UNIQUE,
+    robot TEXT,
+    joint TEXT,
+    kind TEXT,
+    wall_time_s REAL,
+    channel TEXT,
+    payload TEXT)""",
+    """CREATE TABLE joint_summary (
+    robot TEXT NOT NULL,
+    joint TEXT NOT NULL,
+    last_id INTEGER NOT NULL,
+    experiments INTEGER NOT NULL,
+    first_stamp_s REAL NOT NULL,
+    PRIMARY KEY (robot, joint))""",
+    JOINT_SUMMARY_REBUILD[1],
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4}
+                                                 4: _V4, 5: _SQLITE_V5}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -138,5 +211,37 @@ _POSTGRESQL_V3 = (
     PRIMARY KEY (robot, fingerprint))""",
 )
 
+_POSTGRESQL_V5 = (
+    'ALTER TABLE alarm_events DROP CONSTRAINT IF EXISTS alarm_events_event_check',
+    f'ALTER TABLE alarm_events ADD CONSTRAINT alarm_events_event_check {_EVENT_KINDS_CHECK}',
+    "ALTER TABLE alarm_events ADD COLUMN user_name TEXT NOT NULL DEFAULT ''",
+    "ALTER TABLE alarm_events ADD COLUMN owner TEXT NOT NULL DEFAULT ''",
+    "ALTER TABLE alarm_events ADD COLUMN planned_maintenance TEXT NOT NULL DEFAULT ''",
+    'CREATE INDEX alarm_events_robot ON alarm_events (robot, id)',
+    """CREATE TABLE users (
+    name TEXT PRIMARY KEY,
+    role TEXT NOT NULL CHECK (role IN ('viewer', 'maintainer')),
+    password_hash TEXT NOT NULL,
+    created_wall_time_s DOUBLE PRECISION NOT NULL)""",
+    """CREATE TABLE notifications (
+    id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    event_key TEXT NOT NULL UNIQUE,
+    robot TEXT,
+    joint TEXT,
+    kind TEXT,
+    wall_time_s DOUBLE PRECISION,
+    channel TEXT,
+    payload TEXT)""",
+    """CREATE TABLE joint_summary (
+    robot TEXT NOT NULL,
+    joint TEXT NOT NULL,
+    last_id BIGINT NOT NULL,
+    experiments BIGINT NOT NULL,
+    first_stamp_s DOUBLE PRECISION NOT NULL,
+    PRIMARY KEY (robot, joint))""",
+    JOINT_SUMMARY_REBUILD[1],
+)
+
 #: PostgreSQL: version -> its steps, oldest first.
-POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4}
+POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
+                                                     5: _POSTGRESQL_V5}

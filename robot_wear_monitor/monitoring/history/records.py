@@ -68,9 +68,22 @@ class HistoryRecord:
         return not self.invalid_reason
 
 
+#: The kinds of alarm events: the latch is the last 'raised' or 'reset' ('acknowledged' is a
+#: remark on a raised alarm: it never unlatches it).
+ALARM_EVENT_KINDS = ('raised', 'reset', 'acknowledged')
+
+
 @dataclass(frozen=True)
 class AlarmEvent:
-    """An alarm raise or reset of one robot's joint (``robot`` None: the history's robot)."""
+    """An alarm raise, reset or acknowledgement of one robot's joint.
+
+    ``robot`` None means the history's robot; events read back carry their robot, their ``id``
+    and ``wall_time_s`` (when stored [s since the epoch]).  ``stamp_s``: the experiment's stamp
+    of a raise, the moment of a reset or acknowledgement [s].  ``note``: why it was raised, the
+    reason of a reset or the comment of an acknowledgement; ``user``: who reset or acknowledged
+    it ('' for the monitor's own events and the ROS service); ``owner``: who takes the
+    maintenance on; ``planned_maintenance``: its planned date ('YYYY-MM-DD' or '').
+    """
 
     joint: str
     stamp_s: float
@@ -79,6 +92,11 @@ class AlarmEvent:
     note: str = ''
     estimate_id: Optional[int] = None
     robot: Optional[str] = None
+    id: Optional[int] = None  # noqa: A003 - the history's column name, part of the API
+    wall_time_s: float = math.nan
+    user: str = ''
+    owner: str = ''
+    planned_maintenance: str = ''
 
 
 @dataclass(frozen=True)
@@ -97,7 +115,8 @@ class FleetRow:
 
     ``wear*``, ``trend*`` and ``crossing*`` are those of the latest estimate (NaN when not
     stored); ``alarm`` is the latched alarm (the last alarm event is a raise) and
-    ``alarm_since_stamp_s`` the stamp of that raise [s] (NaN when clear);
+    ``alarm_since_stamp_s`` the stamp of that raise [s] (NaN when clear), acknowledgements
+    aside (they do not unlatch);
     ``experiments`` counts the stored estimates, ``first_stamp_s``/``last_stamp_s`` are the
     stamps of the first and the latest [s] and ``usual_interval_s`` their mean spacing [s]
     (NaN with one experiment).
@@ -125,6 +144,12 @@ class FleetRow:
     parameter_set: str
     #: '' when the latest estimate is valid; else why the wear cannot be judged
     invalid_reason: str = ''
+    #: the latched alarm was acknowledged after its raise (it stays latched), by whom, when
+    #: [s since the epoch] and the planned maintenance date ('YYYY-MM-DD' or '')
+    acknowledged: bool = False
+    acknowledged_by: str = ''
+    acknowledged_wall_time_s: float = math.nan
+    planned_maintenance: str = ''
 
     @property
     def usual_interval_s(self) -> float:

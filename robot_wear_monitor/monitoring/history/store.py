@@ -19,9 +19,13 @@ import time
 from typing import Any, Iterator, Optional, Sequence
 
 from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.monitoring.history import alarms, notifications_store
+from robot_wear_monitor.monitoring.history import users as user_accounts
+from robot_wear_monitor.monitoring.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.monitoring.history.backends import (
     is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend, SqliteBackend)
-from robot_wear_monitor.monitoring.history.migrations import SCHEMA_VERSION, TABLES
+from robot_wear_monitor.monitoring.history.migrations import (
+    JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.monitoring.history.records import (
     AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
     RestoredState)
@@ -31,7 +35,6 @@ _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions
                    'dof', 'p_value', 'temperature_at_bound', 'wear_at_bound', 'alarm_active',
                    'alarm_evidence', 'status_level', 'parameter_set', *INTERVAL_COLUMNS,
                    'invalid_reason')
-_EVENT_COLUMNS = 'robot, joint, stamp_s, event, wear, note, estimate_id'
 
 
 def _nan_if_none(value: Optional[float]) -> float:
@@ -56,12 +59,6 @@ def _record_from_row(row: Sequence[Any]) -> HistoryRecord:
         alarm_evidence=float(row[16]), status_level=int(row[17]), parameter_set=row[18],
         **{c: _nan_if_none(v) for c, v in zip(INTERVAL_COLUMNS, row[19:])},
         invalid_reason=row[19 + len(INTERVAL_COLUMNS)] or '')
-
-
-def _event_from_row(row: Sequence[Any]) -> AlarmEvent:
-    return AlarmEvent(robot=row[0], joint=row[1], stamp_s=float(row[2]), event=row[3],
-                      wear=None if row[4] is None else float(row[4]), note=row[5],
-                      estimate_id=None if row[6] is None else int(row[6]))
 
 
 class WearHistory:
@@ -167,6 +164,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
+        if 'users' in tables:
+            return 5
         return (4 if 'invalid_reason' in columns else 3 if 'robot' in columns
                 else 2 if 'wear_low' in columns else 1)
 
@@ -219,24 +218,125 @@ class WearHistory:
             if not rows:
                 return None
             estimate_id = int(rows[0][0])
+            self._backend.execute(JOINT_SUMMARY_ADD, (robot, joint, estimate_id,
+                                                      float(record.stamp_s)))
             for event in events:
                 self._insert_event(event, estimate_id)
         return estimate_id
 
-    def record_event(self, event: AlarmEvent) -> None:
-        """Store an alarm event on its own (a reset after maintenance)."""
-        with self._guard('cannot store the alarm event'), self._backend.transaction():
-            self._insert_event(event, event.estimate_id)
+    def record_event(self, event: AlarmEvent) -> AlarmEvent:
+        """Store an alarm event on its own (the ROS reset service's); return it as stored.
 
-    def _insert_event(self, event: AlarmEvent, estimate_id: Optional[int]) -> None:
-        if event.event not in ('raised', 'reset'):
-            raise HistoryError(f'{self.path}: alarm event must be raised or reset, got '
-                               f'{str(event.event)[:80]!r}')
-        self._backend.execute(
-            'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
-            'estimate_id, note) VALUES (?, ?, ?, ?, ?, ?, ?, ?)',
-            (self._robot(event.robot), _check_name('joint', event.joint), float(event.stamp_s),
-             time.time(), event.event, finite_or_none(event.wear), estimate_id, event.note))
+        People acknowledge and reset through :meth:`acknowledge_alarm` and :meth:`reset_alarm`,
+        which check the latch first.
+        """
+        with self._guard('cannot store the alarm event'), self._backend.transaction():
+            return self._insert_event(event, event.estimate_id)
+
+    def _insert_event(self, event: AlarmEvent, estimate_id: Optional[int]) -> AlarmEvent:
+        return alarms.insert_event(self._backend, event, robot=self._robot(event.robot),
+                                   joint=_check_name('joint', event.joint),
+                                   estimate_id=estimate_id)
+
+    def acknowledge_alarm(self, *, joint: str, robot: Optional[str] = None, user: str,
+                          owner: str, comment: str, planned_maintenance: str = ''
+                          ) -> AlarmEvent:
+        """Acknowledge the latched alarm of the robot's ``joint``; return the stored event.
+
+        The alarm stays latched and shows as acknowledged (``FleetRow.acknowledged``) until a
+        reset or a new raise.  ``user``: who acknowledges; ``owner``: who takes the
+        maintenance on (both 1-128 printable characters); ``comment``: free text (at most
+        2000 characters); ``planned_maintenance``: 'YYYY-MM-DD' or ''.  Raises
+        :class:`HistoryError` when the joint has no latched alarm, when it is acknowledged
+        already, or on bad values.
+        """
+        with self._guard('cannot acknowledge the alarm'):
+            return alarms.acknowledge_alarm(
+                self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
+                user=user, owner=owner, comment=comment,
+                planned_maintenance=planned_maintenance)
+
+    def reset_alarm(self, *, joint: str, robot: Optional[str] = None, user: str, reason: str,
+                    stamp_s: Optional[float] = None) -> AlarmEvent:
+        """Reset the latched alarm of the robot's ``joint`` after maintenance; return the event.
+
+        Exactly what the ROS ``~/reset_alarm`` stores (a ``reset`` tied to the joint's latest
+        estimate), with ``user`` and ``reason`` (non-empty): a restarted estimator restores
+        the alarm clear with evidence 0 and restarts its trend (the component's new life).
+        ``stamp_s``: the moment [s] (default now).  Raises :class:`HistoryError` when the
+        joint has no latched alarm or on bad values.
+        """
+        with self._guard('cannot reset the alarm'):
+            return alarms.reset_alarm(self._backend, robot=self._robot(robot),
+                                      joint=_check_name('joint', joint), user=user,
+                                      reason=reason, stamp_s=stamp_s)
+
+    def alarm_log(self, *, robot: Optional[str] = None, joint: Optional[str] = None,
+                  limit: Optional[int] = None, before_id: Optional[int] = None
+                  ) -> list[AlarmEvent]:
+        """Return the alarm events of the fleet, newest first (each with robot, id, times).
+
+        ``robot`` None: every robot (not the history's robot); ``joint``: that joint only;
+        ``before_id``: the events older than that id (the next page); ``limit``: at most so
+        many.
+        """
+        with self._guard('cannot read the alarm log'):
+            return alarms.alarm_log(self._backend, robot=robot, joint=joint, limit=limit,
+                                    before_id=before_id)
+
+    def estimate_rows(self, *, joint: str, robot: Optional[str] = None,
+                      limit: Optional[int] = None) -> tuple[HistoryRecord, ...]:
+        """Return the estimates of the robot's ``joint``, oldest first (see :meth:`records`)."""
+        return self.records(joint=joint, robot=robot, limit=limit)
+
+    # ------------------------------------------------------------------ users, notifications
+
+    def add_user(self, *, name: str, role: str, password: str) -> user_accounts.User:
+        """Add a dashboard user (role 'viewer' or 'maintainer'; argon2 hash of ``password``).
+
+        Raises :class:`HistoryError` when the name exists or is not 1-64 of
+        ``A-Za-z0-9_.@-``, the role is unknown, or the password has fewer than 8 characters.
+        """
+        with self._guard('cannot add the user'):
+            return user_accounts.add_user(self._backend, name=name, role=role, password=password)
+
+    def remove_user(self, *, name: str) -> None:
+        """Remove the dashboard user ``name`` (:class:`HistoryError` when there is none)."""
+        with self._guard('cannot remove the user'):
+            user_accounts.remove_user(self._backend, name=name)
+
+    def users(self) -> list[user_accounts.User]:
+        """Return the dashboard users, sorted by name (no hashes)."""
+        with self._guard('cannot read the users'):
+            return user_accounts.list_users(self._backend)
+
+    def verify_user(self, *, name: str, password: str) -> Optional[user_accounts.User]:
+        """Return the user when ``password`` is theirs, else None (about as slow either way)."""
+        with self._guard('cannot check the user'):
+            return user_accounts.verify_user(self._backend, name=name, password=password)
+
+    def claim_notification(self, *, event_key: str, robot: Optional[str],
+                           joint: Optional[str], kind: str, channel: str,
+                           payload: dict[str, Any]) -> bool:
+        """Claim the notification of ``event_key``: True when this call stored it (send it).
+
+        False when it was claimed before, by any notifier, also before a restart.
+        """
+        with self._guard('cannot store the notification'):
+            return notifications_store.claim_notification(
+                self._backend, event_key=event_key, robot=robot, joint=joint, kind=kind,
+                channel=channel, payload=payload)
+
+    def release_notification(self, *, event_key: str) -> bool:
+        """Drop the claim of ``event_key`` (its sending failed for good), so it is retried."""
+        with self._guard('cannot release the notification'):
+            return notifications_store.release_notification(self._backend,
+                                                            event_key=event_key)
+
+    def notifications(self, limit: Optional[int] = None) -> list[dict[str, Any]]:
+        """Return the notifications sent, newest first (``payload`` as a dict)."""
+        with self._guard('cannot read the notifications'):
+            return notifications_store.list_notifications(self._backend, limit=limit)
 
     @contextmanager
     def writer_lock(self, *, joint: str, robot: Optional[str] = None,
@@ -328,24 +428,22 @@ class WearHistory:
         """Return the alarm events of the robot's ``joint``, oldest first."""
         with self._guard('cannot read the wear history'):
             rows = self._backend.execute(
-                f'SELECT {_EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? '
+                f'SELECT {EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? '
                 'ORDER BY id', (self._robot(robot), joint))
-        return tuple(_event_from_row(row) for row in rows)
+        return tuple(event_from_row(row) for row in rows)
 
     def restore(self, *, joint: str, robot: Optional[str] = None,
                 trend_length: Optional[int] = None) -> RestoredState:
         """Return the trend, the latched alarm and the alarm evidence of the robot's ``joint``.
 
-        The alarm is latched when the last alarm event is ``raised``; the evidence is that
+        The alarm is latched when the last raise or reset is ``raised`` (acknowledgements
+        leave the latch as it is; ``last_event`` is that raise or reset); the evidence is that
         of the last estimate, or 0 after a reset that came later.
         """
         robot = self._robot(robot)
         records = self.records(joint=joint, robot=robot, limit=trend_length)
         with self._guard('cannot read the wear history'):
-            rows = self._backend.execute(
-                f'SELECT {_EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? '
-                'ORDER BY id DESC LIMIT 1', (robot, joint))
-        last_event = _event_from_row(rows[0]) if rows else None
+            last_event, _ = alarms.latch_events(self._backend, robot=robot, joint=joint)
         active = last_event is not None and last_event.event == 'raised'
         evidence = records[-1].alarm_evidence if records else 0.0
         if last_event is not None and last_event.event == 'reset' and records and (
@@ -355,32 +453,62 @@ class WearHistory:
         return RestoredState(records=records, alarm_active=active, alarm_evidence=evidence,
                              last_event=last_event)
 
+    def latest_ids(self) -> tuple[int, int]:
+        """Return the ids of the newest estimate and alarm event (0 when none), in one query.
+
+        They change whenever a row the fleet view or the alarm log shows is added (ids only
+        grow): a cache of those views is current while they are the same.
+        """
+        with self._guard('cannot read the wear history'):
+            rows = self._backend.execute('SELECT (SELECT MAX(id) FROM estimates), '
+                                         '(SELECT MAX(id) FROM alarm_events)')
+        return int(rows[0][0] or 0), int(rows[0][1] or 0)
+
+    def latch_event(self, *, joint: str, robot: Optional[str] = None) -> Optional[AlarmEvent]:
+        """Return the last raise or reset of the robot's ``joint`` (None: never raised).
+
+        One indexed query: a running estimator polls it to take over a reset stored by
+        someone else (the dashboard).
+        """
+        with self._guard('cannot read the wear history'):
+            return alarms.latch_events(self._backend, robot=self._robot(robot),
+                                       joint=_check_name('joint', joint))[0]
+
     def fleet(self, *, robot: Optional[str] = None) -> list[FleetRow]:
         """Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
 
-        ``robot`` keeps one robot's joints (all robots when None).  Two queries whatever the
-        fleet's size: the latest estimate and the count per (robot, joint), and the last alarm
-        event per (robot, joint).
+        ``robot`` keeps one robot's joints (all robots when None).  Three queries whatever the
+        fleet's size: the latest estimate and the count per (robot, joint) (``joint_summary``:
+        one row per joint, not a scan of the estimates), the last raise or reset per (robot,
+        joint) (the latch) and the last acknowledgement per (robot, joint).
         """
         where, params = ('WHERE robot = ? ', (_check_name('robot', robot),)) \
             if robot is not None else ('', ())
+        event_where = 'AND robot = ? ' if robot is not None else ''
         with self._guard('cannot read the wear history'):
             latest = self._backend.execute(
-                'SELECT e.robot, e.joint, c.n, c.first_stamp, e.stamp_s, e.wall_time_s, e.wear, '
-                'e.wear_std, e.wear_low, e.wear_high, e.trend_wear, e.trend_low, e.trend_high, '
-                'e.crossing_experiments, e.crossing_time_s, e.alarm_evidence, e.status_level, '
-                'e.parameter_set, e.invalid_reason FROM estimates e JOIN (SELECT robot, joint, '
-                'MAX(id) AS last_id, '
-                'COUNT(*) AS n, MIN(stamp_s) AS first_stamp FROM estimates ' + where
-                + 'GROUP BY robot, joint) c ON e.id = c.last_id', params)
-            alarms = self._backend.execute(
-                'SELECT a.robot, a.joint, a.event, a.stamp_s FROM alarm_events a JOIN '
-                '(SELECT MAX(id) AS last_id FROM alarm_events ' + where
+                'SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
+                'e.wall_time_s, e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, '
+                'e.trend_low, e.trend_high, e.crossing_experiments, e.crossing_time_s, '
+                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason FROM '
+                'joint_summary s JOIN estimates e ON e.id = s.last_id '
+                + where.replace('robot', 's.robot'), params)
+            latches = self._backend.execute(
+                'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id FROM alarm_events a JOIN '
+                f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {alarms.LATCH_EVENTS} '
+                + event_where + 'GROUP BY robot, joint) l ON a.id = l.last_id', params)
+            acknowledgements = self._backend.execute(
+                'SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
+                'a.planned_maintenance FROM alarm_events a JOIN (SELECT MAX(id) AS last_id '
+                "FROM alarm_events WHERE event = 'acknowledged' " + event_where
                 + 'GROUP BY robot, joint) l ON a.id = l.last_id', params)
-        last_event = {(r[0], r[1]): (r[2], float(r[3])) for r in alarms}
+        last_event = {(r[0], r[1]): (r[2], float(r[3]), int(r[4])) for r in latches}
+        last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
         rows = []
         for r in latest:
-            event, since = last_event.get((r[0], r[1]), ('', math.nan))
+            event, since, raise_id = last_event.get((r[0], r[1]), ('', math.nan, 0))
+            ack = last_ack.get((r[0], r[1]))
+            acknowledged = event == 'raised' and ack is not None and int(ack[0]) > raise_id
             rows.append(FleetRow(
                 robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
                 last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),
@@ -390,7 +518,10 @@ class WearHistory:
                 crossing_experiments=_nan_if_none(r[13]), crossing_time_s=_nan_if_none(r[14]),
                 alarm=event == 'raised', alarm_since_stamp_s=since if event == 'raised'
                 else math.nan, alarm_evidence=float(r[15]), status_level=int(r[16]),
-                parameter_set=r[17], invalid_reason=r[18] or ''))
+                parameter_set=r[17], invalid_reason=r[18] or '', acknowledged=acknowledged,
+                acknowledged_by=ack[1] if acknowledged and ack else '',
+                acknowledged_wall_time_s=float(ack[2]) if acknowledged and ack else math.nan,
+                planned_maintenance=ack[3] if acknowledged and ack else ''))
         return sorted(rows, key=FleetRow.rank_key)
 
 

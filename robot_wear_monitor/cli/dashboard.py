@@ -1,0 +1,135 @@
+"""``robot-wear-monitor dashboard``: the maintenance team's web dashboard, and its users.
+
+``dashboard --history URL [--host 127.0.0.1] [--port 8080] [--tls-cert F --tls-key F]
+[--insecure-http] [--params FILE ...] [--notify CONFIG]`` serves the dashboard
+(:mod:`robot_wear_monitor.dashboard`); ``dashboard user add NAME --role viewer|maintainer
+--history URL`` (the password from stdin when it is not a terminal, else asked twice; never
+from argv), ``dashboard user list --history URL`` and ``dashboard user remove NAME --history
+URL`` keep its users in the history.
+"""
+
+from __future__ import annotations
+
+import argparse
+import getpass
+import sys
+
+from robot_wear_monitor.cli.options import PROG
+from robot_wear_monitor.errors import InputError
+
+HELP = ("web dashboard of a wear history: the fleet worst first, each joint's wear story, "
+        'accountable acknowledge and reset (and its users: dashboard user add|list|remove)')
+ROLES = ('viewer', 'maintainer')
+
+
+def _history_option(parser: argparse.ArgumentParser, *, top: bool) -> None:
+    parser.add_argument('--history', metavar='PATH|URL',
+                        default=None if top else argparse.SUPPRESS,
+                        help='the wear history (users live in it): an SQLite file, or '
+                             'postgresql://USER@HOST:PORT/DB')
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the options of ``dashboard`` and its ``user`` subcommands."""
+    _history_option(parser, top=True)
+    parser.add_argument('--host', default='127.0.0.1',
+                        help='address to listen on (default 127.0.0.1; another address needs '
+                             '--tls-cert/--tls-key or --insecure-http)')
+    parser.add_argument('--port', type=int, default=8080, help='TCP port (default 8080)')
+    parser.add_argument('--tls-cert', metavar='PEM', help='TLS certificate: serve HTTPS')
+    parser.add_argument('--tls-key', metavar='PEM', help='private key of --tls-cert')
+    parser.add_argument('--insecure-http', action='store_true',
+                        help='allow plain HTTP on a non-loopback --host (a TLS proxy in front)')
+    parser.add_argument('--params', action='append', default=[], metavar='FILE',
+                        help='a parameter set the estimates name (for the model curve; the '
+                             'packaged sets are known already); repeatable')
+    parser.add_argument('--notify', metavar='CONFIG',
+                        help='send notifications in the server process (the configuration of '
+                             '`notify`), one pass every --notify-interval-s')
+    parser.add_argument('--notify-interval-s', type=float, default=60.0, metavar='S',
+                        help='seconds between notification passes (default 60)')
+    users = parser.add_subparsers(dest='dashboard_command', metavar='user')
+    user = users.add_parser('user', help='add, list or remove dashboard users')
+    actions = user.add_subparsers(dest='user_action', metavar='ACTION', required=True)
+    add = actions.add_parser('add', help='add a user (password from stdin or asked twice)')
+    add.add_argument('name', metavar='NAME', help='user name: 1-64 of A-Z a-z 0-9 _ . @ -')
+    add.add_argument('--role', choices=ROLES, required=True,
+                     help='viewer reads; maintainer also acknowledges and resets alarms')
+    _history_option(add, top=False)
+    listing = actions.add_parser('list', help='list the users and their roles')
+    _history_option(listing, top=False)
+    remove = actions.add_parser('remove', help='remove a user')
+    remove.add_argument('name', metavar='NAME')
+    _history_option(remove, top=False)
+
+
+def read_password(*, name: str) -> str:
+    """Return the new password: a line of stdin when it is not a terminal, else asked twice."""
+    if not sys.stdin.isatty():
+        line = sys.stdin.readline()
+        return line[:-1] if line.endswith('\n') else line
+    first = getpass.getpass(f'password of {name}: ')
+    if getpass.getpass('again: ') != first:
+        raise InputError('the two passwords differ; nothing stored')
+    return first
+
+
+def _users(args: argparse.Namespace) -> int:
+    from robot_wear_monitor.monitoring.history import open_history
+    with open_history(args.history, init=None if args.user_action == 'add' else False) \
+            as history:
+        if args.user_action == 'add':
+            password = read_password(name=args.name)
+            user = history.add_user(name=args.name, role=args.role, password=password)
+            print(f'user {user.name} added ({user.role})')
+        elif args.user_action == 'remove':
+            history.remove_user(name=args.name)
+            print(f'user {args.name} removed')
+        else:
+            from robot_wear_monitor.fleet.ranking import iso_time
+            found = history.users()
+            for user in found:
+                print(f'{user.name}  {user.role}  created {iso_time(user.created_wall_time_s)}')
+            if not found:
+                print(f'no users yet: {PROG} dashboard user add NAME --role maintainer '
+                      f'--history {args.history}')
+    return 0
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``dashboard`` (serve) or ``dashboard user ...``."""
+    if not args.history:
+        raise InputError('--history PATH|URL is required (the wear history to show)')
+    if args.dashboard_command == 'user':
+        return _users(args)
+    try:
+        from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
+                                                      environment_secret)
+        from robot_wear_monitor.dashboard.server import check_listen, serve
+    except ImportError as error:
+        raise InputError(f'the dashboard needs {error.name}: pip install '
+                         '"robot_wear_monitor[dashboard]"') from None
+    if not 0 < args.port < 65536:
+        raise InputError(f'--port must be 1-65535, got {args.port}')
+    if not args.notify_interval_s >= 1.0:
+        raise InputError(f'--notify-interval-s must be >= 1, got {args.notify_interval_s}')
+    check_listen(host=args.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
+                 insecure_http=args.insecure_http)
+    extra = {}
+    if args.notify:
+        from robot_wear_monitor.dashboard.notifier import load_config
+        extra['notify'] = load_config(args.notify)  # a bad file stops the start (exit 2)
+    from robot_wear_monitor.monitoring.history import open_history
+    with open_history(args.history, init=False) as history:
+        if not history.users():
+            print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '
+                  f'add NAME --role maintainer --history {args.history}`', file=sys.stderr)
+    app = create_app(DashboardSettings(
+        history=args.history, params=tuple(args.params), secret_key=environment_secret(),
+        https=bool(args.tls_cert), notify_config=args.notify,
+        notify_interval_s=args.notify_interval_s, extra=extra))
+    scheme = 'https' if args.tls_cert else 'http'
+    print(f'dashboard of {args.history} on {scheme}://{args.host}:{args.port}/ '
+          '(Ctrl-C stops)', file=sys.stderr)
+    serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key)
+    return 0

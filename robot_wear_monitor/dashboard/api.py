@@ -1,0 +1,91 @@
+"""The dashboard's JSON API under ``/api/`` (described at ``/openapi.json`` and ``/docs``).
+
+The same dicts as the pages (:mod:`robot_wear_monitor.dashboard.views`).  ``/api/fleet`` and
+the joint's route send an ``ETag`` (a hash of the content); a request with that value in
+``If-None-Match`` gets 304 while nothing changed, which is how the pages poll for news.
+Every route needs a session (401 without one).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from typing import Any, Optional
+
+from fastapi import APIRouter, HTTPException, Query, Request
+from starlette.responses import Response
+
+from robot_wear_monitor.dashboard.app import history_of
+from robot_wear_monitor.dashboard.views import alarm_log, fleet_json, joint_json, STATES
+
+router = APIRouter(prefix='/api', tags=['api'])
+
+
+def json_with_etag(request: Request, payload: dict[str, Any]) -> Response:
+    """Return the payload as JSON with its ETag, or 304 when the client has it already.
+
+    The ETag is a hash of the JSON text (made once, sent as it is).
+    """
+    body = json.dumps(payload, ensure_ascii=False, allow_nan=False,
+                      separators=(',', ':')).encode()
+    tag = f'"{hashlib.sha256(body).hexdigest()[:32]}"'
+    if request.headers.get('if-none-match') == tag:
+        return Response(status_code=304, headers={'ETag': tag})
+    return Response(body, media_type='application/json', headers={'ETag': tag})
+
+
+def _state(value: Optional[str]) -> Optional[str]:
+    if value in (None, ''):
+        return None
+    if value not in STATES:
+        raise HTTPException(status_code=422, detail=f'state must be one of {", ".join(STATES)}, '
+                                                    f'got {str(value)[:40]!r}')
+    return value
+
+
+@router.get('/fleet', summary='Every robot joint, worst first (the order of `fleet`)')
+def api_fleet(request: Request, robot: Optional[str] = Query(None, description='one robot'),
+              state: Optional[str] = Query(None, description='one state: ' + ', '.join(STATES))
+              ) -> Response:
+    """Return the fleet: counts per state, robots, rows worst first (``fleet --json`` keys).
+
+    Each row adds ``state``, ``arrow``, ``threshold``, the acknowledgement, the bar's
+    positions and the texts the page shows.
+    """
+    payload = fleet_json(history_of(request), now_s=time.time(),
+                         parameter_sets=request.app.state.parameter_sets,
+                         robot=robot or None, state=_state(state),
+                         cache=request.app.state.fleet_cache)
+    return json_with_etag(request, payload)
+
+
+@router.get('/robots/{robot}/joints/{joint}', summary="One joint's wear story")
+def api_joint(request: Request, robot: str, joint: str) -> Response:
+    """Return one joint's wear story.
+
+    Every experiment (w-hat, 95 % interval, trend, T-hat, p-value), the forecast cone, the
+    friction levels of the last experiments with the model, the alarm log.
+    """
+    payload = joint_json(history_of(request), robot=robot, joint=joint, now_s=time.time(),
+                         parameter_sets=request.app.state.parameter_sets)
+    if payload is None:
+        raise HTTPException(status_code=404, detail=f'no estimates of robot {robot[:80]!r} '
+                                                    f'joint {joint[:80]!r}')
+    return json_with_etag(request, payload)
+
+
+@router.get('/alarms', summary='The alarm log of the fleet, newest first')
+def api_alarms(request: Request, robot: Optional[str] = None, joint: Optional[str] = None,
+               limit: Optional[int] = Query(None, ge=1, le=100000)) -> list[dict[str, Any]]:
+    """Return the raised, acknowledged and reset events, newest first, with who and why."""
+    return alarm_log(history_of(request), robot=robot or None, joint=joint or None,
+                     limit=limit)
+
+
+@router.get('/me', summary='The logged-in user')
+def api_me(request: Request) -> dict[str, Any]:
+    """Return the session's user name, role and CSRF token (for scripted POSTs)."""
+    from robot_wear_monitor.dashboard.auth import csrf_token, current_user
+    user = current_user(request) or {}
+    return {**user, 'csrf_token': csrf_token(request)}

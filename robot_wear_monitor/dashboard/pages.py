@@ -1,0 +1,197 @@
+"""The dashboard's HTML pages and forms: login, fleet, joint, alarm log, the OpenAPI page.
+
+Jinja2 with autoescape renders every name and note as text.  The forms (login, logout,
+acknowledge, reset) carry the session's CSRF token; a POST without it gets 403.  Acknowledge
+and reset are the maintainer's: a viewer gets 403.  Each is stored in the history with the
+user, the time and the text (:meth:`WearHistory.acknowledge_alarm`,
+:meth:`WearHistory.reset_alarm`).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import time
+from typing import Any, Optional
+
+from fastapi import APIRouter, Form, HTTPException, Query, Request
+from starlette.responses import HTMLResponse, RedirectResponse, Response
+
+from robot_wear_monitor.dashboard.app import history_of
+from robot_wear_monitor.dashboard.auth import (client_address, csrf_ok, csrf_token,
+                                               current_user, safe_next, start_session)
+from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
+                                                fleet_row_html, joint_json, joint_url, STATES)
+from robot_wear_monitor.monitoring.history import HistoryError
+
+router = APIRouter(include_in_schema=False)
+
+
+def render(request: Request, template: str, *, status_code: int = 200,
+           **context: Any) -> HTMLResponse:
+    """Return a page rendered with the user, the CSRF token and a one-time message."""
+    env = request.app.state.templates
+    flash = request.session.pop('flash', None) if 'flash' in request.session else None
+    html = env.get_template(template).render(
+        user=current_user(request), csrf_token=csrf_token(request), flash=flash,
+        joint_url=joint_url, poll_ms=request.app.state.settings.poll_interval_ms,
+        path=request.url.path, **context)
+    return HTMLResponse(html, status_code=status_code)
+
+
+def _check_csrf(request: Request, token: Optional[str]) -> None:
+    if not csrf_ok(request, token or request.headers.get('x-csrf-token')):
+        raise HTTPException(status_code=403, detail='missing or wrong CSRF token: reload the '
+                                                    'page and send the form again')
+
+
+def _maintainer(request: Request) -> dict[str, str]:
+    """Return the session's user when a maintainer still (a removed user's session is void)."""
+    user = current_user(request)
+    stored = {u.name: u.role for u in history_of(request).users()} if user else {}
+    if user is None or stored.get(user['name']) != 'maintainer':
+        raise HTTPException(status_code=403, detail='only a maintainer may acknowledge or '
+                                                    'reset an alarm')
+    return user
+
+
+@router.get('/login')
+def login_page(request: Request, next: str = '/') -> HTMLResponse:  # noqa: A002
+    """Show the login form."""
+    return render(request, 'login.html', next=safe_next(next), error=None)
+
+
+@router.post('/login')
+def login(request: Request, username: str = Form(''), password: str = Form(''),
+          csrf_token: str = Form(''), next: str = Form('/')) -> Response:  # noqa: A002
+    """Log in: 303 to ``next``; 401 on a wrong name or password; 429 after too many."""
+    _check_csrf(request, csrf_token)
+    limiter = request.app.state.limiter
+    address = client_address(request)
+    name = username.strip()[:64]
+    wait = limiter.retry_after_s(user=name, address=address)
+    if wait > 0:
+        response = render(request, 'login.html', status_code=429, next=safe_next(next),
+                          error=f'too many failed logins: try again in {wait:.0f} s')
+        response.headers['Retry-After'] = str(int(wait) + 1)
+        return response
+    user = None
+    try:
+        user = history_of(request).verify_user(name=name, password=password[:1024])
+    except HistoryError:
+        user = None  # a malformed name is a failed login like any other
+    if user is None:
+        limiter.failed(user=name, address=address)
+        return render(request, 'login.html', status_code=401, next=safe_next(next),
+                      error='wrong user name or password')
+    limiter.succeeded(user=name)
+    start_session(request, name=user.name, role=user.role)
+    return RedirectResponse(safe_next(next), status_code=303)
+
+
+@router.post('/logout')
+def logout(request: Request, csrf_token: str = Form('')) -> Response:
+    """Log out (the session is emptied)."""
+    _check_csrf(request, csrf_token)
+    request.session.clear()
+    return RedirectResponse('/login', status_code=303)
+
+
+@router.get('/')
+def fleet_page(request: Request, robot: Optional[str] = None,
+               state: Optional[str] = None) -> HTMLResponse:
+    """Show the fleet, worst first, with counts per state and filters by robot and state."""
+    fleet = fleet_json(history_of(request), now_s=time.time(),
+                       parameter_sets=request.app.state.parameter_sets,
+                       robot=robot or None, state=state if state in STATES else None,
+                       cache=request.app.state.fleet_cache)
+    return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html)
+
+
+@router.get('/robots/{robot}/joints/{joint}')
+def joint_page(request: Request, robot: str, joint: str) -> HTMLResponse:
+    """One joint's wear story, its alarm log and (for a maintainer) the alarm forms."""
+    data = joint_json(history_of(request), robot=robot, joint=joint, now_s=time.time(),
+                      parameter_sets=request.app.state.parameter_sets)
+    if data is None:
+        return render(request, 'error.html', status_code=404,
+                      message=f'no estimates of robot {robot!r} joint {joint!r}')
+    return render(request, 'joint.html', data=data,
+                  api_url='/api' + joint_url(robot, joint))
+
+
+@router.post('/robots/{robot}/joints/{joint}/acknowledge')
+def acknowledge(request: Request, robot: str, joint: str, csrf_token: str = Form(''),
+                owner: str = Form(''), comment: str = Form(''),
+                planned_maintenance: str = Form('')) -> Response:
+    """Acknowledge the latched alarm (maintainers): owner, comment, planned maintenance date."""
+    _check_csrf(request, csrf_token)
+    user = _maintainer(request)
+    try:
+        history_of(request).acknowledge_alarm(
+            joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
+            comment=comment.strip(), planned_maintenance=planned_maintenance.strip())
+    except HistoryError as error:
+        request.session['flash'] = {'kind': 'error', 'text': _message(error)}
+    else:
+        request.session['flash'] = {'kind': 'ok', 'text': 'alarm acknowledged'}
+    return RedirectResponse(joint_url(robot, joint), status_code=303)
+
+
+@router.post('/robots/{robot}/joints/{joint}/reset')
+def reset(request: Request, robot: str, joint: str, csrf_token: str = Form(''),
+          reason: str = Form('')) -> Response:
+    """Reset the latched alarm after maintenance (maintainers), with a reason."""
+    _check_csrf(request, csrf_token)
+    user = _maintainer(request)
+    try:
+        history_of(request).reset_alarm(joint=joint, robot=robot, user=user['name'],
+                                        reason=reason.strip())
+    except HistoryError as error:
+        request.session['flash'] = {'kind': 'error', 'text': _message(error)}
+    else:
+        request.session['flash'] = {'kind': 'ok', 'text': 'alarm reset: the trend restarts'}
+    return RedirectResponse(joint_url(robot, joint), status_code=303)
+
+
+def _message(error: Exception) -> str:
+    text = str(error).splitlines()[0] if str(error) else type(error).__name__
+    return text.split(': ', 1)[1] if ': ' in text and text.startswith('/') else text
+
+
+@router.get('/alarms')
+def alarms_page(request: Request, robot: Optional[str] = None, joint: Optional[str] = None,
+                limit: int = Query(500, ge=1, le=100000)) -> HTMLResponse:
+    """Show the fleet's alarm log, newest first: raised, acknowledged and reset, who and why."""
+    events = alarm_log(history_of(request), robot=robot or None, joint=joint or None,
+                       limit=limit)
+    return render(request, 'alarms.html', events=events, robot=robot or '', joint=joint or '',
+                  limit=limit)
+
+
+@router.get('/alarms.csv')
+def alarms_csv(request: Request, robot: Optional[str] = None,
+               joint: Optional[str] = None) -> Response:
+    """Return the alarm log as CSV for audits (the columns of ``history --alarms --csv``)."""
+    events = alarm_log(history_of(request), robot=robot or None, joint=joint or None)
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator='\n')
+    writer.writerow(ALARM_CSV_COLUMNS)
+    for event in events:
+        writer.writerow(['' if event[c] is None else _csv_cell(event[c])
+                         for c in ALARM_CSV_COLUMNS])
+    return Response(buffer.getvalue(), media_type='text/csv; charset=utf-8',
+                    headers={'Content-Disposition': 'attachment; filename="alarms.csv"'})
+
+
+def _csv_cell(value: Any) -> str:
+    """Return a CSV cell; a text a spreadsheet would run as a formula gets a leading quote."""
+    text = f'{value:.6g}' if isinstance(value, float) else str(value)
+    return "'" + text if text[:1] in ('=', '+', '-', '@') and not isinstance(value, float) \
+        else text
+
+
+@router.get('/docs')
+def docs_page(request: Request) -> HTMLResponse:
+    """Show the OpenAPI page (Swagger UI served by the app itself)."""
+    return render(request, 'docs.html')

@@ -1,0 +1,38 @@
+// Shared by the pages: polling the JSON API with the ETag (304 while nothing changed).
+// Every text from the server is put in the page with textContent (never as HTML).
+'use strict';
+
+function pageData() {
+  return JSON.parse(document.getElementById('page-data').textContent);
+}
+
+function setText(node, text) {
+  if (node && node.textContent !== text) { node.textContent = text; }
+}
+
+function jointUrl(robot, joint) {
+  return '/robots/' + encodeURIComponent(robot) + '/joints/' + encodeURIComponent(joint);
+}
+
+// Ask url every intervalMs; call onData(json) when the content changed.
+function poll(url, intervalMs, onData) {
+  let etag = null;
+  const status = document.getElementById('live-status');
+  async function once() {
+    try {
+      const headers = etag ? {'If-None-Match': etag} : {};
+      const response = await fetch(url, {headers: headers, cache: 'no-store',
+        credentials: 'same-origin'});
+      if (response.status === 401) { window.location.assign('/login'); return; }
+      if (response.status === 200) {
+        etag = response.headers.get('ETag');
+        onData(await response.json());
+      }
+      if (status) { status.className = 'live'; setText(status, 'live'); }
+    } catch (error) {
+      if (status) { status.className = 'live offline'; setText(status, 'server unreachable'); }
+    }
+    window.setTimeout(once, intervalMs);
+  }
+  window.setTimeout(once, intervalMs);
+}

@@ -1,0 +1,138 @@
+// The joint page: w per experiment with 95 % intervals, the trend band, the forecast cone,
+// T-hat, the friction levels against the model; redrawn in place (Plotly.react) on news.
+'use strict';
+
+const COLORS = ['#1f77b4', '#ff7f0e', '#2ca02c', '#9467bd', '#8c564b'];
+
+function ms(seconds) { return seconds === null ? null : seconds * 1000; }
+
+function wearTraces(data) {
+  const ex = data.experiments;
+  const x = ex.map((e) => ms(e.stamp_s));
+  const traces = [
+    {x: x, y: ex.map((e) => e.trend_high), name: 'trend 95 % band', mode: 'lines',
+      line: {width: 0}, showlegend: false, hoverinfo: 'skip'},
+    {x: x, y: ex.map((e) => e.trend_low), name: 'trend 95 % band', mode: 'lines',
+      fill: 'tonexty', fillcolor: 'rgba(44,160,44,0.18)', line: {width: 0}},
+    {x: x, y: ex.map((e) => e.trend_wear), name: 'trend', mode: 'lines',
+      line: {color: '#2ca02c', width: 2}},
+    {x: x, y: ex.map((e) => e.wear), name: 'w-hat', mode: 'markers',
+      marker: {color: '#1f77b4', size: 6},
+      error_y: {type: 'data', symmetric: false, color: 'rgba(31,119,180,0.5)',
+        array: ex.map((e) => (e.wear_high === null ? null : e.wear_high - e.wear)),
+        arrayminus: ex.map((e) => (e.wear_low === null ? null : e.wear - e.wear_low))},
+      text: ex.map((e) => e.time + (e.valid ? '' : ' INVALID: ' + e.invalid_reason)),
+      hovertemplate: '%{text}<br>w-hat %{y:.1f}<extra></extra>'},
+  ];
+  const failed = ex.filter((e) => e.model_check_failed);
+  traces.push({x: failed.map((e) => ms(e.stamp_s)), y: failed.map((e) => e.wear),
+    name: 'model check failed (p < ' + data.model_check_p_value + ')', mode: 'markers',
+    marker: {symbol: 'x', color: '#d62728', size: 11, line: {width: 2}}});
+  let end = x[x.length - 1];
+  const cone = data.forecast;
+  if (cone) {
+    const cx = cone.time_s.map(ms);
+    end = cx[cx.length - 1];
+    traces.push({x: cx, y: cone.high, mode: 'lines', line: {width: 0}, showlegend: false,
+      hoverinfo: 'skip', name: 'forecast cone'});
+    traces.push({x: cx, y: cone.low, mode: 'lines', fill: 'tonexty', name: 'forecast cone',
+      fillcolor: 'rgba(255,127,14,0.18)', line: {width: 0}});
+    traces.push({x: cx, y: cone.wear, mode: 'lines', name: 'forecast',
+      line: {color: '#ff7f0e', dash: 'dash'}});
+    traces.push({x: [ms(cone.crossing_low_time_s), ms(cone.crossing_high_time_s)],
+      y: [data.threshold, data.threshold], mode: 'lines', name: 'crossing 95 %',
+      line: {color: '#ff7f0e', width: 6}});
+    traces.push({x: [ms(cone.crossing_time_s)], y: [data.threshold], mode: 'markers',
+      name: 'crossing ' + cone.crossing.slice(0, 16).replace('T', ' '),
+      marker: {symbol: 'diamond', size: 12, color: '#ff7f0e'}});
+  }
+  traces.push({x: [x[0], end], y: [data.threshold, data.threshold], mode: 'lines',
+    name: 'threshold w = ' + data.threshold, line: {color: '#d62728', dash: 'dot'}});
+  return traces;
+}
+
+function layout(title, ytitle) {
+  return {title: {text: title, font: {size: 15}}, margin: {l: 60, r: 20, t: 40, b: 45},
+    xaxis: {type: 'date', title: {text: 'experiment end (UTC)'}},
+    yaxis: {title: {text: ytitle}}, legend: {orientation: 'h', y: -0.22},
+    uirevision: 'keep', hovermode: 'closest'};
+}
+
+function temperatureTraces(data) {
+  const ex = data.experiments;
+  return [{x: ex.map((e) => ms(e.stamp_s)), y: ex.map((e) => e.temperature_degc),
+    name: 'T-hat', mode: 'markers', marker: {color: '#9467bd', size: 5},
+    error_y: {type: 'data', symmetric: false, color: 'rgba(148,103,189,0.4)',
+      array: ex.map((e) => (e.temperature_high_degc === null ? null
+        : e.temperature_high_degc - e.temperature_degc)),
+      arrayminus: ex.map((e) => (e.temperature_low_degc === null ? null
+        : e.temperature_degc - e.temperature_low_degc))}}];
+}
+
+function frictionTraces(data) {
+  const traces = [];
+  data.friction.forEach((f, i) => {
+    const color = COLORS[i % COLORS.length];
+    traces.push({x: f.speeds_rad_s, y: f.frictions, mode: 'markers', name: f.time.slice(0, 16),
+      marker: {color: color, size: 8}, legendgroup: String(i)});
+    if (f.model_frictions) {
+      traces.push({x: f.model_speeds_rad_s, y: f.model_frictions, mode: 'lines',
+        name: 'model at T ' + f.temperature_degc.toFixed(1) + ' degC, w ' + f.wear.toFixed(1),
+        line: {color: color, width: 1.5}, legendgroup: String(i), showlegend: false});
+    }
+  });
+  return traces;
+}
+
+function showEvents(events) {
+  const body = document.querySelector('#joint-events tbody');
+  const rows = events.map((e) => {
+    const tr = document.createElement('tr');
+    tr.className = 'event-' + e.event;
+    tr.dataset.id = String(e.id);
+    const cells = [e.time, e.event, e.wear === null ? '-' : e.wear.toFixed(1), e.user,
+      e.owner, e.planned_maintenance, e.note];
+    for (const text of cells) {
+      const td = document.createElement('td');
+      td.textContent = text;
+      tr.appendChild(td);
+    }
+    return tr;
+  });
+  const ids = Array.from(body.children).map((tr) => tr.dataset.id).join(',');
+  if (ids !== events.map((e) => String(e.id)).join(',')) { body.replaceChildren(...rows); }
+}
+
+function showJoint(data) {
+  const s = data.state;
+  if (s) {
+    const state = document.getElementById('f-state');
+    setText(state, s.state);
+    state.className = 'badge state-' + s.state.replace(/ /g, '-');
+    setText(document.getElementById('f-wear'), s.text.wear);
+    setText(document.getElementById('f-trend'), s.text.trend);
+    setText(document.getElementById('f-crossing'), s.text.crossing);
+    setText(document.getElementById('f-alarm'), s.text.alarm);
+    setText(document.getElementById('f-experiments'), String(s.experiments));
+    setText(document.getElementById('f-last'), s.text.last);
+  }
+  const threshold = data.threshold;
+  const wearLayout = layout('w per experiment, 95 % intervals, trend and forecast', 'wear w');
+  wearLayout.yaxis.range = [0, Math.max(threshold * 1.3,
+    ...data.experiments.map((e) => (e.wear_high === null ? e.wear : e.wear_high)))];
+  Plotly.react('wear-chart', wearTraces(data), wearLayout, {displaylogo: false});
+  Plotly.react('temperature-chart', temperatureTraces(data),
+    layout('T-hat per experiment (95 %)', 'T [degC]'), {displaylogo: false});
+  const friction = layout('Friction levels of the last experiments and the model at their T-hat, w-hat',
+    'friction [normalised]');
+  friction.xaxis = {title: {text: 'motor-side speed [rad/s]'}};
+  friction.legend = {orientation: 'v', title: {text: 'experiment (UTC)'}};
+  Plotly.react('friction-chart', frictionTraces(data), friction, {displaylogo: false});
+  showEvents(data.events);
+}
+
+(function () {
+  const config = pageData();
+  showJoint(config.data);
+  poll(config.api, config.poll_ms, showJoint);
+})();

@@ -1,0 +1,450 @@
+"""What the dashboard shows, as JSON-ready dicts: the fleet, one joint and the alarm log.
+
+The pages and the ``/api/`` routes both render these, so that a page and its API never tell
+two stories.  The fleet keeps the order of ``robot-wear-monitor fleet``
+(:func:`robot_wear_monitor.fleet.ranking.fleet_view`, worst first).  Numbers that are not
+finite become None (JSON null).  Wear is the model's w (0 new, 100 failure), temperatures in
+degC, speeds motor side in rad/s, frictions normalised, times in seconds since the epoch.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+import threading
+import time
+from typing import Any, Iterable, Optional, Sequence
+from urllib.parse import quote
+
+from markupsafe import Markup
+import numpy as np
+
+from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, iso_time
+from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
+                                             ParameterSet)
+
+#: The fleet states, worst first, as the filter and the counts name them.
+STATES = ('alarm', 'acknowledged', 'cannot judge', 'stale', 'ok')
+#: An experiment whose model check has a p-value below this is marked on the joint page.
+MODEL_CHECK_P_VALUE = 0.01
+#: How many of the latest experiments the friction-level chart draws against the model.
+FRICTION_EXPERIMENTS = 5
+#: A crossing this many experiments ahead or sooner gets the steep arrow.
+SOON_EXPERIMENTS = 10.0
+
+
+class ParameterSets:
+    """The parameter sets the estimates name: the packaged ones and those given by file.
+
+    The history stores the set's name (``parameter_set``), not its file: a name is looked up
+    among the files given (``--params``) and the packaged ``config/*.yaml``; an unknown name
+    falls back to the packaged default set, and :meth:`resolve` says so.
+    """
+
+    def __init__(self, files: Iterable[str | Path] = ()) -> None:
+        """Load the packaged sets and ``files`` (a file that does not load is an error)."""
+        self._lock = threading.Lock()
+        self._by_name: dict[str, ParameterSet] = {}
+        self.default = load_parameter_set()
+        packaged: list[str | Path] = sorted(default_parameter_file().parent.glob('*.yaml'))
+        for path in packaged:
+            try:
+                params = load_parameter_set(path)
+            except Exception:  # noqa: BLE001 - not a parameter set (e.g. a node config)
+                continue
+            self._by_name.setdefault(params.name, params)
+        for path in files:
+            params = load_parameter_set(path)  # ParameterError names the file and field
+            self._by_name[params.name] = params
+
+    def resolve(self, name: str) -> tuple[ParameterSet, str]:
+        """Return the set named ``name`` and '' (or the default set and why it stands in)."""
+        with self._lock:
+            found = self._by_name.get(name)
+        if found is not None:
+            return found, ''
+        return self.default, (f'parameter set {name!r} is not known here (give its file with '
+                              f'--params); the model curve uses the packaged '
+                              f'{self.default.name!r} ({Path(self.default.source).name})')
+
+
+def history_version(history: Any) -> tuple:
+    """Return what changes whenever the history gets a row: the last estimate and event ids.
+
+    Estimates and alarm events are only ever added (ids grow), so equal versions mean equal
+    fleets.  Two index lookups.
+    """
+    rows = history._backend.execute(  # noqa: SLF001 - a read the history has no method for
+        'SELECT (SELECT MAX(id) FROM estimates), (SELECT MAX(id) FROM alarm_events)')
+    return (history.path, *rows[0])
+
+
+class FleetCache:
+    """The history's fleet rows, read again only when the history changed.
+
+    The pages poll every few seconds; between two experiments the fleet query is skipped.
+    Staleness is judged anew at every call (:func:`fleet_view` on the cached rows).  The JSON
+    of a row is kept too (:meth:`row_json`): a new experiment makes one row anew, not all.
+    """
+
+    def __init__(self) -> None:
+        """Start empty."""
+        self._lock = threading.Lock()
+        self._version: Optional[tuple] = None
+        self._rows: list = []
+        self._json: dict[tuple, dict[str, Any]] = {}
+
+    def row_json(self, view: FleetView, *, threshold: float) -> dict[str, Any]:
+        """Return :func:`fleet_row_json` of ``view``, made once per row state."""
+        key = (repr(view.state), view.stale, view.crossing_time_s, threshold)
+        with self._lock:
+            found = self._json.get(key)
+        if found is None:
+            found = RowJson(fleet_row_json(view, threshold=threshold))
+            with self._lock:
+                if len(self._json) > 4 * max(1000, len(self._rows)):
+                    self._json.clear()  # rows of states long gone
+                self._json[key] = found
+        return found
+
+    def rows(self, history: Any) -> list:
+        """Return ``history.fleet()``, from the cache when the history has not changed."""
+        version = history_version(history)
+        with self._lock:
+            if version == self._version:
+                return self._rows
+        rows = history.fleet()
+        with self._lock:
+            self._version, self._rows = version, rows
+        return rows
+
+
+class RowJson(dict):
+    """A fleet row's JSON (a dict) that keeps its HTML once made (:func:`fleet_row_html`)."""
+
+    html: Optional[Markup] = None
+
+
+def fleet_row_html(row: dict[str, Any]) -> Markup:
+    """Return the fleet table's ``<tr>`` of a row, every text escaped (kept on a RowJson).
+
+    The same cells as the page's script writes (static/fleet.js): one string per row instead
+    of a template loop, so that the page of a thousand joints is made fast.
+    """
+    made = getattr(row, 'html', None)
+    if made is not None:
+        return made
+    bar, text = row['bar'], row['text']
+    low = bar['low'] if bar['low'] > 0 else 0
+    width = (bar['high'] - bar['low'] if bar['high'] > bar['low'] else 0) \
+        if bar['low'] >= 0 else 0
+    html = Markup(
+        '<tr class="state-{state}{stale}" data-robot="{robot}" data-joint="{joint}">'
+        '<td class="c-robot">{robot}</td>'
+        '<td class="c-joint"><a href="{url}">{joint}</a></td>'
+        '<td class="c-state"><span class="badge">{state_text}</span></td>'
+        '<td class="c-wear"><span class="num">{wear}</span><svg class="bar" '
+        'viewBox="0 0 100 14" preserveAspectRatio="none"><rect class="track" x="0" y="4" '
+        'width="100" height="6"></rect><rect class="interval" x="{low}" y="3" width="{width}" '
+        'height="8"></rect><line class="estimate" x1="{mark}" x2="{mark}" y1="1" y2="13" '
+        'visibility="{visible}"></line><line class="threshold" x1="{threshold}" '
+        'x2="{threshold}" y1="0" y2="14"></line></svg></td>'
+        '<td class="c-trend">{trend}</td><td class="c-crossing">{crossing}</td>'
+        '<td class="c-alarm">{alarm}</td><td class="c-last">{last}</td>'
+        '<td class="c-experiments">{experiments}</td></tr>\n').format(
+            state=row['state'].replace(' ', '-'), stale=' stale' if row['stale'] else '',
+            robot=row['robot'], joint=row['joint'], url=row['url'], state_text=row['state'],
+            wear=text['wear'], low=low, width=width, mark=bar['wear'],
+            visible='hidden' if bar['wear'] < 0 else 'visible', threshold=bar['threshold'],
+            trend=text['trend'], crossing=text['crossing'], alarm=text['alarm'],
+            last=text['last'], experiments=row['experiments'])
+    if isinstance(row, RowJson):
+        row.html = html
+    return html
+
+
+def joint_url(robot: str, joint: str) -> str:
+    """Return the path of a joint's page (names percent-encoded)."""
+    return f'/robots/{quote(robot, safe="")}/joints/{quote(joint, safe="")}'
+
+
+def utc_text(stamp_s: Optional[float]) -> str:
+    """Return a stamp [s since the epoch] as ISO 8601 UTC to the second ('-' when unknown).
+
+    The text of :func:`robot_wear_monitor.fleet.ranking.iso_time`, made faster (the fleet page
+    writes thousands).
+    """
+    if stamp_s is None or not math.isfinite(stamp_s) or not -1e11 < stamp_s < 2.5e11:
+        return iso_time(stamp_s)
+    return time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime(stamp_s))
+
+
+def _number(value: Optional[float]) -> Optional[float]:
+    return None if value is None else finite_or_none(float(value))
+
+
+def row_state(view: FleetView) -> str:
+    """Return the state of a fleet row: one of :data:`STATES`."""
+    state = view.state
+    if state.alarm:
+        return 'acknowledged' if getattr(state, 'acknowledged', False) else 'alarm'
+    if state.invalid_reason or not math.isfinite(state.wear):
+        return 'cannot judge'
+    if view.stale:
+        return 'stale'
+    return 'ok'
+
+
+def trend_arrow(view: FleetView) -> str:
+    """Return the trend arrow of a row from its forecast crossing.
+
+    Steep up: the trend is past the threshold or crosses it within :data:`SOON_EXPERIMENTS`
+    experiments; up: it crosses within the forecast horizon; flat: not within the horizon;
+    '?': no trend stored.
+    """
+    state = view.state
+    if not math.isfinite(state.trend_wear):
+        return '?'
+    crossing = state.crossing_experiments
+    if math.isfinite(crossing):
+        return '\u2191' if crossing <= SOON_EXPERIMENTS else '\u2197'
+    return '\u2192'
+
+
+def _interval_text(wear: float, low: float, high: float) -> str:
+    if not math.isfinite(wear):
+        return 'cannot judge'
+    if math.isfinite(low) and math.isfinite(high):
+        return f'{wear:.1f} [{low:.1f}, {high:.1f}]'
+    return f'{wear:.1f} [interval unknown]'
+
+
+def _crossing_text(view: FleetView) -> str:
+    crossing = view.state.crossing_experiments
+    if not math.isfinite(crossing):
+        return 'not within the forecast horizon'
+    if crossing <= 0:
+        return 'crossed (trend past the threshold)'
+    text = f'in {crossing:.0f} experiments'
+    if view.crossing_time_s is not None:
+        text += f' (~{utc_text(view.crossing_time_s)[:10]})'
+    return text
+
+
+def _bar(state: Any, threshold: float) -> dict[str, float]:
+    """Return the wear bar's positions [% of its width]: interval, estimate, threshold."""
+    values = [v for v in (state.wear, state.wear_high) if math.isfinite(v)]
+    top = max([1.5 * threshold, *values]) * 1.05
+
+    def pct(value: float) -> float:
+        return round(100.0 * min(max(value, 0.0), top) / top, 2) if math.isfinite(value) \
+            else -1.0
+    wear = state.wear if not state.invalid_reason else math.nan
+    low = state.wear_low if math.isfinite(state.wear_low) else wear
+    high = state.wear_high if math.isfinite(state.wear_high) else wear
+    return {'low': pct(low), 'high': pct(high), 'wear': pct(wear),
+            'threshold': pct(threshold), 'scale_max': top}
+
+
+def _alarm_text(state: Any) -> str:
+    if not state.alarm:
+        return 'clear'
+    text = f'LATCHED since {utc_text(state.alarm_since_stamp_s)}'
+    if getattr(state, 'acknowledged', False):
+        text += f'; acknowledged by {getattr(state, "acknowledged_by", "")}'
+        if getattr(state, 'planned_maintenance', ''):
+            text += f', maintenance planned {state.planned_maintenance}'
+    return text
+
+
+def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
+    """Return one fleet row for the page and ``/api/fleet`` (``fleet --json`` keys and more)."""
+    state = view.state
+    row = view.as_json()
+    row.update({
+        'state': row_state(view), 'arrow': trend_arrow(view), 'threshold': threshold,
+        'acknowledged': bool(getattr(state, 'acknowledged', False)),
+        'acknowledged_by': getattr(state, 'acknowledged_by', '') or None,
+        'acknowledged_s': _number(getattr(state, 'acknowledged_wall_time_s', math.nan)),
+        'planned_maintenance': getattr(state, 'planned_maintenance', '') or None,
+        'parameter_set': state.parameter_set,
+        'alarm_since': utc_text(state.alarm_since_stamp_s) if state.alarm else None,
+        'last_experiment': utc_text(state.last_stamp_s),
+        'crossing_date': (utc_text(view.crossing_time_s)[:10]
+                          if view.crossing_time_s is not None else None),
+        'bar': _bar(state, threshold), 'url': joint_url(state.robot, state.joint),
+        'text': {'wear': _interval_text(state.wear if not state.invalid_reason else math.nan,
+                                        state.wear_low, state.wear_high),
+                 'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
+                           if math.isfinite(state.trend_wear) else '?'),
+                 'crossing': _crossing_text(view), 'alarm': _alarm_text(state),
+                 'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
+                 'invalid': state.invalid_reason or ''},
+    })
+    return row
+
+
+def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
+               robot: Optional[str] = None, state: Optional[str] = None,
+               cache: Optional[FleetCache] = None) -> dict[str, Any]:
+    """Return the fleet worst first, the counts per state and the robots, as one dict.
+
+    ``robot`` and ``state`` filter the rows (the counts are those of the whole fleet);
+    ``cache``: the fleet rows of an unchanged history are not read again.
+    """
+    views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
+                       now_s=now_s)
+    make = cache.row_json if cache is not None else fleet_row_json
+    rows = [make(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0].wear_threshold)
+            for v in views]
+    counts = dict.fromkeys(STATES, 0)
+    for row in rows:
+        counts[row['state']] += 1
+    robots = sorted({row['robot'] for row in rows})
+    shown = [row for row in rows if (robot is None or row['robot'] == robot)
+             and (state is None or row['state'] == state)]
+    return {'counts': counts, 'joints': len(rows), 'robots': robots,
+            'robot': robot, 'state': state, 'rows': shown}
+
+
+def event_json(event: Any) -> dict[str, Any]:
+    """Return one alarm event (raised, acknowledged or reset) for the logs."""
+    wall = _number(getattr(event, 'wall_time_s', math.nan))
+    return {
+        'id': getattr(event, 'id', None), 'robot': event.robot, 'joint': event.joint,
+        'event': event.event, 'stamp_s': _number(event.stamp_s),
+        'time': utc_text(event.stamp_s),  # a raise: its experiment; else the moment
+        'wall_time_s': wall, 'wear': _number(event.wear), 'note': event.note,
+        'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
+        'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
+    }
+
+
+#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``).
+ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
+                     'planned_maintenance', 'note')
+
+
+def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
+              limit: Optional[int] = None) -> list[dict[str, Any]]:
+    """Return the fleet's alarm events newest first (one robot's joint with ``joint``)."""
+    if hasattr(history, 'alarm_log'):
+        events = history.alarm_log(robot=robot, joint=joint, limit=limit)
+    else:  # a history layer without the fleet-wide log: each joint's events
+        pairs = ([(robot, joint)] if joint is not None and robot is not None else
+                 [(r, j) for r in ([robot] if robot else history.robots())
+                  for j in history.joints(robot=r)])
+        events = [e for r, j in pairs for e in reversed(history.events(joint=j, robot=r))]
+        events = events[:limit] if limit is not None else events
+    return [event_json(e) for e in events]
+
+
+def _experiment_json(record: Any) -> dict[str, Any]:
+    p_value = _number(record.p_value)
+    return {
+        'id': record.id, 'stamp_s': record.stamp_s, 'time': utc_text(record.stamp_s),
+        'wear': _number(record.wear), 'wear_low': _number(record.wear_low),
+        'wear_high': _number(record.wear_high), 'trend_wear': _number(record.trend_wear),
+        'trend_low': _number(record.trend_low), 'trend_high': _number(record.trend_high),
+        'temperature_degc': _number(record.temperature_degc),
+        'temperature_low_degc': _number(record.temperature_low_degc),
+        'temperature_high_degc': _number(record.temperature_high_degc),
+        'p_value': p_value,
+        'model_check_failed': p_value is not None and p_value < MODEL_CHECK_P_VALUE,
+        'alarm': bool(record.alarm_active), 'valid': record.valid,
+        'invalid_reason': record.invalid_reason or None,
+        'crossing_experiments': _number(record.crossing_experiments),
+        'crossing_time_s': _number(record.crossing_time_s),
+    }
+
+
+def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[str, Any]]:
+    """Return the forecast cone of the latest trend up to the threshold, or None.
+
+    The history keeps the median crossing of the trend's forecast (``crossing_experiments``).
+    The cone runs from the latest trend and its 95 % band at the median rate
+    ((threshold - trend) / crossing per experiment), so that its middle line reaches the
+    threshold at the stored crossing; the band's edges reach it earliest and latest, which is
+    the crossing's interval shown (an approximation: the full forecast distribution is not
+    stored).  Times use the joint's usual experiment spacing.
+    """
+    if len(records) < 2:
+        return None
+    last = records[-1]
+    crossing = last.crossing_experiments
+    if not (math.isfinite(crossing) and crossing > 0 and math.isfinite(last.trend_wear)):
+        return None
+    rate = (threshold - last.trend_wear) / crossing
+    if not rate > 0:
+        return None
+    spacing = (last.stamp_s - records[0].stamp_s) / (len(records) - 1)
+    high = last.trend_high if math.isfinite(last.trend_high) else last.trend_wear
+    low = last.trend_low if math.isfinite(last.trend_low) else last.trend_wear
+    early = max(0.0, (threshold - high) / rate)
+    late = max(crossing, (threshold - low) / rate)
+    steps = np.linspace(0.0, late, 25)
+    times = last.stamp_s + steps * spacing
+    return {
+        'time_s': times.tolist(), 'time': [utc_text(t) for t in times],
+        'wear': np.minimum(last.trend_wear + rate * steps, threshold).tolist(),
+        'high': np.minimum(high + rate * steps, threshold).tolist(),
+        'low': np.minimum(low + rate * steps, threshold).tolist(),
+        'crossing_experiments': crossing, 'crossing_low_experiments': early,
+        'crossing_high_experiments': late, 'crossing_time_s': last.stamp_s + crossing * spacing,
+        'crossing_low_time_s': last.stamp_s + early * spacing,
+        'crossing_high_time_s': last.stamp_s + late * spacing,
+        'crossing': utc_text(last.stamp_s + crossing * spacing),
+        'crossing_low': utc_text(last.stamp_s + early * spacing),
+        'crossing_high': utc_text(last.stamp_s + late * spacing),
+        'rate_per_experiment': rate, 'spacing_s': spacing,
+    }
+
+
+def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dict[str, Any]]:
+    """Return the friction levels of the last experiments and the model at their T-hat, w-hat.
+
+    The model curve is the friction model (8) at the set's mean load, the experiment's T-hat
+    [degC] and w-hat, over the speeds [rad/s, motor side] of the levels.
+    """
+    from robot_wear_monitor.model.friction import friction
+    out = []
+    for record in records[-FRICTION_EXPERIMENTS:]:
+        speeds = np.asarray(record.speeds_rad_s, dtype=float)
+        if speeds.size == 0:
+            continue
+        order = np.argsort(speeds)
+        grid = np.linspace(max(0.5, speeds.min() * 0.8), speeds.max() * 1.1, 60)
+        temperature, wear = record.temperature_degc, record.wear
+        model = None
+        if math.isfinite(temperature) and math.isfinite(wear):
+            model = friction(grid, params.load_mean, temperature, max(0.0, wear),
+                             params.model).tolist()
+        out.append({'id': record.id, 'time': utc_text(record.stamp_s),
+                    'speeds_rad_s': speeds[order].tolist(),
+                    'frictions': np.asarray(record.frictions, dtype=float)[order].tolist(),
+                    'model_speeds_rad_s': grid.tolist(), 'model_frictions': model,
+                    'temperature_degc': _number(temperature), 'wear': _number(wear)})
+    return out
+
+
+def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
+               parameter_sets: ParameterSets) -> Optional[dict[str, Any]]:
+    """Return one joint's story (None when the history holds no estimate of it)."""
+    records = history.records(joint=joint, robot=robot)
+    if not records:
+        return None
+    params, note = parameter_sets.resolve(records[-1].parameter_set)
+    threshold = params.wear_threshold
+    state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s)
+                  if v.state.joint == joint), None)
+    return {
+        'robot': robot, 'joint': joint, 'threshold': threshold,
+        'parameter_set': records[-1].parameter_set, 'model_note': note or None,
+        'model_check_p_value': MODEL_CHECK_P_VALUE,
+        'state': fleet_row_json(state, threshold=threshold) if state is not None else None,
+        'experiments': [_experiment_json(r) for r in records],
+        'forecast': forecast_cone(records, threshold=threshold),
+        'friction': friction_curves(records, params=params),
+        'events': alarm_log(history, robot=robot, joint=joint),
+    }

@@ -1,0 +1,283 @@
+"""Notifications of the fleet's events: a webhook and e-mail, once per event, across restarts.
+
+A pass (:func:`notify_once`) reads the fleet from the wear history (:func:`fleet_view` at
+``now_s``) and finds the events that are due (:func:`due_events`), each with a key that is the
+same on every pass and in every process:
+
+* ``alarm_raised``: a latched alarm, one per raise (key ``alarm_raised/ROBOT/JOINT/STAMP``, the
+  stamp of the raise [s]);
+* ``forecast_crossing``: the forecast crossing of the wear threshold (the fleet view's date,
+  or the trend already past the threshold) at most ``forecast_horizon_days`` ahead of
+  ``now_s``, once per alarm cycle (key ``forecast_crossing/ROBOT/JOINT/cycle-STAMP``, the stamp
+  of the joint's last reset, ``cycle-0`` before the first);
+* ``joint_stale``: no experiment for longer than the fleet view's stale limit, once per stale
+  episode (key ``joint_stale/ROBOT/JOINT/last-STAMP``, the stamp of the last experiment).
+
+An acknowledged alarm (the dashboard's acknowledge) stops every notification of that joint until
+it is reset.  Robot and joint names are percent-encoded in the keys (replaced by their SHA-256
+when very long).
+
+Each event goes to every channel (``webhook:NAME``, ``email``) of the configuration.  Before a
+send the notifier claims ``KEY@CHANNEL`` in the history (:meth:`WearHistory.claim_notification`,
+a unique row): only the process whose claim inserted the row sends, so an event is sent once
+also across restarts and with several notifiers (the dashboard's and a cron job) on one
+history.  When every try of a send fails (see :class:`RetryPolicy`) the failure is stored as a
+row ``KEY@CHANNEL#failed1`` (its payload holds the error) and the send is claimed and tried
+again on the next pass (``KEY@CHANNEL#pass2``, ...) up to ``retry.passes`` passes in all; a
+channel that failed is not tried again in the same pass (its other events wait for the next
+one).  A notifier killed between its claim and its send loses that notification (at most once,
+never twice).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import hashlib
+import logging
+import math
+import threading
+import time
+from typing import Any, Callable, Optional
+from urllib.parse import quote
+
+from robot_wear_monitor.fleet.notify_channels import (
+    describe_wear, DueEvent, email_message, email_subject, KINDS, post_webhook,
+    send_email, SendResult, webhook_payload)
+from robot_wear_monitor.fleet.notify_config import (
+    EmailConfig, EVENTS, load_notification_config, NotificationConfig,
+    NotificationConfigError, RetryPolicy, WebhookConfig)
+from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, iso_time, STALE_FACTOR
+from robot_wear_monitor.monitoring.history import WearHistory
+
+__all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
+           'load_notification_config', 'NotificationConfig', 'NotificationConfigError',
+           'notify_forever', 'notify_once', 'RetryPolicy', 'SentNotification', 'WebhookConfig']
+
+_LOG = logging.getLogger('robot_wear_monitor.notifications')
+#: Longer percent-encoded robot/joint parts of a key are replaced by their SHA-256.
+_MAX_WHERE_CHARS = 300
+
+
+@dataclass(frozen=True)
+class SentNotification:
+    """One send of one event to one channel in a pass, delivered or not.
+
+    ``event_key``: the event's key; ``claim_key``: the history row claimed for this send
+    (``KEY@CHANNEL``, ``#passN`` for a retry on pass N); ``pass_number``: 1 for the first pass
+    of the event on the channel; ``attempts``: tries within the pass; ``error``: the last one
+    ('' when delivered).
+    """
+
+    event_key: str
+    claim_key: str
+    kind: str
+    robot: str
+    joint: str
+    channel: str
+    summary: str
+    delivered: bool
+    attempts: int
+    pass_number: int
+    error: str = ''
+    #: the passes a failing send gets in all (``retry.passes``)
+    passes: int = 1
+
+    @property
+    def retried_later(self) -> bool:
+        """Return True when a failed send will be tried again on a later pass."""
+        return not self.delivered and self.pass_number < self.passes
+
+    def as_json(self) -> dict[str, Any]:
+        """Return the send as a JSON-ready dict."""
+        return {'event_key': self.event_key, 'claim_key': self.claim_key, 'kind': self.kind,
+                'robot': self.robot, 'joint': self.joint, 'channel': self.channel,
+                'summary': self.summary, 'delivered': self.delivered,
+                'attempts': self.attempts, 'pass': self.pass_number, 'error': self.error or None,
+                'retried_later': self.retried_later}
+
+
+# --------------------------------------------------------------------------- events
+
+def _name(text: str) -> str:
+    return quote(text, safe='')
+
+
+def _stamp(value: float) -> str:
+    return f'{value:.6f}'
+
+
+def _crossing_inside(view: FleetView, *, now_s: float, horizon_s: float) -> bool:
+    crossing = view.state.crossing_experiments
+    if not math.isfinite(crossing):
+        return False
+    if crossing <= 0:
+        return True  # the trend is past the threshold already
+    return view.crossing_time_s is not None and view.crossing_time_s <= now_s + horizon_s
+
+
+def _cycle(history: WearHistory, *, robot: str, joint: str) -> str:
+    resets = [e for e in history.events(joint=joint, robot=robot) if e.event == 'reset']
+    return f'cycle-{_stamp(resets[-1].stamp_s)}' if resets else 'cycle-0'
+
+
+def _facts(view: FleetView) -> str:
+    s = view.state
+    lines = [f'Robot: {s.robot}', f'Joint: {s.joint}',
+             f'Latest wear: {describe_wear(view)} (0 new .. 100 failure)']
+    if math.isfinite(s.trend_wear):
+        lines.append(f'Trend wear: {s.trend_wear:.1f}')
+    crossing = s.crossing_experiments
+    if math.isfinite(crossing):
+        when = ' trend past the threshold' if crossing <= 0 else \
+            f' in {crossing:.0f} experiments'
+        if crossing > 0 and view.crossing_time_s is not None:
+            when += f' (~{iso_time(view.crossing_time_s)})'
+        lines.append(f'Forecast crossing of the wear threshold:{when}')
+    if s.alarm:
+        lines.append(f'Alarm latched since {iso_time(s.alarm_since_stamp_s)}')
+    lines.append(f'Last experiment: {iso_time(s.last_stamp_s)} ({s.experiments} in all)')
+    return '\n'.join(lines)
+
+
+def due_events(*, history: WearHistory, config: NotificationConfig,
+               now_s: float) -> list[DueEvent]:
+    """Return the events due at ``now_s`` [s since the epoch] that the configuration names.
+
+    Worst joint first (the fleet's order); see the module's text for the events and keys.
+    Sent or not, an event stays due while its condition holds: :func:`notify_once` keeps it
+    from being sent twice.
+    """
+    events: list[DueEvent] = []
+    for view in fleet_view(history.fleet(), now_s=now_s):
+        s = view.state
+        if s.acknowledged:
+            continue
+        where = f'{_name(s.robot)}/{_name(s.joint)}'
+        if len(where) > _MAX_WHERE_CHARS:  # the history keeps keys of up to 512 characters
+            where = 'sha256-' + hashlib.sha256(f'{s.robot}\x00{s.joint}'.encode()).hexdigest()
+        facts = _facts(view)
+
+        def add(kind: str, key: str, starts_s: float, summary: str) -> None:
+            events.append(DueEvent(kind=kind, key=f'{kind}/{where}/{key}', robot=s.robot,
+                                   joint=s.joint, starts_s=starts_s,
+                                   summary=f'{s.robot} {s.joint}: {summary}',
+                                   description=facts, view=view))
+        if 'alarm_raised' in config.events and s.alarm:
+            add('alarm_raised', _stamp(s.alarm_since_stamp_s), s.alarm_since_stamp_s,
+                f'wear alarm raised ({describe_wear(view)})')
+        if 'forecast_crossing' in config.events and _crossing_inside(
+                view, now_s=now_s, horizon_s=config.forecast_horizon_s):
+            when = ('the trend is past the wear threshold' if s.crossing_experiments <= 0
+                    else f'the wear threshold is forecast to be crossed by '
+                         f'{iso_time(view.crossing_time_s)} (within '
+                         f'{config.forecast_horizon_days:g} days)')
+            add('forecast_crossing', _cycle(history, robot=s.robot, joint=s.joint),
+                s.last_stamp_s, when)
+        if 'joint_stale' in config.events and view.stale:
+            since = s.last_stamp_s + STALE_FACTOR * s.usual_interval_s
+            add('joint_stale', f'last-{_stamp(s.last_stamp_s)}', since,
+                f'no experiment since {iso_time(s.last_stamp_s)} (usual interval '
+                f'{s.usual_interval_s / 3600.0:.1f} h)')
+    return events
+
+
+# --------------------------------------------------------------------------- one pass
+
+def _next_pass(base: str, log: set[str], passes: int) -> Optional[int]:
+    """Return the pass number of the next send of ``base``; None when done (or given up)."""
+    for number in range(1, passes + 1):
+        if (base if number == 1 else f'{base}#pass{number}') not in log:
+            return number
+        if f'{base}#failed{number}' not in log:
+            return None  # delivered (or being sent by another notifier)
+    return None
+
+
+def _send(event: DueEvent, channel: str, config: NotificationConfig,
+          sleep: Callable[[float], None]) -> tuple[dict[str, Any], Callable[[], SendResult]]:
+    if channel == 'email':
+        mail = config.email
+        if mail is None:
+            raise ValueError('no e-mail channel configured')
+        message = email_message(event, config=config, mail=mail)
+        record = {'subject': email_subject(event), 'from': mail.sender, 'to': list(mail.to)}
+        return record, lambda: send_email(mail, message, retry=config.retry, sleep=sleep)
+    hook = next(h for h in config.webhooks if f'webhook:{h.name}' == channel)
+    payload = webhook_payload(event, config=config, receiver=hook.receiver)
+    return payload, lambda: post_webhook(hook, payload, retry=config.retry, sleep=sleep)
+
+
+def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: float,
+                sleep: Callable[[float], None] = time.sleep) -> list[SentNotification]:
+    """Send what is due at ``now_s`` [s since the epoch], once per event and channel.
+
+    Returns the sends this call made (an empty list when nothing was due or every due event
+    was sent already, by this process or another).  Failed sends are stored in the history
+    and tried again on later passes (see the module's text).  Raises
+    :class:`~robot_wear_monitor.monitoring.history.HistoryError` when the history cannot be
+    read or written; a channel that fails never raises.
+    """
+    events = due_events(history=history, config=config, now_s=now_s)
+    if not events:
+        return []
+    log = {str(row['event_key']) for row in history.notifications()}
+    failed_channels: set[str] = set()
+    sent = []
+    for event in events:
+        for channel in config.channels:
+            base = f'{event.key}@{channel}'
+            number = _next_pass(base, log, config.retry.passes)
+            if number is None or channel in failed_channels:
+                continue
+            claim_key = base if number == 1 else f'{base}#pass{number}'
+            record, send = _send(event, channel, config, sleep)
+            if not history.claim_notification(event_key=claim_key, robot=event.robot,
+                                              joint=event.joint, kind=event.kind,
+                                              channel=channel, payload=record):
+                continue  # another notifier has it
+            try:
+                result = send()
+            except Exception as problem:  # a channel never stops the pass (claim kept)
+                result = SendResult(delivered=False, attempts=1,
+                                    error=f'{type(problem).__name__}: {str(problem)[:200]}')
+            if not result.delivered:
+                failed_channels.add(channel)
+                history.claim_notification(
+                    event_key=f'{base}#failed{number}', robot=event.robot, joint=event.joint,
+                    kind=event.kind, channel=channel,
+                    payload={'status': 'failed', 'error': result.error,
+                             'attempts': result.attempts, 'pass': number,
+                             'passes': config.retry.passes})
+                _LOG.warning('%s: %s via %s failed after %d tries: %s', config.source,
+                             event.key, channel, result.attempts, result.error)
+            sent.append(SentNotification(
+                event_key=event.key, claim_key=claim_key, kind=event.kind, robot=event.robot,
+                joint=event.joint, channel=channel, summary=event.summary,
+                delivered=result.delivered, attempts=result.attempts, pass_number=number,
+                error=result.error, passes=config.retry.passes))
+    return sent
+
+
+def notify_forever(*, location: str, config: NotificationConfig, interval_s: float,
+                   stop: threading.Event,
+                   report: Callable[[list[SentNotification]], None] = lambda sent: None,
+                   on_error: Callable[[Exception], None] = lambda error: None,
+                   clock: Callable[[], float] = time.time) -> None:
+    """Run a pass every ``interval_s`` [s] until ``stop`` is set (the loop of ``notify``).
+
+    Opens the history at ``location`` for each pass (a PostgreSQL server that restarts costs
+    one pass, not the notifier); a pass that fails is given to ``on_error`` and the loop goes
+    on; the sends of each pass go to ``report``.
+    """
+    from robot_wear_monitor.monitoring.history import HistoryError, open_history
+
+    def wait(seconds: float) -> None:
+        stop.wait(seconds)
+    while not stop.is_set():
+        try:
+            with open_history(location, init=False) as history:
+                report(notify_once(history=history, config=config, now_s=clock(),
+                                   sleep=wait))
+        except HistoryError as error:
+            on_error(error)
+        stop.wait(interval_s)

@@ -1,0 +1,218 @@
+"""The channels of the notifications: what an event says, a webhook POST and an SMTP e-mail.
+
+:class:`DueEvent` is one event of one robot's joint that is due (built by
+:mod:`robot_wear_monitor.fleet.notifications`); :func:`webhook_payload` turns it into an
+Alertmanager-like JSON body (version 4, one alert) and :func:`email_message` into a plain-text
+e-mail.  :func:`post_webhook` (httpx) and :func:`send_email` (smtplib) send them, retrying
+connection errors, timeouts, HTTP 5xx/429 and SMTP 4xx with exponential back-off within the
+:class:`~robot_wear_monitor.fleet.notify_config.RetryPolicy` (bounded tries and total time);
+other answers (HTTP 4xx, SMTP 5xx) fail at once.  Neither raises: the result says what
+happened.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from email.message import EmailMessage
+import email.utils
+import hashlib
+import math
+import smtplib
+import ssl
+import time
+from typing import Any, Callable
+from urllib.parse import quote
+
+from robot_wear_monitor import __version__
+from robot_wear_monitor.fleet.notify_config import (EmailConfig, NotificationConfig,
+                                                    RetryPolicy, WebhookConfig)
+from robot_wear_monitor.fleet.ranking import FleetView, iso_time
+from robot_wear_monitor.monitoring.diagnostics import clean_text
+
+#: Alertmanager's ``endsAt`` of an alert that is still firing.
+NO_END = '0001-01-01T00:00:00Z'
+#: Per event kind: the alert's name and severity, and the title in the e-mail's subject.
+KINDS = {
+    'alarm_raised': ('WearAlarmRaised', 'critical', 'wear alarm raised'),
+    'forecast_crossing': ('WearForecastCrossing', 'warning',
+                          'wear threshold crossing forecast within the horizon'),
+    'joint_stale': ('WearJointStale', 'warning', 'no experiment for too long (stale)'),
+}
+_USER_AGENT = f'robot-wear-monitor/{__version__}'
+
+
+@dataclass(frozen=True)
+class DueEvent:
+    """One event of one robot's joint that is due to be notified.
+
+    ``key``: the event's identity (the same on every pass and in every process, see
+    :mod:`robot_wear_monitor.fleet.notifications`); ``starts_s``: when it happened [s since the
+    epoch]; ``view``: the joint's fleet row at the pass.
+    """
+
+    kind: str
+    key: str
+    robot: str
+    joint: str
+    starts_s: float
+    summary: str
+    description: str
+    view: FleetView
+
+    @property
+    def fingerprint(self) -> str:
+        """Return a stable 16-hex-digit identity of the event (the alert's fingerprint)."""
+        return hashlib.sha256(self.key.encode('utf-8')).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class SendResult:
+    """What one send did: ``delivered``, the ``attempts`` made and the last ``error``."""
+
+    delivered: bool
+    attempts: int
+    error: str = ''
+
+
+def joint_url(config: NotificationConfig, *, robot: str, joint: str) -> str:
+    """Return the dashboard page of the joint ('' without ``dashboard_url``)."""
+    if not config.dashboard_url:
+        return ''
+    return (f'{config.dashboard_url}/robots/{quote(robot, safe="")}/joints/'
+            f'{quote(joint, safe="")}')
+
+
+def webhook_payload(event: DueEvent, *, config: NotificationConfig,
+                    receiver: str) -> dict[str, Any]:
+    """Return the Alertmanager-like JSON body (webhook version 4) of one event."""
+    name, severity, _ = KINDS[event.kind]
+    labels = {'alertname': name, 'robot': event.robot, 'joint': event.joint,
+              'severity': severity}
+    annotations = {'summary': event.summary, 'description': event.description}
+    alert = {'status': 'firing', 'labels': labels, 'annotations': annotations,
+             'startsAt': iso_time(event.starts_s), 'endsAt': NO_END,
+             'generatorURL': joint_url(config, robot=event.robot, joint=event.joint),
+             'fingerprint': event.fingerprint}
+    return {'version': '4', 'groupKey': event.key, 'truncatedAlerts': 0, 'status': 'firing',
+            'receiver': receiver, 'groupLabels': {'alertname': name},
+            'commonLabels': dict(labels), 'commonAnnotations': dict(annotations),
+            'externalURL': config.dashboard_url, 'alerts': [alert]}
+
+
+def email_subject(event: DueEvent) -> str:
+    """Return the subject line: the robot, the joint and the event (one line, cut short)."""
+    title = KINDS[event.kind][2]
+    return (f'[robot-wear-monitor] {clean_text(event.robot, limit=60)} '
+            f'{clean_text(event.joint, limit=60)}: {title}')
+
+
+def email_message(event: DueEvent, *, config: NotificationConfig,
+                  mail: EmailConfig) -> EmailMessage:
+    """Return the plain-text e-mail of one event (to every recipient of ``mail``)."""
+    message = EmailMessage()
+    message['Subject'] = email_subject(event)
+    message['From'] = mail.sender
+    message['To'] = ', '.join(mail.to)
+    message['Date'] = email.utils.formatdate(localtime=False, usegmt=True)
+    message['Message-ID'] = email.utils.make_msgid(domain='robot-wear-monitor.invalid')
+    link = joint_url(config, robot=event.robot, joint=event.joint)
+    body = f'{event.summary}\n\n{event.description}\n'
+    if link:
+        body += f'\nDashboard: {link}\n'
+    body += (f'\nEvent: {event.key}\nSent once per event by robot-wear-monitor notify '
+             f'({config.source}).\n')
+    message.set_content(body)
+    return message
+
+
+# --------------------------------------------------------------------------- sending
+
+def _retrying(attempt_once: Callable[[], tuple[bool, bool, str]], retry: RetryPolicy, *,
+              sleep: Callable[[float], None], clock: Callable[[], float]) -> SendResult:
+    """Run ``attempt_once`` -> (delivered, retryable, error) within the retry policy."""
+    start = clock()
+    error = ''
+    for attempt in range(1, retry.attempts + 1):
+        delivered, retryable, error = attempt_once()
+        if delivered:
+            return SendResult(delivered=True, attempts=attempt)
+        if not retryable or attempt == retry.attempts:
+            return SendResult(delivered=False, attempts=attempt, error=error)
+        delay = retry.delay_s(attempt)
+        if clock() - start + delay > retry.total_s:
+            return SendResult(delivered=False, attempts=attempt,
+                              error=f'{error} (gave up: {retry.total_s:g} s in all)')
+        sleep(delay)
+    return SendResult(delivered=False, attempts=retry.attempts, error=error)
+
+
+def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPolicy,
+                 sleep: Callable[[float], None] = time.sleep,
+                 clock: Callable[[], float] = time.monotonic) -> SendResult:
+    """POST ``payload`` as JSON to the webhook; retry connection errors, timeouts, 5xx, 429.
+
+    Any 2xx answer is a delivery; another 4xx (or a redirect, never followed) fails at once.
+    """
+    import httpx
+
+    with httpx.Client(timeout=httpx.Timeout(hook.timeout_s), follow_redirects=False,
+                      headers={'User-Agent': _USER_AGENT}) as client:
+        def attempt_once() -> tuple[bool, bool, str]:
+            try:
+                response = client.post(hook.url, json=payload)
+            except httpx.TransportError as problem:
+                text = clean_text(str(problem), limit=200)
+                return False, True, f'{type(problem).__name__}: {text}'
+            if 200 <= response.status_code < 300:
+                return True, False, ''
+            retryable = response.status_code >= 500 or response.status_code == 429
+            return False, retryable, (f'HTTP {response.status_code} '
+                                      f'{clean_text(response.reason_phrase, limit=80)}')
+        return _retrying(attempt_once, retry, sleep=sleep, clock=clock)
+
+
+def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,
+               sleep: Callable[[float], None] = time.sleep,
+               clock: Callable[[], float] = time.monotonic) -> SendResult:
+    """Send ``message`` through the SMTP server; retry connection errors and SMTP 4xx answers.
+
+    STARTTLS (when configured) verifies the server's certificate against ``mail.ca_file``
+    (default: the system's certificate authorities); an SMTP 5xx answer (refused sender or
+    recipient, failed login) fails at once.
+    """
+    def attempt_once() -> tuple[bool, bool, str]:
+        try:
+            with smtplib.SMTP(mail.host, mail.port, timeout=mail.timeout_s) as smtp:
+                smtp.ehlo()
+                if mail.starttls:
+                    smtp.starttls(context=ssl.create_default_context(
+                        cafile=mail.ca_file or None))
+                    smtp.ehlo()
+                if mail.user:
+                    smtp.login(mail.user, mail.password)
+                refused = smtp.send_message(message)
+        except smtplib.SMTPResponseException as problem:
+            text = problem.smtp_error
+            text = text.decode('utf-8', 'replace') if isinstance(text, bytes) else str(text)
+            return False, 400 <= problem.smtp_code < 500, \
+                f'SMTP {problem.smtp_code} {clean_text(text, limit=200)}'
+        except smtplib.SMTPRecipientsRefused as problem:
+            codes = sorted({code for code, _ in problem.recipients.values()})
+            return False, all(400 <= c < 500 for c in codes), \
+                f'SMTP recipients refused ({", ".join(map(str, codes))})'
+        except (OSError, smtplib.SMTPException) as problem:
+            return False, True, f'{type(problem).__name__}: {clean_text(str(problem), limit=200)}'
+        if refused:
+            return False, False, f'SMTP refused {len(refused)} of {len(mail.to)} recipients'
+        return True, False, ''
+    return _retrying(attempt_once, retry, sleep=sleep, clock=clock)
+
+
+def describe_wear(view: FleetView) -> str:
+    """Return the joint's latest wear with its 95 % interval as text (w 0..100)."""
+    s = view.state
+    if not math.isfinite(s.wear) or s.invalid_reason:
+        return 'cannot judge the wear of the latest experiment'
+    if math.isfinite(s.wear_low) and math.isfinite(s.wear_high):
+        return f'w = {s.wear:.1f} [95 %: {s.wear_low:.1f}, {s.wear_high:.1f}]'
+    return f'w = {s.wear:.1f} (interval unknown)'

@@ -1,0 +1,223 @@
+"""Alarm events of the wear history: acknowledge and reset by people, the fleet's alarm log.
+
+The latch of a robot's joint is its last ``raised`` or ``reset`` event: latched when that is a
+raise.  An ``acknowledged`` event (schema version 5) is a remark on a latched alarm (who takes
+it on, the planned maintenance date, a comment): it never unlatches it, and the alarm is
+acknowledged while an acknowledgement follows its last raise.  A reset stored here looks to a
+restarted estimator exactly like the ROS ``~/reset_alarm``: a ``reset`` event tied to the
+joint's latest estimate, so that the evidence restores as 0 and the trend restarts there.
+
+Each check and its write are one transaction, serialised per robot and joint (SQLite
+``BEGIN IMMEDIATE``, PostgreSQL an advisory transaction lock), so two people acknowledging or
+resetting at once store one event and the other gets a clear :class:`HistoryError`.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import re
+import time
+from typing import Any, Optional, Sequence
+
+from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.monitoring.history.backends import lock_key
+from robot_wear_monitor.monitoring.history.records import (
+    ALARM_EVENT_KINDS, AlarmEvent, HistoryError)
+
+#: The columns of an alarm event, in the order of :func:`event_from_row`.
+EVENT_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, note, estimate_id, '
+                 'user_name, owner, planned_maintenance')
+#: The events that set the latch (acknowledgements do not).
+LATCH_EVENTS = "event IN ('raised', 'reset')"
+#: Longest note (a reason, a comment) [characters].
+MAX_NOTE_CHARS = 2000
+#: Longest user or owner name [characters].
+MAX_PERSON_CHARS = 128
+
+_ISO_DATE = re.compile(r'\d{4}-\d{2}-\d{2}')
+
+
+def event_from_row(row: Sequence[Any]) -> AlarmEvent:
+    """Return the :class:`AlarmEvent` of a row of :data:`EVENT_COLUMNS`."""
+    return AlarmEvent(id=int(row[0]), robot=row[1], joint=row[2], stamp_s=float(row[3]),
+                      wall_time_s=float(row[4]), event=row[5],
+                      wear=None if row[6] is None else float(row[6]), note=row[7],
+                      estimate_id=None if row[8] is None else int(row[8]),
+                      user=row[9] or '', owner=row[10] or '', planned_maintenance=row[11] or '')
+
+
+def insert_event(backend: Any, event: AlarmEvent, *, robot: str, joint: str,
+                 estimate_id: Optional[int], wall_time_s: Optional[float] = None
+                 ) -> AlarmEvent:
+    """Store ``event`` of (robot, joint) in the open transaction; return it as stored."""
+    if event.event not in ALARM_EVENT_KINDS:
+        raise HistoryError(f'{backend.name}: alarm event must be raised, reset or '
+                           f'acknowledged, got {str(event.event)[:80]!r}')
+    now = time.time() if wall_time_s is None else float(wall_time_s)
+    values = (robot, joint, float(event.stamp_s), now, event.event, finite_or_none(event.wear),
+              estimate_id, str(event.note)[:MAX_NOTE_CHARS], str(event.user)[:MAX_PERSON_CHARS],
+              str(event.owner)[:MAX_PERSON_CHARS],
+              check_planned_maintenance(event.planned_maintenance))
+    rows = backend.execute(
+        'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
+        'estimate_id, note, user_name, owner, planned_maintenance) '
+        'VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id', values)
+    return AlarmEvent(id=int(rows[0][0]), robot=robot, joint=joint, stamp_s=values[2],
+                      wall_time_s=now, event=event.event, wear=values[5], note=values[7],
+                      estimate_id=estimate_id, user=values[8], owner=values[9],
+                      planned_maintenance=values[10])
+
+
+def check_planned_maintenance(value: Any) -> str:
+    """Return a planned maintenance date as 'YYYY-MM-DD' ('' for none); else HistoryError."""
+    text = '' if value is None else str(value).strip()
+    if not text:
+        return ''
+    try:
+        if not _ISO_DATE.fullmatch(text):
+            raise ValueError
+        datetime.date.fromisoformat(text)
+    except ValueError:
+        raise HistoryError('the planned maintenance date must be an ISO date YYYY-MM-DD, got '
+                           f'{text[:40]!r}') from None
+    return text
+
+
+def _person(what: str, value: Any) -> str:
+    text = value.strip() if isinstance(value, str) else ''
+    if not text or len(text) > MAX_PERSON_CHARS or not text.isprintable():
+        raise HistoryError(f'the {what} must be a name of 1-{MAX_PERSON_CHARS} printable '
+                           f'characters, got {str(value)[:40]!r}')
+    return text
+
+
+def _note(what: str, value: Any, *, required: bool) -> str:
+    text = value.strip() if isinstance(value, str) else None
+    if text is None or '\x00' in text or len(text) > MAX_NOTE_CHARS or (required and not text):
+        need = 'a non-empty text' if required else 'a text'
+        raise HistoryError(f'the {what} must be {need} of at most {MAX_NOTE_CHARS} characters '
+                           f'without NUL, got {str(value)[:40]!r}')
+    return text
+
+
+def _action_lock(robot: str, joint: str) -> int:
+    # not the writer lock's key: an estimator holds that one for its whole run
+    return lock_key(f'alarm action\0{robot}', joint)
+
+
+def latch_events(backend: Any, *, robot: str, joint: str
+                 ) -> tuple[Optional[AlarmEvent], Optional[AlarmEvent]]:
+    """Return the latch of (robot, joint): its last raise/reset and the acknowledgement after.
+
+    The acknowledgement is the last one that follows a latched raise (None otherwise).
+    """
+    rows = backend.execute(
+        f'SELECT {EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? AND '
+        f'{LATCH_EVENTS} ORDER BY id DESC LIMIT 1', (robot, joint))
+    latch = event_from_row(rows[0]) if rows else None
+    if latch is None or latch.event != 'raised':
+        return latch, None
+    rows = backend.execute(
+        f'SELECT {EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? AND '
+        "event = 'acknowledged' AND id > ? ORDER BY id DESC LIMIT 1", (robot, joint, latch.id))
+    return latch, event_from_row(rows[0]) if rows else None
+
+
+def _latest_estimate(backend: Any, robot: str,
+                     joint: str) -> tuple[Optional[int], Optional[float]]:
+    rows = backend.execute('SELECT id, wear FROM estimates WHERE robot = ? AND joint = ? '
+                           'ORDER BY id DESC LIMIT 1', (robot, joint))
+    return (int(rows[0][0]), float(rows[0][1])) if rows else (None, None)
+
+
+def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
+    return HistoryError(f'{name}: robot {robot[:80]!r} joint {joint[:80]!r} has no latched '
+                        f'alarm to {what}')
+
+
+def acknowledge_alarm(backend: Any, *, robot: str, joint: str, user: str, owner: str,
+                      comment: str, planned_maintenance: str = '') -> AlarmEvent:
+    """Store an acknowledgement of the latched alarm of (robot, joint); return the event.
+
+    Raises :class:`HistoryError` when the joint has no latched alarm, when it is acknowledged
+    already, or on bad text (see :meth:`WearHistory.acknowledge_alarm`).
+    """
+    user = _person('user', user)
+    owner = _person('owner', owner)
+    comment = _note('comment', comment, required=False)
+    planned = check_planned_maintenance(planned_maintenance)
+    with backend.transaction():
+        backend.lock_in_transaction(_action_lock(robot, joint))
+        latch, acknowledged = latch_events(backend, robot=robot, joint=joint)
+        if latch is None or latch.event != 'raised':
+            raise _no_latch(backend.name, robot, joint, 'acknowledge')
+        if acknowledged is not None:
+            raise HistoryError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
+                               f'{joint[:80]!r} is already acknowledged by '
+                               f'{acknowledged.user[:80]!r}')
+        estimate_id, wear = _latest_estimate(backend, robot, joint)
+        now = time.time()
+        return insert_event(backend, AlarmEvent(
+            joint=joint, stamp_s=now, event='acknowledged', wear=wear, note=comment,
+            user=user, owner=owner, planned_maintenance=planned), robot=robot, joint=joint,
+            estimate_id=estimate_id, wall_time_s=now)
+
+
+def reset_alarm(backend: Any, *, robot: str, joint: str, user: str, reason: str,
+                stamp_s: Optional[float] = None) -> AlarmEvent:
+    """Store a reset of the latched alarm of (robot, joint) after maintenance; return it.
+
+    The event is tied to the joint's latest estimate, as the ROS reset service ties it: a
+    restarted estimator restores evidence 0 and restarts the trend after that estimate.
+    Raises :class:`HistoryError` when the joint has no latched alarm or on bad text.
+    """
+    user = _person('user', user)
+    reason = _note('reset reason', reason, required=True)
+    now = time.time()
+    stamp = now if stamp_s is None else float(stamp_s)
+    if not math.isfinite(stamp):
+        raise HistoryError(f'the reset stamp must be a finite time [s], got {stamp_s!r}')
+    with backend.transaction():
+        backend.lock_in_transaction(_action_lock(robot, joint))
+        latch, _ = latch_events(backend, robot=robot, joint=joint)
+        if latch is None or latch.event != 'raised':
+            raise _no_latch(backend.name, robot, joint, 'reset')
+        estimate_id, _ = _latest_estimate(backend, robot, joint)
+        return insert_event(backend, AlarmEvent(
+            joint=joint, stamp_s=stamp, event='reset', wear=None, note=reason, user=user),
+            robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
+
+
+def alarm_log(backend: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
+              limit: Optional[int] = None, before_id: Optional[int] = None) -> list[AlarmEvent]:
+    """Return the fleet's alarm events, newest first (id descending).
+
+    ``robot``/``joint`` keep one robot's or one joint's events (a joint name of every robot
+    when ``robot`` is None); ``before_id`` keeps the events older than that id (the next page);
+    ``limit`` at most that many.
+    """
+    conditions: list[str] = []
+    params: list[Any] = []
+    for column, value in (('robot', robot), ('joint', joint)):
+        if value is not None:
+            conditions.append(f'{column} = ?')
+            params.append(str(value))
+    if before_id is not None:
+        conditions.append('id < ?')
+        params.append(_positive('before_id', before_id))
+    query = f'SELECT {EVENT_COLUMNS} FROM alarm_events'
+    if conditions:
+        query += ' WHERE ' + ' AND '.join(conditions)
+    query += ' ORDER BY id DESC'
+    if limit is not None:
+        query += ' LIMIT ?'
+        params.append(_positive('limit', limit))
+    return [event_from_row(row) for row in backend.execute(query, params)]
+
+
+def _positive(what: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise HistoryError(f'the alarm log {what} must be an integer >= 1, got '
+                           f'{str(value)[:40]!r}')
+    return value

@@ -1,0 +1,139 @@
+"""The dashboard's users, kept in the wear history (schema version 5): name, role, argon2 hash.
+
+Two roles: ``viewer`` reads; ``maintainer`` may also acknowledge and reset alarms.  Passwords
+are hashed with argon2id (argon2-cffi's :class:`~argon2.PasswordHasher`, its default cost);
+the plain password is never stored.  :func:`verify_user` spends one hash verification also for
+an unknown name, so that the time of a login does not tell which names exist; a hash made with
+an older cost is rehashed on the next good login.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import re
+import time
+from typing import Any, Optional
+
+from robot_wear_monitor.monitoring.history.records import HistoryError
+
+#: The roles of the dashboard's users.
+ROLES = ('viewer', 'maintainer')
+#: Shortest password [characters].
+MIN_PASSWORD_CHARS = 8
+#: Longest password [characters] (a bound on the work of one login).
+MAX_PASSWORD_CHARS = 1024
+
+_NAME = re.compile(r'[A-Za-z0-9_.@-]{1,64}')
+
+
+@dataclass(frozen=True)
+class User:
+    """A dashboard user: name, role ('viewer' or 'maintainer'), created [s since the epoch]."""
+
+    name: str
+    role: str
+    created_wall_time_s: float
+
+
+def _hasher() -> Any:
+    try:
+        from argon2 import PasswordHasher
+    except ImportError:
+        raise HistoryError('dashboard users need argon2-cffi: pip install '
+                           '"robot_wear_monitor[dashboard]"') from None
+    return PasswordHasher()
+
+
+_DUMMY_HASH: Optional[str] = None
+
+
+def _dummy_hash(hasher: Any) -> str:
+    """Return a hash to verify against for an unknown name (made once per process)."""
+    global _DUMMY_HASH
+    if _DUMMY_HASH is None:
+        _DUMMY_HASH = hasher.hash('not a password of anyone')
+    return _DUMMY_HASH
+
+
+def check_user_name(name: Any) -> str:
+    """Return ``name`` when it is 1-64 of A-Z a-z 0-9 _ . @ -; else :class:`HistoryError`."""
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise HistoryError('a user name is 1-64 characters of A-Z a-z 0-9 _ . @ -, got '
+                           f'{str(name)[:40]!r}')
+    return name
+
+
+def check_role(role: Any) -> str:
+    """Return ``role`` when it is a known role; else :class:`HistoryError`."""
+    if role not in ROLES:
+        raise HistoryError(f'a user role is {" or ".join(ROLES)}, got {str(role)[:40]!r}')
+    return str(role)
+
+
+def add_user(backend: Any, *, name: str, role: str, password: str) -> User:
+    """Add a user with the argon2 hash of ``password``; return it.
+
+    Raises :class:`HistoryError` when the name is taken or not allowed, the role unknown, or
+    the password empty, shorter than :data:`MIN_PASSWORD_CHARS` or longer than
+    :data:`MAX_PASSWORD_CHARS`.
+    """
+    name = check_user_name(name)
+    role = check_role(role)
+    if not isinstance(password, str) or len(password) < MIN_PASSWORD_CHARS:
+        raise HistoryError(f'the password of user {name!r} must have at least '
+                           f'{MIN_PASSWORD_CHARS} characters')
+    if len(password) > MAX_PASSWORD_CHARS:
+        raise HistoryError(f'the password of user {name!r} must have at most '
+                           f'{MAX_PASSWORD_CHARS} characters')
+    password_hash = _hasher().hash(password)
+    now = time.time()
+    with backend.transaction():
+        rows = backend.execute(
+            'INSERT INTO users (name, role, password_hash, created_wall_time_s) '
+            'VALUES (?, ?, ?, ?) ON CONFLICT (name) DO NOTHING RETURNING name',
+            (name, role, password_hash, now))
+    if not rows:
+        raise HistoryError(f'{backend.name}: user {name!r} exists already')
+    return User(name=name, role=role, created_wall_time_s=now)
+
+
+def remove_user(backend: Any, *, name: str) -> None:
+    """Remove the user ``name``; :class:`HistoryError` when there is none."""
+    name = check_user_name(name)
+    with backend.transaction():
+        rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))
+    if not rows:
+        raise HistoryError(f'{backend.name}: no user {name!r}')
+
+
+def list_users(backend: Any) -> list[User]:
+    """Return the users, sorted by name."""
+    return [User(name=row[0], role=row[1], created_wall_time_s=float(row[2]))
+            for row in backend.execute(
+                'SELECT name, role, created_wall_time_s FROM users ORDER BY name')]
+
+
+def verify_user(backend: Any, *, name: str, password: str) -> Optional[User]:
+    """Return the user when ``password`` is theirs; None otherwise (also for unknown names).
+
+    An unknown or malformed name costs one argon2 verification too (against a dummy hash).
+    """
+    hasher = _hasher()
+    from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
+    rows = []
+    if isinstance(name, str) and _NAME.fullmatch(name):
+        rows = backend.execute('SELECT name, role, created_wall_time_s, password_hash FROM '
+                               'users WHERE name = ?', (name,))
+    stored = rows[0][3] if rows else _dummy_hash(hasher)
+    given = password if isinstance(password, str) else ''
+    try:
+        hasher.verify(stored, given[:MAX_PASSWORD_CHARS + 1])
+    except (VerifyMismatchError, VerificationError, InvalidHashError):
+        return None
+    if not rows or len(given) > MAX_PASSWORD_CHARS:
+        return None
+    if hasher.check_needs_rehash(stored):
+        with backend.transaction():
+            backend.execute('UPDATE users SET password_hash = ? WHERE name = ? AND '
+                            'password_hash = ?', (hasher.hash(given), name, stored))
+    return User(name=rows[0][0], role=rows[0][1], created_wall_time_s=float(rows[0][2]))

@@ -1,0 +1,239 @@
+"""The dashboard as a person uses it: a real headless Chromium (Selenium) against uvicorn.
+
+The server runs in a thread on 127.0.0.1 with a free port, over a history with known values
+(fleet_history.py).  Debian's ``chromium`` and ``chromium-driver`` (``.ci/run`` installs them):
+where they are missing these tests skip, except in CI (``CI`` set), where they fail.
+"""
+
+from dataclasses import replace
+import os
+import socket
+import threading
+import time
+
+import pytest
+
+from fleet_history import (EXPERIMENTS, make_fleet, ORDER, PASSWORDS, record, wear_of,
+                           XSS_ROBOT)
+from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
+from robot_wear_monitor.dashboard.pages import joint_url
+from robot_wear_monitor.monitoring.history import open_history
+
+CHROMEDRIVER = '/usr/bin/chromedriver'
+CHROMIUM = '/usr/bin/chromium'
+WAIT_S = 20.0
+
+
+def _need_chromium() -> None:
+    missing = [p for p in (CHROMEDRIVER, CHROMIUM) if not os.path.exists(p)]
+    if not missing:
+        return
+    message = (f'{", ".join(missing)} missing: apt-get install chromium chromium-driver '
+               '(.ci/run does it)')
+    if os.environ.get('CI'):
+        pytest.fail(message)
+    pytest.skip(message)
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        return sock.getsockname()[1]
+
+
+@pytest.fixture()
+def history(tmp_path) -> str:
+    return make_fleet(str(tmp_path / 'fleet.sqlite3'))
+
+
+@pytest.fixture()
+def server(history):
+    """Serve the dashboard of ``history`` with uvicorn in a thread; yield its base URL."""
+    import uvicorn
+    port = _free_port()
+    app = create_app(DashboardSettings(history=history, poll_interval_ms=400))
+    config = uvicorn.Config(app, host='127.0.0.1', port=port, log_level='warning')
+    instance = uvicorn.Server(config)
+    thread = threading.Thread(target=instance.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + WAIT_S
+    while not instance.started:
+        assert time.monotonic() < deadline, 'uvicorn did not start'
+        assert thread.is_alive(), 'uvicorn stopped'
+        time.sleep(0.05)
+    yield f'http://127.0.0.1:{port}'
+    instance.should_exit = True
+    thread.join(timeout=WAIT_S)
+
+
+@pytest.fixture()
+def browser():
+    _need_chromium()
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for argument in ('--headless=new', '--no-sandbox', '--disable-dev-shm-usage',
+                     '--window-size=1400,1000', '--disable-gpu'):
+        options.add_argument(argument)
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    driver.set_page_load_timeout(WAIT_S)
+    yield driver
+    driver.quit()
+
+
+def _wait(driver, condition, what: str):
+    from selenium.webdriver.support.ui import WebDriverWait
+    return WebDriverWait(driver, WAIT_S, poll_frequency=0.1).until(
+        lambda d: condition(d), message=what)
+
+
+def _by(kind: str):
+    from selenium.webdriver.common.by import By
+    return getattr(By, kind)
+
+
+def _log_in(driver, base: str, name: str) -> None:
+    driver.get(base + '/')
+    assert '/login' in driver.current_url  # no session: the login page
+    driver.find_element(_by('ID'), 'username').send_keys(name)
+    driver.find_element(_by('ID'), 'password').send_keys(PASSWORDS[name])
+    driver.find_element(_by('ID'), 'login-button').click()
+    _wait(driver, lambda d: d.find_elements(_by('ID'), 'fleet-rows'), 'the fleet page')
+
+
+def _no_alert(driver) -> None:
+    from selenium.common.exceptions import NoAlertPresentException
+    with pytest.raises(NoAlertPresentException):
+        driver.switch_to.alert.text
+
+
+def _rows(driver) -> list[tuple[str, str]]:
+    return [(tr.find_element(_by('CSS_SELECTOR'), '.c-robot').text,
+             tr.find_element(_by('CSS_SELECTOR'), '.c-joint').text)
+            for tr in driver.find_elements(_by('CSS_SELECTOR'), '#fleet-rows tr')]
+
+
+def _wear_trace(driver) -> dict:
+    script = ("const gd = document.getElementById('wear-chart');"
+              'if (!gd || !gd.data) { return null; }'
+              "const t = gd.data.find((d) => d.name === 'w-hat');"
+              'return t ? {x: Array.from(t.x), y: Array.from(t.y)} : null;')
+    return _wait(driver, lambda d: d.execute_script(script), 'the w-hat trace of the chart')
+
+
+def test_fleet_worst_first_then_a_joint_with_one_point_per_experiment(server, browser):
+    _log_in(browser, server, 'vic')
+    assert _rows(browser) == ORDER
+    counts = {n.get_attribute('data-state'): n.text
+              for n in browser.find_elements(_by('CSS_SELECTOR'), '#counts .count')}
+    assert counts['alarm'] == '1' and counts['ok'] == '4'
+    browser.find_element(_by('LINK_TEXT'), 'joint_5').click()
+    _wait(browser, lambda d: d.find_elements(_by('ID'), 'joint-name'), 'the joint page')
+    assert browser.find_element(_by('ID'), 'joint-name').text == 'joint_5'
+    trace = _wear_trace(browser)
+    assert len(trace['x']) == EXPERIMENTS
+    assert trace['y'] == pytest.approx([wear_of(18.0, k) for k in range(EXPERIMENTS)])
+    # the experiment whose model check failed (p = 0.002) is marked
+    failed = browser.execute_script(
+        "return document.getElementById('wear-chart').data"
+        ".find((d) => d.name.startsWith('model check failed')).y;")
+    assert failed == pytest.approx([18.0])
+    assert browser.execute_script(
+        "return document.getElementById('friction-chart').data.length;") >= 2
+    # the OpenAPI page works offline: Swagger UI from the app lists the API's routes
+    browser.get(server + '/docs')
+    paths = _wait(browser, lambda d: [n.text for n in d.find_elements(
+        _by('CSS_SELECTOR'), '.opblock-summary-path')], 'the OpenAPI page')
+    assert '/api/fleet' in paths and '/api/alarms' in paths
+
+
+def test_maintainer_acknowledges_then_resets_with_a_reason(server, browser, history):
+    _log_in(browser, server, 'mia')
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    browser.find_element(_by('ID'), 'ack-owner').send_keys('Team B')
+    browser.find_element(_by('ID'), 'ack-comment').send_keys('gearbox ordered')
+    browser.find_element(_by('ID'), 'acknowledge-button').click()
+    _wait(browser, lambda d: 'alarm acknowledged' in d.find_element(_by('ID'), 'flash').text,
+          'the acknowledgement')
+    browser.get(server + '/')
+    first = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr')
+    assert first.find_element(_by('CSS_SELECTOR'), '.c-state').text == 'acknowledged'
+    assert 'acknowledged by mia' in first.find_element(_by('CSS_SELECTOR'), '.c-alarm').text
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    browser.find_element(_by('ID'), 'reset-reason').send_keys('gearbox replaced, SN 4711')
+    browser.find_element(_by('ID'), 'reset-button').click()
+    _wait(browser, lambda d: 'alarm reset' in d.find_element(_by('ID'), 'flash').text,
+          'the reset')
+    assert not browser.find_elements(_by('ID'), 'reset-form')
+    browser.find_element(_by('LINK_TEXT'), 'Alarm log').click()
+    newest = _wait(browser, lambda d: d.find_elements(_by('CSS_SELECTOR'), '#alarm-log tbody tr'),
+                   'the alarm log')[0]
+    cells = [td.text for td in newest.find_elements(_by('TAG_NAME'), 'td')]
+    assert cells[1:4] == ['press_line', 'joint_2', 'reset']
+    assert cells[5] == 'mia' and cells[-1] == 'gearbox replaced, SN 4711'
+    with open_history(history, init=False) as stored:
+        assert not stored.restore(joint='joint_2', robot='press_line').alarm_active
+        assert (stored.alarm_log()[0].event, stored.alarm_log()[0].user) == ('reset', 'mia')
+
+
+def test_viewer_cannot_reset(server, browser, history):
+    _log_in(browser, server, 'vic')
+    url = joint_url('press_line', 'joint_2')
+    browser.get(server + url)
+    assert not browser.find_elements(_by('ID'), 'reset-form')
+    assert 'maintainer' in browser.find_element(_by('ID'), 'viewer-note').text
+    # the form sent anyway, from the viewer's own session, with the CSRF token: refused
+    status = browser.execute_async_script(
+        'const done = arguments[arguments.length - 1];'
+        "const body = new FormData(); body.set('reason', 'not mine to say');"
+        "body.set('csrf_token', document.querySelector('input[name=csrf_token]').value);"
+        "fetch(arguments[0], {method: 'POST', body: body}).then((r) => done(r.status));",
+        url + '/reset')
+    assert status == 403
+    with open_history(history, init=False) as stored:
+        assert stored.restore(joint='joint_2', robot='press_line').alarm_active
+
+
+def test_a_robot_named_like_html_shows_as_text(server, browser):
+    _log_in(browser, server, 'vic')
+    _no_alert(browser)
+    assert XSS_ROBOT in [robot for robot, _ in _rows(browser)]
+    assert not browser.find_elements(_by('CSS_SELECTOR'), '#fleet-rows img')
+    browser.get(server + joint_url(XSS_ROBOT, 'joint_1'))
+    _wear_trace(browser)
+    _no_alert(browser)
+    assert browser.find_element(_by('ID'), 'robot-name').text == XSS_ROBOT
+    assert not browser.find_elements(_by('CSS_SELECTOR'), 'main img')
+
+
+def test_new_experiments_appear_without_a_reload(server, browser, history):
+    _log_in(browser, server, 'vic')
+    browser.execute_script('window.notReloaded = true;')
+    row = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-joint="joint_1"]'
+                                                    '[data-robot="press_line"]')
+    assert row.find_element(_by('CSS_SELECTOR'), '.c-experiments').text == str(EXPERIMENTS)
+    with open_history(history) as stored:
+        stored.append(record('press_line', 'joint_1', EXPERIMENTS, now_s=time.time() + 3600))
+    _wait(browser, lambda d: row.find_element(_by('CSS_SELECTOR'), '.c-experiments').text
+          == str(EXPERIMENTS + 1), 'the new experiment on the fleet page')
+    assert browser.execute_script('return window.notReloaded === true;')  # the same page
+    # a joint new to the history gets its row, in its place (crossing in 4: second)
+    with open_history(history) as stored:
+        stored.append(replace(record('welder_7', 'joint_3', 0, now_s=time.time()),
+                              joint='joint_6', crossing_experiments=2.0, wear=31.0))
+    _wait(browser, lambda d: _rows(d)[1] == ('welder_7', 'joint_6'), 'the new joint')
+    new = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-joint="joint_6"]')
+    assert new.find_element(_by('CSS_SELECTOR'), '.c-joint a').get_attribute('href') == \
+        server + joint_url('welder_7', 'joint_6')
+    assert new.find_element(_by('CSS_SELECTOR'), '.c-wear .num').text.startswith('31.0 [')
+    assert browser.execute_script('return window.notReloaded === true;')
+    browser.get(server + joint_url('press_line', 'joint_1'))
+    assert len(_wear_trace(browser)['x']) == EXPERIMENTS + 1
+    browser.execute_script('window.notReloaded = true;')
+    with open_history(history) as stored:
+        stored.append(record('press_line', 'joint_1', EXPERIMENTS + 1,
+                             now_s=time.time() + 7200))
+    _wait(browser, lambda d: len(_wear_trace(d)['x']) == EXPERIMENTS + 2,
+          'the new experiment in the chart')
+    assert browser.execute_script('return window.notReloaded === true;')

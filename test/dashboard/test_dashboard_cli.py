@@ -1,0 +1,106 @@
+"""``robot-wear-monitor dashboard``: users from the command line, the host rule, a real start.
+
+The password is read from stdin (never argv); a non-loopback ``--host`` without TLS or
+``--insecure-http`` is refused with exit 2; the command serves the login page on the port given.
+"""
+
+import os
+from pathlib import Path
+import socket
+import subprocess
+import sys
+import time
+
+import httpx
+import pytest
+
+from fleet_history import make_fleet
+from robot_wear_monitor.cli import main as cli_main
+from robot_wear_monitor.dashboard.server import check_listen, is_loopback
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.monitoring.history import open_history
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _cli(*args: str, stdin: str = '') -> subprocess.CompletedProcess:
+    env = {**os.environ, 'PYTHONPATH': str(REPO)}
+    return subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', *args], input=stdin,
+                          capture_output=True, text=True, env=env, timeout=120)
+
+
+def test_users_added_listed_and_removed(tmp_path):
+    history = str(tmp_path / 'h.sqlite3')
+    added = _cli('dashboard', 'user', 'add', 'ana', '--role', 'maintainer', '--history',
+                 history, stdin='a long password\n')
+    assert added.returncode == 0, added.stderr
+    assert 'ana' in added.stdout and 'a long password' not in added.stdout
+    with open_history(history, init=False) as stored:
+        assert stored.verify_user(name='ana', password='a long password').role == 'maintainer'
+        assert stored.verify_user(name='ana', password='a long password\n') is None
+    listed = _cli('dashboard', 'user', 'list', '--history', history)
+    assert listed.returncode == 0 and 'ana  maintainer' in listed.stdout
+    again = _cli('dashboard', 'user', 'add', 'ana', '--role', 'viewer', '--history', history,
+                 stdin='another password\n')
+    assert again.returncode == 2 and 'ana' in again.stderr
+    short = _cli('dashboard', 'user', 'add', 'bob', '--role', 'viewer', '--history', history,
+                 stdin='short\n')
+    assert short.returncode == 2 and len(short.stderr.strip().splitlines()) == 1
+    removed = _cli('dashboard', 'user', 'remove', 'ana', '--history', history)
+    assert removed.returncode == 0
+    with open_history(history, init=False) as stored:
+        assert stored.users() == []
+
+
+def test_no_password_on_the_command_line(tmp_path, capsys):
+    history = str(tmp_path / 'h.sqlite3')
+    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'viewer', '--history',
+                     history, '--password', 'a long password']) == 2
+    assert 'unrecognized arguments' in capsys.readouterr().err
+    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'admin', '--history',
+                     history]) == 2
+
+
+def test_a_host_reachable_from_other_machines_needs_tls(tmp_path, capsys):
+    history = make_fleet(str(tmp_path / 'h.sqlite3'))
+    assert cli_main(['dashboard', '--history', history, '--host', '0.0.0.0']) == 2
+    error = capsys.readouterr().err
+    assert '--tls-cert' in error and '--insecure-http' in error
+    assert cli_main(['dashboard', '--history', history, '--tls-cert', 'cert.pem']) == 2
+    assert 'go together' in capsys.readouterr().err
+    assert cli_main(['dashboard', '--history', str(tmp_path / 'none.sqlite3')]) == 2
+    for host in ('127.0.0.1', '127.0.0.2', '::1', 'localhost'):
+        assert is_loopback(host), host
+        check_listen(host=host, tls_cert=None, tls_key=None, insecure_http=False)
+    for host in ('0.0.0.0', '10.1.2.3', '::'):
+        assert not is_loopback(host), host
+        with pytest.raises(InputError):
+            check_listen(host=host, tls_cert=None, tls_key=None, insecure_http=False)
+        check_listen(host=host, tls_cert=None, tls_key=None, insecure_http=True)
+
+
+def test_the_command_serves_the_login_page(tmp_path):
+    history = make_fleet(str(tmp_path / 'h.sqlite3'))
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        port = sock.getsockname()[1]
+    env = {**os.environ, 'PYTHONPATH': str(REPO)}
+    process = subprocess.Popen([sys.executable, '-m', 'robot_wear_monitor.cli', 'dashboard',
+                                '--history', history, '--port', str(port)], env=env,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            assert process.poll() is None, process.communicate()[1]
+            try:
+                response = httpx.get(f'http://127.0.0.1:{port}/login', timeout=2)
+                break
+            except httpx.TransportError:
+                assert time.monotonic() < deadline, 'the dashboard did not answer'
+                time.sleep(0.2)
+        assert response.status_code == 200 and 'name="username"' in response.text
+        assert httpx.get(f'http://127.0.0.1:{port}/api/fleet').status_code == 401
+    finally:
+        process.terminate()
+        _, err = process.communicate(timeout=30)
+    assert f'127.0.0.1:{port}' in err

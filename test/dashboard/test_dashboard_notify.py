@@ -1,0 +1,78 @@
+"""``dashboard --notify CONFIG``: the server process sends the fleet's notifications, once.
+
+A webhook receiver on 127.0.0.1 (the test's own, stdlib ``http.server``) gets the alarm of the
+known fleet while the app runs; a second app on the same history sends nothing again (the
+history keeps what was sent).  The command line refuses a bad configuration before serving.
+"""
+
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+import json
+import threading
+import time
+
+from fastapi.testclient import TestClient
+import pytest
+
+from fleet_history import make_fleet
+from robot_wear_monitor.cli import main as cli_main
+from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
+
+
+@pytest.fixture()
+def receiver():
+    """Yield (URL, list of received JSON bodies) of a webhook receiver on 127.0.0.1."""
+    received: list = []
+
+    class Hook(BaseHTTPRequestHandler):
+
+        def do_POST(self):  # noqa: N802 - http.server's name
+            length = int(self.headers.get('Content-Length', '0'))
+            received.append(json.loads(self.rfile.read(length)))
+            self.send_response(200)
+            self.end_headers()
+
+        def log_message(self, *args):
+            pass
+
+    server = ThreadingHTTPServer(('127.0.0.1', 0), Hook)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f'http://127.0.0.1:{server.server_address[1]}/hook', received
+    server.shutdown()
+    server.server_close()
+
+
+def _config(tmp_path, url: str):
+    path = tmp_path / 'notifications.yaml'
+    path.write_text(f'events: [alarm_raised]\nwebhooks:\n  - name: ops\n    url: {url}\n')
+    return path
+
+
+def _run_app(history: str, config, seconds: float, received: list, want: int) -> None:
+    app = create_app(DashboardSettings(history=history, notify_config=str(config),
+                                       notify_interval_s=0.2))
+    with TestClient(app):
+        deadline = time.monotonic() + seconds
+        while len(received) < want and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.6)  # a few more passes: nothing is sent twice
+
+
+def test_the_server_sends_the_alarm_once(tmp_path, receiver):
+    url, received = receiver
+    history = make_fleet(str(tmp_path / 'fleet.sqlite3'))
+    config = _config(tmp_path, url)
+    _run_app(history, config, 20.0, received, want=1)
+    assert len(received) == 1
+    text = json.dumps(received[0])
+    assert 'press_line' in text and 'joint_2' in text
+    _run_app(history, config, 1.0, received, want=2)  # a restarted server
+    assert len(received) == 1
+
+
+def test_a_bad_configuration_stops_the_start(tmp_path, capsys):
+    history = make_fleet(str(tmp_path / 'fleet.sqlite3'))
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('webhooks:\n  - name: ops\n    url: ftp://nowhere\n')
+    assert cli_main(['dashboard', '--history', history, '--notify', str(bad)]) == 2
+    assert 'url' in capsys.readouterr().err
