@@ -9,7 +9,7 @@ PACKAGE_NAME = 'robot_wear_monitor'
 
 setup(
     name=PACKAGE_NAME,
-    version='0.3.0',
+    version='0.4.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
     # the interval calibrations that ship (estimation/intervals.py, SHIPPED_CALIBRATIONS)
     package_data={PACKAGE_NAME + '.estimation': ['calibrations.json'],

@@ -5,4 +5,4 @@ ROS-agnostic: it imports numpy, scipy and rosbags only.  The rclpy nodes live in
 ``robot_wear_monitor.nodes`` and are thin shells over the core.
 """
 
-__version__ = '0.3.0'
+__version__ = '0.4.0'
