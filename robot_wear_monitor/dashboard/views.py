@@ -19,7 +19,7 @@ from urllib.parse import quote
 from markupsafe import Markup
 import numpy as np
 
-from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, iso_time
+from robot_wear_monitor.fleet.ranking import crossing_text, fleet_view, FleetView, iso_time
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
                                              ParameterSet)
@@ -220,18 +220,6 @@ def _interval_text(wear: float, low: float, high: float) -> str:
     return f'{wear:.1f} [interval unknown]'
 
 
-def _crossing_text(view: FleetView) -> str:
-    crossing = view.state.crossing_experiments
-    if not math.isfinite(crossing):
-        return 'not within the forecast horizon'
-    if crossing <= 0:
-        return 'crossed (trend past the threshold)'
-    text = f'in {crossing:.0f} experiments'
-    if view.crossing_time_s is not None:
-        text += f' (~{utc_text(view.crossing_time_s)[:10]})'
-    return text
-
-
 def _bar(state: Any, threshold: float) -> dict[str, float]:
     """Return the wear bar's positions [% of its width]: interval, estimate, threshold."""
     values = [v for v in (state.wear, state.wear_high) if math.isfinite(v)]
@@ -278,7 +266,7 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
                                         state.wear_low, state.wear_high),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
-                 'crossing': _crossing_text(view), 'alarm': _alarm_text(state),
+                 'crossing': crossing_text(view), 'alarm': _alarm_text(state),
                  'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })

@@ -87,7 +87,8 @@ def iso_time(stamp_s: Optional[float], *, local: bool = False) -> str:
     return moment.isoformat(timespec='seconds').replace('+00:00', 'Z')
 
 
-def _crossing_text(row: FleetView, local: bool) -> str:
+def crossing_text(row: FleetView, *, local: bool = False) -> str:
+    """Return the forecast crossing in words: experiments to go and the date it falls on."""
     crossing = row.state.crossing_experiments
     if not math.isfinite(crossing):
         return 'not within the forecast horizon'
@@ -138,7 +139,7 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
         s = row.state
         alarm = _alarm_text(s, local)
         lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
-                      _wear_text(s), _trend_text(s), alarm, _crossing_text(row, local),
+                      _wear_text(s), _trend_text(s), alarm, crossing_text(row, local=local),
                       str(s.experiments),
                       iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)

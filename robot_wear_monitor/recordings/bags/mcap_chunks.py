@@ -200,13 +200,9 @@ def _fixed_stride(data: bytes, at: int, length: int) -> Optional[tuple[int, int,
     return at, stride, count
 
 
-def _stride_rows(fixed: tuple[int, int, int], data: bytes,
-                 channels: set[int]) -> Optional[RawBatch]:
-    """Return the messages of a chunk that is one run of same-size records, as rows.
-
-    None when the run has no message of ``channels`` (or the caller should list them one by
-    one); the order is the log-time order (stable), as :func:`split_records` gives it.
-    """
+def _record_rows(fixed: tuple[int, int, int], data: bytes,
+                 channels: set[int]) -> tuple[NDArray, NDArray, NDArray]:
+    """Return a run of same-size records as byte rows, their log times [ns] and topic mask."""
     at, stride, count = fixed
     rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
         count, stride)
@@ -214,6 +210,18 @@ def _stride_rows(fixed: tuple[int, int, int], data: bytes,
     channel = rows[:, head:head + 2].copy().view('<u2').ravel()
     log_time = rows[:, head + 6:head + 14].copy().view('<u8').ravel().astype(np.int64)
     keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
+    return rows, log_time, keep
+
+
+def _stride_rows(fixed: tuple[int, int, int], data: bytes,
+                 channels: set[int]) -> Optional[RawBatch]:
+    """Return the messages of a chunk that is one run of same-size records, as rows.
+
+    None when the run has no message of ``channels`` (or the caller should list them one by
+    one); the order is the log-time order (stable), as :func:`split_records` gives it.
+    """
+    rows, log_time, keep = _record_rows(fixed, data, channels)
+    head = _RECORD_HEAD
     if not keep.any():
         return None
     payload = rows[:, head + _MESSAGE_HEAD:]
@@ -229,12 +237,8 @@ def _take_stride(fixed: tuple[int, int, int], data: bytes, channels: set[int],
                  starts: list[int], ends: list[int], times: list[int]) -> None:
     """Add the messages of a run of same-size message records (numpy, no per-record parsing)."""
     at, stride, count = fixed
-    rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
-        count, stride)
+    rows, log_time, keep = _record_rows(fixed, data, channels)
     head = _RECORD_HEAD
-    channel = rows[:, head:head + 2].copy().view('<u2').ravel()
-    log_time = rows[:, head + 6:head + 14].copy().view('<u8').ravel().astype(np.int64)
-    keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
     first = at + head + _MESSAGE_HEAD + stride * np.flatnonzero(keep)
     starts.extend(first.tolist())
     ends.extend((first + (stride - head - _MESSAGE_HEAD)).tolist())
