@@ -75,9 +75,7 @@ def history_version(history: Any) -> tuple:
     Estimates and alarm events are only ever added (ids grow), so equal versions mean equal
     fleets.  Two index lookups.
     """
-    rows = history._backend.execute(  # noqa: SLF001 - a read the history has no method for
-        'SELECT (SELECT MAX(id) FROM estimates), (SELECT MAX(id) FROM alarm_events)')
-    return (history.path, *rows[0])
+    return (history.path, *history.latest_ids())
 
 
 class FleetCache:
