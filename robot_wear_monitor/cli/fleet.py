@@ -55,7 +55,7 @@ def parse_time(text: str, *, option: str = '--now') -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
-    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.cli.outputs import write_text_output
     from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view
     from robot_wear_monitor.monitoring.history import open_history
     now_s = parse_time(args.now) if args.now else time.time()
@@ -69,13 +69,7 @@ def main(args: argparse.Namespace) -> int:
         buffer = io.StringIO()
         csv.writer(buffer, lineterminator='\n').writerows(fleet_csv_rows(rows,
                                                                          local=args.local))
-        if args.csv == '-':
-            print(buffer.getvalue(), end='')
-        else:
-            try:
-                write_text_atomic(args.csv, buffer.getvalue())
-            except OSError as error:
-                raise InputError(f'{args.csv}: cannot write: {error.strerror}') from None
+        if write_text_output(args.csv, buffer.getvalue()):
             print(f'{len(rows)} rows written to {args.csv}')
         return 0
     if not rows:

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import sys
 from typing import Any
 
 from robot_wear_monitor.cli.options import add_json, add_local, add_robot, emit_json, PROG
@@ -152,7 +151,7 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
 
 def alarm_log_main(args: argparse.Namespace) -> int:
     """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
-    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.cli.outputs import write_text_output
     from robot_wear_monitor.monitoring.diagnostics import clean_text
     from robot_wear_monitor.monitoring.history import open_history
 
@@ -171,13 +170,7 @@ def alarm_log_main(args: argparse.Namespace) -> int:
             writer.writerow(['' if row[c] is None else
                              format(row[c], '.6g') if c == 'wear' else row[c]
                              for c in ALARM_LOG_COLUMNS])
-        if args.csv == '-':
-            sys.stdout.write(buffer.getvalue())
-        else:
-            try:
-                write_text_atomic(args.csv, buffer.getvalue())
-            except OSError as error:
-                raise InputError(f'{args.csv}: cannot write: {error.strerror}') from None
+        if write_text_output(args.csv, buffer.getvalue()):
             print(f'{len(rows)} alarm events written to {args.csv}')
         return 0
     print(f'{len(rows)} alarm event(s), newest first; times '

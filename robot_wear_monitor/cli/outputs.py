@@ -13,8 +13,11 @@ from __future__ import annotations
 import argparse
 import os
 from pathlib import Path
+import sys
 
-from robot_wear_monitor.atomic_files import check_writable, check_writable_file, OutputError
+from robot_wear_monitor.atomic_files import (check_writable, check_writable_file, OutputError,
+                                             write_text_atomic)
+from robot_wear_monitor.errors import InputError
 
 #: Verbs whose ``--out`` is a folder (a bag, a report folder); elsewhere it is a file.
 FOLDER_OUT = ('simulate', 'replay', 'demo')
@@ -60,3 +63,18 @@ def check_outputs(args: argparse.Namespace) -> None:
     if history and command in HISTORY_WRITERS and str(history) != ':memory:' \
             and not is_postgresql_url(history):
         check_writable_file(history, what='--history')
+
+
+def write_text_output(target: str, text: str) -> bool:
+    """Write ``text`` to the file ``target`` atomically, or to stdout when ``target`` is '-'.
+
+    Return True when a file was written; an OS failure is an :class:`InputError` naming the path.
+    """
+    if target == '-':
+        sys.stdout.write(text)
+        return False
+    try:
+        write_text_atomic(target, text)
+    except OSError as error:
+        raise InputError(f'{target}: cannot write: {error.strerror}') from None
+    return True
