@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any, Callable
 
 from robot_wear_monitor.cli.options import (add_params, check_option, FINITE, params_from,
                                             parse_float_list)
@@ -40,6 +41,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 MAX_EXPERIMENTS = 100_000
 
 
+def _simulate(simulate_scenario: Callable[..., Any], *, config: Any, params: Any,
+              args: argparse.Namespace) -> Any:
+    """Return the simulated scenario; an error names the option a user changes, not a field."""
+    from robot_wear_monitor.experiment.planning import PlanError
+    try:
+        return simulate_scenario(config=config, model=params.model, seed=args.seed)
+    except PlanError as error:
+        # the plan follows from the speeds and the sample rate (a plateau needs enough samples)
+        raise InputError(f'--speeds/--sample-rate: the experiment cannot be planned at '
+                         f'{args.sample_rate:g} Hz: {error.detail} (raise --sample-rate or '
+                         f'lower --speeds)') from None
+    except InputError as error:
+        text = str(error)
+        if text.startswith('ScenarioConfig.experiment_interval_s:'):
+            detail = text.split(':', 1)[1].strip()
+            raise InputError(f'--interval {args.interval:g} s: {detail} (raise --interval)') \
+                from None
+        raise
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``simulate``: write the bag and its truth JSON beside it."""
     from pathlib import Path
@@ -75,7 +96,7 @@ def main(args: argparse.Namespace) -> int:
             raise InputError(f'--start-time: must be between 1970 and 2099, got '
                              f'{args.start_time[:40]}')
         config = replace(config, start_time_s=start_s)
-    scenario = simulate_scenario(config=config, model=params.model, seed=args.seed)
+    scenario = _simulate(simulate_scenario, config=config, params=params, args=args)
     bag = write_joint_state_bag(args.out, stamps_s=scenario.time_s, names=scenario.joint_names,
                                 position=scenario.position_rad,
                                 velocity=scenario.velocity_rad_s, effort=scenario.effort,

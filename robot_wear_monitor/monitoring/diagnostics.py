@@ -100,6 +100,16 @@ def is_routine(reason: str) -> bool:
     return reason in ROUTINE_REJECTIONS
 
 
+def split_rejections(rejections: Mapping[str, int]) -> tuple[dict[str, int], dict[str, int]]:
+    """Return ``(bad data, routine)``: the rejections that signal bad data and the routine ones.
+
+    Both sorted by reason, zero counts left out; :func:`is_routine` tells them apart.
+    """
+    ordered = sorted((r, int(n)) for r, n in rejections.items() if n)
+    return ({r: n for r, n in ordered if not is_routine(r)},
+            {r: n for r, n in ordered if is_routine(r)})
+
+
 def rejection_text(rejections: Mapping[str, int]) -> str:
     """Return the rejections in words: the bad-data ones named, the routine ones only counted.
 

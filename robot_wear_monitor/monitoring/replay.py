@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.monitoring.diagnostics import json_number
+from robot_wear_monitor.monitoring.diagnostics import json_number, split_rejections
 from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
                                                               FrictionExperimentService)
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -115,6 +115,8 @@ class ReplayResult:
             'forecast': (None if not self.updates or self.updates[-1].trend is None
                          else self.updates[-1].trend.to_json()),
             'rejections': dict(sorted(self.rejections.items())),
+            'bad_data_rejections': split_rejections(self.rejections)[0],
+            'routine_rejections': split_rejections(self.rejections)[1],
             'out_bag': None if self.out_bag is None else str(self.out_bag),
             'recovery': None if self.recovery is None else {
                 'files': list(self.recovery.files), 'messages': self.recovery.messages,
@@ -371,6 +373,8 @@ def joint_summary(service: FrictionExperimentService, stream: Any,
     summary['rejected'] = {**{f'reader_{k}': v for k, v in
                               sorted(stream.rejections.get(service.joint, {}).items())},
                            **summary['rejected']}
+    summary['bad_data_rejected'], summary['routine_rejected'] = split_rejections(
+        summary['rejected'])
     summary['estimates'] = len(mine)
     summary['first_alarm'] = None if first is None else {
         'index': first.index, 'stamp_s': first.stamp_s, 'wear': json_number(first.wear)}

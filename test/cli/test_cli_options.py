@@ -161,3 +161,17 @@ def test_segment_of_a_bag_defaults_to_the_node_config(small_bag, tmp_path, capsy
     speeds = np.array([float(r.split(',')[0]) for r in rows[1:]])
     nearest = np.abs(speeds[:, None] - np.array([2.1, 28.5, 35.1, 41.7])).min(axis=1)
     assert np.all(nearest < 0.2)  # motor speeds: the joint speeds x 150 (not x 1)
+
+
+@pytest.mark.parametrize('option, value, named', [
+    ('--interval', '1', '--interval 1 s: an experiment lasts'),
+    ('--sample-rate', '1', '--speeds/--sample-rate: the experiment cannot be planned at 1 Hz'),
+])
+def test_simulate_errors_name_the_users_option_not_a_field(option, value, named,
+                                                           tmp_path, capsys):
+    out = tmp_path / 'bag'
+    assert cli.main(['simulate', '--out', str(out), '--experiments', '3', option, value]) == 2
+    error = capsys.readouterr().err
+    assert named in error
+    assert 'ScenarioConfig' not in error and 'window' not in error.split('(')[-1]
+    assert not out.exists()

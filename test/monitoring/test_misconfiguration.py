@@ -17,6 +17,7 @@ import sys
 import pytest
 
 import independent_robot as robot  # noqa: I100 - the test folder's generator
+from robot_wear_monitor.monitoring.diagnostics import is_routine
 from robot_wear_monitor.monitoring.history import open_history
 
 N_EXPERIMENTS = 3
@@ -113,8 +114,13 @@ def test_estimate_says_when_a_fit_fails_instead_of_a_wear_value():
 def test_clean_data_reads_clean(bags, tmp_path):
     done = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'replay',
                            str(bags['right']), '--history', str(tmp_path / 'h.db'),
-                           '--no-progress'], capture_output=True, text=True, check=True)
+                           '--no-progress', '--json-out', str(tmp_path / 'summary.json')],
+                          capture_output=True, text=True, check=True)
     assert 'rejected' not in done.stdout and 'WARNING' not in done.stdout
+    # the summary JSON tells the routine rejections apart from those that mean bad data
+    summary = json.loads((tmp_path / 'summary.json').read_text())
+    assert summary['bad_data_rejections'] == {}
+    assert sum(summary['routine_rejections'].values()) == sum(summary['rejections'].values())
     segment = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'segment',
                               str(bags['right']), '--out', str(tmp_path / 'levels.csv')],
                              capture_output=True, text=True, check=True)
@@ -128,6 +134,17 @@ def test_clean_data_reads_clean(bags, tmp_path):
                               str(simulated), '--out', str(tmp_path / 'sim.csv')],
                              capture_output=True, text=True, check=True)
     assert 'routine:' in segment.stderr and 'rejected' not in segment.stderr
+    subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'replay', str(simulated),
+                    '--history', str(tmp_path / 'sim.db'), '--no-progress', '--json-out',
+                    str(tmp_path / 'sim.json')], check=True, capture_output=True)
+    summary = json.loads((tmp_path / 'sim.json').read_text())
+    assert summary['bad_data_rejections'] == {}
+    assert summary['routine_rejections'] and all(
+        is_routine(reason) for reason in summary['routine_rejections'])
+    assert summary['routine_rejections'] == {r: n for r, n in summary['rejections'].items() if n}
+    for joint in summary['joints']:
+        assert joint['bad_data_rejected'] == {}
+        assert joint['routine_rejected'] == {r: n for r, n in joint['rejected'].items() if n}
     again = subprocess.run([sys.executable, '-m', 'robot_wear_monitor.cli', 'simulate',
                             '--out', str(simulated)], capture_output=True, text=True)
     assert again.returncode == 2 and '--overwrite' in again.stderr
