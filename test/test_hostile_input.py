@@ -62,6 +62,17 @@ def test_a_target_that_is_a_link_is_refused_and_its_target_kept(tmp_path, small_
     assert 'Traceback' not in done.stderr and victim.read_text() == 'export PATH\n'
 
 
+def test_a_link_planted_at_the_history_lock_is_refused_and_its_target_kept(
+        tmp_path, small_bag):
+    victim = tmp_path / 'victim.txt'
+    history = tmp_path / 'h.db'
+    (tmp_path / 'h.db-lock').symlink_to(victim)
+    done = _cli('replay', small_bag, '--history', history, '--no-progress')
+    assert done.returncode == 2 and 'h.db-lock' in done.stderr
+    assert 'symbolic link' in done.stderr and 'Traceback' not in done.stderr
+    assert not victim.exists()
+
+
 def test_a_staging_file_is_private_and_the_output_gets_the_targets_mode(tmp_path):
     target = tmp_path / 'out.json'
     target.write_text('{}')
@@ -339,3 +350,34 @@ def test_random_files_and_options_end_in_exit_0_or_2(tmp_path, verb, data, yaml_
     named = {'h.db', 'h.db-wal', 'h.db-shm', 'out.yaml', 'levels.csv'}
     assert {k: v for k, v in after.items() if k not in named} == before, argv
     json.dumps(argv)  # the case is printable for a report
+
+
+_PACKAGED = (ROOT / 'config' / 'irb6620_joint2.yaml').read_text()
+_KEYS = sorted({line.split(':')[0].strip() for line in _PACKAGED.splitlines()
+                if line.startswith('  ') and ':' in line})
+_NUMBERS = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                     st.sampled_from([0.0, -0.0, 1e-300, -1e-300, 1e300, 1e6, -1e6, 1e-9,
+                                      999999.0, 5e-324]),
+                     st.integers(-10**400, 10**400))
+
+
+@settings(max_examples=60, deadline=None)
+@given(changes=st.lists(st.tuples(st.sampled_from(_KEYS), _NUMBERS), min_size=1, max_size=3),
+       verb=st.sampled_from(['estimate', 'design']))
+def test_random_numbers_in_a_parameter_file_end_in_exit_0_or_2(tmp_path_factory, changes,
+                                                               verb):
+    """Each value of the packaged set replaced by a random number: a result or a named refusal."""
+    import re
+    import warnings
+    text = _PACKAGED
+    for key, value in changes:
+        text = re.sub(rf'^(  {key}:)\s*[^#\n]*', lambda m: f'{m[1]} {value!r} ', text,
+                      count=1, flags=re.M)
+    params = tmp_path_factory.mktemp('params') / 'p.yaml'
+    params.write_text(text)
+    argv = {'estimate': ['estimate', '--speeds', '2.1,28.5,35.1,41.7', '--friction',
+                         '0.05,0.06,0.07,0.08', '--params', str(params)],
+            'design': ['design', '--n', '2', '--params', str(params)]}[verb]
+    with warnings.catch_warnings():
+        warnings.simplefilter('error', RuntimeWarning)  # no overflow passes unnoticed
+        assert main(argv) in (0, 2), (changes, argv)

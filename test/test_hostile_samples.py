@@ -1,9 +1,10 @@
 """Bad samples are rejected one by one: the rest of the recording is used, the reason named.
 
 Recordings of the independent generator (``independent_robot.py``) with every 7th effort NaN,
-every 50th stamp a duplicate of the one before, or values of 1e308: the replay must find the
-same experiments as on the clean recording, estimate nearly the same wear, and name the bad
-samples (not "no plateau", not the gear ratio), without a numpy warning.
+every 50th stamp a duplicate of the one before or three back, or efforts or speeds of 1e308:
+the replay must find the same experiments as on the clean recording, estimate nearly the same
+wear, and name the bad samples (not "no plateau", not the gear ratio), without a numpy
+warning.
 """
 
 from __future__ import annotations
@@ -36,6 +37,14 @@ def _damaged(recording, kind):
         stamps = recording.stamps_ns.copy()
         stamps[100::50] = stamps[99::50][:stamps[100::50].size]
         return dataclasses.replace(recording, stamps_ns=stamps, stamps_s=stamps / 1e9)
+    if kind == 'backward_stamps':
+        stamps = recording.stamps_ns.copy()
+        stamps[100::50] = stamps[97::50][:stamps[100::50].size]
+        return dataclasses.replace(recording, stamps_ns=stamps, stamps_s=stamps / 1e9)
+    if kind == 'huge_velocity':
+        velocity = recording.velocity.copy()
+        velocity[3::500, 1] = 1e308
+        return dataclasses.replace(recording, velocity=velocity)
     if kind == 'huge_values':
         effort = recording.effort.copy()
         effort[3::500, 1] = 1e308
@@ -57,7 +66,10 @@ def _replay(recording, kind, tmp_path):
 @pytest.mark.parametrize('kind, reason', [('nan_effort', 'segmentation_non_finite'),
                                           ('duplicate_stamps',
                                            'segmentation_time_not_increasing'),
-                                          ('huge_values', 'segmentation_out_of_range')])
+                                          ('backward_stamps',
+                                           'segmentation_time_not_increasing'),
+                                          ('huge_values', 'segmentation_out_of_range'),
+                                          ('huge_velocity', 'segmentation_out_of_range')])
 def test_bad_samples_are_rejected_alone(recording, tmp_path, kind, reason):
     clean = _replay(recording, 'clean', tmp_path)
     damaged = _replay(recording, kind, tmp_path)

@@ -136,6 +136,18 @@ _SCALAR_SECTIONS = {
 }
 
 
+#: The largest magnitude of any value in a parameter set (normalised torques are below 1,
+#: torques in N.m below 1e4, motor speeds below 1e5 rad/s): far beyond it, products overflow.
+MAX_MAGNITUDE = 1e6
+#: Physical ranges of the values whose meaning fixes them: temperatures [degC], wear [w], the
+#: smallest noise std a likelihood can be computed with [friction unit].
+TEMPERATURE_RANGE_DEGC = (-273.15, 1000.0)
+WEAR_LIMIT = 1000.0
+SIGMA_MIN = 1e-9
+#: The largest Stribeck exponent alpha (fits use 0.3-5; the paper's is 1.36).
+ALPHA_MAX = 10.0
+
+
 def _number(value: Any, where: str, source: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         hint = ''
@@ -144,9 +156,16 @@ def _number(value: Any, where: str, source: str) -> float:
                     if _looks_numeric(value) else '')
         raise ParameterError(f'{source}: {where}: expected a number, got '
                              f'{type(value).__name__} {shorten(repr(value))}{hint}')
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # a YAML integer of hundreds of digits
+        number = math.inf if value > 0 else -math.inf
     if not math.isfinite(number):
         raise ParameterError(f'{source}: {where}: must be finite, got {shorten(number)}')
+    if abs(number) > MAX_MAGNITUDE:
+        raise ParameterError(f'{source}: {where}: must be within +-{MAX_MAGNITUDE:g} (no '
+                             f'friction model, speed or temperature is larger), got '
+                             f'{shorten(number)}')
     return number
 
 
@@ -178,12 +197,23 @@ def _check_constraints(params: ParameterSet, source: str) -> None:
     """Raise ParameterError for the first value outside its admissible range."""
     model = params.model
     checks = (
-        (params.sigma > 0, 'noise.sigma', 'must be > 0', params.sigma),
+        (params.sigma >= SIGMA_MIN, 'noise.sigma', f'must be >= {SIGMA_MIN:g}', params.sigma),
+        (all(TEMPERATURE_RANGE_DEGC[0] <= t <= TEMPERATURE_RANGE_DEGC[1] for t in (
+            params.temperature_min_degc, params.temperature_max_degc,
+            params.design_temperature_degc)),
+         'estimation.temperature_min_degc/temperature_max_degc, design.temperature_degc',
+         f'must be between {TEMPERATURE_RANGE_DEGC[0]:g} and {TEMPERATURE_RANGE_DEGC[1]:g} degC',
+         (params.temperature_min_degc, params.temperature_max_degc,
+          params.design_temperature_degc)),
+        (params.wear_max <= WEAR_LIMIT, 'estimation.wear_max', f'must be <= {WEAR_LIMIT:g}',
+         params.wear_max),
+        (params.design_wear <= WEAR_LIMIT, 'design.wear', f'must be <= {WEAR_LIMIT:g}',
+         params.design_wear),
         (params.load_std >= 0, 'load.std', 'must be >= 0', params.load_std),
         (params.temperature_min_degc < params.temperature_max_degc,
          'estimation.temperature_min_degc', 'must be < estimation.temperature_max_degc',
          params.temperature_min_degc),
-        (params.wear_max > 0, 'estimation.wear_max', 'must be > 0', params.wear_max),
+        (params.wear_max >= 1, 'estimation.wear_max', 'must be >= 1', params.wear_max),
         (params.speed_min_rad_s > 0, 'design.speed_min_rad_s', 'must be > 0',
          params.speed_min_rad_s),
         (params.speed_min_rad_s < params.speed_max_rad_s, 'design.speed_min_rad_s',
@@ -195,7 +225,8 @@ def _check_constraints(params: ParameterSet, source: str) -> None:
          params.wear_threshold),
         (0 <= params.wear_warning <= params.wear_threshold, 'alarm.wear_warning',
          'must be between 0 and alarm.wear_threshold', params.wear_warning),
-        (model.alpha > 0, 'nominal_model.alpha', 'must be > 0', model.alpha),
+        (0 < model.alpha <= ALPHA_MAX, 'nominal_model.alpha',
+         f'must be > 0 and <= {ALPHA_MAX:g} (a Stribeck exponent)', model.alpha),
         (model.t_v0 != 0, 'nominal_model.t_v0', 'must not be 0', model.t_v0),
         (model.phi_s_load != 0, 'nominal_model.phi_s_load', 'must not be 0', model.phi_s_load),
         (model.phi_s_wear > 0, 'wear_model.phi_s_wear', 'must be > 0', model.phi_s_wear),

@@ -82,8 +82,8 @@ _DELETE = object()
 
 
 @pytest.mark.parametrize('section,key,value,message', [
-    ('noise', 'sigma', 0.0, 'noise.sigma: must be > 0'),
-    ('noise', 'sigma', -1e-3, 'noise.sigma: must be > 0'),
+    ('noise', 'sigma', 0.0, 'noise.sigma: must be >= 1e-09'),
+    ('noise', 'sigma', -1e-3, 'noise.sigma: must be >= 1e-09'),
     ('noise', 'sigma', _DELETE, 'missing key noise.sigma'),
     ('noise', 'sigma', 'small', "noise.sigma: expected a number, got str 'small'"),
     ('noise', 'sigma', '5e-3', 'write 1.0e-3'),

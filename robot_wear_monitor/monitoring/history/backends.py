@@ -16,6 +16,7 @@ advisory locks of the server.
 from __future__ import annotations
 
 from contextlib import contextmanager
+import errno
 import hashlib
 import os
 from pathlib import Path
@@ -237,7 +238,14 @@ class SqliteBackend:
             yield
             return
         if self._lock_fd is None:
-            self._lock_fd = os.open(self.name + '-lock', os.O_RDWR | os.O_CREAT, 0o644)
+            try:  # never through a link planted at the lock's predictable name
+                self._lock_fd = os.open(self.name + '-lock',
+                                        os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+            except OSError as error:
+                reason = ('a symbolic link (refused)' if error.errno == errno.ELOOP
+                          else error.strerror)
+                raise HistoryError(f'{self.name}-lock: cannot open the writer lock: '
+                                   f'{reason}') from None
         offset = key & 0x7FFFFFFFFFFF  # a byte range far apart from its neighbours
         flags = fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB)
         try:
