@@ -182,7 +182,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     and ``position_span`` of the common window [rad], ``time`` (level centre time in the run)
     [s], ``cycle`` (index of the level in its run), ``load_torque`` = |tau+ + tau-|/2 [N.m]
     (the gravity load the level was measured under, the tau_l of eq. (5)) and
-    ``run_duration`` [s].
+    ``run_duration`` [s], and ``direction`` (``positive``/``negative`` for the levels of one
+    pass with a known torque, ``both`` for eq. (3) levels; only when a one-way level is there).
 
     Runs that move one way only (one file per speed and direction) give no level alone; their
     passes are paired across files: a forward and a backward pass of the same joint at the same
@@ -199,7 +200,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     sign = -1.0 if flip_sign else 1.0
     columns: dict[str, list] = {k: [] for k in (
         'speed', 'friction', 'friction_std_error', 'experiment', 'joint', 'pose',
-        'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration')}
+        'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration',
+        'direction')}
     rejected: list[str] = []
     one_way: list[tuple[str, Any, Any]] = []  # (run name, run, pass) of one-way runs
     one_way_files: dict[str, tuple[Any, Any]] = {}  # run name -> (path, settings)
@@ -219,6 +221,9 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         columns['cycle'].append(float(i))
         columns['load_torque'].append(0.5 * abs(level.tau_forward + level.tau_backward))
         columns['run_duration'].append(duration)
+        # a one-way pass keeps its direction; eq. (3) levels hold both
+        columns['direction'].append('both' if level.n_forward and level.n_backward else
+                                    'positive' if level.n_forward else 'negative')
 
     for path in paths:
         run = read_kuka_run(path)
@@ -261,6 +266,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                             ' (give --known-torque COLUMN to subtract a known torque)'))
     if len(set(columns['pose'])) == 1:
         del columns['pose']
+    if set(columns['direction']) == {'both'}:
+        del columns['direction']
     if len(set(columns['joint'])) == 1:
         del columns['joint']
     table = table_from_columns(columns, source=f'{len(paths)} raw runs', model=model)

@@ -9,6 +9,7 @@ only (the set says that temperature, load and wear were not identified).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+import math
 from typing import Mapping, Optional
 
 import numpy as np
@@ -20,7 +21,7 @@ from robot_wear_monitor.audit.fitting import (as_text, AuditTable, multistart_fi
 from robot_wear_monitor.audit.identification_result import Parameter
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.json_values import json_clean
-from robot_wear_monitor.model.params import ParameterSet
+from robot_wear_monitor.model.params import DirectionTerms, ParameterSet, SIGMA_MIN
 
 FloatArray = NDArray[np.float64]
 
@@ -121,6 +122,49 @@ def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds
                                n_levels=table.n_rows, excluded=excluded)
 
 
+#: Significance level at which the directions of motion are said to differ.
+DIRECTION_ALPHA = 0.01
+
+
+@dataclass(frozen=True)
+class DirectionTest:
+    """Does model (4) differ per direction?  An F-test of 10 against 5 parameters.
+
+    Attributes:
+        f_statistic: ((RSS_symmetric - RSS_per_direction) / 5) / (RSS_per_direction / (n - 10)).
+        p_value: its upper tail probability.
+        differ: p_value < :data:`DIRECTION_ALPHA`: the set holds the per-direction model.
+
+    """
+
+    f_statistic: float
+    p_value: float
+    differ: bool
+
+    def text(self) -> str:
+        """Return the test in words."""
+        verdict = ('the directions differ: the set holds model (4) per direction '
+                   '(direction_model) beside the symmetric fit of eq. (3)' if self.differ
+                   else 'no difference between the directions: one symmetric model')
+        return (f'direction test: F = {self.f_statistic:.3g}, p = {self.p_value:.2g} '
+                f'(level {DIRECTION_ALPHA:g}): {verdict}')
+
+
+def direction_test(symmetric: SpeedIdentification,
+                   per_direction: SpeedIdentification) -> DirectionTest:
+    """Return the F-test of the per-direction fit of model (4) against the symmetric fit."""
+    from scipy import stats
+    n = symmetric.n_levels
+    rss_symmetric = symmetric.fit_rms ** 2 * n
+    rss_directions = per_direction.fit_rms ** 2 * n
+    dof = n - 10
+    if dof <= 0 or not rss_directions > 0:
+        return DirectionTest(math.nan, math.nan, False)
+    f_statistic = max(rss_symmetric - rss_directions, 0.0) / 5 / (rss_directions / dof)
+    p_value = float(stats.f.sf(f_statistic, 5, dof))
+    return DirectionTest(float(f_statistic), p_value, p_value < DIRECTION_ALPHA)
+
+
 @dataclass(frozen=True)
 class SpeedOnlySet:
     """A parameter set from levels without temperature or load variation (model (4) only).
@@ -131,13 +175,17 @@ class SpeedOnlySet:
             std; ``not_identified`` temperature, load and wear.
         fit: the symmetric fit (all levels) with standard errors.
         per_direction: the fit per direction when the levels have a ``direction`` group with
-            both directions (None otherwise); the set holds the symmetric fit of eq. (3).
+            both directions (None otherwise).
+        direction_test: the F-test of the per-direction fit against the symmetric one; when
+            it is significant the set holds model (4) per direction (``direction_model``)
+            beside the symmetric fit (the eq. (3) levels' model).
 
     """
 
     params: ParameterSet
     fit: SpeedIdentification
     per_direction: Optional[SpeedIdentification]
+    direction_test: Optional[DirectionTest] = None
 
     def summary(self) -> str:
         """Return the report: the fitted terms with standard errors, what is not identified."""
@@ -150,6 +198,8 @@ class SpeedOnlySet:
                 shown = group if label == 'per direction' else label
                 lines.append(f'  {shown}: ' + ', '.join(
                     f'{p.name} {p.value:.4g} +- {p.std_error:.2g}' for p in values.values()))
+        if self.direction_test is not None:
+            lines.append(f'  {self.direction_test.text()}')
         lines.append(f'  held-out error [mu, sigma] = [{self.fit.held_out_mean:.3e}, '
                      f'{self.fit.held_out_std:.3e}] ({self.fit.folds})')
         lines += [f'  warning: {w}' for w in self.fit.warnings]
@@ -163,9 +213,21 @@ class SpeedOnlySet:
         return json_clean({'kind': 'speed_only', 'fit': self.fit.to_dict(),
                            'per_direction': None if self.per_direction is None
                            else self.per_direction.to_dict(),
+                           'direction_test': None if self.direction_test is None else {
+                               'f_statistic': self.direction_test.f_statistic,
+                               'p_value': self.direction_test.p_value,
+                               'differ': self.direction_test.differ,
+                               'level': DIRECTION_ALPHA},
                            'not_identified': list(self.params.not_identified),
                            'friction_unit': self.params.friction_unit,
                            'name': self.params.name})
+
+
+def _terms(group: Mapping[str, Parameter]) -> DirectionTerms:
+    """Return the fitted model (4) of one direction as the parameter set's terms."""
+    return DirectionTerms(f_c=group['F_c'].value, f_s=group['F_s'].value,
+                          phi_s=group['phi_s'].value, alpha=group['alpha'].value,
+                          f_v=group['F_v'].value)
 
 
 def speed_only_parameter_set(*, table: AuditTable, from_params: ParameterSet, name: str,
@@ -182,19 +244,32 @@ def speed_only_parameter_set(*, table: AuditTable, from_params: ParameterSet, na
     fit = identify_speed_model(table=table, group=None, n_folds=n_folds)
     if 'all' not in fit.groups:
         raise InputError(f'{table.source}: the speed model (4) needs 6 or more distinct speeds')
-    per_direction = None
-    if 'direction' in table.text and len(set(table.text['direction'].tolist())) == 2:
+    per_direction: Optional[SpeedIdentification] = None
+    tested: Optional[DirectionTest] = None
+    directions: Optional[tuple[DirectionTerms, DirectionTerms]] = None
+    if 'direction' in table.text and \
+            set(table.text['direction'].tolist()) == {'positive', 'negative'}:
         per_direction = identify_speed_model(table=table, group='direction', n_folds=n_folds)
+        if set(per_direction.groups) == {'positive', 'negative'}:
+            tested = direction_test(fit, per_direction)
+            if tested.differ:
+                directions = (_terms(per_direction.groups['positive']),
+                              _terms(per_direction.groups['negative']))
     values = {k: p.value for k, p in fit.groups['all'].items()}
     model = replace(from_params.model, f_c0=values['F_c'], f_c_load=0.0, f_s0=values['F_s'],
                     f_s_load=0.0, f_s_temp=0.0, f_v0=values['F_v'], f_v_temp=0.0,
                     phi_s0=values['phi_s'], phi_s_temp=0.0, alpha=values['alpha'],
                     extension=None)
     speed = table.numeric['speed']
+    # the noise of a level: of one direction's model when the directions differ (the
+    # symmetric fit's error would hold the difference between the directions)
+    noise = (per_direction.held_out_std if directions is not None and per_direction
+             is not None else fit.held_out_std)
     params = from_params.with_overrides(
-        name=name.strip(), model=model, sigma=max(fit.held_out_std, 1e-12),
+        name=name.strip(), model=model, sigma=max(noise, SIGMA_MIN),
         speed_min_rad_s=float(speed.min()), speed_max_rad_s=float(speed.max()),
         speed_separation_rad_s=0.0,
         not_identified=('temperature', 'load', 'wear'), friction_unit=friction_unit,
-        source=f'identify {table.source}')
-    return SpeedOnlySet(params=params, fit=fit, per_direction=per_direction)
+        direction_model=directions, source=f'identify {table.source}')
+    return SpeedOnlySet(params=params, fit=fit, per_direction=per_direction,
+                        direction_test=tested)

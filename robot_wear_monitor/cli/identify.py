@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import Any
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
                                             level_source_scales, parse_float_list, PROG)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.yaml_files import shorten
 
 HELP = 'identify a parameter set (models (5), (7), sigma) from friction levels'
 
@@ -62,6 +64,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='levels without temperature or load variation: identify the '
                              'speed model (4) at their conditions and write a set that says '
                              'temperature, load and wear were not identified')
+    parser.add_argument('--pool-joints', action='store_true',
+                        help="--speed-only on levels of several joints (a 'joint' column): "
+                             'fit them as one joint (default: refused; select one with '
+                             '--joint NAME)')
     parser.add_argument('--friction-unit', metavar='UNIT',
                         help='the unit of the levels, stated in the set (default: N.m for raw '
                              'runs read with torque scale 1, else normalised)')
@@ -162,6 +168,7 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale, known_torque=args.known_torque)
+    table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
     source = Path(args.baseline)
     raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
     unit = args.friction_unit or ('N.m' if raw and torque_scale == 1.0 else 'normalised')
@@ -182,3 +189,25 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     print(result.summary())
     print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
     return 0
+
+
+def _one_joint(table: Any, *, joint: str | None, pool: bool) -> Any:
+    """Return the levels of one joint of a table with a ``joint`` column (a set is one joint).
+
+    ``joint`` selects it; ``pool`` keeps every joint as one; otherwise levels of several
+    joints are refused, naming them (their friction can differ manyfold).
+    """
+    if 'joint' not in table.text:
+        return table
+    names = sorted(set(table.text['joint'].tolist()))
+    if joint is not None:
+        rows = table.text['joint'] == joint
+        if not rows.any():
+            raise InputError(f'--joint {shorten(joint)}: not in the levels (joints: '
+                             f'{shorten(", ".join(names))})')
+        return table.subset(rows)
+    if len(names) > 1 and not pool:
+        raise InputError(f'{table.source}: levels of {len(names)} joints '
+                         f'({shorten(", ".join(names))}): a parameter set describes one joint; '
+                         'select one with --joint NAME, or fit them as one with --pool-joints')
+    return table

@@ -307,7 +307,8 @@ def add_level_source(parser: argparse.ArgumentParser) -> None:
     ``--gear-ratio`` and ``--torque-scale`` are None when not given: see
     :func:`level_source_scales` (these verbs read no node config, so the default is 1).
     """
-    parser.add_argument('--joint', help='joint name to segment (bag input)')
+    parser.add_argument('--joint', help='joint name to segment (bag input), or to select from a '
+                        "level table's joint column (identify --speed-only)")
     parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
     parser.add_argument('--raw-sign', action='store_true',
                         help='raw runs: keep the torque sign (default: flipped, friction > 0)')

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robot_wear_monitor.model.params import FrictionModel
+from robot_wear_monitor.model.params import DirectionTerms, FrictionModel
 
 FloatArray = NDArray[np.float64]
 
@@ -151,3 +151,20 @@ def marginal_covariance(speeds: ArrayLike, *, sigma: float, load_std: float,
     m = load_sensitivity(v, model)
     n = v.shape[-1]
     return sigma ** 2 * np.eye(n) + load_std ** 2 * m[..., :, None] * m[..., None, :]
+
+
+def direction_friction(speed: ArrayLike,
+                       direction_model: tuple[DirectionTerms, DirectionTerms]) -> FloatArray:
+    """Return the friction of model (4) per direction of motion at signed ``speed`` [rad/s].
+
+    ``direction_model`` is a parameter set's (positive, negative) terms; a positive speed
+    takes the first, a negative one the second.  The result is the friction magnitude (the
+    torque opposing the motion) in the set's unit; at speed 0 it is NaN (no direction).
+    """
+    v = np.asarray(speed, dtype=float)
+    out = np.full(v.shape, np.nan)
+    for terms, rows in zip(direction_model, (v > 0, v < 0)):
+        magnitude = np.abs(v[rows])
+        decay, _ = _stribeck(magnitude, terms.phi_s, terms.alpha)
+        out[rows] = terms.f_c + terms.f_s * decay + terms.f_v * magnitude
+    return out

@@ -62,6 +62,27 @@ class FrictionModel:
 
 
 @dataclass(frozen=True)
+class DirectionTerms:
+    """Model (4) of one direction of motion: f = f_c + f_s exp(-|v/phi_s|^alpha) + f_v |v|.
+
+    At the conditions of the data the set was identified from; friction in the set's unit,
+    speeds motor side [rad/s], f_v [friction/(rad/s)].
+    """
+
+    f_c: float
+    f_s: float
+    phi_s: float
+    alpha: float
+    f_v: float
+
+
+#: The keys of a direction's terms in the ``direction_model`` section, in order.
+DIRECTION_KEYS = ('f_c', 'f_s', 'phi_s', 'alpha', 'f_v')
+#: The directions of motion of the ``direction_model`` section (signed speed > 0, < 0).
+DIRECTIONS = ('positive', 'negative')
+
+
+@dataclass(frozen=True)
 class ParameterSet:
     """A validated parameter set: model, measurement model, bounds and alarm thresholds."""
 
@@ -86,6 +107,10 @@ class ParameterSet:
     not_identified: tuple[str, ...] = ()
     #: the unit of the friction levels the set describes (``normalised`` or e.g. ``N.m``)
     friction_unit: str = 'normalised'
+    #: model (4) per direction of motion (positive, negative) when the data said the
+    #: directions differ (optional section ``direction_model``); None: symmetric.  Levels of
+    #: eq. (3) are the mean of the two directions, which the nominal model describes.
+    direction_model: tuple[DirectionTerms, DirectionTerms] | None = None
 
     def require(self, *what: str, purpose: str) -> None:
         """Raise ParameterError when the set did not identify one of ``what`` (e.g. 'wear').
@@ -121,6 +146,8 @@ _MODEL_SECTIONS = {
 _EXTENSION_SECTION = 'added_terms'
 #: Optional section of what the identification could not identify, and the friction unit.
 _IDENTIFICATION_SECTION = 'identification'
+#: Optional section of model (4) per direction of motion.
+_DIRECTION_SECTION = 'direction_model'
 IDENTIFIABLE = ('temperature', 'load', 'wear')
 # section -> {yaml key: ParameterSet field}
 _SCALAR_SECTIONS = {
@@ -249,7 +276,7 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
         raise ParameterError(
             f'{source}: expected a mapping at the top level, got {type(document).__name__}')
     known = {'name', *_MODEL_SECTIONS, *_SCALAR_SECTIONS, _EXTENSION_SECTION,
-             _IDENTIFICATION_SECTION}
+             _IDENTIFICATION_SECTION, _DIRECTION_SECTION}
     extra = sorted(set(document) - known)
     if extra:
         raise ParameterError(f'{source}: unknown section {shorten(repr(extra[0]))}')
@@ -272,9 +299,39 @@ def parameter_set_from_mapping(document: Any, *, source: str = '<mapping>') -> P
             raise ParameterError(f'{source}: {error}') from None
     params = ParameterSet(name=name, model=FrictionModel(**coefficients, extension=extension),
                           source=source, **scalars,
-                          **_identification(document.get(_IDENTIFICATION_SECTION), source))
+                          **_identification(document.get(_IDENTIFICATION_SECTION), source),
+                          direction_model=_direction_model(document.get(_DIRECTION_SECTION),
+                                                           source))
     _check_constraints(params, source)
     return params
+
+
+def _direction_model(section: Any, source: str) -> tuple[DirectionTerms, DirectionTerms] | None:
+    """Return the terms of the optional ``direction_model`` section (positive, negative)."""
+    if section is None:
+        return None
+    if not isinstance(section, Mapping):
+        raise ParameterError(f'{source}: {_DIRECTION_SECTION}: expected a mapping')
+    missing = [d for d in DIRECTIONS if d not in section]
+    if missing:
+        raise ParameterError(f'{source}: missing key {_DIRECTION_SECTION}.{missing[0]}')
+    extra = sorted(set(section) - set(DIRECTIONS))
+    if extra:
+        raise ParameterError(f'{source}: unknown key {_DIRECTION_SECTION}.'
+                             f'{shorten(str(extra[0]))} (expected positive, negative)')
+    terms = []
+    for direction in DIRECTIONS:
+        where = f'{_DIRECTION_SECTION}.{direction}'
+        values = DirectionTerms(**_section({where: section[direction]}, where, DIRECTION_KEYS,
+                                           source))
+        for ok, key, rule, value in (
+                (values.phi_s > 0, 'phi_s', 'must be > 0', values.phi_s),
+                (0 < values.alpha <= ALPHA_MAX, 'alpha', f'must be > 0 and <= {ALPHA_MAX:g}',
+                 values.alpha)):
+            if not ok:
+                raise ParameterError(f'{source}: {where}.{key}: {rule}, got {shorten(value)}')
+        terms.append(values)
+    return terms[0], terms[1]
 
 
 def _identification(section: Any, source: str) -> dict[str, Any]:
@@ -359,6 +416,10 @@ def parameter_set_to_mapping(params: ParameterSet) -> dict:
                            if t not in params.not_identified],
             'not_identified': list(params.not_identified),
             'friction_unit': params.friction_unit}
+    if params.direction_model is not None:
+        document[_DIRECTION_SECTION] = {
+            direction: {k: float(getattr(terms, k)) for k in DIRECTION_KEYS}
+            for direction, terms in zip(DIRECTIONS, params.direction_model)}
     return document
 
 

@@ -79,6 +79,19 @@ def test_a_numeric_joint_column_is_a_group_and_joints_are_fitted_apart(tmp_path,
     errors = report['rms_by_group']
     assert set(errors) == {'1', '2'} and errors['2']['after'] < 3 * NOISE
     assert errors['1']['after'] < 3 * NOISE
+    # a parameter set is one joint's: identify refuses to pool them unless asked
+    out = tmp_path / 'set.yaml'
+    assert main(['identify', str(path), '--out', str(out), '--speed-only']) == 2
+    assert 'levels of 2 joints (1, 2)' in capsys.readouterr().err and not out.exists()
+    assert main(['identify', str(path), '--out', str(out), '--speed-only', '--joint', '2',
+                 '--json']) == 0
+    fitted = json.loads(capsys.readouterr().out)['fit']['groups']['all']
+    assert fitted['F_c']['value'] == pytest.approx(7.0 * 1.2, rel=0.05)
+    assert main(['identify', str(path), '--out', str(out), '--speed-only', '--joint', '3']) == 2
+    assert '--joint 3: not in the levels (joints: 1, 2)' in capsys.readouterr().err
+    assert main(['identify', str(path), '--out', str(out), '--speed-only', '--pool-joints',
+                 '--json']) == 0
+    assert json.loads(capsys.readouterr().out)['fit']['n_levels'] == len(rows)
 
 
 def test_no_wear_error_without_a_wear_column_and_no_packaged_set_without_params(capsys):
@@ -185,7 +198,8 @@ def test_a_raw_run_without_levels_is_exit_2_with_the_reason(tmp_path, capsys, sp
 ONE_WAY_SPEEDS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0)
 
 
-def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0, tag=''):
+def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0, tag='',
+             negative_offset=0.0):
     """Write a run that moves once across [-0.5, 0.5] rad at ``speed`` one way (KUKA columns)."""
     import gzip
     travel = 1.0
@@ -195,7 +209,8 @@ def _one_way(folder, speed, direction, *, rng, gravity=5.0, rate=200.0, tag=''):
     q = np.concatenate([np.full(n_still, q_move[0]), q_move, np.full(n_still, q_move[-1])])
     v = np.concatenate([np.zeros(n_still), np.full(n_move, direction * speed),
                         np.zeros(n_still)])
-    tau = gravity * np.cos(q) + np.sign(v) * curve(np.abs(v)) + rng.normal(0, NOISE, q.size)
+    magnitude = curve(np.abs(v)) + (negative_offset if direction < 0 else 0.0)
+    tau = gravity * np.cos(q) + np.sign(v) * magnitude + rng.normal(0, NOISE, q.size)
     t = np.arange(q.size) / rate
     label = f'{speed:g}'.replace('.', 'p')
     name = folder / f'joint2_{"fwd" if direction > 0 else "bwd"}{tag}_vel_{label}.csv.gz'
@@ -318,3 +333,118 @@ def test_identify_makes_a_speed_only_set_that_says_what_it_cannot_do(tmp_path, c
     assert main(['identify', str(path), '--out', str(tmp_path / 'x.yaml'), '--speed-only',
                  '--wear-test', str(path), '--critical-experiment', '1']) == 2
     assert 'a wear test (7) needs the nominal model (5)' in capsys.readouterr().err
+
+
+POSITIVE = {'coulomb': 1.2, 'stribeck': 0.6, 'phi': 0.05, 'alpha': 1.4, 'viscous': 0.8}
+NEGATIVE = {'coulomb': 1.0, 'stribeck': 0.9, 'phi': 0.08, 'alpha': 1.4, 'viscous': 1.1}
+
+
+def _direction_csv(path, *, negative, seed=3, repeats=4):
+    """Signed levels whose model (4) is ``POSITIVE`` forwards and ``negative`` backwards."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for run in range(repeats):
+        for v in SPEEDS:
+            rows.append((v, curve(v, **POSITIVE) + rng.normal(0, NOISE), run))
+            rows.append((-v, -(curve(v, **negative) + rng.normal(0, NOISE)), run))
+    path.write_text('speed,friction,experiment\n' + ''.join(
+        f'{float(v)!r},{float(f)!r},{int(e)}\n' for v, f, e in rows))
+    return path
+
+
+def test_identify_writes_model_4_per_direction_when_the_directions_differ(tmp_path, capsys):
+    import json
+
+    from robot_wear_monitor.model.friction import direction_friction
+    from robot_wear_monitor.model.params import load_parameter_set
+    path = _direction_csv(tmp_path / 'signed.csv', negative=NEGATIVE)
+    out = tmp_path / 'lab.yaml'
+    assert main(['identify', str(path), '--out', str(out), '--speed-only', '--friction-unit',
+                 'N.m', '--json']) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report['direction_test']['differ'] and report['direction_test']['p_value'] < 1e-6
+    params = load_parameter_set(out)
+    assert params.direction_model is not None and 'direction_model:' in out.read_text()
+    names = {'f_c': 'coulomb', 'f_s': 'stribeck', 'phi_s': 'phi', 'alpha': 'alpha',
+             'f_v': 'viscous'}
+    groups = report['per_direction']['groups']
+    for terms, truth, direction in zip(params.direction_model, (POSITIVE, NEGATIVE),
+                                       ('positive', 'negative')):
+        for key, name in names.items():
+            error = groups[direction][{'f_c': 'F_c', 'f_s': 'F_s', 'phi_s': 'phi_s',
+                                       'alpha': 'alpha', 'f_v': 'F_v'}[key]]['std_error']
+            assert abs(getattr(terms, key) - truth[name]) <= 4 * error + 1e-3, \
+                (direction, key, getattr(terms, key), truth[name], error)
+    # the set's per-direction model predicts each direction's friction to the noise
+    speeds = np.concatenate([SPEEDS, -SPEEDS])
+    truth = np.where(speeds > 0, curve(speeds, **POSITIVE), curve(speeds, **NEGATIVE))
+    assert np.max(np.abs(direction_friction(speeds, params.direction_model) - truth)) \
+        < 3 * NOISE
+    # the noise of the set is one direction's, not the gap between the directions
+    assert params.sigma < 2 * NOISE
+    # eq. (3) levels are the mean of the directions: the symmetric model is near it
+    mean = 0.5 * (curve(SPEEDS, **POSITIVE) + curve(SPEEDS, **NEGATIVE))
+    from robot_wear_monitor.model.friction import nominal_friction
+    symmetric = nominal_friction(SPEEDS, 0.0, 40.0, params.model)
+    assert np.sqrt(np.mean((symmetric - mean) ** 2)) < 0.05
+
+
+def test_identify_keeps_one_symmetric_model_when_the_directions_agree(tmp_path, capsys):
+    import json
+
+    from robot_wear_monitor.model.params import load_parameter_set
+    path = _direction_csv(tmp_path / 'signed.csv', negative=POSITIVE)
+    out = tmp_path / 'lab.yaml'
+    assert main(['identify', str(path), '--out', str(out), '--speed-only', '--json']) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert not report['direction_test']['differ']
+    assert load_parameter_set(out).direction_model is None
+    assert 'direction_model' not in out.read_text()
+
+
+@pytest.mark.parametrize('change, message', [
+    ({'positive': None}, 'direction_model.positive: expected a mapping'),
+    ({'sideways': {}}, 'unknown key direction_model.sideways'),
+    ({'negative': {'f_c': 1.0, 'f_s': 0.5, 'phi_s': -0.1, 'alpha': 1.0, 'f_v': 0.1}},
+     'direction_model.negative.phi_s: must be > 0'),
+    ({'negative': {'f_c': 1.0, 'f_s': 0.5, 'phi_s': 0.1, 'alpha': 1.0}},
+     'missing key direction_model.negative.f_v'),
+])
+def test_a_bad_direction_model_is_refused_naming_the_key(change, message):
+    from robot_wear_monitor.errors import InputError as Error
+    from robot_wear_monitor.model.params import (load_parameter_set, parameter_set_from_mapping,
+                                                 parameter_set_to_mapping)
+    terms = {'f_c': 1.0, 'f_s': 0.5, 'phi_s': 0.1, 'alpha': 1.0, 'f_v': 0.1}
+    document = parameter_set_to_mapping(load_parameter_set())
+    document['direction_model'] = {'positive': dict(terms), 'negative': dict(terms), **change}
+    with pytest.raises(Error, match=message.replace('.', r'\.')):
+        parameter_set_from_mapping(document, source='set.yaml')
+
+
+BACKWARD_SPEEDS = (0.15, 0.25, 0.38, 0.52, 0.7, 0.9, 1.2)  # none near a forward speed
+
+
+def test_one_way_runs_with_a_known_torque_keep_their_direction(tmp_path):
+    """Unpaired forward and backward runs: each level says its direction (the data's sign)."""
+    import gzip
+
+    from robot_wear_monitor.audit.data import table_from_raw_runs
+    rng = np.random.default_rng(12)
+    files = [_one_way(tmp_path, v, 1, rng=rng) for v in ONE_WAY_SPEEDS] + [
+        _one_way(tmp_path, v, -1, rng=rng, negative_offset=0.3) for v in BACKWARD_SPEEDS]
+    for path in files:  # the user's gravity model beside the torque
+        lines = gzip.open(path, 'rt').read().splitlines()
+        q = [float(line.split(',')[1]) for line in lines[1:]]
+        with gzip.open(path, 'wt') as stream:
+            stream.write(lines[0] + ',gravity_Nm\n')
+            stream.write(''.join(f'{line},{float(5.0 * np.cos(x))!r}\n'
+                                 for line, x in zip(lines[1:], q)))
+    table = table_from_raw_runs(sorted(files), flip_sign=False, known_torque='gravity_Nm')
+    direction = table.text['direction']
+    assert set(direction.tolist()) == {'positive', 'negative'}
+    speed, friction = table.numeric['speed'], table.numeric['friction']
+    truth = curve(speed) + np.where(direction == 'negative', 0.3, 0.0)
+    np.testing.assert_allclose(friction, truth, atol=0.02)
+    forward = direction == 'positive'
+    np.testing.assert_allclose(np.sort(np.unique(np.round(speed[forward], 2))),
+                               ONE_WAY_SPEEDS, rtol=0.03)
