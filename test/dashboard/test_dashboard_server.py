@@ -7,6 +7,7 @@ token; failed logins are limited per user and per address; names are escaped in 
 
 import csv
 from dataclasses import replace
+from html import escape as html_escape
 import io
 import math
 from pathlib import Path
@@ -22,7 +23,7 @@ from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.auth import LoginLimiter
 from robot_wear_monitor.dashboard.pages import joint_url
 from robot_wear_monitor.fleet.ranking import fleet_view
-from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.monitoring.history import AlarmEvent, open_history
 
 
 @pytest.fixture()
@@ -102,6 +103,81 @@ def test_fleet_page_lists_the_rows_worst_first(client):
                         html)
     escaped = [(r.replace('<', '&lt;').replace('>', '&gt;'), j) for r, j in ORDER]
     assert robots == escaped
+
+
+#: Joints added to the plan's fleet so that every state shows: (robot, joint): (the plan's joint
+#: copied, its state).  palletiser_9's joint_4 has had no experiment for ten hours (stale).
+MORE = {('press_line', 'joint_6'): (('press_line', 'joint_2'), 'acknowledged'),
+        ('palletiser_9', 'joint_4'): (('press_line', 'joint_1'), 'stale'),
+        ('palletiser_9', 'joint_6'): (('welder_7', 'joint_5'), 'cannot judge')}
+ROW = re.compile(r'<tr class="state-([^" ]*)( stale)?" data-robot="([^"]*)" data-joint="([^"]*)"')
+
+
+def _more_states(history: str) -> dict[tuple[str, str], str]:
+    """Add :data:`MORE` to the plan's history; return the state of every joint."""
+    now_s = time.time()
+    with open_history(history) as stored:
+        for (robot, joint), ((plan_robot, plan_joint), state) in MORE.items():
+            for k in range(EXPERIMENTS):
+                rec = replace(record(plan_robot, plan_joint, k, now_s=now_s - 10 * 3600.0
+                                     if state == 'stale' else now_s), robot=robot, joint=joint)
+                if state == 'cannot judge' and k == EXPERIMENTS - 1:
+                    rec = replace(rec, invalid_reason='temperature 38 degC outside the model')
+                events = ()
+                if rec.alarm_active:
+                    events = (AlarmEvent(joint=joint, robot=robot, stamp_s=rec.stamp_s,
+                                         event='raised', wear=rec.wear, note='w-hat >= 35'),)
+                stored.append(rec, events=events)
+        stored.acknowledge_alarm(joint='joint_6', robot='press_line', user='mia',
+                                 owner='Team B', comment='gearbox ordered')
+    states = {key: 'alarm' if PLAN[key][0] > 35.0 else 'ok' for key in PLAN}
+    states.update({key: state for key, (_, state) in MORE.items()})
+    return states
+
+
+def _fleet_rows(html: str) -> list[tuple[str, str, str]]:
+    """Return the fleet page's rows as (robot, joint, state), names unescaped."""
+    return [(robot.replace('&lt;', '<').replace('&gt;', '>'), joint, state.replace('-', ' '))
+            for state, _, robot, joint in ROW.findall(html)]
+
+
+def _counts(html: str) -> dict[str, int]:
+    """Return the counts per state at the top of the fleet page."""
+    return {state: int(count) for state, count in re.findall(
+        r'<span class="count" data-state="([^"]*)">(\d+)</span>', html)}
+
+
+def test_fleet_page_filters_by_robot_and_by_state(client, history):
+    states = _more_states(history)
+    _as(client, 'vic')
+    everything = _fleet_rows(client.get('/').text)
+    assert sorted(everything) == sorted((r, j, s) for (r, j), s in states.items())
+    assert {s for _, _, s in everything} == {'alarm', 'acknowledged', 'cannot judge',
+                                             'stale', 'ok'}
+    whole = {'alarm': 1, 'acknowledged': 1, 'cannot judge': 1, 'stale': 1, 'ok': 4}
+    assert _counts(client.get('/').text) == whole
+    robots = sorted({r for r, _ in states})
+    assert len(robots) == 4
+    for robot in robots:
+        html = client.get('/', params={'robot': robot}).text
+        rows = _fleet_rows(html)
+        # only that robot's rows, all of them, in the order of the whole fleet
+        assert rows == [row for row in everything if row[0] == robot], robot
+        assert rows and _counts(html) == whole, robot  # the counts are the whole fleet's
+        assert f'<option value="{html_escape(robot)}" selected>' in html, robot
+    for state, count in whole.items():
+        html = client.get('/', params={'state': state}).text
+        rows = _fleet_rows(html)
+        assert rows == [row for row in everything if row[2] == state], state
+        assert len(rows) == count, state
+        assert _counts(html) == whole, state
+    both = _fleet_rows(client.get('/', params={'robot': 'palletiser_9', 'state': 'stale'}).text)
+    assert both == [('palletiser_9', 'joint_4', 'stale')]
+    none = client.get('/', params={'robot': 'welder_7', 'state': 'acknowledged'}).text
+    assert _fleet_rows(none) == [] and 'match the filter' in none
+    # an unknown state filters nothing; an unknown robot shows no row
+    assert _fleet_rows(client.get('/', params={'state': 'bogus'}).text) == everything
+    assert _fleet_rows(client.get('/', params={'robot': 'nobody'}).text) == []
 
 
 def test_joint_api_tells_every_experiment_of_the_joint(client, history):
