@@ -7,6 +7,7 @@ unit (normalised for the packaged model; N.m for the KUKA data), temperature [de
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 import gzip
 import math
 import os
@@ -169,7 +170,8 @@ def table_from_levels(levels: Sequence, *, extra: Mapping[str, Sequence] | None 
 
 def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                         config=None, model: str = 'speed',
-                        known_torque: str | None = None) -> AuditTable:
+                        known_torque: str | None = None,
+                        standstill_speed_rad_s: float | None = None) -> AuditTable:
     """Segment KUKA-style raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
 
     Every forward/backward pair of a run gives one level (segmentation of
@@ -191,12 +193,18 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     ``experiment`` naming both files.  A one-way run without such a partner gives its friction
     as the pass's torque minus ``known_torque``, a column of the run with a torque the user
     knows (gravity, a model torque; the torque's unit); without one it is reported.
+    ``standstill_speed_rad_s`` sets the standstill threshold (default: the settings', or 5
+    times the speed noise of a run slower than it).
     """
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
                                                       slow_run_config)
 
     settings = config if config is not None else kuka_segmenter_config()
+    if standstill_speed_rad_s is not None:  # the user's threshold, also for slow runs
+        settings = replace(settings, standstill_speed_rad_s=float(standstill_speed_rad_s),
+                           speed_tolerance_rad_s=min(settings.speed_tolerance_rad_s,
+                                                     0.5 * float(standstill_speed_rad_s)))
     sign = -1.0 if flip_sign else 1.0
     columns: dict[str, list] = {k: [] for k in (
         'speed', 'friction', 'friction_std_error', 'experiment', 'joint', 'pose',
@@ -231,7 +239,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
                                velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
                                config=settings)
-        slow = slow_run_config(settings, run.dq_rad_s) if not result.levels else None
+        slow = (slow_run_config(settings, run.dq_rad_s)
+                if not result.levels and standstill_speed_rad_s is None else None)
         if slow is not None:  # slower than the standstill threshold: the noise decides
             result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
                                    velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
@@ -382,11 +391,13 @@ def is_bag(path: str | os.PathLike) -> bool:
 def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str | None = None,
                     topic: str = '/joint_states', flip_sign: bool = True,
                     gear_ratio: float = 1.0, torque_scale: float = 1.0,
-                    known_torque: str | None = None) -> AuditTable:
+                    known_torque: str | None = None,
+                    standstill_speed_rad_s: float | None = None) -> AuditTable:
     """Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
 
     ``known_torque``: the column of raw runs subtracted from one-way runs without a partner
-    (see :func:`table_from_raw_runs`).
+    (see :func:`table_from_raw_runs`); ``standstill_speed_rad_s``: the standstill threshold
+    of raw runs (None: 0.03 rad/s, or from a slow run's speed noise).
 
     * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
     * a CSV with ``t_s, q_rad, dq_rad_s, tau_measured_Nm``: one raw run, segmented;
@@ -408,10 +419,12 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
         if not runs:
             raise InputError(f'{file}: no raw runs (*.csv.gz) and no bag metadata.yaml here')
         return table_from_raw_runs(runs, flip_sign=flip_sign, model=model,
-                                   known_torque=known_torque)
+                                   known_torque=known_torque,
+                                   standstill_speed_rad_s=standstill_speed_rad_s)
     if _is_raw_run(file):
         return table_from_raw_runs([file], flip_sign=flip_sign, model=model,
-                                   known_torque=known_torque)
+                                   known_torque=known_torque,
+                                   standstill_speed_rad_s=standstill_speed_rad_s)
     return read_level_table(file, model=model)
 
 

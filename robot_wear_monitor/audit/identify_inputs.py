@@ -34,13 +34,15 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                          experiment_gap_s: float = 10.0,
                          temperature_column: str | None = None,
                          load_column: str | None = None,
-                         known_torque: str | None = None) -> AuditTable:
+                         known_torque: str | None = None,
+                         standstill_speed_rad_s: float | None = None) -> AuditTable:
     """Return the levels of one ``identify`` input with ``temperature`` and ``load`` columns.
 
     Args:
         path: a level CSV, a raw run, a folder of raw runs or a bag.
         role: 'BASELINE' or 'WEAR' (for messages).
-        joint, topic, flip_sign, gear_ratio, torque_scale, known_torque: as for
+        joint, topic, flip_sign, gear_ratio, torque_scale, known_torque,
+            standstill_speed_rad_s: as for
             :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
             gear_ratio x joint speed, normalised torque = effort / torque_scale).
         temperature_topic: bag input: the joint temperature [degC] on this topic
@@ -54,7 +56,8 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
     """
     table = load_audit_data(path, model='speed', joint=joint, topic=topic, flip_sign=flip_sign,
                             gear_ratio=gear_ratio, torque_scale=torque_scale,
-                            known_torque=known_torque)
+                            known_torque=known_torque,
+                            standstill_speed_rad_s=standstill_speed_rad_s)
     topics = {'temperature': temperature_topic, 'load': load_topic}
     if any(topics.values()):
         if not is_bag(path):

@@ -59,6 +59,7 @@ def main(args: argparse.Namespace) -> int:
     gear_ratio, torque_scale = level_source_scales(args)
     table = load_audit_data(args.data, model=args.model, joint=args.joint, topic=args.topic,
                             known_torque=args.known_torque,
+                            standstill_speed_rad_s=args.standstill_speed,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale)
     group = args.group

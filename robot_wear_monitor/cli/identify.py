@@ -104,7 +104,8 @@ def main(args: argparse.Namespace) -> int:
             gear_ratio=gear_ratio, torque_scale=torque_scale,
             temperature_topic=args.temperature_topic, load_topic=args.load_topic,
             experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
-            load_column=args.load_column, known_torque=args.known_torque)
+            load_column=args.load_column, known_torque=args.known_torque,
+            standstill_speed_rad_s=args.standstill_speed)
 
     if args.speed_only:
         return _speed_only(args, from_params, gear_ratio, torque_scale)
@@ -167,7 +168,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
                          'and load that vary')
     table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
-                            torque_scale=torque_scale, known_torque=args.known_torque)
+                            torque_scale=torque_scale, known_torque=args.known_torque,
+                            standstill_speed_rad_s=args.standstill_speed)
     table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
     source = Path(args.baseline)
     raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))

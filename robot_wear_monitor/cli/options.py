@@ -164,6 +164,7 @@ def add_joints(parser: argparse.ArgumentParser, *, help_text: str) -> None:
 #: argparse types of the options with a physical range (one range per meaning).
 GEAR_RATIO = bounded(0.0, 1e4, low_open=True)
 TORQUE_SCALE = bounded(0.0, 1e9, low_open=True)
+STANDSTILL_SPEED = bounded(0.0, 1e4, low_open=True)
 TEMPERATURE_DEGC = bounded(-50.0, 200.0, unit='degC')
 WEAR = bounded(0.0, 1000.0)
 SPEED_COUNT = bounded(1, 20, integer=True)
@@ -316,6 +317,9 @@ def add_level_source(parser: argparse.ArgumentParser) -> None:
                         help='raw runs that move one way only and have no run the other way: '
                              'a column of a known torque (gravity, a model torque; the '
                              "torque's unit) subtracted to give the friction")
+    parser.add_argument('--standstill-speed', type=STANDSTILL_SPEED, metavar='RAD_S',
+                        help='raw runs: the speed below which a sample is standstill [rad/s] '
+                             '(default 0.03, or 5 x the speed noise of a run slower than that)')
     add_gear_ratio_and_torque_scale(parser, gear_default='1; bag input only')
 
 

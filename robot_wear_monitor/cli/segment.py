@@ -11,8 +11,9 @@ import sys
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_joints, add_robot, joint_selection,
-                                            parse_float_list)
+                                            parse_float_list, STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
+from robot_wear_monitor.errors import InputError
 
 HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
 
@@ -36,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='experiments at these motor speeds only [rad/s] (default: the '
                              'speeds found in the data)')
     parser.add_argument('--out', metavar='CSV', help='write the levels here (default stdout)')
+    parser.add_argument('--standstill-speed', type=STANDSTILL_SPEED, metavar='RAD_S',
+                        help='raw CSV: the speed below which a sample is standstill [rad/s] '
+                             '(default 0.03, or 5 x the speed noise of a run slower than that)')
     add_robot(parser, help_text='add a robot column with this name (levels of several robots '
                                 'in one table)')
 
@@ -51,10 +55,14 @@ def main(args: argparse.Namespace) -> int:
     path = Path(args.data)
     if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
         result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
-                                 torque_scale=args.torque_scale, speeds_rad_s=args.speeds)
+                                 torque_scale=args.torque_scale, speeds_rad_s=args.speeds,
+                                 standstill_speed_rad_s=args.standstill_speed)
         report = [f'{result.n_levels} friction levels; '
                   + (rejection_text(result.rejections) or 'nothing rejected')]
     else:
+        if args.standstill_speed is not None:
+            raise InputError('--standstill-speed is for a raw CSV; a bag takes the node '
+                             'parameter standstill_speed_rad_s from --config')
         from robot_wear_monitor.monitoring.replay import replay_parameters
         joint, joints = joint_selection(args.joint)
         experiment, _ = replay_parameters(config_file=args.config, joint=joint, joints=joints,

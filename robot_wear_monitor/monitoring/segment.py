@@ -49,10 +49,12 @@ class SegmentedLevels:
 
 def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = None,
                     torque_scale: Optional[float] = None,
-                    speeds_rad_s: Optional[Sequence[float]] = None) -> SegmentedLevels:
+                    speeds_rad_s: Optional[Sequence[float]] = None,
+                    standstill_speed_rad_s: Optional[float] = None) -> SegmentedLevels:
     """Segment one KUKA-style raw run with the raw-run settings (gear ratio and scale 1).
 
-    ``gear_ratio`` / ``torque_scale``: override the raw-run settings when not None;
+    ``gear_ratio`` / ``torque_scale`` / ``standstill_speed_rad_s``: override the raw-run
+    settings when not None (a set standstill threshold is used also for a slow run);
     ``speeds_rad_s``: assemble the levels into experiments at these speeds (otherwise the
     levels are in no experiment).
     """
@@ -61,10 +63,15 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
                                                       slow_run_config)
     t, q, v, e = read_raw_csv(path)
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
-                                       ('torque_scale', torque_scale)) if val is not None}
+                                       ('torque_scale', torque_scale),
+                                       ('standstill_speed_rad_s', standstill_speed_rad_s))
+                 if val is not None}
+    if standstill_speed_rad_s is not None:
+        overrides['speed_tolerance_rad_s'] = min(0.01, 0.5 * standstill_speed_rad_s)
     config = kuka_segmenter_config(**overrides)
     result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
-    slow = slow_run_config(config, v) if not result.levels else None
+    slow = (slow_run_config(config, v)
+            if not result.levels and standstill_speed_rad_s is None else None)
     if slow is not None:  # slower than the standstill threshold: the data's noise decides
         config = slow
         result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e,

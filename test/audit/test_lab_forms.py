@@ -270,6 +270,21 @@ def test_the_standstill_threshold_follows_the_speed_noise_of_a_slow_run(tmp_path
     noisy = _back_and_forth(tmp_path / 'noisy.csv', 0.0017, velocity_noise=3e-3, rng=rng)
     assert main(['segment', str(noisy), '--out', str(tmp_path / 'n.csv')]) == 2
     assert 'too slow to tell from standstill at' in capsys.readouterr().err
+    # or the user sets the threshold: below the run's speed it segments, above it does not
+    assert main(['segment', str(quiet), '--out', str(tmp_path / 's.csv'),
+                 '--standstill-speed', '0.0005']) == 0
+    set_speed = [float(r.split(',')[header.index('speed')])
+                 for r in (tmp_path / 's.csv').read_text().splitlines()[1:]]
+    np.testing.assert_allclose(set_speed, 0.0017, rtol=0.05)
+    assert main(['segment', str(quiet), '--out', str(tmp_path / 'x.csv'),
+                 '--standstill-speed', '0.01']) == 2
+    assert 'too slow to tell from standstill at 0.0017 rad/s' in capsys.readouterr().err
+    assert not (tmp_path / 'x.csv').exists()
+    from robot_wear_monitor.audit.data import load_audit_data
+    table = load_audit_data(quiet, standstill_speed_rad_s=0.0005)
+    assert table.n_rows >= 2
+    with pytest.raises(InputError, match='no friction level'):
+        load_audit_data(quiet, standstill_speed_rad_s=0.01)
 
 
 def test_a_one_way_run_without_a_partner_uses_a_known_torque_column(tmp_path, capsys):
