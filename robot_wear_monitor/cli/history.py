@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-from typing import Any
+from typing import Any, Sequence
 
 from robot_wear_monitor.cli.options import add_json, add_local, add_robot, emit_json, PROG
 from robot_wear_monitor.errors import InputError
@@ -121,7 +121,7 @@ ESTIMATE_WIDTHS = (5, 20, 7, 18, 7, 9, 8)
 ESTIMATE_RIGHT = (True, False, True, False, True, True, True)
 
 
-def estimate_table(header: tuple[str, ...], lines: list[tuple[str, ...]]) -> str:
+def estimate_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> str:
     """Return the estimate table: each column as wide as its widest text, ``alarm`` last.
 
     The widths come from the formatted texts, so a longer cell (a local time with its UTC
@@ -130,7 +130,7 @@ def estimate_table(header: tuple[str, ...], lines: list[tuple[str, ...]]) -> str
     widths = [max(least, len(h), *(len(line[i]) for line in lines))
               for i, (least, h) in enumerate(zip(ESTIMATE_WIDTHS, header))]
 
-    def row(cells: tuple[str, ...], last: str) -> str:
+    def row(cells: Sequence[str], last: str) -> str:
         text = ' '.join(c.rjust(w) if right else c.ljust(w)
                         for c, w, right in zip(cells, widths, ESTIMATE_RIGHT))
         return f'{text}  {last}'
