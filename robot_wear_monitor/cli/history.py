@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-from typing import Any
+from typing import Any, Sequence
 
 from robot_wear_monitor.cli.options import add_json, add_local, add_robot, emit_json, PROG
 from robot_wear_monitor.errors import InputError
@@ -101,21 +101,40 @@ def main(args: argparse.Namespace) -> int:
           f'shown; alarm {"LATCHED" if state.alarm_active else "clear"}; times '
           f'{"local" if args.local else "UTC"}')
     header = ('id', 'time', 'w', '95 % interval of w', 'std w', 'T [degC]', 'p-value')
-    print('{:>5} {:<20} {:>7} {:<18} {:>7} {:>9} {:>8}  alarm'.format(*header))
 
     def cell(value: float, spec: str) -> str:  # '-' where the estimate reported none
         return format(value, spec) if math.isfinite(value) else '-'
-    for r, std in rows:
-        interval = (f'[{cell(r.wear_low, ".1f")}, {cell(r.wear_high, ".1f")}]'
-                    if math.isfinite(r.wear_low) else '-')
-        print(f'{r.id:>5} {iso_time(r.stamp_s, local=args.local):<20} '
-              f'{cell(r.wear, ".2f"):>7} {interval:<18} {cell(std, ".2f"):>7} '
-              f'{cell(r.temperature_degc, ".2f"):>9} {cell(r.p_value, ".3g"):>8}  '
-              + ('INVALID: ' + clean_text(r.invalid_reason) if not r.valid
-                 else 'yes' if r.alarm_active else ''))
+    lines = [(str(r.id), iso_time(r.stamp_s, local=args.local), cell(r.wear, '.2f'),
+              f'[{cell(r.wear_low, ".1f")}, {cell(r.wear_high, ".1f")}]'
+              if math.isfinite(r.wear_low) else '-',
+              cell(std, '.2f'), cell(r.temperature_degc, '.2f'), cell(r.p_value, '.3g'),
+              'INVALID: ' + clean_text(r.invalid_reason) if not r.valid
+              else 'yes' if r.alarm_active else '') for r, std in rows]
+    print(estimate_table(header, lines))
     if args.csv:
         print(f'levels written to {args.csv}; ' + audit_hint(args.csv, records))
     return 0
+
+
+#: The minimum widths of the estimate table's columns (id .. p-value) and their alignment.
+ESTIMATE_WIDTHS = (5, 20, 7, 18, 7, 9, 8)
+ESTIMATE_RIGHT = (True, False, True, False, True, True, True)
+
+
+def estimate_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> str:
+    """Return the estimate table: each column as wide as its widest text, ``alarm`` last.
+
+    The widths come from the formatted texts, so a longer cell (a local time with its UTC
+    offset, ``2024-01-01T01:00:12+01:00``) widens its column instead of shifting the row.
+    """
+    widths = [max(least, len(h), *(len(line[i]) for line in lines))
+              for i, (least, h) in enumerate(zip(ESTIMATE_WIDTHS, header))]
+
+    def row(cells: Sequence[str], last: str) -> str:
+        text = ' '.join(c.rjust(w) if right else c.ljust(w)
+                        for c, w, right in zip(cells, widths, ESTIMATE_RIGHT))
+        return f'{text}  {last}'
+    return '\n'.join([row(header, 'alarm')] + [row(line[:-1], line[-1]) for line in lines])
 
 
 def _row(record: Any) -> tuple[Any, float]:

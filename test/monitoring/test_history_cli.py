@@ -1,7 +1,9 @@
 """The online loop: replay -> SQLite history -> `history --csv` -> `audit`; audit of a bag."""
 
 import csv
+import datetime
 import json
+import time
 
 import numpy as np
 import pytest
@@ -49,7 +51,6 @@ def test_history_exports_the_replayed_levels_for_audit(replayed, capsys):
 
 
 def test_history_shows_what_the_estimate_reported_with_iso_times(replayed, capsys):
-    import datetime
     _, _, history, summary = replayed
     capsys.readouterr()
     assert cli.main(['history', str(history)]) == 0
@@ -73,6 +74,47 @@ def test_history_shows_what_the_estimate_reported_with_iso_times(replayed, capsy
         pytest.approx(e['wear_std']) if e['wear_std'] is not None else None
         for e in summary['experiments']]
     assert all(e['valid'] and e['time'].endswith('Z') for e in shown['estimates'])
+
+
+@pytest.fixture
+def berlin_time(monkeypatch):
+    """Local time is Berlin's (UTC+01:00 in January) for this test, then the host's again."""
+    # the POSIX form of Europe/Berlin: needs no tz database on the host
+    monkeypatch.setenv('TZ', 'CET-1CEST,M3.5.0,M10.5.0/3')
+    time.tzset()
+    yield datetime.timezone(datetime.timedelta(hours=1))
+    monkeypatch.undo()
+    time.tzset()
+
+
+def test_history_local_times_carry_the_offset_and_the_columns_line_up(replayed, capsys,
+                                                                      berlin_time):
+    _, _, history, summary = replayed
+    capsys.readouterr()
+    assert cli.main(['history', str(history)]) == 0
+    utc = capsys.readouterr().out.splitlines()
+    assert cli.main(['history', str(history), '--local']) == 0
+    local = capsys.readouterr().out.splitlines()
+    assert local[0].endswith('times local')
+    header, rows = local[1], local[2:2 + len(summary['experiments'])]
+    assert len(rows) == len(summary['experiments']) == 5
+    for row, experiment in zip(rows, summary['experiments']):
+        when = datetime.datetime.fromtimestamp(experiment['stamp_s'], berlin_time)
+        text = when.isoformat(timespec='seconds')
+        assert text.endswith('+01:00')
+        # the time under its header, the next column right-aligned under its (w)
+        assert row.index(text) == header.index(' time ') + 1
+        wear = f'{experiment["wear"]:.2f}'
+        w_end = header.index(' w ') + 2
+        assert row[w_end - len(wear) - 1:w_end] == ' ' + wear
+        assert row.index('[') == header.index('95 % interval')
+    # from the interval on, each line is the UTC table's: only the time column widened
+    for plain, shifted in zip(utc[1:], local[1:]):
+        assert shifted[local[1].index('95 %'):] == plain[utc[1].index('95 %'):]
+    # every column of every row ends where its header ends (right-aligned numbers)
+    for label in ('id', ' w', 'std w', 'T [degC]', 'p-value'):
+        end = header.index(label) + len(label)
+        assert all(row[end - 1] != ' ' and row[end] == ' ' for row in rows), label
 
 
 def test_history_escapes_control_characters_in_names(tmp_path, capsys):

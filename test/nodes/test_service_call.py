@@ -12,9 +12,19 @@ require_rclpy()
 
 from process_graph import console_script, ProcessGraph  # noqa: E402, I100
 
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
+from trajectory_msgs.msg import JointTrajectory  # noqa: E402
+
 from robot_wear_monitor.cli.call import service_candidates  # noqa: E402
 from robot_wear_monitor.monitoring.history import (AlarmEvent, HistoryRecord,  # noqa: E402
                                                    open_history)
+from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, TRAJECTORY_QOS  # noqa: E402
+from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
+
+TRAJECTORY_TOPIC = '/joint_trajectory_controller/joint_trajectory'
+#: The runner's parameters beside its defaults (joint_2): a long standstill at every turn, so
+#: the run lasts well beyond the calls of this test (each one a process starting rclpy).
+RUNNER = ('-p', 'dwell_s:=10.0')
 
 
 def _latched_history(path, robot):
@@ -62,6 +72,59 @@ def test_reset_alarm_clears_the_latched_alarm_of_a_running_node(tmp_path):
     with open_history(history, robot='cell_7', init=False) as stored:
         events = [e.event for e in stored.events(joint='joint_2')]
     assert events == ['raised', 'reset', 'reset']
+
+
+def test_start_and_abort_get_the_answers_of_a_running_runner(tmp_path):
+    graph = ProcessGraph(tmp_path)
+    trajectories, status = [], []
+    try:
+        graph.start('runner', 'friction_experiment_runner', '--ros-args', *RUNNER)
+        # no trajectory controller yet: the runner refuses to start, and has nothing to abort
+        refused = _call(graph, 'start')
+        assert refused.returncode == 1, refused.stderr + graph.logs()
+        assert refused.stdout.strip() == (
+            f'/friction_experiment_runner/start: refused: no subscriber on {TRAJECTORY_TOPIC}: '
+            'is the joint_trajectory_controller loaded and active?')
+        idle = _call(graph, 'abort')
+        assert idle.returncode == 1, idle.stderr + graph.logs()
+        assert idle.stdout.strip() == '/friction_experiment_runner/abort: refused: not running'
+        # the probe stands in for the controller: a subscriber of the trajectory topic
+        graph.node.create_subscription(JointTrajectory, TRAJECTORY_TOPIC,
+                                       lambda m: graph._add(trajectories, m), TRAJECTORY_QOS)
+
+        def on_diagnostics(msg):
+            for _, name, _, values in diagnostics_from_msg(msg):
+                if name == 'friction_experiment_runner':
+                    graph._add(status, values)
+        graph.node.create_subscription(DiagnosticArray, '/diagnostics', on_diagnostics,
+                                       DIAGNOSTICS_QOS)
+        graph.spin()
+        assert graph.wait(lambda: any(v.get('trajectory_subscribers') == '1' for v in status),
+                          15.0), 'the runner did not see the controller\n' + graph.logs()
+        started = _call(graph, 'start')
+        assert started.returncode == 0, started.stderr + graph.logs()
+        assert started.stdout.startswith(
+            '/friction_experiment_runner/start: success: started the friction experiment of '
+            'joint_2 (#1, '), started.stdout
+        assert f' s) on {TRAJECTORY_TOPIC}: ' in started.stdout
+        assert graph.wait(lambda: len(trajectories) == 1, 5.0), graph.logs()
+        busy = _call(graph, 'start')
+        assert busy.returncode == 1
+        assert busy.stdout.startswith('/friction_experiment_runner/start: refused: already '
+                                      'running ('), busy.stdout
+        assert busy.stdout.rstrip().endswith('call abort to stop it')
+        aborted = _call(graph, 'abort')
+        assert aborted.returncode == 0, aborted.stderr + graph.logs()
+        assert aborted.stdout.startswith('/friction_experiment_runner/abort: success: aborted '
+                                         'the friction experiment of joint_2 (#1) after '), (
+            aborted.stdout)
+        # the braking point back at the posture follows the planned trajectory
+        assert graph.wait(lambda: len(trajectories) == 2, 5.0), graph.logs()
+        assert len(trajectories[1].points) == 1
+        assert graph.stop('runner') == 0, graph.log('runner')
+        assert 'Traceback' not in graph.log('runner')
+    finally:
+        graph.close()
 
 
 def test_node_executables_answer_help_without_starting(tmp_path):
