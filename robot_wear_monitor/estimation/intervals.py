@@ -500,10 +500,11 @@ def calibration_key(speeds_t: tuple, params: ParameterSet, level: float, runs: i
 
     The parameter set enters by its values (model, sigma, load, temperature range, wear
     range), not its name, file or identification notes, so a copy of a set elsewhere shares
-    the calibration.
+    the calibration; nor by its per-direction terms, which eq. (3) levels do not see.
     """
     values = [(f.name, repr(getattr(params, f.name))) for f in fields(params)
-              if f.name not in ('name', 'source', 'not_identified', 'friction_unit')]
+              if f.name not in ('name', 'source', 'not_identified', 'friction_unit',
+                                'direction_model')]
     text = json.dumps([CALIBRATION_VERSION, [repr(float(v)) for v in speeds_t], values,
                        repr(float(level)), int(runs), int(seed), list(CALIBRATION_WEAR)])
     return hashlib.sha256(text.encode()).hexdigest()[:32]

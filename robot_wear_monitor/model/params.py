@@ -167,10 +167,16 @@ _SCALAR_SECTIONS = {
 #: torques in N.m below 1e4, motor speeds below 1e5 rad/s): far beyond it, products overflow.
 MAX_MAGNITUDE = 1e6
 #: Physical ranges of the values whose meaning fixes them: temperatures [degC], wear [w], the
-#: smallest noise std a likelihood can be computed with [friction unit].
+#: smallest noise std a likelihood can be computed with [friction unit] (below about 1e-10
+#: the covariance of eq. (14) is no longer positive definite in floating point).
 TEMPERATURE_RANGE_DEGC = (-273.15, 1000.0)
 WEAR_LIMIT = 1000.0
+#: The smallest upper end of the wear start grid (the grid needs room for its points).
+WEAR_MAX_MIN = 10.0
 SIGMA_MIN = 1e-9
+#: The largest ratio load.std / noise.sigma (the covariance's condition number is about its
+#: square).
+LOAD_TO_NOISE_MAX = 1e6
 #: The largest Stribeck exponent alpha (fits use 0.3-5; the paper's is 1.36).
 ALPHA_MAX = 10.0
 
@@ -237,10 +243,15 @@ def _check_constraints(params: ParameterSet, source: str) -> None:
         (params.design_wear <= WEAR_LIMIT, 'design.wear', f'must be <= {WEAR_LIMIT:g}',
          params.design_wear),
         (params.load_std >= 0, 'load.std', 'must be >= 0', params.load_std),
+        (params.load_std <= LOAD_TO_NOISE_MAX * params.sigma, 'load.std',
+         f'must be <= {LOAD_TO_NOISE_MAX:g} x noise.sigma (the covariance of eq. (14) would not '
+         'be positive definite in floating point)', params.load_std),
         (params.temperature_min_degc < params.temperature_max_degc,
          'estimation.temperature_min_degc', 'must be < estimation.temperature_max_degc',
          params.temperature_min_degc),
-        (params.wear_max >= 1, 'estimation.wear_max', 'must be >= 1', params.wear_max),
+        (params.wear_max >= max(WEAR_MAX_MIN, params.wear_threshold), 'estimation.wear_max',
+         f'must be >= {WEAR_MAX_MIN:g} and >= alarm.wear_threshold (the start grid reaches the '
+         'alarm)', params.wear_max),
         (params.speed_min_rad_s > 0, 'design.speed_min_rad_s', 'must be > 0',
          params.speed_min_rad_s),
         (params.speed_min_rad_s < params.speed_max_rad_s, 'design.speed_min_rad_s',

@@ -38,10 +38,10 @@ def test_single_level_study_uses_the_marginal_bound():
 
 def test_simulated_friction_shares_one_load_per_run():
     # with sigma -> 0 the spread of a run's levels comes only from the shared load
-    params = PARAMS.with_overrides(sigma=1e-12)
+    params = PARAMS.with_overrides(sigma=2e-7)  # near the smallest with load std 0.1 (1e6 x)
     y = simulate_friction(speeds_rad_s=[35.0, 35.0], temperature_degc=40.0, wear=35.0,
                           runs=50, rng=np.random.default_rng(0), params=params)
-    np.testing.assert_allclose(y[:, 0], y[:, 1], atol=1e-10)
+    np.testing.assert_allclose(y[:, 0], y[:, 1], atol=1e-6)
     assert np.std(y[:, 0]) > 1e-4
 
 
