@@ -174,6 +174,11 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     source = Path(args.baseline)
     raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
     unit = args.friction_unit or ('N.m' if raw and torque_scale == 1.0 else 'normalised')
+    if not args.friction_unit and not raw:  # a level table does not say its unit
+        import sys
+        print(f'{PROG} identify: note: the friction unit of {shorten(str(args.baseline))} is '
+              f'not stated; the set says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
+              file=sys.stderr)
     result = speed_only_parameter_set(table=table, from_params=from_params,
                                       name=args.name or default_set_name(args.baseline),
                                       friction_unit=unit, n_folds=args.folds)

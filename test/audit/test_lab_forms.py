@@ -411,8 +411,12 @@ def test_identify_keeps_one_symmetric_model_when_the_directions_agree(tmp_path, 
     path = _direction_csv(tmp_path / 'signed.csv', negative=POSITIVE)
     out = tmp_path / 'lab.yaml'
     assert main(['identify', str(path), '--out', str(out), '--speed-only', '--json']) == 0
-    report = json.loads(capsys.readouterr().out)
+    printed = capsys.readouterr()
+    report = json.loads(printed.out)
     assert not report['direction_test']['differ']
+    # a level table does not say its unit: the set's is named as assumed
+    assert 'friction unit of' in printed.err and "the set says 'normalised'" in printed.err
+    assert report['friction_unit'] == 'normalised'
     assert load_parameter_set(out).direction_model is None
     assert 'direction_model' not in out.read_text()
 
