@@ -213,7 +213,12 @@ def _looks_numeric(text: str) -> bool:
 def _section(document: Mapping[str, Any], key: str, expected: tuple, source: str) -> dict:
     if key not in document:
         raise ParameterError(f'{source}: missing section {shorten(repr(key))}')
-    section = document[key]
+    section = _mapping_of(document[key], key, expected, source)
+    return {name: _number(section[name], f'{key}.{name}', source) for name in expected}
+
+
+def _mapping_of(section: Any, key: str, expected: tuple, source: str) -> Mapping[str, Any]:
+    """Return ``section`` when it is a mapping of exactly the keys ``expected``."""
     if not isinstance(section, Mapping):
         raise ParameterError(f'{source}: {key}: expected a mapping, got {type(section).__name__}')
     missing = [name for name in expected if name not in section]
@@ -221,9 +226,9 @@ def _section(document: Mapping[str, Any], key: str, expected: tuple, source: str
         raise ParameterError(f'{source}: missing key {key}.{missing[0]}')
     extra = sorted(set(section) - set(expected))
     if extra:
-        raise ParameterError(f'{source}: unknown key {key}.{extra[0]} '
+        raise ParameterError(f'{source}: unknown key {key}.{shorten(str(extra[0]))} '
                              f'(expected {", ".join(expected)})')
-    return {name: _number(section[name], f'{key}.{name}', source) for name in expected}
+    return section
 
 
 def _check_constraints(params: ParameterSet, source: str) -> None:
@@ -321,15 +326,7 @@ def _direction_model(section: Any, source: str) -> tuple[DirectionTerms, Directi
     """Return the terms of the optional ``direction_model`` section (positive, negative)."""
     if section is None:
         return None
-    if not isinstance(section, Mapping):
-        raise ParameterError(f'{source}: {_DIRECTION_SECTION}: expected a mapping')
-    missing = [d for d in DIRECTIONS if d not in section]
-    if missing:
-        raise ParameterError(f'{source}: missing key {_DIRECTION_SECTION}.{missing[0]}')
-    extra = sorted(set(section) - set(DIRECTIONS))
-    if extra:
-        raise ParameterError(f'{source}: unknown key {_DIRECTION_SECTION}.'
-                             f'{shorten(str(extra[0]))} (expected positive, negative)')
+    section = _mapping_of(section, _DIRECTION_SECTION, DIRECTIONS, source)
     terms = []
     for direction in DIRECTIONS:
         where = f'{_DIRECTION_SECTION}.{direction}'
