@@ -23,11 +23,13 @@ import argparse
 import json
 import math
 import sys
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 from robot_wear_monitor.yaml_files import shorten
+
+if TYPE_CHECKING:  # loads numpy: imported where used, so that the command line starts light
+    from robot_wear_monitor.model.params import ParameterSet
 
 PROG = 'robot-wear-monitor'
 
@@ -147,6 +149,7 @@ def add_params(parser: argparse.ArgumentParser) -> None:
 
 def params_from(args: argparse.Namespace) -> ParameterSet:
     """Return the parameter set of ``--params`` (the packaged one when not given)."""
+    from robot_wear_monitor.model.params import load_parameter_set
     return load_parameter_set(getattr(args, 'params', None))
 
 

@@ -43,3 +43,18 @@ def test_ros_args_are_only_for_live_and_play(capsys):
     else:
         raise AssertionError('--ros-args accepted by design')
     assert '--ros-args is only for live and play' in capsys.readouterr().err
+
+
+def test_the_command_line_loads_numpy_after_setting_one_openblas_thread():
+    # OpenBLAS starts (spinning) worker threads when it loads unless OPENBLAS_NUM_THREADS says
+    # one: the command line must not import numpy before use_single_blas_thread sets it
+    code = ('import os, sys\n'
+            'os.environ.pop("OPENBLAS_NUM_THREADS", None)\n'
+            'from robot_wear_monitor import cli\n'
+            'assert "numpy" not in sys.modules, "numpy imported with the cli package"\n'
+            'from robot_wear_monitor.blas_threads import use_single_blas_thread\n'
+            'use_single_blas_thread()\n'
+            'assert os.environ["OPENBLAS_NUM_THREADS"] == "1"\n')
+    run = subprocess.run([sys.executable, '-c', code], cwd=REPO_ROOT, capture_output=True,
+                         text=True, timeout=60, check=False)
+    assert run.returncode == 0, run.stderr
