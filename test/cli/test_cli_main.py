@@ -1,5 +1,7 @@
 """The ``cli`` package: one module per verb, the entry points, one-line errors."""
 
+import atexit
+import gc
 from pathlib import Path
 import subprocess
 import sys
@@ -58,3 +60,12 @@ def test_the_command_line_loads_numpy_after_setting_one_openblas_thread():
     run = subprocess.run([sys.executable, '-c', code], cwd=REPO_ROOT, capture_output=True,
                          text=True, timeout=60, check=False)
     assert run.returncode == 0, run.stderr
+
+
+def test_a_command_freezes_the_objects_at_exit_once(monkeypatch):
+    hooks = []
+    monkeypatch.setattr(atexit, 'register', hooks.append)
+    monkeypatch.setattr(atexit, 'unregister', lambda f: hooks.remove(f) if f in hooks else None)
+    assert cli.main(['design', '--n', '2']) == 0
+    assert cli.main(['design', '--n', '2']) == 0
+    assert hooks == [gc.freeze]
