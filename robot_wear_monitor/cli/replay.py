@@ -77,7 +77,6 @@ def main(args: argparse.Namespace) -> int:
     """Run ``replay``: one bag (write OUT_BAG, print the summary) or many (:func:`main_batch`)."""
     from pathlib import Path
 
-    from robot_wear_monitor.experiment.simulation import read_truth_json
     from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
     if not args.bag and not args.manifest:
         raise InputError('name a bag (or several, a folder of bags, or --manifest CSV)')
@@ -89,7 +88,10 @@ def main(args: argparse.Namespace) -> int:
     args.bag = bag
     if args.out is not None and Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
-    truth = read_truth_json(args.truth) if args.truth else None
+    truth = None
+    if args.truth:  # the simulation module is loaded for it only
+        from robot_wear_monitor.experiment.simulation import read_truth_json
+        truth = read_truth_json(args.truth)
     joint, joints = joint_selection(args.joint)
     experiment, estimator = replay_parameters(
         config_file=args.config, joint=joint, joints=joints, gear_ratio=args.gear_ratio,
