@@ -21,8 +21,8 @@ from robot_wear_monitor import __version__
 from robot_wear_monitor.cli import (audit, call, dashboard, demo, design, estimate, fleet,
                                     history, identify, live, notify, plan, play, replay,
                                     segment, simulate, study)
-from robot_wear_monitor.cli.options import (parse_float_list, parse_range, PROG,
-                                            resolve_json)
+from robot_wear_monitor.cli.options import (loading_modules, parse_float_list, parse_range,
+                                            PROG, resolve_json)
 from robot_wear_monitor.cli.outputs import check_outputs
 from robot_wear_monitor.errors import InputError
 
@@ -91,9 +91,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f'--ros-args is only for live and play, not {args.command}')
     args.ros_args = ros_args
     from robot_wear_monitor.blas_threads import use_single_blas_thread
-    use_single_blas_thread()
     freeze_objects_at_exit()
     try:
+        with loading_modules():  # numpy and scipy
+            use_single_blas_thread()
         resolve_json(args, command=args.command)
         check_outputs(args)
         return int(args.handler(args) or 0)
@@ -113,3 +114,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'{PROG} {args.command}: error: {where}{error.strerror or error}',
               file=sys.stderr)
         return 2
+    finally:
+        gc.unfreeze()  # what loading_modules kept out of sight (the exit freezes all again)

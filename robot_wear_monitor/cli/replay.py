@@ -15,8 +15,8 @@ from typing import Any
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_history, add_joints, add_json, add_params,
-                                            add_robot, emit_json, joint_selection, print_json,
-                                            write_json_out)
+                                            add_robot, emit_json, joint_selection,
+                                            loading_modules, print_json, write_json_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'replay a recorded bag through the monitoring service'
@@ -77,7 +77,8 @@ def main(args: argparse.Namespace) -> int:
     """Run ``replay``: one bag (write OUT_BAG, print the summary) or many (:func:`main_batch`)."""
     from pathlib import Path
 
-    from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+    with loading_modules():  # rosbags and the monitoring modules
+        from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
     if not args.bag and not args.manifest:
         raise InputError('name a bag (or several, a folder of bags, or --manifest CSV)')
     if is_batch(args):

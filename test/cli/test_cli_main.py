@@ -69,3 +69,23 @@ def test_a_command_freezes_the_objects_at_exit_once(monkeypatch):
     assert cli.main(['design', '--n', '2']) == 0
     assert cli.main(['design', '--n', '2']) == 0
     assert hooks == [gc.freeze]
+
+
+def test_a_command_leaves_the_collector_as_it_found_it():
+    from robot_wear_monitor.cli.options import loading_modules
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    with loading_modules():
+        assert not gc.isenabled()
+        kept = [[]]
+    assert gc.isenabled() and gc.get_freeze_count() > 0 and kept
+    gc.unfreeze()
+    gc.disable()
+    try:
+        with loading_modules():
+            pass
+        assert not gc.isenabled()  # paused before: still paused
+    finally:
+        gc.unfreeze()
+        gc.enable()
+    assert cli.main(['design', '--n', '2']) == 0
+    assert gc.isenabled() and gc.get_freeze_count() == 0
