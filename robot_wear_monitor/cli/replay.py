@@ -67,7 +67,7 @@ def is_batch(args: argparse.Namespace) -> bool:
     """Return True when the command names many bags (or asks for workers or Dask)."""
     from pathlib import Path
 
-    from robot_wear_monitor.fleet.batch import is_bag
+    from robot_wear_monitor.recordings import is_bag
     return bool(len(args.bag) > 1 or args.manifest or args.workers is not None
                 or args.dask or any(not is_bag(Path(b)) and Path(b).is_dir()
                                     for b in args.bag))
