@@ -33,7 +33,6 @@ def _check_folder(path: str, option: str) -> None:
 
 def check_outputs(args: argparse.Namespace) -> None:
     """Raise :class:`OutputError` for the first named output that cannot be written."""
-    from robot_wear_monitor.monitoring.history.backends import is_postgresql_url
     command = getattr(args, 'command', '')
     for attribute, option in (('json_out', '--json-out'), ('plot', '--plot'),
                               ('out_params', '--out-params')):
@@ -60,9 +59,10 @@ def check_outputs(args: argparse.Namespace) -> None:
         else:
             check_writable(out, what='--out')
     history = getattr(args, 'history', None)
-    if history and command in HISTORY_WRITERS and str(history) != ':memory:' \
-            and not is_postgresql_url(history):
-        check_writable_file(history, what='--history')
+    if history and command in HISTORY_WRITERS and str(history) != ':memory:':
+        from robot_wear_monitor.monitoring.history.backends import is_postgresql_url
+        if not is_postgresql_url(history):
+            check_writable_file(history, what='--history')
 
 
 def write_text_output(target: str, text: str) -> bool:

@@ -15,8 +15,8 @@ from typing import Any
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_history, add_joints, add_json, add_params,
-                                            add_robot, emit_json, joint_selection, print_json,
-                                            write_json_out)
+                                            add_robot, emit_json, joint_selection,
+                                            loading_modules, print_json, write_json_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'replay a recorded bag through the monitoring service'
@@ -67,7 +67,7 @@ def is_batch(args: argparse.Namespace) -> bool:
     """Return True when the command names many bags (or asks for workers or Dask)."""
     from pathlib import Path
 
-    from robot_wear_monitor.fleet.batch import is_bag
+    from robot_wear_monitor.recordings import is_bag
     return bool(len(args.bag) > 1 or args.manifest or args.workers is not None
                 or args.dask or any(not is_bag(Path(b)) and Path(b).is_dir()
                                     for b in args.bag))
@@ -77,8 +77,8 @@ def main(args: argparse.Namespace) -> int:
     """Run ``replay``: one bag (write OUT_BAG, print the summary) or many (:func:`main_batch`)."""
     from pathlib import Path
 
-    from robot_wear_monitor.experiment.simulation import read_truth_json
-    from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+    with loading_modules():  # rosbags and the monitoring modules
+        from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
     if not args.bag and not args.manifest:
         raise InputError('name a bag (or several, a folder of bags, or --manifest CSV)')
     if is_batch(args):
@@ -89,7 +89,10 @@ def main(args: argparse.Namespace) -> int:
     args.bag = bag
     if args.out is not None and Path(args.out).exists() and not args.overwrite:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
-    truth = read_truth_json(args.truth) if args.truth else None
+    truth = None
+    if args.truth:  # the simulation module is loaded for it only
+        from robot_wear_monitor.experiment.simulation import read_truth_json
+        truth = read_truth_json(args.truth)
     joint, joints = joint_selection(args.joint)
     experiment, estimator = replay_parameters(
         config_file=args.config, joint=joint, joints=joints, gear_ratio=args.gear_ratio,

@@ -548,24 +548,29 @@ def _forecast_basis(flt: _GridFilter) -> FloatArray:
     basis = _FORECAST_BASES.get(key)
     if basis is not None:
         return basis
-    g = flt.grid.size
+    r, g = flt.rates.size, flt.grid.size
     transition = flt.rate_transition(np.ones(1))[0]  # (R, R): new p = transition.T @ p
     shift = flt.rates / flt.step
     whole = np.minimum(np.floor(shift), g).astype(np.int64)
     frac = (shift - np.floor(shift))[:, None]
     cells = np.arange(g)[None, :]
-    low = np.minimum(cells + whole[:, None], g - 1)
-    high = np.minimum(cells + whole[:, None] + 1, g - 1)
+    first = np.arange(r)[:, None] * g  # the flat index of each rate row's first cell
+    low = (first + np.minimum(cells + whole[:, None], g - 1)).ravel()
+    high = (first + np.minimum(cells + whole[:, None] + 1, g - 1)).ravel()
+    keep = np.broadcast_to(1.0 - frac, (r, g)).ravel()  # the weights of low and high
+    move = np.broadcast_to(frac, (r, g)).ravel()
     lo, hi = flt.wear_edges[:-1], flt.wear_edges[1:]
     above = np.clip((hi - cfg.threshold) / np.maximum(hi - lo, 1e-300), 0.0, 1.0)
-    rows = np.empty((cfg.forecast_horizon + 1, flt.rates.size, g))
-    rows[0] = above[None, :]
-    for n in range(cfg.forecast_horizon):
-        v = rows[n]
-        moved = (1.0 - frac) * np.take_along_axis(v, low, axis=1) \
-            + frac * np.take_along_axis(v, high, axis=1)
-        rows[n + 1] = transition @ moved
-    basis = rows.reshape(rows.shape[0], -1)
+    basis = np.empty((cfg.forecast_horizon + 1, r * g))
+    basis[0] = np.tile(above, r)
+    moved, upper = np.empty(r * g), np.empty(r * g)
+    for n in range(cfg.forecast_horizon):  # moved = keep v[low] + move v[high], in place
+        np.take(basis[n], low, out=moved)
+        np.take(basis[n], high, out=upper)
+        moved *= keep
+        upper *= move
+        moved += upper
+        np.matmul(transition, moved.reshape(r, g), out=basis[n + 1].reshape(r, g))
     if len(_FORECAST_BASES) >= 4:  # 23 MB each at the default grid
         _FORECAST_BASES.clear()
     _FORECAST_BASES[key] = basis

@@ -29,6 +29,7 @@ import time
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.recordings import is_bag
 from robot_wear_monitor.yaml_files import load_yaml_text
 
 #: The robot of bags given without a manifest and without ``--robot``.
@@ -38,7 +39,6 @@ MAX_MANIFEST_BYTES = 16 * 1024 * 1024
 MAX_BAGS = 100_000
 #: Bytes read from each end of each bag file for its fingerprint.
 _FINGERPRINT_BYTES = 1 << 16
-_BAG_SUFFIXES = ('.mcap', '.db3')
 
 
 class BatchError(InputError):
@@ -146,21 +146,6 @@ class BatchResult:
 
 
 # --- which bags -----------------------------------------------------------------------------
-
-def is_bag(path: Path) -> bool:
-    """Return True when ``path`` is a recording the replay reads.
-
-    A bag folder (``metadata.yaml``, or MCAP / sqlite3 files of an unfinished recording
-    directly in it) or an MCAP file.
-    """
-    if path.is_file():
-        return path.suffix == '.mcap'
-    if not path.is_dir():
-        return False
-    if (path / 'metadata.yaml').is_file():
-        return True
-    return any(child.suffix in _BAG_SUFFIXES and child.is_file() for child in path.iterdir())
-
 
 def _cut(text: str, limit: int = 80) -> str:
     return text if len(text) <= limit else text[:limit - 1] + '\u2026'

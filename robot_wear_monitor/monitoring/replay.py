@@ -19,7 +19,7 @@ OUT_BAG is written atomically (``bags.atomic_bag_writer``); a bad input bag rais
 
 from __future__ import annotations
 
-from contextlib import ExitStack
+from contextlib import ExitStack, nullcontext
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
@@ -190,15 +190,17 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
 
     """
     experiments = FrictionExperimentFleet(experiment_parameters, source='replay parameters')
-    from tqdm import tqdm
-    bar = tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}',
-               disable=not progress, mininterval=0.5)
+    bar: Any = nullcontext()  # tqdm is loaded for a progress bar only
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}', mininterval=0.5)
 
     def advance(done: int, total: int) -> None:
         bar.total = max(total, done)
         bar.update(done - bar.n)
 
-    stream = iter_joint_chunks(bag, joints=experiments.selection, progress=advance,
+    stream = iter_joint_chunks(bag, joints=experiments.selection,
+                               progress=advance if progress else None,
                                recover=recover, require_joints=False,
                                chunk_messages=chunk_messages)
     history = WearHistory(history_file if history_file is not None else ':memory:',

@@ -14,6 +14,7 @@ import pytest
 
 import independent_robot as robot
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation import trend as trend_module
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood
 from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig, WearTrend
@@ -233,3 +234,23 @@ def test_forecast_equals_the_step_by_step_propagation(slope):
     np.testing.assert_allclose(fast, reference[:fast.size], atol=1e-12)
     if fast.size < reference.size:  # stopped at the first value the quantiles need
         assert fast[-1] >= 0.975 > fast[-2]
+
+
+def test_forecast_basis_is_bit_for_bit_the_row_by_row_adjoint():
+    flt = WearTrend()._filter
+    cfg = flt.config
+    g = flt.grid.size
+    transition = flt.rate_transition(np.ones(1))[0]
+    shift = flt.rates / flt.step
+    whole = np.minimum(np.floor(shift), g).astype(np.int64)
+    frac = (shift - np.floor(shift))[:, None]
+    low = np.minimum(np.arange(g)[None, :] + whole[:, None], g - 1)
+    high = np.minimum(low + 1, g - 1)
+    lo, hi = flt.wear_edges[:-1], flt.wear_edges[1:]
+    v = np.broadcast_to(np.clip((hi - cfg.threshold) / (hi - lo), 0.0, 1.0), low.shape)
+    rows = [v]
+    for _ in range(cfg.forecast_horizon):  # (M^T)^n a, one step at a time, as plainly written
+        v = transition @ ((1.0 - frac) * np.take_along_axis(v, low, axis=1)
+                          + frac * np.take_along_axis(v, high, axis=1))
+        rows.append(v)
+    assert trend_module._forecast_basis(flt).tobytes() == np.stack(rows).tobytes()

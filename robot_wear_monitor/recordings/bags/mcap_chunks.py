@@ -112,7 +112,7 @@ class BulkSource:
                 handle.close()  # type: ignore[attr-defined]
 
 
-def _decompress(data: bytes, compression: str, size: int) -> bytes:
+def _decompress(data: memoryview, compression: str, size: int) -> bytes | memoryview:
     if compression == '':
         return data
     if compression == 'zstd':
@@ -135,14 +135,15 @@ def _read_chunk(handle, chunk: _Chunk, channels: set[int]) -> Optional[RawBatch]
     at += 4 + name_length
     (data_length,) = struct.unpack_from('<Q', record, at)
     at += 8
-    data = _decompress(record[at:at + data_length], chunk.compression, size)
+    # a view, not a copy: an uncompressed chunk's messages are views into the bytes read
+    data = _decompress(memoryview(record)[at:at + data_length], chunk.compression, size)
     if len(data) != size:
         raise InputError(f'{chunk.file}: chunk at byte {chunk.offset} decompresses to '
                          f'{len(data)} bytes, its header says {size}')
     return split_records(data, channels)
 
 
-def split_records(data: bytes, channels: set[int]) -> Optional[RawBatch]:
+def split_records(data: bytes | memoryview, channels: set[int]) -> Optional[RawBatch]:
     """Return the messages of ``channels`` among a chunk's records (None when there are none)."""
     view = memoryview(data)
     unpack = struct.unpack_from
@@ -183,7 +184,8 @@ def split_records(data: bytes, channels: set[int]) -> Optional[RawBatch]:
                     raws=[view[s:e] for s, e in zip(starts, ends)])
 
 
-def _fixed_stride(data: bytes, at: int, length: int) -> Optional[tuple[int, int, int]]:
+def _fixed_stride(data: bytes | memoryview, at: int,
+                  length: int) -> Optional[tuple[int, int, int]]:
     """Return (first, stride, count) when every record from ``at`` on is a message of one size."""
     stride = _RECORD_HEAD + length
     rest = len(data) - at
@@ -200,7 +202,7 @@ def _fixed_stride(data: bytes, at: int, length: int) -> Optional[tuple[int, int,
     return at, stride, count
 
 
-def _record_rows(fixed: tuple[int, int, int], data: bytes,
+def _record_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
                  channels: set[int]) -> tuple[NDArray, NDArray, NDArray]:
     """Return a run of same-size records as byte rows, their log times [ns] and topic mask."""
     at, stride, count = fixed
@@ -213,7 +215,7 @@ def _record_rows(fixed: tuple[int, int, int], data: bytes,
     return rows, log_time, keep
 
 
-def _stride_rows(fixed: tuple[int, int, int], data: bytes,
+def _stride_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
                  channels: set[int]) -> Optional[RawBatch]:
     """Return the messages of a chunk that is one run of same-size records, as rows.
 
@@ -233,7 +235,7 @@ def _stride_rows(fixed: tuple[int, int, int], data: bytes,
     return RawBatch(log_time_ns=log_time, raws=RawRows(payload))
 
 
-def _take_stride(fixed: tuple[int, int, int], data: bytes, channels: set[int],
+def _take_stride(fixed: tuple[int, int, int], data: bytes | memoryview, channels: set[int],
                  starts: list[int], ends: list[int], times: list[int]) -> None:
     """Add the messages of a run of same-size message records (numpy, no per-record parsing)."""
     at, stride, count = fixed

@@ -320,24 +320,21 @@ class JointStream:
         path, topic = self.path, self.topic
         unfinished = self._unfinished
         state = {'count': 0, 'last_ns': -1, 'cut': False, 'types': {}}
-        reader = None
-        if unfinished is None:
+        reader = bulk = None
+        if unfinished is None and self.bulk:  # the topic and its type were checked on opening
+            bulk = bulk_source(path, topic)
+        if unfinished is None and bulk is None:
             reader = open_reader(path)
+        self.bulk_read = bulk is not None
         collecting = gc.isenabled()
         try:
-            if reader is not None:
+            if bulk is not None:
+                batches: Iterator[tuple[Any, list]] = _bulk_batches(bulk, self.chunk_messages)
+            elif reader is not None:
                 connections = joint_state_connections(reader, path, topic)
-                bulk = bulk_source(path, topic) if self.bulk else None
-                self.bulk_read = bulk is not None
-                if bulk is not None:
-                    reader.close()
-                    reader = None
-                    batches: Iterator[tuple[Any, list]] = _bulk_batches(
-                        bulk, self.chunk_messages)
-                else:
-                    batches = _batched(((t, raw) for _, t, raw in
-                                        reader.messages(connections=connections)),
-                                       self.chunk_messages)
+                batches = _batched(((t, raw) for _, t, raw in
+                                    reader.messages(connections=connections)),
+                                   self.chunk_messages)
             else:
                 assert unfinished is not None  # no reader: the recording is unfinished
                 batches = _batched(iter_unfinished_mcap(Path(path), unfinished[0], topic,

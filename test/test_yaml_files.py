@@ -1,0 +1,49 @@
+"""yaml_files: bounded, alias-free YAML reading; the same text is parsed once."""
+
+import pytest
+import yaml
+
+from robot_wear_monitor import yaml_files
+from robot_wear_monitor.errors import InputError
+
+
+def _count_parses(monkeypatch):
+    calls = []
+    parse = yaml.load
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return parse(*args, **kwargs)
+    monkeypatch.setattr(yaml, 'load', counted)
+    return calls
+
+
+def test_the_same_text_is_parsed_once_and_every_call_gets_its_own_copy(tmp_path, monkeypatch):
+    calls = _count_parses(monkeypatch)
+    path = tmp_path / 'a.yaml'
+    path.write_text('node:\n  values: [1, 2.5, x]\n  nested: {k: true}\n')
+    first = yaml_files.load_yaml_file(path)
+    first['node']['values'].append('changed')
+    second = yaml_files.load_yaml_file(path)
+    assert second == {'node': {'values': [1, 2.5, 'x'], 'nested': {'k': True}}}
+    assert len(calls) == 1
+    path.write_text('node:\n  values: [3, 2.5, x]\n  nested: {k: true}\n')  # same size
+    assert yaml_files.load_yaml_file(path)['node']['values'] == [3, 2.5, 'x']
+    assert len(calls) == 2
+
+
+def test_only_the_latest_texts_are_kept_and_errors_are_not(monkeypatch):
+    calls = _count_parses(monkeypatch)
+    texts = [f'value: {i}\n' for i in range(yaml_files.RECENT_TEXTS + 1)]
+    for text in texts:
+        assert yaml_files.load_yaml_text(text, source='t') == {'value': int(text[7:])}
+    assert len(yaml_files._recent) <= yaml_files.RECENT_TEXTS
+    yaml_files.load_yaml_text(texts[-1], source='t')
+    assert len(calls) == len(texts)
+    yaml_files.load_yaml_text(texts[0], source='t')  # the oldest was dropped
+    assert len(calls) == len(texts) + 1
+    for _ in range(2):
+        with pytest.raises(InputError, match='aliases'):
+            yaml_files.load_yaml_text('a: &x [1]\nb: *x\n', source='bad.yaml')
+    assert yaml_files.load_yaml_text('', source='empty') is None
+    assert yaml_files.load_yaml_text('', source='empty') is None
