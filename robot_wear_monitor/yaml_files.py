@@ -9,16 +9,16 @@ no Python objects, no code.
 
 The same text is not parsed twice: a replay reads the node configuration four times and the
 bag's ``metadata.yaml`` three times, and the pure-Python parser takes milliseconds for each.
-The latest documents are kept by their text (:data:`RECENT_TEXTS`); every call returns its own
-copy.
+The latest documents are kept by their text (:data:`RECENT_TEXTS`, :func:`functools.lru_cache`;
+an error is not kept); every call returns its own copy.
 """
 
 from __future__ import annotations
 
 import copy
+from functools import lru_cache
 import os
 from pathlib import Path
-import threading
 from typing import Any
 
 import yaml
@@ -31,10 +31,6 @@ MAX_YAML_BYTES = 1_000_000
 ECHO_LIMIT = 80
 #: How many parsed texts :func:`load_yaml_text` keeps (the latest).
 RECENT_TEXTS = 8
-
-_recent: dict[str, Any] = {}  # text -> its document, oldest first
-_recent_lock = threading.Lock()
-_MISSING = object()
 
 
 def shorten(value: Any, limit: int = ECHO_LIMIT) -> str:
@@ -60,12 +56,8 @@ def load_yaml_text(text: str, *, source: str, error: type[InputError] = InputErr
     if len(text) > MAX_YAML_BYTES:
         raise error(f'{source}: {len(text)} characters, more than the {MAX_YAML_BYTES} a YAML '
                     'file may have here')
-    with _recent_lock:
-        known = _recent.get(text, _MISSING)
-    if known is not _MISSING:
-        return copy.deepcopy(known)
     try:
-        document = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader
+        document = _parsed(text)
     except yaml.YAMLError as problem:
         mark = getattr(problem, 'problem_mark', None)
         where = f' (line {mark.line + 1}, column {mark.column + 1})' if mark else ''
@@ -73,11 +65,13 @@ def load_yaml_text(text: str, *, source: str, error: type[InputError] = InputErr
         raise error(f'{source}: not valid YAML: {shorten(what)}{where}') from None
     except RecursionError:
         raise error(f'{source}: YAML nested too deeply') from None
-    with _recent_lock:
-        if len(_recent) >= RECENT_TEXTS:
-            del _recent[next(iter(_recent))]
-        _recent[text] = document
     return copy.deepcopy(document)
+
+
+@lru_cache(maxsize=RECENT_TEXTS)
+def _parsed(text: str) -> Any:
+    """Return the document of ``text`` (shared: callers copy it)."""
+    return yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader
 
 
 def load_yaml_file(path: str | os.PathLike, *, what: str = 'YAML file',

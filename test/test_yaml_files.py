@@ -37,7 +37,7 @@ def test_only_the_latest_texts_are_kept_and_errors_are_not(monkeypatch):
     texts = [f'value: {i}\n' for i in range(yaml_files.RECENT_TEXTS + 1)]
     for text in texts:
         assert yaml_files.load_yaml_text(text, source='t') == {'value': int(text[7:])}
-    assert len(yaml_files._recent) <= yaml_files.RECENT_TEXTS
+    assert yaml_files._parsed.cache_info().currsize <= yaml_files.RECENT_TEXTS
     yaml_files.load_yaml_text(texts[-1], source='t')
     assert len(calls) == len(texts)
     yaml_files.load_yaml_text(texts[0], source='t')  # the oldest was dropped

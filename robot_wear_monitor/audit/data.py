@@ -7,7 +7,6 @@ unit (normalised for the packaged model; N.m for the KUKA data), temperature [de
 from __future__ import annotations
 
 import csv
-from dataclasses import replace
 import gzip
 import math
 import os
@@ -198,13 +197,11 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     """
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
-                                                      slow_run_config)
+                                                      slow_run_config, with_standstill_speed)
 
     settings = config if config is not None else kuka_segmenter_config()
     if standstill_speed_rad_s is not None:  # the user's threshold, also for slow runs
-        settings = replace(settings, standstill_speed_rad_s=float(standstill_speed_rad_s),
-                           speed_tolerance_rad_s=min(settings.speed_tolerance_rad_s,
-                                                     0.5 * float(standstill_speed_rad_s)))
+        settings = with_standstill_speed(settings, standstill_speed_rad_s)
     sign = -1.0 if flip_sign else 1.0
     columns: dict[str, list] = {k: [] for k in (
         'speed', 'friction', 'friction_std_error', 'experiment', 'joint', 'pose',

@@ -116,14 +116,13 @@ def rejection_text(rejections: Mapping[str, int]) -> str:
     '' when nothing was rejected; e.g. ``"rejected as bad data: non_finite 3; routine: 299
     (unpaired passes, gaps between experiments ...)"``.
     """
-    defects = {r: n for r, n in sorted(rejections.items()) if n and not is_routine(r)}
-    routine = sum(n for r, n in rejections.items() if is_routine(r))
+    defects, routine = split_rejections(rejections)
     parts = []
     if defects:
         parts.append('rejected as bad data: ' + ', '.join(f'{r} {n}' for r, n in defects.items()))
     if routine:
-        parts.append(f'routine: {routine} (the pass without a partner at the end of a sweep, '
-                     'the pauses between experiments, ramps)')
+        parts.append(f'routine: {sum(routine.values())} (the pass without a partner at the end '
+                     'of a sweep, the pauses between experiments, ramps)')
     return '; '.join(parts)
 
 

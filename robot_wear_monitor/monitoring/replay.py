@@ -104,6 +104,7 @@ class ReplayResult:
                                   'load': truth.load}
             experiments.append(entry)
         first = self.first_alarm
+        bad_data, routine = split_rejections(self.rejections)
         return {
             'format': 'robot_wear_monitor.replay/1',
             'joint': self.joint, 'joint_state_messages': self.message_count,
@@ -115,8 +116,8 @@ class ReplayResult:
             'forecast': (None if not self.updates or self.updates[-1].trend is None
                          else self.updates[-1].trend.to_json()),
             'rejections': dict(sorted(self.rejections.items())),
-            'bad_data_rejections': split_rejections(self.rejections)[0],
-            'routine_rejections': split_rejections(self.rejections)[1],
+            'bad_data_rejections': bad_data,
+            'routine_rejections': routine,
             'out_bag': None if self.out_bag is None else str(self.out_bag),
             'recovery': None if self.recovery is None else {
                 'files': list(self.recovery.files), 'messages': self.recovery.messages,

@@ -60,15 +60,13 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     """
     from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_raw_csv,
-                                                      slow_run_config)
+                                                      slow_run_config, with_standstill_speed)
     t, q, v, e = read_raw_csv(path)
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
-                                       ('torque_scale', torque_scale),
-                                       ('standstill_speed_rad_s', standstill_speed_rad_s))
-                 if val is not None}
-    if standstill_speed_rad_s is not None:
-        overrides['speed_tolerance_rad_s'] = min(0.01, 0.5 * standstill_speed_rad_s)
+                                       ('torque_scale', torque_scale)) if val is not None}
     config = kuka_segmenter_config(**overrides)
+    if standstill_speed_rad_s is not None:  # the user's threshold, also for a slow run
+        config = with_standstill_speed(config, standstill_speed_rad_s)
     result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
     slow = (slow_run_config(config, v)
             if not result.levels and standstill_speed_rad_s is None else None)

@@ -181,6 +181,18 @@ def kuka_segmenter_config(**overrides) -> SegmenterConfig:
     return SegmenterConfig(**settings)
 
 
+def with_standstill_speed(config: SegmenterConfig,
+                          standstill_speed_rad_s: float) -> SegmenterConfig:
+    """Return ``config`` with the user's standstill threshold [rad/s, motor side].
+
+    The absolute constant-speed band is kept within half the threshold, so that a run just
+    above it is not taken for one at another speed.
+    """
+    threshold = float(standstill_speed_rad_s)
+    return replace(config, standstill_speed_rad_s=threshold,
+                   speed_tolerance_rad_s=min(config.speed_tolerance_rad_s, 0.5 * threshold))
+
+
 def slow_run_config(config: SegmenterConfig, velocity_rad_s: Any) -> SegmenterConfig | None:
     """Return settings whose standstill threshold follows the run's speed noise, or None.
 
