@@ -36,7 +36,8 @@ class ProcessGraph:
         self.tmp_path = tmp_path
         self.env = {**os.environ, 'ROS_DOMAIN_ID': str(next_ros_domain_id()),
                     'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1',
-                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
+                    'PYTHONFAULTHANDLER': '1'}  # a crash prints every thread's stack
         self.processes = {}
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=int(self.env['ROS_DOMAIN_ID']))
