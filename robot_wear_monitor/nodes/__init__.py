@@ -7,6 +7,7 @@ package itself imports nothing from ROS, so the core stays usable without it.
 from __future__ import annotations
 
 import signal
+import threading
 from typing import Any, Callable, Mapping, Sequence
 
 from robot_wear_monitor.monitoring.node_config import ParameterSpec
@@ -195,8 +196,11 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     from robot_wear_monitor.errors import InputError
 
     use_single_blas_thread()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = _StopOnSignal()
+    # signal handlers can only be set in the main thread; elsewhere rclpy's handle the signals
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    rclpy.init(args=args, signal_handler_options=(
+        SignalHandlerOptions.NO if in_main_thread else None))
+    stop = _StopOnSignal(install=in_main_thread)
     nodes: list[Any] = []
     try:
         try:
@@ -230,11 +234,11 @@ SIGNAL_POLL_S = 0.1
 class _StopOnSignal:
     """Record SIGINT and SIGTERM instead of shutting the ROS context down at once."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, install: bool = True) -> None:
         self.requested = False
         self._previous: dict[int, Any] = {
             number: signal.signal(number, self._on_signal)
-            for number in (signal.SIGINT, signal.SIGTERM)}
+            for number in (signal.SIGINT, signal.SIGTERM)} if install else {}
 
     def _on_signal(self, number: int, frame: Any) -> None:
         self.requested = True

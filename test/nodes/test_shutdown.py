@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import signal
 import sqlite3
+import subprocess
+import sys
 
 import pytest
 
@@ -66,3 +68,36 @@ def test_the_estimator_exits_0_on_a_signal_after_a_late_subscriber_matched(tmp_p
             assert conn.execute('SELECT event FROM alarm_events').fetchall() == [('raised',)]
     finally:
         graph.close()
+
+
+_IN_A_THREAD = """
+import sys, threading, time
+import rclpy
+from robot_wear_monitor.nodes import spin_node
+from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
+result = {}
+def run():
+    result['code'] = spin_node(WearEstimatorNode, logger_name='wear_estimator_node',
+                               args=['node', '--ros-args', '-p', 'history_file:=' + sys.argv[1]])
+thread = threading.Thread(target=run)
+thread.start()
+deadline = time.monotonic() + 60.0
+while not rclpy.ok() and time.monotonic() < deadline:
+    time.sleep(0.05)
+time.sleep(1.0)
+rclpy.try_shutdown()  # what the owner of a thread-run node does to stop it
+thread.join(10.0)
+print('alive' if thread.is_alive() else result['code'])
+"""
+
+
+def test_a_node_spun_outside_the_main_thread_stops_when_its_context_shuts_down(tmp_path):
+    # signal handlers can only be set in the main thread: there rclpy's are kept
+    graph = ProcessGraph(tmp_path)  # a fresh ROS domain for the child
+    try:
+        done = subprocess.run([sys.executable, '-c', _IN_A_THREAD, str(tmp_path / 'h.sqlite3')],
+                              env=graph.env, capture_output=True, text=True, timeout=120)
+    finally:
+        graph.close()
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == '0', done.stdout + done.stderr
