@@ -19,6 +19,8 @@ from rclpy.executors import SingleThreadedExecutor
 
 from conftest import next_ros_domain_id
 
+from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, open_history
+
 BIN = Path(sys.executable).parent
 
 
@@ -26,6 +28,19 @@ def console_script(name):
     """Return the path of an installed console script (or the name, found on PATH)."""
     path = BIN / name
     return str(path) if path.exists() else name
+
+
+def write_latched_history(path, *, robot=None):
+    """Write a history whose joint_2 has a latched alarm (as a node before would have)."""
+    with open_history(path, robot=robot) as history:
+        record = HistoryRecord(joint='joint_2', stamp_s=100.0, speeds_rad_s=(2.1, 28.5),
+                               frictions=(0.2, 0.1), temperature_degc=40.0,
+                               temperature_std_degc=2.0, wear=48.0, wear_std=4.0, chi2=1.0,
+                               dof=0, p_value=float('nan'), temperature_at_bound=False,
+                               wear_at_bound=False, alarm_active=True, alarm_evidence=3.0,
+                               status_level=2, parameter_set='abb_irb6620_joint2')
+        history.append(record, events=[AlarmEvent(joint='joint_2', stamp_s=100.0,
+                                                  event='raised', wear=48.0)])
 
 
 class ProcessGraph:

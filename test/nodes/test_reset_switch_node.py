@@ -11,31 +11,19 @@ from conftest import require_rclpy
 
 rclpy = require_rclpy()
 
+from process_graph import write_latched_history  # noqa: E402, I100
+
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402, I100
 from rclpy.parameter import Parameter  # noqa: E402
 from std_msgs.msg import Bool  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from robot_wear_monitor.monitoring.history import (  # noqa: E402
-    AlarmEvent, HistoryRecord, open_history)
+from robot_wear_monitor.monitoring.history import open_history  # noqa: E402
 from robot_wear_monitor.nodes.qos import ALARM_QOS  # noqa: E402
 from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode  # noqa: E402
 
 RESET = '/wear_estimator_node/reset_alarm'
 PARAMETER_SERVICE = '/wear_estimator_node/get_parameters'
-
-
-def _latched_history(path):
-    """Write a history whose joint_2 has a latched alarm (as a node before would have)."""
-    with open_history(path) as history:
-        record = HistoryRecord(joint='joint_2', stamp_s=1000.0, speeds_rad_s=(2.1, 28.5),
-                               frictions=(0.1, 0.05), temperature_degc=40.0,
-                               temperature_std_degc=2.0, wear=50.0, wear_std=3.0, chi2=1.0,
-                               dof=0, p_value=0.5, temperature_at_bound=False,
-                               wear_at_bound=False, alarm_active=True, alarm_evidence=30.0,
-                               status_level=2, parameter_set='p')
-        history.append(record, events=[AlarmEvent(joint='joint_2', stamp_s=1000.0,
-                                                  event='raised', wear=50.0)])
 
 
 def _services(executor, probe, *, until, timeout_s=15.0):
@@ -51,7 +39,7 @@ def _services(executor, probe, *, until, timeout_s=15.0):
 
 def test_the_reset_service_is_offered_only_when_enabled(ros_context, tmp_path):
     history = tmp_path / 'h.sqlite3'
-    _latched_history(history)
+    write_latched_history(history)
     executor = SingleThreadedExecutor()
     probe = rclpy.create_node('reset_switch_probe')
     executor.add_node(probe)

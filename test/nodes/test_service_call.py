@@ -10,14 +10,13 @@ from conftest import require_rclpy
 
 require_rclpy()
 
-from process_graph import console_script, ProcessGraph  # noqa: E402, I100
+from process_graph import console_script, ProcessGraph, write_latched_history  # noqa: E402, I100
 
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 
 from robot_wear_monitor.cli.call import service_candidates  # noqa: E402
-from robot_wear_monitor.monitoring.history import (AlarmEvent, HistoryRecord,  # noqa: E402
-                                                   open_history)
+from robot_wear_monitor.monitoring.history import open_history  # noqa: E402
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, TRAJECTORY_QOS  # noqa: E402
 from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
 
@@ -25,18 +24,6 @@ TRAJECTORY_TOPIC = '/joint_trajectory_controller/joint_trajectory'
 #: The runner's parameters beside its defaults (joint_2): a long standstill at every turn, so
 #: the run lasts well beyond the calls of this test (each one a process starting rclpy).
 RUNNER = ('-p', 'dwell_s:=10.0')
-
-
-def _latched_history(path, robot):
-    with open_history(path, robot=robot) as history:
-        record = HistoryRecord(joint='joint_2', stamp_s=100.0, speeds_rad_s=(2.1, 28.5),
-                               frictions=(0.2, 0.1), temperature_degc=40.0,
-                               temperature_std_degc=2.0, wear=48.0, wear_std=4.0, chi2=1.0,
-                               dof=0, p_value=float('nan'), temperature_at_bound=False,
-                               wear_at_bound=False, alarm_active=True, alarm_evidence=3.0,
-                               status_level=2, parameter_set='abb_irb6620_joint2')
-        history.append(record, events=[AlarmEvent(joint='joint_2', stamp_s=100.0,
-                                                  event='raised', wear=48.0)])
 
 
 def _call(graph, *options, timeout=60):
@@ -53,7 +40,7 @@ def test_the_service_names_follow_the_robot_namespace_and_the_joint():
 
 def test_reset_alarm_clears_the_latched_alarm_of_a_running_node(tmp_path):
     history = tmp_path / 'fleet.sqlite3'
-    _latched_history(history, 'cell_7')
+    write_latched_history(history, robot='cell_7')
     graph = ProcessGraph(tmp_path)
     try:
         graph.start('estimator', 'wear_estimator_node', '--ros-args', '-r', '__ns:=/cell_7',

@@ -19,33 +19,19 @@ from conftest import require_rclpy
 
 require_rclpy()
 
-from process_graph import ProcessGraph  # noqa: E402, I100
+from process_graph import ProcessGraph, write_latched_history  # noqa: E402, I100
 
 from std_msgs.msg import Bool  # noqa: E402, I100
 
-from robot_wear_monitor.monitoring.history import (AlarmEvent, HistoryRecord,  # noqa: E402
-                                                   open_history)
 from robot_wear_monitor.nodes.qos import ALARM_QOS  # noqa: E402
 
 ROUNDS = 3
 
 
-def _latched_history(path):
-    with open_history(path) as history:
-        record = HistoryRecord(joint='joint_2', stamp_s=100.0, speeds_rad_s=(2.1, 28.5),
-                               frictions=(0.2, 0.1), temperature_degc=40.0,
-                               temperature_std_degc=2.0, wear=48.0, wear_std=4.0, chi2=1.0,
-                               dof=0, p_value=float('nan'), temperature_at_bound=False,
-                               wear_at_bound=False, alarm_active=True, alarm_evidence=3.0,
-                               status_level=2, parameter_set='abb_irb6620_joint2')
-        history.append(record, events=[AlarmEvent(joint='joint_2', stamp_s=100.0,
-                                                  event='raised', wear=48.0)])
-
-
 @pytest.mark.parametrize('stop', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_the_estimator_exits_0_on_a_signal_after_a_late_subscriber_matched(tmp_path, stop):
     history = tmp_path / 'history.sqlite3'
-    _latched_history(history)
+    write_latched_history(history)
     graph = ProcessGraph(tmp_path)
     try:
         graph.spin()
