@@ -10,7 +10,9 @@ OpenBLAS also reads ``OPENBLAS_NUM_THREADS`` when it loads: with more than one t
 its workers there, and each spins for a while before it sleeps, even when the limit comes
 right after.  Numpy and scipy each load their own OpenBLAS: an entry point that calls
 :func:`use_single_blas_thread` before it imports numpy saves about 0.1 s of CPU per process
-(the function sets the variable unless it is set already).
+(the function sets the variable unless it is set already).  With the variable at 1, a scipy
+loaded later starts with one thread, so scipy is only imported here when the user set the
+variable to something else.
 """
 
 import os
@@ -27,9 +29,11 @@ def use_single_blas_thread() -> None:
     # read by OpenBLAS when numpy and scipy load it (no effect once loaded); inherited by the
     # worker processes of a batch
     os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
-    # the limit reaches the libraries loaded when it is set: scipy.linalg brings its own
-    # OpenBLAS, so load it first
     import numpy  # noqa: F401
-    import scipy.linalg  # noqa: F401
+    if os.environ['OPENBLAS_NUM_THREADS'] != '1':
+        # the limit reaches the libraries loaded when it is set, and scipy.linalg brings its
+        # own OpenBLAS, which would read the other value if loaded later: load it first.
+        # Otherwise skip it: the estimation path does not import scipy (0.14 s)
+        import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_limits
     _LIMITER = threadpool_limits(limits=1, user_api='blas')

@@ -18,10 +18,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import special
 
 from robot_wear_monitor.estimation import intervals as one
 from robot_wear_monitor.estimation.estimator import WearEstimates
+from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -182,7 +182,7 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     vals = np.concatenate([np.asarray(v, dtype=float) for v in values])
     w_hat = np.concatenate([np.asarray(e.wear, dtype=float) for e in estimates])
     t_hat = np.concatenate([np.asarray(e.temperature_degc, dtype=float) for e in estimates])
-    half_q = 0.5 * float(special.chdtri(1, 1.0 - level))
+    half_q = 0.5 * chi2_quantile_one_dof(level)
     profiles = [one._Profile(s.copy(), params, _extended_grid(grid, w).copy())
                 for s, w in zip(speeds, w_hat)]
     profile = _StackedProfile(profiles)

@@ -31,10 +31,9 @@ from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special
-from scipy.linalg import solve_triangular
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation.special_functions import chi2_survival, log_sum_exp
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -46,6 +45,8 @@ _GRID_SPACING_SIGMA = 0.5
 _GRID_MAX_STEP_DEGC = 2.0
 _GRID_MAX_STEP_WEAR = 2.0
 _GRID_MAX_POINTS = 400  # per axis (a very small sigma would ask for more)
+# samples of the model curve whose arc length places the grid (2.5 per grid point at the most)
+_ARC_SAMPLES = 1001
 _GAUSS_NEWTON_ITERATIONS = 100
 _LINE_SEARCH_HALVINGS = 8
 _BATCH_CHUNK = 64  # rows of the grid search at a time (cache-sized)
@@ -242,7 +243,7 @@ def _arc_length_grid(curve, lower: float, upper: float, *, spacing: float,
     spacing/2 noise standard deviations of a grid point however steep the model is.  Steps in
     the parameter are also at most ``max_step``.
     """
-    fine = np.linspace(lower, upper, 4001)
+    fine = np.linspace(lower, upper, _ARC_SAMPLES)
     points = curve(fine)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     arc = arc + (fine - lower) * (spacing / max_step)  # the parameter step bound
@@ -262,7 +263,7 @@ class _WhitenedProblem:
                                             load_std=params.load_std, model=params.model)
         factor = np.linalg.cholesky(covariance)
         # whitening matrix W with W Sigma W^T = I: rows of r @ W.T are whitened residuals
-        self.whiten = solve_triangular(factor, np.eye(speeds.size), lower=True)
+        self.whiten = np.linalg.solve(factor, np.eye(speeds.size))
         self.t_min = params.temperature_min_degc
         self.t_max = params.temperature_max_degc
         self._grid_cache: tuple | None = None
@@ -327,11 +328,18 @@ class _WhitenedProblem:
             return self._grid_cache
         mid_t = 0.5 * (self.t_min + self.t_max)
 
+        model = self.params.model
+        # the grid's many points are whitened by one matrix product (BLAS): the start grid
+        # is the same in every path that uses it (estimate_wear, the batched rows)
+        whiten_t = np.ascontiguousarray(self.whiten.T)
+
         def along_t(t: FloatArray) -> FloatArray:
-            return self.model_w(t[:, None], 0.0)
+            return fm.friction(self.speeds, self.params.load_mean, t[:, None], 0.0,
+                               model) @ whiten_t
 
         def along_w(w: FloatArray) -> FloatArray:
-            return self.model_w(mid_t, w[:, None])
+            return fm.friction(self.speeds, self.params.load_mean, mid_t, w[:, None],
+                               model) @ whiten_t
 
         grid_t = _arc_length_grid(along_t, self.t_min, self.t_max,
                                   spacing=_GRID_SPACING_SIGMA, max_step=_GRID_MAX_STEP_DEGC)
@@ -341,10 +349,9 @@ class _WhitenedProblem:
         # w-major order, so that the minimum over T runs along contiguous memory
         ww, tt = (a.ravel() for a in np.meshgrid(grid_w, grid_t, indexing='ij'))
         # the model (8) is tau_f0(T) + tilde tau_f(w): each part once per grid line, summed
-        model = self.params.model
         nominal = fm.nominal_friction(self.speeds, self.params.load_mean, grid_t[:, None], model)
         wear = fm.wear_friction(self.speeds, grid_w[:, None], model)
-        model_w = self.apply((nominal[None, :, :] + wear[:, None, :]).reshape(ww.size, -1))
+        model_w = (nominal[None, :, :] + wear[:, None, :]).reshape(ww.size, -1) @ whiten_t
         # |d - g|^2 = |d|^2 - 2 d.g + |g|^2; the first term does not change the argmin
         norm2 = np.einsum('kn,kn->k', model_w, model_w)
         minus_2g = -2.0 * model_w.T
@@ -528,7 +535,7 @@ def _inverse_2x2(matrix: FloatArray) -> FloatArray:
 
 def _p_value(chi2: FloatArray, dof: NDArray[np.int64]) -> FloatArray:
     with np.errstate(invalid='ignore'):
-        return np.where(dof > 0, special.chdtrc(np.maximum(dof, 1), chi2), np.nan)
+        return np.where(dof > 0, chi2_survival(chi2, np.maximum(dof, 1)), np.nan)
 
 
 def _estimate_multi_level(speeds: FloatArray, values: FloatArray,
@@ -552,7 +559,7 @@ def _estimate_multi_level(speeds: FloatArray, values: FloatArray,
 def _composite_gauss_legendre(lower: ArrayLike, upper: ArrayLike, panels: int, nodes: int
                               ) -> tuple[FloatArray, FloatArray]:
     """Return nodes and weights (..., panels*nodes) of a composite Gauss-Legendre rule."""
-    x, wts = special.roots_legendre(nodes)
+    x, wts = np.polynomial.legendre.leggauss(nodes)
     lo = np.asarray(lower, dtype=float)[..., None]
     hi = np.asarray(upper, dtype=float)[..., None]
     edges = np.linspace(0.0, 1.0, panels + 1)
@@ -606,13 +613,13 @@ class MarginalModel:
 
     def log_density(self, z: ArrayLike) -> FloatArray:
         """Return log g(z); z broadcasts against the speed shape S."""
-        return special.logsumexp(self._log_terms(np.asarray(z, dtype=float)), axis=-1)
+        return log_sum_exp(self._log_terms(np.asarray(z, dtype=float)), axis=-1)
 
     def score_and_log_density(self, z: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Return g'(z)/g(z) and log g(z) (stable in the tails)."""
         z = np.asarray(z, dtype=float)
         terms = self._log_terms(z)
-        log_g = special.logsumexp(terms, axis=-1)
+        log_g = log_sum_exp(terms, axis=-1)
         post = np.exp(terms - log_g[..., None])
         mean_nominal = np.sum(post * self.nominal, axis=-1)
         return -(z - mean_nominal) / self.std ** 2, log_g
@@ -621,7 +628,7 @@ class MarginalModel:
         """Return the posterior mean [degC] and variance [degC^2] of T given z."""
         z = np.asarray(z, dtype=float)
         terms = self._log_terms(z)
-        post = np.exp(terms - special.logsumexp(terms, axis=-1)[..., None])
+        post = np.exp(terms - log_sum_exp(terms, axis=-1)[..., None])
         mean = np.sum(post * self.nodes_degc, axis=-1)
         var = np.sum(post * (self.nodes_degc - mean[..., None]) ** 2, axis=-1)
         return mean, var
@@ -632,7 +639,7 @@ class MarginalModel:
         hi = self.nominal.max(axis=-1) + _Z_TAIL_SIGMAS * self.std
         z, wz = _composite_gauss_legendre(lo, hi, _Z_PANELS, _Z_NODES)  # S + (Kz,)
         terms = self._log_terms_grid(z)
-        log_g = special.logsumexp(terms, axis=-1)
+        log_g = log_sum_exp(terms, axis=-1)
         post = np.exp(terms - log_g[..., None])
         mean_nominal = np.sum(post * self.nominal[..., None, :], axis=-1)
         score = -(z - mean_nominal) / self.std[..., None] ** 2

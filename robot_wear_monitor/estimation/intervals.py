@@ -43,12 +43,11 @@ from typing import Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special
-from scipy.linalg import solve_triangular
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import (estimate_wear, MarginalModel,
                                                      validate_speeds, WearEstimates)
+from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -219,7 +218,7 @@ class _Profile:
         covariance = fm.marginal_covariance(speeds, sigma=params.sigma,
                                             load_std=params.load_std, model=params.model)
         factor = np.linalg.cholesky(covariance)
-        self.whiten = solve_triangular(factor, np.eye(speeds.size), lower=True)
+        self.whiten = np.linalg.solve(factor, np.eye(speeds.size))
         self.const = (-0.5 * speeds.size * np.log(2.0 * np.pi)
                       - float(np.sum(np.log(np.diag(factor)))))
         self.t_min = float(params.temperature_min_degc)
@@ -646,7 +645,7 @@ def simulate_cutoffs(speeds_t: tuple, *, params: ParameterSet, level: float, run
                                                      np.arange(runs)))
         cutoff[i] = np.quantile(np.maximum(statistic, 0.0), level)
     return CutoffCalibration(wear=wear, cutoff=np.maximum(cutoff, _MIN_CUTOFF),
-                             chi2_cutoff=float(special.chdtri(1, 1.0 - level)), level=level,
+                             chi2_cutoff=chi2_quantile_one_dof(level), level=level,
                              runs=runs)
 
 
@@ -816,7 +815,7 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
     est = estimates if estimates is not None else estimate_wear(speeds, values, params=params)
     if len(est) != values.shape[0]:
         raise InputError('estimates: batch size does not match friction')
-    half_q = 0.5 * float(special.chdtri(1, 1.0 - level))
+    half_q = 0.5 * chi2_quantile_one_dof(level)
     w_hat = np.asarray(est.wear, dtype=float)
     like = _WearLikelihood(speeds, values, params, grid, w_hat, est.temperature_degc,
                            want_t=True)

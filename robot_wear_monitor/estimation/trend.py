@@ -63,11 +63,11 @@ from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
 from robot_wear_monitor.estimation.intervals import wear_grid
+from robot_wear_monitor.estimation.special_functions import erf
 from robot_wear_monitor.json_values import finite_or_none
 
 FloatArray = NDArray[np.float64]
@@ -240,7 +240,7 @@ class _GridFilter:
         self.reset(np.ones(batch, dtype=bool))
 
     def _wear_prior(self) -> FloatArray:
-        cdf = special.erf(self.wear_edges / (math.sqrt(2.0) * self.config.initial_wear_scale))
+        cdf = erf(self.wear_edges / (math.sqrt(2.0) * self.config.initial_wear_scale))
         mass = np.maximum(np.diff(cdf), 0.0)
         return mass / mass.sum()
 
@@ -262,7 +262,7 @@ class _GridFilter:
         out = np.zeros((e.shape[0], self.rates.size, self.rates.size))
         for weight, step in ((1.0 - jump, cfg.rate_step), (jump, cfg.rate_jump_step)):
             scale = np.maximum(step * np.sqrt(e), 1e-12) * math.sqrt(2.0)
-            cdf = 0.5 * (1.0 + special.erf(delta / scale))
+            cdf = 0.5 * (1.0 + erf(delta / scale))
             out += weight * np.diff(cdf, axis=-1)
         return out
 

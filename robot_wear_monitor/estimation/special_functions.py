@@ -1,0 +1,101 @@
+"""The few special functions of the estimation path, on numpy and the standard library.
+
+The estimator, the intervals and the trend need the error function, a log-sum-exp, the
+chi-square tail for an integer number of degrees of freedom and one chi-square quantile.
+scipy.special has them all, but importing scipy (scipy.special and scipy.linalg) takes about
+0.14 s, a third of a whole process that only reads a short bag (``bench/bench_replay.py``):
+the replay, the nodes and ``estimate`` would pay it on every start.  So the estimation path
+takes them from here, and scipy is imported by the modules that fit or design (``audit``,
+``identify``, ``design``).
+
+* :func:`erf`: ``math.erf`` element by element where it is not +-1 to double precision
+  (|x| < 6), so equal to ``math.erf`` everywhere;
+* :func:`log_sum_exp`: the usual shift by the maximum (as ``scipy.special.logsumexp``);
+* :func:`chi2_survival`: the closed forms of the chi-square tail for integer degrees of
+  freedom (Abramowitz and Stegun 26.4.4 and 26.4.5), with ``math.erfc`` and ``math.exp``;
+* :func:`chi2_quantile_one_dof`: the square of a normal quantile (``statistics.NormalDist``).
+
+Each is compared with scipy in ``test/estimation/test_special_functions.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from statistics import NormalDist
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: erf(x) is +-1 to double precision from here on (math.erf(6.0) == 1.0)
+_ERF_SATURATED = 6.0
+
+
+def erf(x: ArrayLike) -> FloatArray:
+    """Return the error function of every element of ``x`` (any shape; NaN stays NaN)."""
+    values = np.asarray(x, dtype=float)
+    out = np.sign(values)
+    inner = np.abs(values) < _ERF_SATURATED
+    if np.any(inner):
+        out[inner] = [math.erf(v) for v in values[inner].tolist()]
+    return out
+
+
+def log_sum_exp(values: ArrayLike, *, axis: int = -1) -> FloatArray:
+    """Return log(sum(exp(values))) along ``axis`` without overflow (-inf where all are -inf)."""
+    a = np.asarray(values, dtype=float)
+    peak = np.max(a, axis=axis, keepdims=True)
+    peak = np.where(np.isfinite(peak), peak, 0.0)
+    with np.errstate(divide='ignore'):
+        total = np.log(np.sum(np.exp(a - peak), axis=axis, keepdims=True)) + peak
+    return np.squeeze(total, axis=axis)
+
+
+def _chi2_survival_one(chi2: float, dof: int) -> float:
+    """P(X >= chi2) for X chi-square with ``dof`` >= 1 degrees of freedom (A&S 26.4.4/5)."""
+    if math.isnan(chi2):
+        return math.nan
+    if chi2 <= 0.0:
+        return 1.0
+    if chi2 == math.inf:
+        return 0.0
+    half = 0.5 * chi2
+    if dof % 2 == 0:  # Q(chi2|2m) = exp(-x/2) sum_{j<m} (x/2)^j / j!
+        term = math.exp(-half)
+        total = term
+        for j in range(1, dof // 2):
+            term *= half / j
+            total += term
+        return min(total, 1.0)
+    # Q(chi2|2m+1) = erfc(sqrt(x/2)) + exp(-x/2) sum_{j=1..m} (x/2)^(j-1/2) / Gamma(j+1/2)
+    total = math.erfc(math.sqrt(half))
+    if dof > 1:
+        term = math.exp(-half) * math.sqrt(half) / math.gamma(1.5)
+        total += term
+        for j in range(2, (dof - 1) // 2 + 1):
+            term *= half / (j - 0.5)
+            total += term
+    return min(total, 1.0)
+
+
+def chi2_survival(chi2: ArrayLike, dof: ArrayLike) -> FloatArray:
+    """Return P(X >= chi2) for X chi-square with integer ``dof`` >= 1 (broadcast shapes).
+
+    Raises:
+        ValueError: a dof below 1 or not an integer.
+
+    """
+    x, k = np.broadcast_arrays(np.asarray(chi2, dtype=float), np.asarray(dof))
+    if k.size and (np.any(k < 1) or np.any(k != np.round(k))):
+        raise ValueError('chi2_survival: dof must be integers >= 1')
+    flat = [_chi2_survival_one(c, int(d)) for c, d in zip(x.ravel().tolist(),
+                                                          k.ravel().tolist())]
+    return np.array(flat, dtype=float).reshape(x.shape)
+
+
+def chi2_quantile_one_dof(level: float) -> float:
+    """Return the ``level`` quantile of the chi-square distribution with 1 degree of freedom."""
+    if not 0.0 < level < 1.0:
+        raise ValueError(f'chi2_quantile_one_dof: level must be in (0, 1), got {level:.6g}')
+    return NormalDist().inv_cdf(0.5 + 0.5 * level) ** 2
