@@ -35,10 +35,11 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.monitoring.topics import FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS
 from robot_wear_monitor.monitoring.wear_update import WearUpdate
-from robot_wear_monitor.recordings.bags import atomic_bag_writer, iter_joint_chunks, TYPESTORE
+from robot_wear_monitor.recordings.bags import (atomic_bag_writer, iter_joint_chunks,
+                                                MONITOR_TYPESTORE)
 from robot_wear_monitor.recordings.messages import rosbags_kit, stamp_to_nanoseconds
 
-KIT = rosbags_kit(TYPESTORE)
+KIT = rosbags_kit(MONITOR_TYPESTORE)
 #: The writer lock a replay holds on its robot in the history (every joint at once).
 ROBOT_LOCK = '*'
 

@@ -24,7 +24,7 @@ from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import ExperimentPlan, TrajectoryPoints
 from robot_wear_monitor.recordings import messages
-from robot_wear_monitor.recordings.bags import atomic_bag_writer, TYPESTORE
+from robot_wear_monitor.recordings.bags import atomic_bag_writer, MONITOR_TYPESTORE
 
 #: Default controller of ros2_control whose ``joint_trajectory`` topic takes the plan.
 DEFAULT_CONTROLLER = 'joint_trajectory_controller'
@@ -53,7 +53,7 @@ def write_trajectory_bag(path: str | os.PathLike, points: TrajectoryPoints, *,
                          controller: str = DEFAULT_CONTROLLER, storage: str = 'mcap',
                          overwrite: bool = False) -> Path:
     """Write one JointTrajectory message (bag time 0, header stamp 0) as a bag folder."""
-    msg = messages.trajectory_to_msg(messages.rosbags_kit(TYPESTORE), points=points)
+    msg = messages.trajectory_to_msg(messages.rosbags_kit(MONITOR_TYPESTORE), points=points)
     topic = controller_topic(controller)
     with atomic_bag_writer(path, storage=storage, overwrite=overwrite) as bag:
         bag.add_topic(topic, messages.TRAJECTORY_TYPE)

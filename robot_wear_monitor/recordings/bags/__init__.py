@@ -1,6 +1,7 @@
 """ROS 2 bags of ``sensor_msgs/msg/JointState`` with rosbags: atomic writing and a fast reader.
 
-One module per job: :mod:`.common` (the Jazzy typestore, names, the error type, opening a bag),
+One module per job: :mod:`.common` (the typestore, names, the error type, opening a bag),
+:mod:`.message_types` (the Jazzy types the monitor reads and writes),
 :mod:`.writer` (atomic bag writing, CDR encoding with numpy), :mod:`.cdr` (decoding JointState
 messages by layout, many at a time), :mod:`.recovery` (recordings cut off by a crash) and
 :mod:`.reader` (the chunked JointState stream and the other topic readers).  The names below
@@ -11,8 +12,9 @@ from robot_wear_monitor.recordings.bags.cdr import (decode_joint_state, JointChu
                                                     MultiDecoder, parse_layout, READER_REASONS)
 from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError,
                                                        joint_state_connections, JOINT_STATE_TYPE,
-                                                       JOINT_STATES_TOPIC, open_reader,
-                                                       storage_plugin, STORAGES, TYPESTORE)
+                                                       JOINT_STATES_TOPIC, MONITOR_TYPESTORE,
+                                                       open_reader,
+                                                       storage_plugin, STORAGES)
 from robot_wear_monitor.recordings.bags.reader import (iter_joint_chunks, iter_joint_states,
                                                        iter_raw_messages, iter_recorded_messages,
                                                        JointSamples, JointStream,
@@ -28,7 +30,15 @@ __all__ = ['atomic_bag_writer', 'BAG_VERSION', 'BagError', 'BagWriter', 'decode_
            'encode_joint_states', 'iter_joint_chunks', 'iter_joint_states', 'iter_raw_messages',
            'iter_recorded_messages', 'iter_unfinished_mcap', 'joint_state_connections',
            'JOINT_STATE_TYPE', 'JOINT_STATES_TOPIC', 'JointChunk', 'JointSamples', 'JointStream',
-           'Layout', 'MultiDecoder', 'open_reader', 'parse_layout', 'read_joint_samples',
-           'read_joints', 'read_scalar_topic', 'READER_REASONS', 'recorded_topics', 'Recovery',
-           'SCALAR_FIELDS', 'storage_plugin', 'STORAGES', 'TYPESTORE', 'unfinished_mcap_files',
-           'write_joint_state_bag']
+           'Layout', 'MONITOR_TYPESTORE', 'MultiDecoder', 'open_reader', 'parse_layout',
+           'read_joint_samples', 'read_joints', 'read_scalar_topic', 'READER_REASONS',
+           'recorded_topics', 'Recovery', 'SCALAR_FIELDS', 'storage_plugin', 'STORAGES',
+           'TYPESTORE', 'unfinished_mcap_files', 'write_joint_state_bag']
+
+
+def __getattr__(name: str) -> object:
+    """``TYPESTORE``: rosbags' whole ROS 2 Jazzy typestore, loaded on first use."""
+    if name == 'TYPESTORE':
+        from robot_wear_monitor.recordings.bags import common
+        return common.TYPESTORE
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChunk, MultiDecoder
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
-                                                       open_reader, TYPESTORE)
+                                                       MONITOR_TYPESTORE, open_reader)
 from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource, RawRows
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
@@ -140,7 +140,7 @@ def read_scalar_topic(path: str | os.PathLike, *, topic: str
     name = SCALAR_FIELDS[msgtype]
     times, values = [], []
     for _, timestamp, raw in iter_recorded_messages(path, topics=[topic]):
-        msg = TYPESTORE.deserialize_cdr(raw, msgtype)
+        msg = MONITOR_TYPESTORE.deserialize_cdr(raw, msgtype)
         stamp = getattr(msg, 'header', None)
         times.append(stamp.stamp.sec + 1e-9 * stamp.stamp.nanosec if stamp is not None
                      else timestamp * 1e-9)

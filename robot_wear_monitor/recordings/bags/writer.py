@@ -22,8 +22,8 @@ from robot_wear_monitor.atomic_files import (output_lock, remove_stale_partials,
                                              staging_folder)
 from robot_wear_monitor.recordings.bags.cdr import Layout, parse_layout
 from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError, JOINT_STATE_TYPE,
-                                                       JOINT_STATES_TOPIC, storage_plugin,
-                                                       TYPESTORE)
+                                                       JOINT_STATES_TOPIC, MONITOR_TYPESTORE,
+                                                       storage_plugin)
 
 FloatArray = NDArray[np.float64]
 
@@ -46,10 +46,11 @@ class BagWriter:
             if self._types[topic] != msgtype:
                 raise BagError(f'topic {topic} already has type {self._types[topic]}')
             return
-        if msgtype not in TYPESTORE.types:
-            raise BagError(f'unknown message type {msgtype!r} in the ROS 2 Jazzy typestore')
+        if msgtype not in MONITOR_TYPESTORE.types:
+            raise BagError(f'unknown message type {msgtype!r} (the writer knows the ROS 2 Jazzy '
+                           f'types of message_types.FIELDDEFS)')
         self._connections[topic] = self._writer.add_connection(topic, msgtype,
-                                                               typestore=TYPESTORE)
+                                                               typestore=MONITOR_TYPESTORE)
         self._types[topic] = msgtype
 
     def write(self, topic: str, msg: Any, timestamp_ns: int) -> None:
@@ -57,7 +58,7 @@ class BagWriter:
         if topic not in self._connections:
             raise BagError(f'topic {topic} was not added before writing')
         data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else \
-            TYPESTORE.serialize_cdr(msg, self._types[topic])
+            MONITOR_TYPESTORE.serialize_cdr(msg, self._types[topic])
         self._writer.write(self._connections[topic], int(timestamp_ns), data)
         self.message_count += 1
 
@@ -119,13 +120,13 @@ def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
 
 def _template(names: Sequence[str], frame_id: str) -> tuple[bytes, Layout]:
     n = len(names)
-    header = TYPESTORE.types['std_msgs/msg/Header'](
-        stamp=TYPESTORE.types['builtin_interfaces/msg/Time'](sec=0, nanosec=0),
+    header = MONITOR_TYPESTORE.types['std_msgs/msg/Header'](
+        stamp=MONITOR_TYPESTORE.types['builtin_interfaces/msg/Time'](sec=0, nanosec=0),
         frame_id=frame_id)
-    prototype = TYPESTORE.types[JOINT_STATE_TYPE](
+    prototype = MONITOR_TYPESTORE.types[JOINT_STATE_TYPE](
         header=header, name=list(names), position=np.zeros(n), velocity=np.zeros(n),
         effort=np.zeros(n))
-    raw = bytes(TYPESTORE.serialize_cdr(prototype, JOINT_STATE_TYPE))
+    raw = bytes(MONITOR_TYPESTORE.serialize_cdr(prototype, JOINT_STATE_TYPE))
     return raw, parse_layout(raw)
 
 
