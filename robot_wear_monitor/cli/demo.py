@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from robot_wear_monitor.cli.options import add_progress, progress_wanted
 from robot_wear_monitor.errors import InputError
 
 HELP = 'simulate an accelerated wear test, replay it and write a report'
@@ -17,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--experiments', type=int, default=100,
                         help='number of simulated experiments (default 100)')
     parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
-    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    add_progress(parser)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -26,7 +27,7 @@ def main(args: argparse.Namespace) -> int:
     if args.experiments < 1:
         raise InputError(f'--experiments must be >= 1, got {args.experiments}')
     summary = run_demo(out_dir=args.out, n_experiments=args.experiments, seed=args.seed,
-                       progress=not args.no_progress,
+                       progress=progress_wanted(args),
                        log=lambda text: print(text, file=sys.stderr))
     print(describe(summary, args.out))
     return 0

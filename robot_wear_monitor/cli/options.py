@@ -228,6 +228,21 @@ def robot_name(text: str) -> str:
     return name
 
 
+def add_progress(parser: argparse.ArgumentParser) -> None:
+    """Add ``--no-progress`` (the progress bar is drawn only on a terminal)."""
+    parser.add_argument('--no-progress', action='store_true',
+                        help='no progress bar (there is one only when stderr is a terminal)')
+
+
+def progress_wanted(args: argparse.Namespace) -> bool:
+    """Return True when a progress bar should be drawn: stderr is a terminal, no --no-progress.
+
+    A bar in a log file or a pipe is noise (tqdm redraws it), and loading tqdm costs a short
+    replay some 10 ms; a script that wants no bar on a terminal passes ``--no-progress``.
+    """
+    return not args.no_progress and sys.stderr.isatty()
+
+
 def add_local(parser: argparse.ArgumentParser) -> None:
     """Add ``--local``: times in the local time zone instead of UTC (ISO 8601 either way)."""
     parser.add_argument('--local', action='store_true',

@@ -15,8 +15,9 @@ from typing import Any
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_history, add_joints, add_json, add_params,
-                                            add_robot, emit_json, joint_selection,
-                                            loading_modules, print_json, write_json_out)
+                                            add_progress, add_robot, emit_json,
+                                            joint_selection, loading_modules, print_json,
+                                            progress_wanted, write_json_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'replay a recorded bag through the monitoring service'
@@ -60,7 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--overwrite', action='store_true', help='replace an existing OUT_BAG')
     parser.add_argument('--strict', action='store_true',
                         help='refuse a recording whose end is cut (default: read up to the cut)')
-    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    add_progress(parser)
 
 
 def is_batch(args: argparse.Namespace) -> bool:
@@ -101,7 +102,7 @@ def main(args: argparse.Namespace) -> int:
                         estimator_parameters=estimator, storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
                         history_init=True if args.init else None,
-                        progress=not args.no_progress, truth=truth, recover=not args.strict)
+                        progress=progress_wanted(args), truth=truth, recover=not args.strict)
     if result.recovery is not None and not result.recovery.complete:
         print(f'warning: {args.bag}: unfinished recording ({result.recovery.reason}): read '
               f'{result.recovery.messages} complete messages up to bag time '
@@ -262,7 +263,7 @@ def main_batch(args: argparse.Namespace) -> int:
                        file=sys.stderr)
 
     result = run_batch(tasks, settings=settings, workers=args.workers or 1,
-                       dask_address=args.dask, progress=not args.no_progress,
+                       dask_address=args.dask, progress=progress_wanted(args),
                        on_outcome=report)
     if not emit_json(args, result.summary()):
         print(result.summary_line())

@@ -175,3 +175,48 @@ def test_simulate_errors_name_the_users_option_not_a_field(option, value, named,
     assert named in error
     assert 'ScenarioConfig' not in error and 'window' not in error.split('(')[-1]
     assert not out.exists()
+
+
+def _replay_stderr(bag, out, *, terminal: bool, extra=()) -> str:
+    """Run ``replay`` in a new process with stderr on a pipe or a pseudo-terminal."""
+    import os
+    import pty
+    import subprocess
+    import sys
+    command = [sys.executable, '-m', 'robot_wear_monitor.cli', 'replay', str(bag), '--out',
+               str(out), *extra]
+    if not terminal:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        return done.stderr
+    import fcntl
+    import struct
+    import termios
+    leader, follower = pty.openpty()
+    # 24 x 80: tqdm fits its bar to the terminal's width (a new pty has 0 columns)
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack('HHHH', 24, 80, 0, 0))
+    try:
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=follower)
+        os.close(follower)
+        chunks = []
+        while True:
+            try:
+                chunk = os.read(leader, 4096)
+            except OSError:  # EIO: the process closed its end
+                break
+            if not chunk:
+                break
+            chunks.append(chunk)
+        assert process.wait(timeout=120) == 0
+    finally:
+        os.close(leader)
+    return b''.join(chunks).decode(errors='replace')
+
+
+def test_the_progress_bar_is_drawn_on_a_terminal_only(small_bag, tmp_path):
+    """A pipe or a log file gets no bar; a terminal gets it unless --no-progress."""
+    bar = f'read {small_bag.name}:'
+    assert bar not in _replay_stderr(small_bag, tmp_path / 'pipe', terminal=False)
+    assert bar in _replay_stderr(small_bag, tmp_path / 'tty', terminal=True)
+    assert bar not in _replay_stderr(small_bag, tmp_path / 'quiet', terminal=True,
+                                     extra=['--no-progress'])
