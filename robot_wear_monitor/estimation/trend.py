@@ -73,6 +73,8 @@ from robot_wear_monitor.json_values import finite_or_none
 FloatArray = NDArray[np.float64]
 
 _LOG_FLOOR = -1e30  # stands for log 0 (-inf) in the interpolation of the rows
+#: rate transitions kept per filter (one per distinct elapsed value, the latest)
+_TRANSITIONS_KEPT = 64
 
 
 @dataclass(frozen=True)
@@ -238,6 +240,7 @@ class _GridFilter:
         self.rate_prior = self._rate_prior()
         self.prob = np.empty((batch, self.rates.size, grid.size))
         self.reset(np.ones(batch, dtype=bool))
+        self._transitions: dict[float, FloatArray] = {}
 
     def _wear_prior(self) -> FloatArray:
         cdf = erf(self.wear_edges / (math.sqrt(2.0) * self.config.initial_wear_scale))
@@ -254,16 +257,33 @@ class _GridFilter:
         self.prob[rows] = self.rate_prior[:, None] * self.wear_prior[None, :]
 
     def rate_transition(self, elapsed: FloatArray) -> FloatArray:
-        """Return P(r' = j | r = i) over ``elapsed`` experiments, shape (B, R, R)."""
+        """Return P(r' = j | r = i) over ``elapsed`` experiments, shape (B, R, R).
+
+        Each distinct elapsed value is computed once and kept (the last
+        :data:`_TRANSITIONS_KEPT`): experiments at a regular interval all have the same one.
+        """
+        e = np.maximum(np.asarray(elapsed, dtype=float), 0.0)
+        distinct, index = np.unique(e, return_inverse=True)
+        tables = [self._transition_of(float(value)) for value in distinct]
+        return np.stack(tables)[index.ravel()]
+
+    def _transition_of(self, elapsed: float) -> FloatArray:
+        """Return the (R, R) transition over ``elapsed`` >= 0 experiments (kept, read-only)."""
+        kept = self._transitions.get(elapsed)
+        if kept is not None:
+            return kept
         cfg = self.config
-        e = np.maximum(np.asarray(elapsed, dtype=float), 0.0)[:, None, None]
-        delta = self.log_rate_edges[None, None, :] - self.log_rates[None, :, None]
-        jump = 1.0 - (1.0 - cfg.rate_jump_probability) ** e
-        out = np.zeros((e.shape[0], self.rates.size, self.rates.size))
+        delta = self.log_rate_edges[None, :] - self.log_rates[:, None]
+        jump = 1.0 - (1.0 - cfg.rate_jump_probability) ** elapsed
+        out = np.zeros((self.rates.size, self.rates.size))
         for weight, step in ((1.0 - jump, cfg.rate_step), (jump, cfg.rate_jump_step)):
-            scale = np.maximum(step * np.sqrt(e), 1e-12) * math.sqrt(2.0)
+            scale = max(step * math.sqrt(elapsed), 1e-12) * math.sqrt(2.0)
             cdf = 0.5 * (1.0 + erf(delta / scale))
             out += weight * np.diff(cdf, axis=-1)
+        out.flags.writeable = False
+        if len(self._transitions) >= _TRANSITIONS_KEPT:
+            self._transitions.pop(next(iter(self._transitions)))
+        self._transitions[elapsed] = out
         return out
 
     def predict(self, elapsed: FloatArray) -> None:
