@@ -72,7 +72,7 @@ def freeze_objects_at_exit() -> None:
     """Let the interpreter's exit skip its last collection of the objects alive (idempotent).
 
     As it exits, Python runs the cyclic collector over every object once more before it
-    frees the modules; a replay leaves some 60,000 (numpy, scipy, rosbags, its own), which
+    frees the modules; a replay leaves some 60,000 (numpy, rosbags, its own), which
     took 40 ms of a 0.8 s run.  :func:`gc.freeze` at exit (an :mod:`atexit` hook) moves them
     out of the collector's sight: the modules still free what they hold (what sits in a
     reference cycle is left to the operating system, like any object alive at exit); the
@@ -101,7 +101,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     freeze_objects_at_exit()
     try:
-        with loading_modules():  # numpy and scipy
+        with loading_modules():  # numpy (and scipy when OPENBLAS_NUM_THREADS is set to > 1)
             use_single_blas_thread()
         resolve_json(args, command=args.command)
         check_outputs(args)

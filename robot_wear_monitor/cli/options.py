@@ -240,7 +240,7 @@ def progress_wanted(args: argparse.Namespace) -> bool:
     A bar in a log file or a pipe is noise (tqdm redraws it), and loading tqdm costs a short
     replay some 10 ms; a script that wants no bar on a terminal passes ``--no-progress``.
     """
-    return not args.no_progress and sys.stderr.isatty()
+    return not args.no_progress and sys.stderr is not None and sys.stderr.isatty()
 
 
 def add_local(parser: argparse.ArgumentParser) -> None:

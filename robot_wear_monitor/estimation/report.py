@@ -17,7 +17,7 @@ from typing import Any, Sequence, TYPE_CHECKING
 from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
 from robot_wear_monitor.json_values import finite_or_none
 
-if TYPE_CHECKING:  # the estimator and intervals load scipy: imported where used
+if TYPE_CHECKING:  # the estimator and intervals: imported where used (numpy work at import)
     from robot_wear_monitor.estimation.estimator import WearEstimate
     from robot_wear_monitor.estimation.intervals import WearInterval
     from robot_wear_monitor.model.params import ParameterSet

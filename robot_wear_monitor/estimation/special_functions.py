@@ -30,21 +30,33 @@ FloatArray = NDArray[np.float64]
 
 #: erf(x) is +-1 to double precision from here on (math.erf(6.0) == 1.0)
 _ERF_SATURATED = 6.0
+#: the largest chi2 / 2 summed directly (exp(-x/2) stays far above the smallest double)
+_DIRECT_SUM_MAX = 600.0
+#: the most degrees of freedom :func:`chi2_survival` takes (a sum of dof / 2 terms)
+MAX_DOF = 100_000
 
 
 def erf(x: ArrayLike) -> FloatArray:
-    """Return the error function of every element of ``x`` (any shape; NaN stays NaN)."""
+    """Return the error function of every element of ``x`` (any shape; NaN stays NaN).
+
+    About 50 ns an element that is not saturated, some 7 times scipy's: the trend keeps the
+    tables it builds with it (one per distinct experiment interval).
+    """
     values = np.asarray(x, dtype=float)
-    out = np.sign(values)
+    out = np.sign(values, out=np.empty_like(values))
     inner = np.abs(values) < _ERF_SATURATED
     if np.any(inner):
-        out[inner] = [math.erf(v) for v in values[inner].tolist()]
+        picked = values[inner]
+        out[inner] = np.fromiter(map(math.erf, picked.tolist()), dtype=float,
+                                 count=picked.size)
     return out
 
 
 def log_sum_exp(values: ArrayLike, *, axis: int = -1) -> FloatArray:
     """Return log(sum(exp(values))) along ``axis`` without overflow (-inf where all are -inf)."""
     a = np.asarray(values, dtype=float)
+    if a.shape[axis] == 0:  # an empty sum: log 0
+        return np.full(np.delete(a.shape, axis % a.ndim), -np.inf)
     peak = np.max(a, axis=axis, keepdims=True)
     peak = np.where(np.isfinite(peak), peak, 0.0)
     with np.errstate(divide='ignore'):
@@ -61,6 +73,8 @@ def _chi2_survival_one(chi2: float, dof: int) -> float:
     if chi2 == math.inf:
         return 0.0
     half = 0.5 * chi2
+    if half > _DIRECT_SUM_MAX:  # exp(-x/2) underflows: the same sums, term by term in logs
+        return _chi2_survival_in_logs(half, dof)
     if dof % 2 == 0:  # Q(chi2|2m) = exp(-x/2) sum_{j<m} (x/2)^j / j!
         term = math.exp(-half)
         total = term
@@ -79,16 +93,31 @@ def _chi2_survival_one(chi2: float, dof: int) -> float:
     return min(total, 1.0)
 
 
+def _chi2_survival_in_logs(half: float, dof: int) -> float:
+    """Return the sums of :func:`_chi2_survival_one` summed by their logarithms (large chi2)."""
+    if dof % 2 == 0:
+        logs = [j * math.log(half) - half - math.lgamma(j + 1.0) for j in range(dof // 2)]
+        tail = 0.0
+    else:
+        logs = [(j - 0.5) * math.log(half) - half - math.lgamma(j + 0.5)
+                for j in range(1, (dof - 1) // 2 + 1)]
+        tail = math.erfc(math.sqrt(half))
+    if not logs:
+        return tail
+    peak = max(logs)
+    return min(tail + math.exp(peak) * math.fsum(math.exp(v - peak) for v in logs), 1.0)
+
+
 def chi2_survival(chi2: ArrayLike, dof: ArrayLike) -> FloatArray:
     """Return P(X >= chi2) for X chi-square with integer ``dof`` >= 1 (broadcast shapes).
 
     Raises:
-        ValueError: a dof below 1 or not an integer.
+        ValueError: a dof below 1, above :data:`MAX_DOF` or not an integer.
 
     """
-    x, k = np.broadcast_arrays(np.asarray(chi2, dtype=float), np.asarray(dof))
-    if k.size and (np.any(k < 1) or np.any(k != np.round(k))):
-        raise ValueError('chi2_survival: dof must be integers >= 1')
+    x, k = np.broadcast_arrays(np.asarray(chi2, dtype=float), np.asarray(dof, dtype=float))
+    if k.size and not (np.all(k >= 1) and np.all(k <= MAX_DOF) and np.all(k == np.round(k))):
+        raise ValueError(f'chi2_survival: dof must be integers 1-{MAX_DOF}')
     flat = [_chi2_survival_one(c, int(d)) for c, d in zip(x.ravel().tolist(),
                                                           k.ravel().tolist())]
     return np.array(flat, dtype=float).reshape(x.shape)
@@ -98,4 +127,5 @@ def chi2_quantile_one_dof(level: float) -> float:
     """Return the ``level`` quantile of the chi-square distribution with 1 degree of freedom."""
     if not 0.0 < level < 1.0:
         raise ValueError(f'chi2_quantile_one_dof: level must be in (0, 1), got {level:.6g}')
-    return NormalDist().inv_cdf(0.5 + 0.5 * level) ** 2
+    # the lower tail 0.5 (1 - level) keeps its digits as the level nears 1
+    return NormalDist().inv_cdf(0.5 * (1.0 - level)) ** 2

@@ -254,3 +254,20 @@ def test_forecast_basis_is_bit_for_bit_the_row_by_row_adjoint():
                           + frac * np.take_along_axis(v, high, axis=1))
         rows.append(v)
     assert trend_module._forecast_basis(flt).tobytes() == np.stack(rows).tobytes()
+
+
+def test_rate_transitions_are_kept_per_interval_and_equal_fresh_ones():
+    """A batch with repeated intervals equals each interval's table on a new filter."""
+    elapsed = np.array([1.0, 0.37, 1.0, 2.5, 0.37, 1.0])
+    flt = WearTrend()._filter
+    batch = flt.rate_transition(elapsed)
+    for row, value in zip(batch, elapsed):
+        fresh = WearTrend()._filter.rate_transition(np.array([value]))[0]
+        assert row.tobytes() == fresh.tobytes()
+    np.testing.assert_allclose(batch.sum(axis=-1), 1.0, atol=1e-12)  # rows are distributions
+    assert len(flt._transitions) == 3
+    kept = flt._transition_of(1.0)
+    assert not kept.flags.writeable
+    for value in np.linspace(3.0, 9.0, 40):  # the oldest go first
+        flt._transition_of(float(value))
+    assert len(flt._transitions) == trend_module._TRANSITIONS_KEPT

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,6 +17,12 @@ from rosbags.rosbag2 import Reader, StoragePlugin
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.recordings.bags.message_types import monitor_typestore
 from robot_wear_monitor.yaml_files import load_yaml_file
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+    #: rosbags' whole ROS 2 Jazzy typestore (module ``__getattr__``: loaded on first use)
+    TYPESTORE: Typestore
 
 FloatArray = NDArray[np.float64]
 
@@ -30,16 +36,26 @@ STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 BAG_VERSION: Literal[9] = 9
 
 
-_FULL_STORE: dict[str, Any] = {}
+_FULL_STORE: dict[str, Typestore] = {}
+
+
+def jazzy_typestore() -> Typestore:
+    """Return rosbags' whole ROS 2 Jazzy typestore, loaded on first use (0.04 s) and kept."""
+    if 'store' not in _FULL_STORE:
+        from rosbags.typesys import get_typestore, Stores
+        _FULL_STORE['store'] = get_typestore(Stores.ROS2_JAZZY)
+    return _FULL_STORE['store']
+
+
+def typestore_of(msgtype: str) -> Typestore:
+    """Return the store of ``msgtype``: the monitor's own, else rosbags' whole Jazzy store."""
+    return MONITOR_TYPESTORE if msgtype in MONITOR_TYPESTORE.types else jazzy_typestore()
 
 
 def __getattr__(name: str) -> Any:
-    """``TYPESTORE``: rosbags' whole ROS 2 Jazzy typestore, loaded on first use (0.04 s)."""
+    """``TYPESTORE``: rosbags' whole ROS 2 Jazzy typestore (:func:`jazzy_typestore`)."""
     if name == 'TYPESTORE':
-        if 'store' not in _FULL_STORE:
-            from rosbags.typesys import get_typestore, Stores
-            _FULL_STORE['store'] = get_typestore(Stores.ROS2_JAZZY)
-        return _FULL_STORE['store']
+        return jazzy_typestore()
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 

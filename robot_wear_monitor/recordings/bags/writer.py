@@ -23,7 +23,8 @@ from robot_wear_monitor.atomic_files import (output_lock, remove_stale_partials,
 from robot_wear_monitor.recordings.bags.cdr import Layout, parse_layout
 from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError, JOINT_STATE_TYPE,
                                                        JOINT_STATES_TOPIC, MONITOR_TYPESTORE,
-                                                       storage_plugin)
+                                                       storage_plugin, typestore_of)
+from robot_wear_monitor.yaml_files import shorten
 
 FloatArray = NDArray[np.float64]
 
@@ -36,6 +37,7 @@ class BagWriter:
         self._writer = writer
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
+        self._stores: dict[str, Any] = {}
         self.message_count = 0
         #: staging copies of killed writers of the same bag, removed before this one started
         self.removed_stale: list[Path] = []
@@ -46,19 +48,20 @@ class BagWriter:
             if self._types[topic] != msgtype:
                 raise BagError(f'topic {topic} already has type {self._types[topic]}')
             return
-        if msgtype not in MONITOR_TYPESTORE.types:
-            raise BagError(f'unknown message type {msgtype!r} (the writer knows the ROS 2 Jazzy '
-                           f'types of message_types.FIELDDEFS)')
-        self._connections[topic] = self._writer.add_connection(topic, msgtype,
-                                                               typestore=MONITOR_TYPESTORE)
+        store = typestore_of(msgtype)  # the monitor's types, else rosbags' whole Jazzy store
+        if msgtype not in store.types:
+            raise BagError(f'unknown message type {shorten(msgtype)!r} in the ROS 2 Jazzy '
+                           'typestore')
+        self._connections[topic] = self._writer.add_connection(topic, msgtype, typestore=store)
         self._types[topic] = msgtype
+        self._stores[topic] = store
 
     def write(self, topic: str, msg: Any, timestamp_ns: int) -> None:
         """Write a typestore message object (or CDR bytes) on a declared topic."""
         if topic not in self._connections:
             raise BagError(f'topic {topic} was not added before writing')
         data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else \
-            MONITOR_TYPESTORE.serialize_cdr(msg, self._types[topic])
+            self._stores[topic].serialize_cdr(msg, self._types[topic])
         self._writer.write(self._connections[topic], int(timestamp_ns), data)
         self.message_count += 1
 
