@@ -263,10 +263,9 @@ class _GridFilter:
         :data:`_TRANSITIONS_KEPT`, the oldest dropped first): experiments at a regular interval
         share one.  A table costs some 3,000 error functions (0.15 ms).
         """
-        e = np.maximum(np.asarray(elapsed, dtype=float), 0.0)
-        distinct, index = np.unique(e, return_inverse=True)
-        tables = [self._transition_of(float(value)) for value in distinct]
-        return np.stack(tables)[index.ravel()]
+        values = np.maximum(np.asarray(elapsed, dtype=float), 0.0).ravel().tolist()
+        tables = {value: self._transition_of(value) for value in values}
+        return np.stack([tables[value] for value in values])
 
     def _transition_of(self, elapsed: float) -> FloatArray:
         """Return the (R, R) transition over ``elapsed`` >= 0 experiments (kept, read-only)."""
