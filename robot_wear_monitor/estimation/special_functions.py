@@ -12,7 +12,7 @@ takes them from here, and scipy is imported by the modules that fit or design (`
   (|x| < 6), so equal to ``math.erf`` everywhere;
 * :func:`log_sum_exp`: the usual shift by the maximum (as ``scipy.special.logsumexp``);
 * :func:`chi2_survival`: the closed forms of the chi-square tail for integer degrees of
-  freedom (Abramowitz and Stegun 26.4.4 and 26.4.5), with ``math.erfc`` and ``math.exp``;
+  freedom (Abramowitz and Stegun 26.4.4 and 26.4.5), with ``math.erfc`` and ``math.lgamma``;
 * :func:`chi2_quantile_one_dof`: the square of a normal quantile (``statistics.NormalDist``).
 
 Each is compared with scipy in ``test/estimation/test_special_functions.py``.
@@ -30,8 +30,6 @@ FloatArray = NDArray[np.float64]
 
 #: erf(x) is +-1 to double precision from here on (math.erf(6.0) == 1.0)
 _ERF_SATURATED = 6.0
-#: the largest chi2 / 2 summed directly (exp(-x/2) stays far above the smallest double)
-_DIRECT_SUM_MAX = 600.0
 #: the most degrees of freedom :func:`chi2_survival` takes (a sum of dof / 2 terms)
 MAX_DOF = 100_000
 
@@ -65,7 +63,12 @@ def log_sum_exp(values: ArrayLike, *, axis: int = -1) -> FloatArray:
 
 
 def _chi2_survival_one(chi2: float, dof: int) -> float:
-    """P(X >= chi2) for X chi-square with ``dof`` >= 1 degrees of freedom (A&S 26.4.4/5)."""
+    """P(X >= chi2) for X chi-square with ``dof`` >= 1 degrees of freedom (A&S 26.4.4/5).
+
+    Q(chi2|2m) = sum_{j<m} e^-h h^j / j!; Q(chi2|2m+1) = erfc(sqrt h) + sum_{j=1..m}
+    e^-h h^(j-1/2) / Gamma(j+1/2), with h = chi2 / 2.  The terms are summed by their
+    logarithms, so that none underflows where e^-h alone would (large chi2 and dof).
+    """
     if math.isnan(chi2):
         return math.nan
     if chi2 <= 0.0:
@@ -73,35 +76,14 @@ def _chi2_survival_one(chi2: float, dof: int) -> float:
     if chi2 == math.inf:
         return 0.0
     half = 0.5 * chi2
-    if half > _DIRECT_SUM_MAX:  # exp(-x/2) underflows: the same sums, term by term in logs
-        return _chi2_survival_in_logs(half, dof)
-    if dof % 2 == 0:  # Q(chi2|2m) = exp(-x/2) sum_{j<m} (x/2)^j / j!
-        term = math.exp(-half)
-        total = term
-        for j in range(1, dof // 2):
-            term *= half / j
-            total += term
-        return min(total, 1.0)
-    # Q(chi2|2m+1) = erfc(sqrt(x/2)) + exp(-x/2) sum_{j=1..m} (x/2)^(j-1/2) / Gamma(j+1/2)
-    total = math.erfc(math.sqrt(half))
-    if dof > 1:
-        term = math.exp(-half) * math.sqrt(half) / math.gamma(1.5)
-        total += term
-        for j in range(2, (dof - 1) // 2 + 1):
-            term *= half / (j - 0.5)
-            total += term
-    return min(total, 1.0)
-
-
-def _chi2_survival_in_logs(half: float, dof: int) -> float:
-    """Return the sums of :func:`_chi2_survival_one` summed by their logarithms (large chi2)."""
+    log_half = math.log(half)
     if dof % 2 == 0:
-        logs = [j * math.log(half) - half - math.lgamma(j + 1.0) for j in range(dof // 2)]
         tail = 0.0
+        logs = [j * log_half - half - math.lgamma(j + 1.0) for j in range(dof // 2)]
     else:
-        logs = [(j - 0.5) * math.log(half) - half - math.lgamma(j + 0.5)
-                for j in range(1, (dof - 1) // 2 + 1)]
         tail = math.erfc(math.sqrt(half))
+        logs = [(j - 0.5) * log_half - half - math.lgamma(j + 0.5)
+                for j in range(1, (dof - 1) // 2 + 1)]
     if not logs:
         return tail
     peak = max(logs)

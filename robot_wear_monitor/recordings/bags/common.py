@@ -6,6 +6,7 @@ rosbags (:class:`rosbags.rosbag2.Reader`), with a one-line :class:`BagError` for
 
 from __future__ import annotations
 
+from functools import cache
 import os
 from pathlib import Path
 from typing import Any, Literal, TYPE_CHECKING
@@ -36,15 +37,11 @@ STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 BAG_VERSION: Literal[9] = 9
 
 
-_FULL_STORE: dict[str, Typestore] = {}
-
-
+@cache
 def jazzy_typestore() -> Typestore:
     """Return rosbags' whole ROS 2 Jazzy typestore, loaded on first use (0.04 s) and kept."""
-    if 'store' not in _FULL_STORE:
-        from rosbags.typesys import get_typestore, Stores
-        _FULL_STORE['store'] = get_typestore(Stores.ROS2_JAZZY)
-    return _FULL_STORE['store']
+    from rosbags.typesys import get_typestore, Stores
+    return get_typestore(Stores.ROS2_JAZZY)
 
 
 def typestore_of(msgtype: str) -> Typestore:

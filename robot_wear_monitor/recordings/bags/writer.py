@@ -37,7 +37,6 @@ class BagWriter:
         self._writer = writer
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
-        self._stores: dict[str, Any] = {}
         self.message_count = 0
         #: staging copies of killed writers of the same bag, removed before this one started
         self.removed_stale: list[Path] = []
@@ -54,14 +53,13 @@ class BagWriter:
                            'typestore')
         self._connections[topic] = self._writer.add_connection(topic, msgtype, typestore=store)
         self._types[topic] = msgtype
-        self._stores[topic] = store
 
     def write(self, topic: str, msg: Any, timestamp_ns: int) -> None:
         """Write a typestore message object (or CDR bytes) on a declared topic."""
         if topic not in self._connections:
             raise BagError(f'topic {topic} was not added before writing')
         data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else \
-            self._stores[topic].serialize_cdr(msg, self._types[topic])
+            typestore_of(self._types[topic]).serialize_cdr(msg, self._types[topic])
         self._writer.write(self._connections[topic], int(timestamp_ns), data)
         self.message_count += 1
 
