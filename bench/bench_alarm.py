@@ -1,4 +1,5 @@
-"""Benchmark: the trend alarm P(w >= 35 | data) >= p against the paper's w-hat >= 35.
+"""
+Benchmark: the trend alarm P(w >= 35 | data) >= p against the paper's w-hat >= 35.
 
 Run as ``python3 bench/bench_alarm.py [--runs 100] [--seed 0] [--sweep]``.  Prints a markdown
 table; no assertions.  About 40 s on 2 idle cores with the default 100 runs.

@@ -1,4 +1,5 @@
-"""Audit time on 500 and on 20 000 friction levels; optionally FDR and power (prints only).
+"""
+Audit time on 500 and on 20 000 friction levels; optionally FDR and power (prints only).
 
 Levels: the generator of the audit tests (``test/audit/effect_generator.py``: experiments of the
 12 speeds of eq. (27) at one temperature, load and set of undeclared columns each, level error
@@ -19,11 +20,10 @@ import sys
 import time
 
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test' / 'audit'))
-from effect_generator import DECOYS, EFFECTS, levels, SIGMA, with_effect  # noqa: E402
-
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))  # wear_testing
 from robot_wear_monitor.audit.data import table_from_columns  # noqa: E402
 from robot_wear_monitor.audit.run import run_audit  # noqa: E402
+from wear_testing.effect_generator import DECOYS, EFFECTS, levels, SIGMA, with_effect  # noqa: E402
 
 SIZES = (0.25, 0.5, 1.0)
 

@@ -4,12 +4,11 @@ from pathlib import Path
 import tempfile
 import time
 
-from rosbags.rosbag2 import Reader
-
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
 from robot_wear_monitor.recordings.bags import (iter_joint_chunks, JOINT_STATE_TYPE,
                                                 read_joint_samples, TYPESTORE,
                                                 write_joint_state_bag)
+from rosbags.rosbag2 import Reader
 
 
 def _rate(count: int, seconds: float) -> str:

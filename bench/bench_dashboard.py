@@ -1,4 +1,5 @@
-"""Dashboard server time on a real fleet: the fleet page, a joint page and ``/api/fleet``.
+"""
+Dashboard server time on a real fleet: the fleet page, a joint page and ``/api/fleet``.
 
     python3 bench/bench_dashboard.py [--joints 1000] [--experiments 100] [--robots 100]
                                      [--repeats 7] [--no-postgresql] [--keep DIR]
@@ -30,7 +31,6 @@ import tempfile
 import time
 
 from fastapi.testclient import TestClient
-
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.views import FleetCache, joint_url
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, open_history
@@ -173,7 +173,7 @@ def main() -> int:
     if args.no_postgresql:
         return 0
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-    from postgres_server import find_postgresql_binaries, PostgresServer
+    from wear_testing.postgres_server import find_postgresql_binaries, PostgresServer
     binaries = find_postgresql_binaries()
     if binaries is None:
         print('\nPostgreSQL: skipped (no initdb/pg_ctl; apt-get install postgresql)')

@@ -1,4 +1,5 @@
-"""Benchmark: vectorised wear estimator vs a per-fit scipy loop, and the Sec. IV-C study.
+"""
+Benchmark: vectorised wear estimator vs a per-fit scipy loop, and the Sec. IV-C study.
 
 Run as ``python3 bench/bench_estimation.py``.  Prints figures only (no assertions on time):
 
@@ -17,7 +18,6 @@ import sys
 import time
 
 import numpy as np
-from scipy import optimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -25,6 +25,7 @@ from robot_wear_monitor.estimation.estimator import estimate_wear  # noqa: E402
 from robot_wear_monitor.estimation.study import run_study  # noqa: E402
 from robot_wear_monitor.model import friction as fm  # noqa: E402
 from robot_wear_monitor.model.params import load_parameter_set  # noqa: E402
+from scipy import optimize  # noqa: E402
 
 TABLE_IV = {1: [38.63], 2: [35.84, 40.84], 3: [33.68, 38.68, 43.68],
             4: [31.65, 36.65, 41.65, 46.65]}

@@ -1,4 +1,5 @@
-"""Fleet re-analysis and history writes: workers, Dask against the pool, inserts per second.
+"""
+Fleet re-analysis and history writes: workers, Dask against the pool, inserts per second.
 
     python3 bench/bench_fleet.py [--robots 4] [--bags-per-robot 4] [--experiments 20]
                                  [--writers 8] [--rows 200] [--no-postgresql]
@@ -117,7 +118,7 @@ def insert_rate(location: str, *, writers: int, rows: int) -> float:
 def postgresql_rate(*, writers: int, rows: int) -> float | None:
     """Return the insert rate into a throw-away PostgreSQL server, or None without one."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-    from postgres_server import find_postgresql_binaries, PostgresServer
+    from wear_testing.postgres_server import find_postgresql_binaries, PostgresServer
     binaries = find_postgresql_binaries()
     if binaries is None:
         return None

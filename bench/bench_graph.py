@@ -1,4 +1,5 @@
-"""Cost on the graph: friction_experiment_node against a do-nothing subscriber (prints only).
+"""
+Cost on the graph: friction_experiment_node against a do-nothing subscriber (prints only).
 
     python3 bench/bench_graph.py [--rates 250,1000] [--duration 10] [--repeat 1]
         [--variants single,events,events-raw,events-cdr] [--profile 20000]
@@ -83,7 +84,8 @@ def _node_default(name):
 
 
 def joint_state_samples(rate, duration, seed=0):
-    """Return (stamps [s], positions, velocities, efforts) of the stream, arrays (n, 6).
+    """
+    Return (stamps [s], positions, velocities, efforts) of the stream, arrays (n, 6).
 
     joint_2 (the node's default joint) does forward/backward passes of ``PASS_S`` at each of the
     node's default experiment speeds in turn (motor side, divided by the default gear ratio);
@@ -203,7 +205,8 @@ def role_publisher(args):
 
 
 def parse_joint_cdr(buffer, joint):
-    """Return (stamp [s], position, velocity, effort) of ``joint`` from a serialized JointState.
+    """
+    Return (stamp [s], position, velocity, effort) of ``joint`` from a serialized JointState.
 
     The fast path of the ``-cdr`` variants: the package's CDR decoding
     (:func:`robot_wear_monitor.recordings.bags.decode_joint_state`, the replay's decoder) on the
@@ -230,7 +233,8 @@ def _make_executor(name):
 
 
 def _counting_node(raw, work=True, cdr=False, batch=False):
-    """Return the package's FrictionExperimentNode with a message counter (raw: bytes in).
+    """
+    Return the package's FrictionExperimentNode with a message counter (raw: bytes in).
 
     ``work=False`` gives the shell: the same node, entities and imports, but the callback only
     counts (the node's cost that is not its callback's work).  ``cdr``: raw subscription read
@@ -239,9 +243,8 @@ def _counting_node(raw, work=True, cdr=False, batch=False):
     queue every ``BATCH_PERIOD_S`` (the shell only counts).
     """
     from rclpy.serialization import deserialize_message
-    from sensor_msgs.msg import JointState
-
     from robot_wear_monitor.nodes.friction_experiment_node import FrictionExperimentNode
+    from sensor_msgs.msg import JointState
 
     class CountingNode(FrictionExperimentNode):
         """The node under test; ``count`` = messages its callback processed."""
@@ -582,7 +585,8 @@ def _check_features(executor_name):
 
 
 def _check_blocking_call(executor_name, call):
-    """Run one blocking call without timeout; print TICK/RETURNED (the parent times it).
+    """
+    Run one blocking call without timeout; print TICK/RETURNED (the parent times it).
 
     ``spin``: executor.spin() with a 0.1 s timer, rclpy.shutdown() from a thread after 1 s;
     ``spin_once``: spin_once() with a 0.5 s timer pending; ``future``:
@@ -731,7 +735,8 @@ def _load_average():
 
 
 def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False):
-    """Run the publisher and one subscriber process per role once; return the figures.
+    """
+    Run the publisher and one subscriber process per role once; return the figures.
 
     ``pin``: the subscribers share the last CPU, the publisher gets the others (the same
     conditions for every subscriber instead of the scheduler's placement).
@@ -964,12 +969,10 @@ def profile_callback(n_messages, top):
     """Feed ``n_messages`` 1 kHz messages to the node callback in-process; print the costs."""
     import rclpy
     from rclpy.serialization import deserialize_message, serialize_message
-    from sensor_msgs.msg import JointState
-
-    from robot_wear_monitor.nodes.friction_experiment_node import FrictionExperimentNode
-
     from robot_wear_monitor.experiment import segmentation
+    from robot_wear_monitor.nodes.friction_experiment_node import FrictionExperimentNode
     from robot_wear_monitor.recordings.messages import stamp_to_seconds
+    from sensor_msgs.msg import JointState
     rate = 1000.0
     messages = joint_state_messages(rate, n_messages / rate)
     payloads = [serialize_message(m) for m in messages]

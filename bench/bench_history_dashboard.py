@@ -1,4 +1,5 @@
-"""The history queries of the dashboard on a large fleet: fleet(), one joint's rows, alarm log.
+"""
+The history queries of the dashboard on a large fleet: fleet(), one joint's rows, alarm log.
 
     python3 bench/bench_history_dashboard.py [--joints 1000] [--experiments 100000]
                                              [--long-joint 5000] [--repeat 7]
@@ -169,7 +170,7 @@ def main() -> None:
     if args.no_postgresql:
         return
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-    from postgres_server import find_postgresql_binaries, PostgresServer
+    from wear_testing.postgres_server import find_postgresql_binaries, PostgresServer
     binaries = find_postgresql_binaries()
     if binaries is None:
         print('PostgreSQL: no server (install postgresql)')

@@ -1,4 +1,5 @@
-"""Time to identify the nominal model (5) on 500 and on 50 000 friction levels (prints only).
+"""
+Time to identify the nominal model (5) on 500 and on 50 000 friction levels (prints only).
 
 The levels come from the packaged set's model (5) at the 12 speeds of eq. (27), one temperature
 and load per experiment, plus N(0, 4.23e-3) noise.  ``identify`` = the multi-start variable
@@ -8,7 +9,6 @@ projection fit, the standard errors and the 5-fold held-out error by experiment.
 import time
 
 import numpy as np
-
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.audit.identification import identify_nominal
 from robot_wear_monitor.model.friction import nominal_friction

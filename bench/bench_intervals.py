@@ -1,4 +1,5 @@
-"""Benchmark: profile-likelihood intervals and likelihood rows (estimation/intervals.py).
+"""
+Benchmark: profile-likelihood intervals and likelihood rows (estimation/intervals.py).
 
 Run as ``python3 bench/bench_intervals.py``.  Prints figures of one run only (no assertions):
 

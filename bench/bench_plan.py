@@ -1,4 +1,5 @@
-"""Duration of the planned friction experiment (experiment/planning.py), against the paper.
+"""
+Duration of the planned friction experiment (experiment/planning.py), against the paper.
 
 Run as ``python3 bench/bench_plan.py``.  Prints, for the Table V N = 4 design (2.1, 28.5, 35.1,
 41.7 rad/s, motor side) at the simulated IRB 6620 joint 2 settings of this package (gear ratio

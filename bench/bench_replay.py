@@ -1,4 +1,5 @@
-"""Replay against rosbags merely reading the same messages, whole processes, at two bag lengths.
+"""
+Replay against rosbags merely reading the same messages, whole processes, at two bag lengths.
 
     python3 bench/bench_replay.py [--experiments 60] [--long 600] [--mid 150] [--repeat 3]
                                   [--keep DIR]
@@ -116,7 +117,8 @@ def _run_once(code: str, *args: str) -> tuple[float, int, str, float]:
 
 
 def _fastest(code: str, *args: str, repeat: int) -> tuple[float, int, str, float]:
-    """Return the fastest of ``repeat`` runs (the one least disturbed by other work).
+    """
+    Return the fastest of ``repeat`` runs (the one least disturbed by other work).
 
     The CPU seconds are the least of the runs too (user + system of the process).
     """

@@ -1,4 +1,5 @@
-"""The README's dashboard screenshots, from a simulated fleet, in a real headless Chromium.
+"""
+The README's dashboard screenshots, from a simulated fleet, in a real headless Chromium.
 
     python3 bench/dashboard_screenshots.py [--out docs/figures] [--keep DIR]
 
@@ -68,15 +69,14 @@ def _free_port() -> int:
 
 def take_screenshots(history: Path, out: Path) -> list[Path]:
     """Serve ``history``, log in with headless Chromium and save the two pages as PNG."""
-    import uvicorn
+    from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
+    from robot_wear_monitor.dashboard.pages import joint_url
+    from robot_wear_monitor.monitoring.history import open_history
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
-
-    from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
-    from robot_wear_monitor.dashboard.pages import joint_url
-    from robot_wear_monitor.monitoring.history import open_history
+    import uvicorn
 
     port = _free_port()
     server = uvicorn.Server(uvicorn.Config(create_app(DashboardSettings(history=str(history))),

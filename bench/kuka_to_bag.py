@@ -1,4 +1,5 @@
-"""Convert the KUKA LBR iiwa 14 raw friction runs into one MCAP bag of sensor_msgs/JointState.
+"""
+Convert the KUKA LBR iiwa 14 raw friction runs into one MCAP bag of sensor_msgs/JointState.
 
 The raw runs (``../shared/data/external/kuka_iiwa_yezhao_drake/raw_runs/*.csv.gz``, see its
 PROVENANCE.md) hold one joint per run: time, position, velocity and torque of the tested joint.
@@ -41,7 +42,6 @@ import time
 from typing import Sequence
 
 import numpy as np
-
 from robot_wear_monitor.recordings.bags import (encode_joint_states, JOINT_STATE_TYPE,
                                                 JOINT_STATES_TOPIC, STORAGES, TYPESTORE)
 from robot_wear_monitor.recordings.tables import list_kuka_runs, parse_run_name, read_kuka_run
@@ -56,15 +56,15 @@ DEFAULT_KUKA_DIR = Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'ex
 
 @dataclass(frozen=True)
 class PlacedRun:
-    """Where one raw run lies in the bag.
+    """
+    Where one raw run lies in the bag.
 
-    Attributes:
-        source: the raw run file (relative to the KUKA folder).
-        test_set: its test set, e.g. ``joint5_new_pose_friction_test``.
-        joint: the tested joint's name in the bag.
-        offset_ns: header stamp [ns] = offset_ns + round(t_s x 1e9).
-        first_message: index of its first message in the bag.
-        messages: its number of messages (= samples).
+    :ivar source: the raw run file (relative to the KUKA folder).
+    :ivar test_set: its test set, e.g. ``joint5_new_pose_friction_test``.
+    :ivar joint: the tested joint's name in the bag.
+    :ivar offset_ns: header stamp [ns] = offset_ns + round(t_s x 1e9).
+    :ivar first_message: index of its first message in the bag.
+    :ivar messages: its number of messages (= samples).
 
     """
 

@@ -1,4 +1,5 @@
-"""Launch the wear monitor: friction_experiment_node, wear_estimator_node and the runner.
+"""
+Launch the wear monitor: friction_experiment_node, wear_estimator_node and the runner.
 
 Usage: ``ros2 launch robot_wear_monitor wear_monitor_launch.py [params_file:=my.yaml]
 [runner:=false]``.  The friction_experiment_runner only moves the robot when its ``~/start``

@@ -1,4 +1,5 @@
-"""robot_wear_monitor: wear monitoring of a robot joint from constant-speed friction data.
+"""
+robot_wear_monitor: wear monitoring of a robot joint from constant-speed friction data.
 
 The core (model, params, estimation, design, segmentation, simulation, bags, history, audit) is
 ROS-agnostic: it imports numpy, scipy (audit, identify, design) and rosbags only.  The rclpy

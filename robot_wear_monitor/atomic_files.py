@@ -1,4 +1,5 @@
-"""Safe file output: staged at an unpredictable name, renamed into place, never through a link.
+"""
+Safe file output: staged at an unpredictable name, renamed into place, never through a link.
 
 Every output of the package (texts, JSON, CSV, YAML, figures, bag folders) goes through here:
 
@@ -56,13 +57,14 @@ def _refuse_link(target: Path) -> None:
 
 def check_writable(path: str | os.PathLike, *, what: str = 'output', folder: bool = False
                    ) -> Path:
-    """Check before any work that ``path`` can be written; return it as a Path.
+    """
+    Check before any work that ``path`` can be written; return it as a Path.
 
     Its folder must exist and be writable, it must not be a symbolic link, and an existing
     target must be a file (``folder``: a folder) that may be replaced.
 
-    Raises:
-        OutputError: naming ``what`` (the user's option, e.g. ``--json-out``), the path and why.
+    :raises OutputError: naming ``what`` (the user's option, e.g. ``--json-out``), the path and
+        why.
 
     """
     target = Path(path)
@@ -93,7 +95,8 @@ def check_writable_file(path: str | os.PathLike, *, what: str) -> Path:
 
 
 def _can_create_in(folder: Path) -> bool:
-    """Return True when a file can be made in ``folder``.
+    """
+    Return True when a file can be made in ``folder``.
 
     A real probe: root, read-only mounts and immutable folders fool :func:`os.access`.
     """
@@ -114,7 +117,8 @@ def _new_file_mode() -> int:
 
 @contextmanager
 def staged_file(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a locked staging path beside ``path``; on success it replaces ``path``.
+    """
+    Yield a locked staging path beside ``path``; on success it replaces ``path``.
 
     For writers that take a path (matplotlib's ``savefig``): write to the yielded path inside
     the block.  On an error the staging file is removed and ``path`` is unchanged.
@@ -175,7 +179,8 @@ def save_figure(figure: Any, path: str | os.PathLike, *, dpi: int) -> Path:
 
 @contextmanager
 def staging_folder(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a new, locked staging folder beside ``path`` (removed when the block ends).
+    """
+    Yield a new, locked staging folder beside ``path`` (removed when the block ends).
 
     The caller moves what it made into place (a bag folder) before the block ends.
     """
@@ -203,7 +208,8 @@ LOCK_SUFFIX = '.lock'
 
 @contextmanager
 def output_lock(path: str | os.PathLike, *, what: str = 'output') -> Iterator[None]:
-    """Be the only writer of the output ``path`` while the block runs, or raise OutputError.
+    """
+    Be the only writer of the output ``path`` while the block runs, or raise OutputError.
 
     An advisory lock (:func:`fcntl.flock`) on ``.<name>.lock`` beside the output, opened
     without following a link; a second writer of the same output gets "in use by process N"
@@ -274,7 +280,8 @@ def _writer_is_gone(entry: Path) -> bool:
 
 
 def remove_stale_partials(path: str | os.PathLike) -> list[Path]:
-    """Remove what killed writers of ``path`` left behind; return the removed paths.
+    """
+    Remove what killed writers of ``path`` left behind; return the removed paths.
 
     Staging entries ``.<name>.<random>.tmp`` / ``.partial`` are removed when no writer holds
     their lock; those of earlier releases (``.<name>.tmp-<pid>``, ``.<name>.partial-<pid>``)

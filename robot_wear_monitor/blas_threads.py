@@ -1,4 +1,5 @@
-"""One BLAS thread per process: the monitor's linear algebra is small and many.
+"""
+One BLAS thread per process: the monitor's linear algebra is small and many.
 
 The estimator, intervals and trend multiply arrays of at most a few hundred rows, thousands of
 times per replay.  A threaded BLAS (OpenBLAS starts one thread per core) wakes its threads for

@@ -2,7 +2,8 @@
 
 
 class InputError(ValueError):
-    """Bad user input (file, value, bag, table); the message is one line that names what is wrong.
+    """
+    Bad user input (file, value, bag, table); the message is one line that names what is wrong.
 
     The CLI prints it and exits with code 2; the nodes log it and keep running.
     """

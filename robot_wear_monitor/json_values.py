@@ -1,4 +1,5 @@
-"""Numbers for JSON: a float that is finite, or null (JSON has no NaN or infinity).
+"""
+Numbers for JSON: a float that is finite, or null (JSON has no NaN or infinity).
 
 The one place the package turns floats (and numpy values) into what ``json.dumps(...,
 allow_nan=False)`` accepts: :func:`finite_or_none` for one number, :func:`json_clean` for a
@@ -22,7 +23,8 @@ def finite_or_none(value: Optional[float]) -> Optional[float]:
 
 
 def json_clean(value: Any) -> Any:
-    """Return ``value`` with every float finite or None, numpy values as Python ones.
+    """
+    Return ``value`` with every float finite or None, numpy values as Python ones.
 
     Dict keys become strings; lists, tuples and numpy arrays become lists; numpy integers
     become ints; anything else is returned as it is.

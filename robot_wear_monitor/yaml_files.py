@@ -1,4 +1,5 @@
-"""Reading YAML files other people wrote: bounded in size, no aliases, values cut in errors.
+"""
+Reading YAML files other people wrote: bounded in size, no aliases, values cut in errors.
 
 A parameter set, a node configuration or a bag's ``metadata.yaml`` is untrusted input.  YAML
 aliases (``*name``) let a few hundred bytes expand to gigabytes ("billion laughs"), so they are
@@ -21,9 +22,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from robot_wear_monitor.errors import InputError
+import yaml
 
 #: The largest YAML file read [bytes] (the packaged parameter set is 2 kB).
 MAX_YAML_BYTES = 1_000_000
@@ -76,7 +76,8 @@ def _parsed(text: str) -> Any:
 
 def load_yaml_file(path: str | os.PathLike, *, what: str = 'YAML file',
                    error: type[InputError] = InputError) -> Any:
-    """Return the document of the YAML file at ``path`` (size checked before it is read).
+    """
+    Return the document of the YAML file at ``path`` (size checked before it is read).
 
     Raises ``error`` (an :class:`InputError` type) naming the path: missing or unreadable, over
     :data:`MAX_YAML_BYTES`, not valid YAML, or with aliases.

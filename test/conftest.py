@@ -1,72 +1,47 @@
-"""Shared fixtures: measured data in ../shared (skipped when absent) and the ROS 2 graph.
+"""
+Shared fixtures: measured data in ../shared (skipped when absent) and the ROS 2 graph.
 
 ROS 2 isolation: this test session uses its own ``ROS_DOMAIN_ID`` (from the process id) and
-localhost-only discovery, set before any rclpy context starts; process-level tests get further
-domain ids of their own from :func:`ros_domain_ids`.  Node tests need rclpy: they skip where it
-is missing, except under CI (``CI`` set), where a missing rclpy fails them: a node test never
-skips in CI.
+localhost-only discovery, set before any rclpy context starts (:mod:`wear_testing.ros_graph`);
+process-level tests get further domain ids of their own.  Node tests need rclpy: they skip
+where it is missing, except under CI (``CI`` set), where a missing rclpy fails them: a node
+test never skips in CI.  The helpers live in the package ``wear_testing`` (``test/`` is on
+pytest's ``pythonpath``).
 """
 
-import itertools
 import os
 from pathlib import Path
 import tempfile
 
 import pytest
+from wear_testing.paths import EXTERNAL_DIR, REPO_ROOT, require_path
+from wear_testing.ros_graph import require_rclpy
 
-_DOMAIN_BASE = 1 + (os.getpid() % 20) * 5
-os.environ['ROS_DOMAIN_ID'] = str(_DOMAIN_BASE)
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-os.environ.pop('ROS_LOCALHOST_ONLY', None)
-_NEXT_DOMAIN = itertools.count(_DOMAIN_BASE + 1)
 # the interval calibrations of this session (and its subprocesses) are stored apart from the
 # user's cache, so a test never reads a calibration that an older version stored
 os.environ['ROBOT_WEAR_MONITOR_CACHE'] = tempfile.mkdtemp(prefix='rwm_calibrations_')
 
 # the throw-away PostgreSQL server of the history tests (postgresql_server, postgresql_url,
 # history_location)
-pytest_plugins = ('postgres_server',)
-
-REPO_ROOT = Path(__file__).resolve().parents[1]
-SHARED_DIR = REPO_ROOT.parent / 'shared'
-EXTERNAL_DIR = SHARED_DIR / 'data' / 'external'
-SEED_DIR = SHARED_DIR / 'seed'
-
-
-def _require(path: Path) -> Path:
-    if not path.exists():
-        pytest.skip(f'measured data not available: {path} is absent '
-                    '(clone the repository with ../shared beside it)')
-    return path
+pytest_plugins = ('wear_testing.postgres_server',)
 
 
 @pytest.fixture(scope='session')
 def external_data_dir() -> Path:
     """Return ../shared/data/external, or skip when ../shared is absent."""
-    return _require(EXTERNAL_DIR)
+    return require_path(EXTERNAL_DIR)
 
 
 @pytest.fixture(scope='session')
 def kuka_dir(external_data_dir: Path) -> Path:
     """Return the KUKA iiwa data folder, or skip when it is absent."""
-    return _require(external_data_dir / 'kuka_iiwa_yezhao_drake')
+    return require_path(external_data_dir / 'kuka_iiwa_yezhao_drake')
 
 
 @pytest.fixture(scope='session')
 def repo_root() -> Path:
     """Return the repository root."""
     return REPO_ROOT
-
-
-def require_rclpy():
-    """Return the rclpy module; skip without it, but fail under CI (node tests never skip)."""
-    try:
-        import rclpy
-    except ImportError as error:
-        if os.environ.get('CI'):
-            pytest.fail(f'rclpy is required in CI (pip install ".[ros]"): {error}')
-        pytest.skip(f'rclpy is not installed ({error}); pip install ".[ros]"')
-    return rclpy
 
 
 @pytest.fixture
@@ -76,8 +51,3 @@ def ros_context():
     rclpy.init()
     yield rclpy
     rclpy.try_shutdown()
-
-
-def next_ros_domain_id() -> int:
-    """Return a ROS_DOMAIN_ID no other test of this session uses (for process-level tests)."""
-    return next(_NEXT_DOMAIN)

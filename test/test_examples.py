@@ -5,10 +5,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import make_examples
 import pytest
-
 from robot_wear_monitor.cli import main
+from wear_testing import make_examples
 
 EXAMPLES = Path(__file__).resolve().parents[1] / 'examples'
 
@@ -16,7 +15,8 @@ EXAMPLES = Path(__file__).resolve().parents[1] / 'examples'
 def test_the_shipped_tables_are_what_the_generator_writes():
     for name, text in make_examples.example_files().items():
         assert (EXAMPLES / name).read_text(encoding='utf-8') == text, (
-            f'examples/{name} differs from test/make_examples.py: run it and commit')
+            f'examples/{name} differs from test/wear_testing/make_examples.py: '
+            'run PYTHONPATH=test python3 -m wear_testing.make_examples and commit')
 
 
 def test_identify_on_the_examples_recovers_the_joint_and_its_wear(tmp_path, capsys):

@@ -1,4 +1,5 @@
-"""Hostile input and failing disks: each reproduction of the issue, and a property test.
+"""
+Hostile input and failing disks: each reproduction of the issue, and a property test.
 
 Refused cleanly (exit 2, one line, no traceback), or worked; nothing outside the named outputs
 changed; no file written through a planted link.  The bad samples of a recording are in
@@ -18,7 +19,6 @@ import time
 
 from hypothesis import given, HealthCheck, settings, strategies as st
 import pytest
-
 from robot_wear_monitor.atomic_files import (check_writable, OutputError,
                                              remove_stale_partials, write_text_atomic)
 from robot_wear_monitor.cli import main

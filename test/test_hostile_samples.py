@@ -1,4 +1,5 @@
-"""Bad samples are rejected one by one: the rest of the recording is used, the reason named.
+"""
+Bad samples are rejected one by one: the rest of the recording is used, the reason named.
 
 Recordings of the independent generator (``independent_robot.py``) with every 7th effort NaN,
 every 50th stamp a duplicate of the one before or three back, or efforts or speeds of 1e308:
@@ -16,8 +17,7 @@ import sys
 
 import numpy as np
 import pytest
-
-import independent_robot as robot
+from wear_testing import independent_robot as robot
 
 
 @pytest.fixture(scope='module')

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor identify``: files in, a loadable parameter set out; mistakes exit 2.
+"""
+``robot-wear-monitor identify``: files in, a loadable parameter set out; mistakes exit 2.
 
 The friction levels are written by ``test/independent_robot.py``'s model functions (not the
 package's simulation) for a joint whose parameters differ from the packaged set.
@@ -8,11 +9,10 @@ import json
 
 import numpy as np
 import pytest
-
-import independent_robot as robot
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.model.params import load_parameter_set
+from wear_testing import independent_robot as robot
 
 GRID = np.array([2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1])
 SIGMA = 4.23e-3

@@ -1,4 +1,5 @@
-"""The package against an independent robot: its own trajectories, noise, friction and bags.
+"""
+The package against an independent robot: its own trajectories, noise, friction and bags.
 
 ``independent_robot`` shares no code with ``robot_wear_monitor.simulation``/``model``; its
 recordings carry the truth (wear, temperature, load, the friction actually applied), so these
@@ -12,13 +13,12 @@ import sys
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import Reader
-from rosbags.typesys import get_typestore, Stores
-
-from conftest import REPO_ROOT
-import independent_robot as robot
 from robot_wear_monitor.experiment.segmentation import (segment_batch, SegmenterConfig,
                                                         StreamingSegmenter)
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
+from wear_testing import independent_robot as robot
+from wear_testing.paths import REPO_ROOT
 
 SEED = 0
 N_EXPERIMENTS = 8

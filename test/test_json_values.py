@@ -4,7 +4,6 @@ import json
 import math
 
 import numpy as np
-
 from robot_wear_monitor.json_values import finite_or_none, json_clean
 
 

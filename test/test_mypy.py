@@ -4,8 +4,7 @@ import subprocess
 import sys
 
 import pytest
-
-from conftest import REPO_ROOT
+from wear_testing.paths import REPO_ROOT
 
 
 @pytest.mark.linter

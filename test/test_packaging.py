@@ -8,8 +8,7 @@ import subprocess
 import sys
 
 import pytest
-
-from conftest import REPO_ROOT
+from wear_testing.paths import REPO_ROOT
 
 SCRIPTS = ('robot-wear-monitor', 'friction_experiment_node', 'wear_estimator_node',
            'friction_experiment_runner')

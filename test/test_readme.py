@@ -1,4 +1,5 @@
-"""The README's command chains run as written (with small data): every ```sh block.
+"""
+The README's command chains run as written (with small data): every ```sh block.
 
 Each ``sh`` block runs in one ``bash -e`` in a fresh folder that holds the repository's
 ``examples/``, blocks in order, so a later block uses what an earlier one made (``wear_bag``,

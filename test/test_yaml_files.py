@@ -1,10 +1,9 @@
 """yaml_files: bounded, alias-free YAML reading; the same text is parsed once."""
 
 import pytest
-import yaml
-
 from robot_wear_monitor import yaml_files
 from robot_wear_monitor.errors import InputError
+import yaml
 
 
 def _count_parses(monkeypatch):

@@ -1,4 +1,5 @@
-"""Closing the loop: find what the friction model misses, name it, and put it into the model.
+"""
+Closing the loop: find what the friction model misses, name it, and put it into the model.
 
 Modules, by what a newcomer looks for:
 

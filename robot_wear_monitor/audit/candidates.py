@@ -1,4 +1,5 @@
-"""Candidate variables and the bases the audit tests them with.
+"""
+Candidate variables and the bases the audit tests them with.
 
 Every column is a suspect (issue 10): the undeclared columns, the model's own variables
 (speed, temperature, load, wear: tested in the shapes the model lacks, the model's fitted terms
@@ -74,7 +75,8 @@ class Variable:
         return Factor(self.name, 'linear', centre=0.5 * (self.lo + self.hi))
 
     def smooth(self) -> tuple[tuple[Factor, ...], bool]:
-        """Return a natural cubic spline in the variable (linear beyond the outer knots).
+        """
+        Return a natural cubic spline in the variable (linear beyond the outer knots).
 
         Knots at quantiles of the audited table; with fewer than 3, a polynomial of degree up
         to 3.  Speed: the spline is in log speed (the levels are spread logarithmically).
@@ -101,7 +103,8 @@ class Variable:
 
 
 def make_variable(table: AuditTable, name: str, *, ordered: bool = False) -> Variable | None:
-    """Describe a candidate column; None when it is constant.
+    """
+    Describe a candidate column; None when it is constant.
 
     ``ordered`` keeps an integer column continuous (experiment order) whatever its number of
     values.
@@ -130,7 +133,8 @@ def make_variable(table: AuditTable, name: str, *, ordered: bool = False) -> Var
 
 
 def with_experiment_order(table: AuditTable) -> AuditTable:
-    """Add ``experiment_order`` for text labels that number a series (``exp01``, ``exp02``).
+    """
+    Add ``experiment_order`` for text labels that number a series (``exp01``, ``exp02``).
 
     Labels that are one common prefix followed by a number are ordered by that number; other
     text labels (run names such as ``joint6_vel_p5``) carry no order and get no column.  Numeric
@@ -151,7 +155,8 @@ def with_experiment_order(table: AuditTable) -> AuditTable:
 
 
 def candidate_columns(table: AuditTable, *, model: str, group: str | None = None) -> list[str]:
-    """Return the candidate columns: every column but friction, its error and the group.
+    """
+    Return the candidate columns: every column but friction, its error and the group.
 
     The model's own variables come first (``speed`` only when it varies); the experiment
     column is a candidate when its labels are numbers, else its order ``experiment_order``.

@@ -1,4 +1,5 @@
-"""Cross-validation of the audit and of ``identify``: folds by experiment, held-out error.
+"""
+Cross-validation of the audit and of ``identify``: folds by experiment, held-out error.
 
 A table with an ``experiment`` column is split by experiment (all levels of one experiment are
 held out together, so an effect that is constant within an experiment cannot be learnt from the
@@ -36,7 +37,8 @@ def fold_indices(table: AuditTable, n_folds: int, seed: int) -> tuple[NDArray[np
 
 def cv_rms(base: Base, table: AuditTable, terms: Sequence | Callable, theta: FloatArray,
            folds: NDArray[np.int_], nonnegative: bool = False) -> tuple[float, FloatArray]:
-    """Held-out RMS error over the folds and the held-out residual of every row.
+    """
+    Held-out RMS error over the folds and the held-out residual of every row.
 
     ``terms``: the added terms, or a function of the training table that returns them (for a
     term whose shape constant, such as a period, is chosen on the training levels only).

@@ -1,4 +1,5 @@
-"""Reading the data of an audit: level tables (CSV), raw runs, bags, into an AuditTable.
+"""
+Reading the data of an audit: level tables (CSV), raw runs, bags, into an AuditTable.
 
 Units: speeds motor side [rad/s] (link side for the KUKA raw runs), friction in the table's own
 unit (normalised for the packaged model; N.m for the KUKA data), temperature [degC].
@@ -30,7 +31,8 @@ REQUIRED_COLUMNS = {'speed': ('speed', 'friction'),
 
 def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table>',
                        model: str = 'speed') -> AuditTable:
-    """Validate a mapping of columns into an :class:`AuditTable`.
+    """
+    Validate a mapping of columns into an :class:`AuditTable`.
 
     Numeric columns become float arrays; a column whose values are not all numbers is a text
     (categorical) column.  Raises :class:`InputError` for an empty table, unequal lengths,
@@ -95,7 +97,8 @@ def _category(value: object) -> str:
 
 def _fold_direction(numeric: dict[str, FloatArray], text: dict[str, NDArray[np.str_]],
                     source: str) -> tuple[dict[str, FloatArray], dict[str, NDArray[np.str_]]]:
-    """Turn signed speeds (one row per direction) into |speed| and a ``direction`` group.
+    """
+    Turn signed speeds (one row per direction) into |speed| and a ``direction`` group.
 
     The friction of a negative-speed row is its magnitude: a table whose frictions at negative
     speeds are negative (the signed torque) has them negated; eq. (3)'s level is the symmetric
@@ -147,7 +150,8 @@ def read_level_table(path: str | Path, *, model: str = 'speed') -> AuditTable:
 
 def table_from_levels(levels: Sequence, *, extra: Mapping[str, Sequence] | None = None,
                       source: str = '<levels>', model: str = 'speed') -> AuditTable:
-    """Build a table from :class:`~robot_wear_monitor.experiment.levels.FrictionLevel` objects.
+    """
+    Build a table from :class:`~robot_wear_monitor.experiment.levels.FrictionLevel` objects.
 
     Columns: ``speed``, ``friction``, ``friction_std_error`` and the candidates
     ``position_centre`` [rad], ``position_span`` [rad], ``time`` (level centre time) [s];
@@ -171,7 +175,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                         config=None, model: str = 'speed',
                         known_torque: str | None = None,
                         standstill_speed_rad_s: float | None = None) -> AuditTable:
-    """Segment KUKA-style raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
+    """
+    Segment KUKA-style raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
 
     Every forward/backward pair of a run gives one level (segmentation of
     :mod:`robot_wear_monitor.segmentation`, settings of
@@ -281,7 +286,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
 
 
 def _pair_one_way_runs(one_way: list, settings: Any, add: Any) -> list[str]:
-    """Pair the passes of one-way runs across files (eq. (3) across runs); return the unpaired.
+    """
+    Pair the passes of one-way runs across files (eq. (3) across runs); return the unpaired.
 
     Each forward pass takes the first backward pass of another file of the same joint at the
     same speed that shares a position window with it; each pass is used once.
@@ -339,7 +345,8 @@ def _known_torque_levels(path: Any, run: Any, column: str, settings: Any) -> lis
 
 def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states',
                    config=None, model: str = 'speed') -> AuditTable:
-    """Segment the joint states of a recorded bag into friction levels (one per pass pair).
+    """
+    Segment the joint states of a recorded bag into friction levels (one per pass pair).
 
     Uses :func:`robot_wear_monitor.recordings.bags.read_joint_samples` and the segmenter;
     ``config`` is a :class:`~robot_wear_monitor.experiment.segmentation.SegmenterConfig`
@@ -390,7 +397,8 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
                     gear_ratio: float = 1.0, torque_scale: float = 1.0,
                     known_torque: str | None = None,
                     standstill_speed_rad_s: float | None = None) -> AuditTable:
-    """Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
+    """
+    Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
 
     ``known_torque``: the column of raw runs subtracted from one-way runs without a partner
     (see :func:`table_from_raw_runs`); ``standstill_speed_rad_s``: the standstill threshold

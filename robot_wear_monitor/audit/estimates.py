@@ -1,4 +1,5 @@
-"""The T and w estimates of the table's experiments before and after the added terms.
+"""
+The T and w estimates of the table's experiments before and after the added terms.
 
 The wear estimator of :mod:`robot_wear_monitor.estimation` runs on every experiment (levels of one
 experiment share T and w) twice: with the audit's model alone, and with the extended parameter
@@ -29,7 +30,8 @@ def _rms(x: FloatArray) -> float:
 
 
 def _split(params: ParameterSet, table: AuditTable) -> tuple[ParameterSet, FloatArray]:
-    """Return the set without its offline-only terms, and their value at every level.
+    """
+    Return the set without its offline-only terms, and their value at every level.
 
     A term in offline variables only (a ripple in position, a drift) is known level by level
     on the table: it is subtracted from the levels instead of evaluated at one value per
@@ -71,7 +73,8 @@ def _at_experiment(params: ParameterSet, table: AuditTable, rows: NDArray) -> Pa
 
 def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
                      after: ParameterSet | None) -> dict:
-    """Return how the (T, w) estimates per experiment change with the added terms.
+    """
+    Return how the (T, w) estimates per experiment change with the added terms.
 
     Errors are against the table's ``temperature`` and ``wear`` columns, the truth of the
     experiments; without a ``wear`` column no wear error is given (None: no basis), only how

@@ -1,4 +1,5 @@
-"""Parameter export: the input parameter set plus the terms the audit added.
+"""
+Parameter export: the input parameter set plus the terms the audit added.
 
 The nominal (5) (and, for the complete model, wear (7)) coefficients are the audit's joint
 re-identification with the added terms (the amplitudes of the terms are only meaningful with
@@ -188,10 +189,10 @@ def parameter_set_yaml(result: Identification) -> str:
 
 
 def write_identified_parameter_set(path: str | Path, result: Identification) -> ParameterSet:
-    """Write the identified set atomically to ``path`` and load it back (the proof).
+    """
+    Write the identified set atomically to ``path`` and load it back (the proof).
 
-    Returns:
-        The set as :func:`~robot_wear_monitor.model.params.load_parameter_set` reads it.
+    :return: The set as :func:`~robot_wear_monitor.model.params.load_parameter_set` reads it.
 
     """
     target = Path(path)

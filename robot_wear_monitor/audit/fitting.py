@@ -1,4 +1,5 @@
-"""The identification core shared by ``audit`` and ``identify``: tables, base models, fitter.
+"""
+The identification core shared by ``audit`` and ``identify``: tables, base models, fitter.
 
 Friction models are written as (columns nonlinear in a few parameters theta) x (amplitudes):
 the speed model (4) per group, the nominal model (5) and the complete model (8).  They are
@@ -18,9 +19,8 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
-
 from robot_wear_monitor.model.params import FrictionModel
+from scipy import optimize
 
 FloatArray = NDArray[np.float64]
 
@@ -28,12 +28,12 @@ FloatArray = NDArray[np.float64]
 # --------------------------------------------------------------------------- the table
 @dataclass(frozen=True)
 class AuditTable:
-    """A table of friction levels: one row per level.
+    """
+    A table of friction levels: one row per level.
 
-    Attributes:
-        numeric: column name -> float array, shape (n,); always holds ``speed`` and ``friction``.
-        text: column name -> str array, shape (n,) (categorical columns such as a pose name).
-        source: where the table came from (file name), for messages.
+    :ivar numeric: column name -> float array, shape (n,); always holds ``speed`` and ``friction``.
+    :ivar text: column name -> str array, shape (n,) (categorical columns such as a pose name).
+    :ivar source: where the table came from (file name), for messages.
 
     """
 
@@ -43,7 +43,7 @@ class AuditTable:
 
     @property
     def n_rows(self) -> int:
-        """Number of friction levels."""
+        """Return the number of friction levels."""
         return int(len(self.numeric['friction']))
 
     @property
@@ -129,7 +129,8 @@ def speed_base(table: AuditTable, group: str | None) -> Base:
 
 def _speed_bounds(table: AuditTable, group: str | None,
                   keys: Sequence[str]) -> tuple[FloatArray, FloatArray]:
-    """Bounds of (log phi_s, alpha) per group, from the speeds of the levels being fitted.
+    """
+    Bounds of (log phi_s, alpha) per group, from the speeds of the levels being fitted.
 
     phi_s >= the lowest speed of the group: below it the Stribeck column nearly vanishes on
     every level and its amplitude is not identifiable (a held-out lower speed would then be
@@ -166,7 +167,8 @@ def _speed_start(table: AuditTable, codes: NDArray, g: int, theta0: FloatArray,
 
 
 def nominal_base(table: AuditTable, model: FrictionModel, with_wear: bool) -> Base:
-    """Model (5) (and (8) with ``with_wear``), amplitudes linear, Stribeck speeds nonlinear.
+    """
+    Model (5) (and (8) with ``with_wear``), amplitudes linear, Stribeck speeds nonlinear.
 
     theta = (phi_s,tl, phi_s(T_lo), phi_s(T_hi), T_V0, alpha[, phi_s,w]); the temperature
     Stribeck speed phi_s,0 + phi_s,T T is parametrised by its values at the ends of the table's
@@ -266,7 +268,8 @@ def _rss(x: FloatArray, y: FloatArray) -> float:
 
 
 def orthonormal(x: FloatArray, tol: float = 1e-6) -> FloatArray:
-    """Return an orthonormal basis of the column space of x, shape (n, rank).
+    """
+    Return an orthonormal basis of the column space of x, shape (n, rank).
 
     Directions with relative singular value below ``tol`` (of unit-norm columns) count as rank
     deficiency (eigen-decomposition of the small Gram matrix, see :func:`_solve`).
@@ -301,7 +304,8 @@ def design_matrix(base: Base, theta: FloatArray, table: AuditTable,
 
 
 def _solve(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Least squares on the scaled Gram matrix; return (coefficients, orthonormal span basis).
+    """
+    Least squares on the scaled Gram matrix; return (coefficients, orthonormal span basis).
 
     The columns are scaled to unit norm and the small p x p Gram matrix is diagonalised;
     directions with eigenvalues below 1e-12 of the largest (singular values below 1e-6) are
@@ -320,7 +324,8 @@ def _solve(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 
 def _solve_nonnegative(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Non-negative least squares (scaled columns); return (coefficients, span of the free ones).
+    """
+    Non-negative least squares (scaled columns); return (coefficients, span of the free ones).
 
     The span is an orthonormal basis of the columns whose coefficient is positive (the active
     set), for Kaufman's projection.
@@ -335,7 +340,8 @@ def _solve_nonnegative(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatA
 
 def _anchor_weight(solved: tuple, y: FloatArray, lower: FloatArray,
                    upper: FloatArray) -> FloatArray:
-    """Return the weights of the anchor residuals weight * (theta - start) of :func:`fit_model`.
+    """
+    Return the weights of the anchor residuals weight * (theta - start) of :func:`fit_model`.
 
     A Gaussian prior on theta centred on the start, one bound width wide: weight = s / width,
     s^2 the residual variance at the start.  Shifting theta by a whole bound width costs as
@@ -356,7 +362,8 @@ def _anchor_weight(solved: tuple, y: FloatArray, lower: FloatArray,
 
 def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray,
               max_nfev: int = 100, nonnegative: bool = False) -> Fit:
-    """Variable projection: nonlinear theta by least_squares, amplitudes by QR inside.
+    """
+    Variable projection: nonlinear theta by least_squares, amplitudes by QR inside.
 
     The Jacobian is Kaufman's approximation (I - P) dX/dtheta c of the projected residual,
     with dX/dtheta by finite differences of the (cheap) base columns.  ``nonnegative`` keeps
@@ -418,7 +425,8 @@ def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray
 
 def wear_base(table: AuditTable, *, alpha: float, phi_s_wear: float,
               free_alpha: bool = False) -> Base:
-    """Model (7) at known wear levels (column ``wear``): phi_s,w (and alpha if free) nonlinear.
+    """
+    Model (7) at known wear levels (column ``wear``): phi_s,w (and alpha if free) nonlinear.
 
     Columns (w exp(-|v/(phi_s,w w)|^alpha), w v) with amplitudes (F_s,w, F_v,w); theta =
     (phi_s,w,) in rad/s per unit of w, bounded by the speeds of the table: the wear Stribeck
@@ -466,7 +474,8 @@ def wear_base(table: AuditTable, *, alpha: float, phi_s_wear: float,
 def multistart_fit(base: Base, table: AuditTable, starts: Sequence[FloatArray], *,
                    n_best: int = 3, max_nfev: int = 200, nonnegative: bool = False,
                    rank_rows: int = 2000) -> tuple[Fit, int]:
-    """Fit from the ``n_best`` of ``starts`` with the lowest projected RSS; keep the best fit.
+    """
+    Fit from the ``n_best`` of ``starts`` with the lowest projected RSS; keep the best fit.
 
     Every start costs one linear solve to rank (on at most ``rank_rows`` evenly spaced rows);
     the full variable-projection fit runs from the best few.  Returns (fit, number of starts
@@ -506,7 +515,8 @@ def _flatten(description: Mapping) -> dict[str, float]:
 
 def parameter_errors(base: Base, table: AuditTable, fit: Fit,
                      nonnegative: bool = False) -> dict[str, tuple]:
-    """Return the standard errors of the natural parameters (those of ``base.describe``).
+    """
+    Return the standard errors of the natural parameters (those of ``base.describe``).
 
     Gauss-Newton covariance s^2 (J^T J)^-1 of all parameters (theta and amplitudes), J the
     Jacobian of the prediction, s^2 = RSS / (n - p), mapped to the natural parameters by the
@@ -514,8 +524,7 @@ def parameter_errors(base: Base, table: AuditTable, fit: Fit,
     singular value below 1e-7) has an infinite standard error.  With ``nonnegative``, the
     amplitudes fitted to exactly 0 are on their bound: held fixed, and flagged.
 
-    Returns:
-        name -> (value, standard error, at a bound of theta), in the table's units.
+    :return: name -> (value, standard error, at a bound of theta), in the table's units.
 
     """
     theta, coef = fit.theta, fit.coef

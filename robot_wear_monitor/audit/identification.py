@@ -1,4 +1,5 @@
-"""Identify a friction-model parameter set from measured friction levels (``identify``).
+"""
+Identify a friction-model parameter set from measured friction levels (``identify``).
 
 Sec. II-B and II-C of Bittencourt and Axelsson, made a tool:
 
@@ -33,8 +34,6 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
-
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.export import parameter_set_yaml
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, fit_model, multistart_fit,
@@ -50,6 +49,7 @@ from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, parameter_set_from_mapping,
                                              ParameterSet)
+from scipy import optimize
 
 FloatArray = NDArray[np.float64]
 
@@ -103,7 +103,8 @@ _ALPHA = 4
 
 def _restricted(base: Base, *, n_columns: int, drop_columns: Sequence[int],
                 fixed_theta: Mapping[int, float]) -> Base:
-    """Return ``base`` (``n_columns`` linear columns) with some columns removed, theta fixed.
+    """
+    Return ``base`` (``n_columns`` linear columns) with some columns removed, theta fixed.
 
     ``describe`` still reports every parameter: the removed amplitudes as 0, the fixed theta at
     their values.
@@ -143,7 +144,8 @@ def _bic(fit, n_parameters: int) -> float:
 
 def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 5,
                      seed: int = 0) -> NominalIdentification:
-    """Identify the nominal model (5) on baseline friction levels.
+    """
+    Identify the nominal model (5) on baseline friction levels.
 
     The full model is fitted from many starts (variable projection, the Stribeck speeds between
     0.05 rad/s and twice the highest speed, positive over the table's temperature range).  A
@@ -154,16 +156,14 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
     the change along the profile of T_V0 at +-1 standard error (their coupling through
     exp(-T/T_V0) is strongly nonlinear over a 20 degC range).
 
-    Args:
-        table: levels with ``speed`` [rad/s], ``friction``, ``temperature`` [degC], ``load``
-            (optionally ``experiment``: the held-out error is then cross-validated by
-            experiment), checked by :func:`check_baseline`.
-        start: a model whose nominal part is one of the starting points.
-        n_folds: cross-validation folds.
-        seed: seed of the fold assignment.
+    :param table: levels with ``speed`` [rad/s], ``friction``, ``temperature`` [degC], ``load``
+        (optionally ``experiment``: the held-out error is then cross-validated by
+        experiment), checked by :func:`check_baseline`.
+    :param start: a model whose nominal part is one of the starting points.
+    :param n_folds: cross-validation folds.
+    :param seed: seed of the fold assignment.
 
-    Returns:
-        The :class:`NominalIdentification`.
+    :return: The :class:`NominalIdentification`.
 
     """
     base = nominal_base(table, start, False)
@@ -226,7 +226,8 @@ def identify_nominal(*, table: AuditTable, start: FrictionModel, n_folds: int = 
 
 def _viscous_profile_errors(base: Base, table: AuditTable, fit, errors: Mapping, *,
                             index: int) -> dict:
-    """Return f_v0, f_v_temp errors widened to their mean change along the T_V0 profile (+-1 SE).
+    """
+    Return f_v0, f_v_temp errors widened to their mean change along the T_V0 profile (+-1 SE).
 
     ``index`` is the position of T_V0 in the theta of ``base``.
     """
@@ -286,21 +287,20 @@ def _fit_wear_level(speed: FloatArray, profile: FloatArray, model: FrictionModel
 def identify_wear(*, table: AuditTable, nominal: FrictionModel, critical_experiment: str,
                   critical_wear: float = CRITICAL_WEAR, start: FrictionModel,
                   wear_max: float = 150.0, free_alpha: bool = False) -> WearIdentification:
-    """Identify the wear model (7) on an accelerated wear test and w of every experiment.
+    """
+    Identify the wear model (7) on an accelerated wear test and w of every experiment.
 
-    Args:
-        table: levels of the wear test: ``speed`` [rad/s], ``friction``, ``temperature``
-            [degC], ``load``, ``experiment`` (the test's time index k).
-        nominal: the identified nominal model (5) (its alpha is shared with (7)).
-        critical_experiment: label of the experiment K where w = ``critical_wear``.
-        critical_wear: the conventional wear level of K (the paper: 35).
-        start: a model whose phi_s,w is one of the starting points.
-        wear_max: w of every experiment is searched in [0, wear_max] (a grid, then refined).
-        free_alpha: identify alpha in (7) as well (when the nominal data do not determine it,
-            e.g. a joint without a Stribeck dip); it is then reported among the parameters.
+    :param table: levels of the wear test: ``speed`` [rad/s], ``friction``, ``temperature``
+        [degC], ``load``, ``experiment`` (the test's time index k).
+    :param nominal: the identified nominal model (5) (its alpha is shared with (7)).
+    :param critical_experiment: label of the experiment K where w = ``critical_wear``.
+    :param critical_wear: the conventional wear level of K (the paper: 35).
+    :param start: a model whose phi_s,w is one of the starting points.
+    :param wear_max: w of every experiment is searched in [0, wear_max] (a grid, then refined).
+    :param free_alpha: identify alpha in (7) as well (when the nominal data do not determine it,
+        e.g. a joint without a Stribeck dip); it is then reported among the parameters.
 
-    Returns:
-        The :class:`WearIdentification`.
+    :return: The :class:`WearIdentification`.
 
     """
     key = check_wear_test(table, critical_experiment)
@@ -371,26 +371,25 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
              critical_wear: float = CRITICAL_WEAR,
              temperature_bounds_degc: tuple[float, float] | None = None,
              n_folds: int = 5, seed: int = 0) -> Identification:
-    """Identify a complete parameter set: model (5), optionally (7), sigma of (9b).
+    """
+    Identify a complete parameter set: model (5), optionally (7), sigma of (9b).
 
-    Args:
-        baseline: healthy-joint levels (``speed``, ``friction``, ``temperature``, ``load``,
-            optionally ``experiment``).
-        from_params: the reference set: the start of the fits and the source of every field the
-            data cannot determine (load estimate, design, alarm, wear_max; and the wear model
-            without a wear test).
-        name: the ``name`` of the new set.
-        wear_test: levels of an accelerated wear test (same columns plus ``experiment``).
-        critical_experiment: the experiment K of the wear test identified with w =
-            ``critical_wear`` (required with ``wear_test``).
-        critical_wear: w of experiment K (the paper's convention: 35).
-        temperature_bounds_degc: (min, max) of the estimator's temperature [degC]; default the
-            baseline's temperature range.
-        n_folds: folds of the held-out error.
-        seed: seed of the folds.
+    :param baseline: healthy-joint levels (``speed``, ``friction``, ``temperature``, ``load``,
+        optionally ``experiment``).
+    :param from_params: the reference set: the start of the fits and the source of every field the
+        data cannot determine (load estimate, design, alarm, wear_max; and the wear model
+        without a wear test).
+    :param name: the ``name`` of the new set.
+    :param wear_test: levels of an accelerated wear test (same columns plus ``experiment``).
+    :param critical_experiment: the experiment K of the wear test identified with w =
+        ``critical_wear`` (required with ``wear_test``).
+    :param critical_wear: w of experiment K (the paper's convention: 35).
+    :param temperature_bounds_degc: (min, max) of the estimator's temperature [degC]; default the
+        baseline's temperature range.
+    :param n_folds: folds of the held-out error.
+    :param seed: seed of the folds.
 
-    Returns:
-        The :class:`Identification`; ``params`` is validated like a loaded file.
+    :return: The :class:`Identification`; ``params`` is validated like a loaded file.
 
     """
     if not name or not name.strip():

@@ -1,4 +1,5 @@
-"""The results of ``identify``: identified parameters with standard errors and their report.
+"""
+The results of ``identify``: identified parameters with standard errors and their report.
 
 :class:`Parameter` (value, standard error, unit, bound), the nominal (5), wear-profile (7) and
 complete results (:class:`NominalIdentification`, :class:`WearIdentification`,
@@ -57,14 +58,14 @@ PARAMETER_MEANINGS = {'f_c0': 'Coulomb offset', 'f_c_load': 'Coulomb load slope'
 
 @dataclass(frozen=True)
 class Parameter:
-    """One identified parameter.
+    """
+    One identified parameter.
 
-    Attributes:
-        name: field name of the parameter set (``f_c0``, ...).
-        value: the estimate, in the parameter's unit (``unit``).
-        std_error: its standard error (inf when the data do not determine it).
-        unit: unit of value and standard error.
-        at_bound: the estimate lies on a bound of its physical domain.
+    :ivar name: field name of the parameter set (``f_c0``, ...).
+    :ivar value: the estimate, in the parameter's unit (``unit``).
+    :ivar std_error: its standard error (inf when the data do not determine it).
+    :ivar unit: unit of value and standard error.
+    :ivar at_bound: the estimate lies on a bound of its physical domain.
 
     """
 
@@ -82,25 +83,25 @@ class Parameter:
 
 @dataclass(frozen=True)
 class NominalIdentification:
-    """The nominal model (5) identified on baseline levels.
+    """
+    The nominal model (5) identified on baseline levels.
 
-    Attributes:
-        parameters: the twelve parameters, in the order of :data:`NOMINAL_PARAMETERS`.
-        held_out_mean: mean of the held-out prediction error mu_eps [friction units].
-        held_out_std: its standard deviation sigma_eps [friction units].
-        folds: how the levels were split for the held-out error.
-        fit_rms: in-sample RMS error [friction units].
-        residual: in-sample residual (data minus model), shape (n,).
-        held_out_residual: held-out residual of every level, shape (n,).
-        n_levels: number of friction levels.
-        n_experiments: number of experiments (0 without an ``experiment`` column).
-        n_speeds: number of distinct speeds (equal within 2 %).
-        temperatures: number of distinct temperatures (equal within 0.1 degC).
-        loads: number of distinct loads (equal within 0.005).
-        temperature_range_degc: (min, max) of the levels' temperatures.
-        load_range: (min, max) of the levels' loads.
-        starts: number of starting points ranked by the multi-start fit.
-        dropped: Stribeck terms left out because the data do not support them (BIC).
+    :ivar parameters: the twelve parameters, in the order of :data:`NOMINAL_PARAMETERS`.
+    :ivar held_out_mean: mean of the held-out prediction error mu_eps [friction units].
+    :ivar held_out_std: its standard deviation sigma_eps [friction units].
+    :ivar folds: how the levels were split for the held-out error.
+    :ivar fit_rms: in-sample RMS error [friction units].
+    :ivar residual: in-sample residual (data minus model), shape (n,).
+    :ivar held_out_residual: held-out residual of every level, shape (n,).
+    :ivar n_levels: number of friction levels.
+    :ivar n_experiments: number of experiments (0 without an ``experiment`` column).
+    :ivar n_speeds: number of distinct speeds (equal within 2 %).
+    :ivar temperatures: number of distinct temperatures (equal within 0.1 degC).
+    :ivar loads: number of distinct loads (equal within 0.005).
+    :ivar temperature_range_degc: (min, max) of the levels' temperatures.
+    :ivar load_range: (min, max) of the levels' loads.
+    :ivar starts: number of starting points ranked by the multi-start fit.
+    :ivar dropped: Stribeck terms left out because the data do not support them (BIC).
 
     """
 
@@ -140,13 +141,13 @@ class NominalIdentification:
 
 @dataclass(frozen=True)
 class WearLevel:
-    """The wear level identified for one experiment of the wear test (Fig. 4 validation).
+    """
+    The wear level identified for one experiment of the wear test (Fig. 4 validation).
 
-    Attributes:
-        experiment: the experiment's label (its value in the ``experiment`` column).
-        wear: the identified w [-].
-        wear_std: its standard error (from the pooled wear-model error).
-        n_levels: friction levels of the experiment.
+    :ivar experiment: the experiment's label (its value in the ``experiment`` column).
+    :ivar wear: the identified w [-].
+    :ivar wear_std: its standard error (from the pooled wear-model error).
+    :ivar n_levels: friction levels of the experiment.
 
     """
 
@@ -158,21 +159,21 @@ class WearLevel:
 
 @dataclass(frozen=True)
 class WearIdentification:
-    """The wear model (7) identified on an accelerated wear test.
+    """
+    The wear model (7) identified on an accelerated wear test.
 
-    Attributes:
-        parameters: F_s,w, F_v,w and phi_s,w with standard errors (alpha from (5); alpha
-            too when it was identified in (7), see :func:`identify_wear`).
-        critical_experiment: the experiment K the model was identified at.
-        critical_wear: the wear level assigned to K by convention.
-        levels: the identified wear level of every experiment, in the table's order of
-            experiments (numeric order when the labels are numbers).
-        error_mean: mean of the wear-model error over the whole test [friction units].
-        error_std: its standard deviation [friction units].
-        profile: the wear profile (6) of every level of the test, shape (n,).
-        residual: the wear-model error of every level (profile minus (7) at the experiment's
-            identified w), shape (n,).
-        experiment: the experiment label of every level, shape (n,).
+    :ivar parameters: F_s,w, F_v,w and phi_s,w with standard errors (alpha from (5); alpha
+        too when it was identified in (7), see :func:`identify_wear`).
+    :ivar critical_experiment: the experiment K the model was identified at.
+    :ivar critical_wear: the wear level assigned to K by convention.
+    :ivar levels: the identified wear level of every experiment, in the table's order of
+        experiments (numeric order when the labels are numbers).
+    :ivar error_mean: mean of the wear-model error over the whole test [friction units].
+    :ivar error_std: its standard deviation [friction units].
+    :ivar profile: the wear profile (6) of every level of the test, shape (n,).
+    :ivar residual: the wear-model error of every level (profile minus (7) at the experiment's
+        identified w), shape (n,).
+    :ivar experiment: the experiment label of every level, shape (n,).
 
     """
 
@@ -203,18 +204,18 @@ class WearIdentification:
 
 @dataclass(frozen=True)
 class Identification:
-    """Outcome of :func:`identify`: the parameter set and how well the data determined it.
+    """
+    Outcome of :func:`identify`: the parameter set and how well the data determined it.
 
-    Attributes:
-        params: the complete, validated parameter set.
-        nominal: the nominal model (5) identification.
-        wear: the wear model (7) identification (None without a wear test).
-        sigma: sigma of (9b) written to the set.
-        sigma_rule: how sigma was formed.
-        from_params: the reference set the undetermined fields came from.
-        warnings: what the data do not determine well, each naming what to measure more of.
-        baseline_source: where the baseline levels came from.
-        wear_source: where the wear-test levels came from (None without a wear test).
+    :ivar params: the complete, validated parameter set.
+    :ivar nominal: the nominal model (5) identification.
+    :ivar wear: the wear model (7) identification (None without a wear test).
+    :ivar sigma: sigma of (9b) written to the set.
+    :ivar sigma_rule: how sigma was formed.
+    :ivar from_params: the reference set the undetermined fields came from.
+    :ivar warnings: what the data do not determine well, each naming what to measure more of.
+    :ivar baseline_source: where the baseline levels came from.
+    :ivar wear_source: where the wear-test levels came from (None without a wear test).
 
     """
 

@@ -1,4 +1,5 @@
-"""The tables ``identify`` fits: loaded, checked and prepared.
+"""
+The tables ``identify`` fits: loaded, checked and prepared.
 
 :func:`load_identify_levels` reads a level table, raw runs or a bag (with optional temperature
 and load topics); :func:`check_baseline` and :func:`check_wear_test` say what a baseline or a
@@ -36,22 +37,21 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                          load_column: str | None = None,
                          known_torque: str | None = None,
                          standstill_speed_rad_s: float | None = None) -> AuditTable:
-    """Return the levels of one ``identify`` input with ``temperature`` and ``load`` columns.
+    """
+    Return the levels of one ``identify`` input with ``temperature`` and ``load`` columns.
 
-    Args:
-        path: a level CSV, a raw run, a folder of raw runs or a bag.
-        role: 'BASELINE' or 'WEAR' (for messages).
-        joint, topic, flip_sign, gear_ratio, torque_scale, known_torque,
-            standstill_speed_rad_s: as for
-            :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
-            gear_ratio x joint speed, normalised torque = effort / torque_scale).
-        temperature_topic: bag input: the joint temperature [degC] on this topic
-            (sensor_msgs/Temperature or std_msgs/Float64), taken at each level's time.
-        load_topic: bag input: the load torque (normalised) on this topic (std_msgs/Float64).
-        experiment_gap_s: bag input: levels more than this many seconds apart start a new
-            experiment [s].
-        temperature_column, load_column: the table's columns holding temperature and load
-            (default ``temperature`` and ``load``).
+    :param path: a level CSV, a raw run, a folder of raw runs or a bag.
+    :param role: 'BASELINE' or 'WEAR' (for messages).
+    :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s:
+        as for :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
+        gear_ratio x joint speed, normalised torque = effort / torque_scale).
+    :param temperature_topic: bag input: the joint temperature [degC] on this topic
+        (sensor_msgs/Temperature or std_msgs/Float64), taken at each level's time.
+    :param load_topic: bag input: the load torque (normalised) on this topic (std_msgs/Float64).
+    :param experiment_gap_s: bag input: levels more than this many seconds apart start a new
+        experiment [s].
+    :param temperature_column, load_column: the table's columns holding temperature and load
+        (default ``temperature`` and ``load``).
 
     """
     table = load_audit_data(path, model='speed', joint=joint, topic=topic, flip_sign=flip_sign,
@@ -98,11 +98,11 @@ def _require_columns(table: AuditTable, columns: Sequence[str], what: str) -> No
 
 
 def check_baseline(table: AuditTable) -> list[str]:
-    """Check that baseline levels can determine model (5); return the warnings.
+    """
+    Check that baseline levels can determine model (5); return the warnings.
 
-    Raises:
-        InputError: a missing column, fewer than :data:`MIN_SPEEDS` distinct speeds, a single
-            temperature or a single load, or fewer levels than twice the parameters.
+    :raises InputError: a missing column, fewer than :data:`MIN_SPEEDS` distinct speeds, a single
+        temperature or a single load, or fewer levels than twice the parameters.
 
     """
     _require_columns(table, ('speed', 'friction', 'temperature', 'load'), 'model (5)')
@@ -160,11 +160,11 @@ def experiment_order(labels: Sequence[str]) -> list[str]:
 
 
 def check_wear_test(table: AuditTable, critical_experiment: str) -> str:
-    """Check the wear-test levels; return the critical experiment's label as in the table.
+    """
+    Check the wear-test levels; return the critical experiment's label as in the table.
 
-    Raises:
-        InputError: a missing column, an unknown critical experiment, or too few distinct
-            speeds in it for the three parameters of (7).
+    :raises InputError: a missing column, an unknown critical experiment, or too few distinct
+        speeds in it for the three parameters of (7).
 
     """
     _require_columns(table, ('speed', 'friction', 'temperature', 'load'),
@@ -189,7 +189,8 @@ def check_wear_test(table: AuditTable, critical_experiment: str) -> str:
 
 def attach_series(table: AuditTable, *, column: str, time_s: ArrayLike, values: ArrayLike,
                   source: str) -> AuditTable:
-    """Return ``table`` with ``column`` = the series interpolated at each level's time.
+    """
+    Return ``table`` with ``column`` = the series interpolated at each level's time.
 
     For levels segmented from a bag (column ``time``, the level's centre time [s]) whose
     temperature or load was recorded on a topic: linear interpolation in time, the end values
@@ -210,7 +211,8 @@ def attach_series(table: AuditTable, *, column: str, time_s: ArrayLike, values: 
 
 
 def number_experiments(table: AuditTable, *, gap_s: float) -> AuditTable:
-    """Return ``table`` with ``experiment`` = 0, 1, ... split where levels are > gap_s apart.
+    """
+    Return ``table`` with ``experiment`` = 0, 1, ... split where levels are > gap_s apart.
 
     For levels segmented from a recording without an experiment column: consecutive levels
     (in time) less than ``gap_s`` [s] apart belong to one experiment.
@@ -230,18 +232,17 @@ def number_experiments(table: AuditTable, *, gap_s: float) -> AuditTable:
 
 def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | None = None,
                    load_column: str | None = None) -> AuditTable:
-    """Return the levels with ``temperature`` and ``load`` columns, named or checked.
+    """
+    Return the levels with ``temperature`` and ``load`` columns, named or checked.
 
-    Args:
-        table: levels read by :func:`~robot_wear_monitor.audit.data.load_audit_data`.
-        role: 'BASELINE' or 'WEAR' (for messages).
-        temperature_column: column holding the joint temperature [degC] (default
-            ``temperature``).
-        load_column: column holding the load torque tau_l (default ``load``).
+    :param table: levels read by :func:`~robot_wear_monitor.audit.data.load_audit_data`.
+    :param role: 'BASELINE' or 'WEAR' (for messages).
+    :param temperature_column: column holding the joint temperature [degC] (default
+        ``temperature``).
+    :param load_column: column holding the load torque tau_l (default ``load``).
 
-    Raises:
-        InputError: a named column is missing, or the table has no temperature or load; the
-            message says where they can come from.
+    :raises InputError: a named column is missing, or the table has no temperature or load; the
+        message says where they can come from.
 
     """
     numeric = dict(table.numeric)

@@ -1,4 +1,5 @@
-"""The noise floor: the std of the level error that no model of the table's columns removes.
+"""
+The noise floor: the std of the level error that no model of the table's columns removes.
 
 Compared with the held-out error, it tells whether structure is left (held-out error well above
 the floor) or the model is as good as the data allow.
@@ -12,16 +13,16 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import spatial
-
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
+from scipy import spatial
 
 FloatArray = NDArray[np.float64]
 
 
 def noise_floor(*, table: AuditTable, residual: FloatArray, n_parameters: int,
                 variables: Sequence[str]) -> tuple[float, str]:
-    """Estimate the std of the level-to-level error that no model of these columns removes.
+    """
+    Estimate the std of the level-to-level error that no model of these columns removes.
 
     1. ``replicates``: rows that agree in every column except the friction ones repeat one
        condition; the pooled within-group std of friction is model-free (used when they give
@@ -72,7 +73,8 @@ SPEED_TOLERANCE = 0.01
 
 
 def replicate_groups(table: AuditTable, variables: Sequence[str]) -> NDArray[np.int64]:
-    """Return the replicate group of every level: same conditions, whatever the run.
+    """
+    Return the replicate group of every level: same conditions, whatever the run.
 
     Conditions are ``variables`` except :data:`RUN_COLUMNS`; speeds within
     :data:`SPEED_TOLERANCE` of each other are one set-point; categories are compared as text.
@@ -98,17 +100,17 @@ def replicate_groups(table: AuditTable, variables: Sequence[str]) -> NDArray[np.
 
 @dataclass(frozen=True)
 class LackOfFit:
-    """The model's fit against the replicate (pure) error of the table (friction units).
+    """
+    The model's fit against the replicate (pure) error of the table (friction units).
 
-    Attributes:
-        pure_error: std of the levels within replicate groups (model-free).
-        pure_dof: its degrees of freedom (levels minus groups).
-        groups: replicate groups (conditions).
-        f_statistic: lack-of-fit F = (SS_lack / dof_lack) / (SS_pure / dof_pure); NaN when
-            the model has as many parameters as groups.
-        p_value: P(F_dof_lack,dof_pure >= f_statistic) (NaN when not testable).
-        speed_range: (low, high) motor or joint speed [the table's unit] of the groups whose
-            mean residual is more than 3 of its standard errors from 0, or None.
+    :ivar pure_error: std of the levels within replicate groups (model-free).
+    :ivar pure_dof: its degrees of freedom (levels minus groups).
+    :ivar groups: replicate groups (conditions).
+    :ivar f_statistic: lack-of-fit F = (SS_lack / dof_lack) / (SS_pure / dof_pure); NaN when
+        the model has as many parameters as groups.
+    :ivar p_value: P(F_dof_lack,dof_pure >= f_statistic) (NaN when not testable).
+    :ivar speed_range: (low, high) motor or joint speed [the table's unit] of the groups whose
+        mean residual is more than 3 of its standard errors from 0, or None.
 
     """
 
@@ -146,7 +148,8 @@ class LackOfFit:
 
 def lack_of_fit(*, table: AuditTable, residual: FloatArray, n_parameters: int,
                 variables: Sequence[str]) -> LackOfFit | None:
-    """Test the fit against the pure error of replicated conditions; None without replicates.
+    """
+    Test the fit against the pure error of replicated conditions; None without replicates.
 
     Replicates (:func:`replicate_groups`) need at least 5 degrees of freedom.  The pure error
     is the pooled within-group std of the levels; the lack-of-fit sum of squares is the rest of

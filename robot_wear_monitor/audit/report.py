@@ -1,4 +1,5 @@
-"""Figures of an audit: residuals against every variable before and after, and the errors.
+"""
+Figures of an audit: residuals against every variable before and after, and the errors.
 
 Matplotlib with the Agg backend (no display needed); small PNGs for documentation.
 """
@@ -31,17 +32,16 @@ def _pyplot():
 
 def plot_audit(*, result: AuditResult, table: AuditTable, out_dir: str | Path,
                prefix: str = 'audit_', dpi: int = 80) -> list[Path]:
-    """Write ``<prefix>residuals.png`` and ``<prefix>errors.png`` into ``out_dir``.
+    """
+    Write ``<prefix>residuals.png`` and ``<prefix>errors.png`` into ``out_dir``.
 
-    Args:
-        result: the audit of ``table``.
-        table: the audited table (after any groups were left out: ``result.n_levels`` rows).
-        out_dir: folder, created when missing.
-        prefix: file-name prefix.
-        dpi: resolution of the PNGs.
+    :param result: the audit of ``table``.
+    :param table: the audited table (after any groups were left out: ``result.n_levels`` rows).
+    :param out_dir: folder, created when missing.
+    :param prefix: file-name prefix.
+    :param dpi: resolution of the PNGs.
 
-    Returns:
-        The paths written.
+    :return: The paths written.
 
     """
     plt = _pyplot()
@@ -129,7 +129,8 @@ def _matching_rows(table: AuditTable, result: AuditResult) -> AuditTable:
 def plot_identification(*, result: Identification, baseline: AuditTable,
                         wear_test: AuditTable | None = None, out_dir: str | Path,
                         dpi: int = 80) -> list[Path]:
-    """Write the identification figures into ``out_dir``; return their paths.
+    """
+    Write the identification figures into ``out_dir``; return their paths.
 
     ``identify_residuals.png``: held-out residuals of (5) against speed, temperature and load
     (and the wear-model error against experiment with a wear test), with +- sigma_eps;

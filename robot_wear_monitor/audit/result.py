@@ -1,4 +1,5 @@
-"""The audit's result: the effects it added and the report (JSON and text).
+"""
+The audit's result: the effects it added and the report (JSON and text).
 
 Units: friction in the table's own unit; temperatures [degC].
 """
@@ -27,24 +28,24 @@ FRICTION_UNIT_NOTE = ('normalised torque for levels from segment and history; ef
 
 @dataclass(frozen=True)
 class Effect:
-    """An effect the audit traced and added to the model.
+    """
+    An effect the audit traced and added to the model.
 
-    Attributes:
-        name: human-readable name of the term (shape and variables).
-        shape: 'linear', 'periodic', 'Stribeck interaction', 'smooth', ... .
-        variables: the table columns it depends on.
-        df: number of parameters the term adds (amplitudes, plus a period or Stribeck speed).
-        log10_p: log10 of the F-test p-value that found it (BH-controlled family).
-        rms_cv_before: held-out RMS error before adding it [friction units].
-        rms_cv_after: held-out RMS error after adding it [friction units].
-        size_rms: RMS over the table of the change of the fitted friction when the term is
-            added and everything re-identified [friction units].
-        size_range: max - min of that change [friction units].
-        info: shape constants (period, Stribeck speed).
-        candidate: the candidate family that found it.
-        confounded_with: the other significant candidates that lost their evidence once this
-            effect was in the model (each {'candidate', 'log10_p_alone',
-            'log10_p_given_chosen'}): named here, not added.
+    :ivar name: human-readable name of the term (shape and variables).
+    :ivar shape: 'linear', 'periodic', 'Stribeck interaction', 'smooth', ... .
+    :ivar variables: the table columns it depends on.
+    :ivar df: number of parameters the term adds (amplitudes, plus a period or Stribeck speed).
+    :ivar log10_p: log10 of the F-test p-value that found it (BH-controlled family).
+    :ivar rms_cv_before: held-out RMS error before adding it [friction units].
+    :ivar rms_cv_after: held-out RMS error after adding it [friction units].
+    :ivar size_rms: RMS over the table of the change of the fitted friction when the term is
+        added and everything re-identified [friction units].
+    :ivar size_range: max - min of that change [friction units].
+    :ivar info: shape constants (period, Stribeck speed).
+    :ivar candidate: the candidate family that found it.
+    :ivar confounded_with: the other significant candidates that lost their evidence once this
+        effect was in the model (each {'candidate', 'log10_p_alone',
+        'log10_p_given_chosen'}): named here, not added.
 
     """
 
@@ -82,38 +83,38 @@ class Effect:
 
 @dataclass(frozen=True)
 class AuditResult:
-    """Outcome of :func:`run_audit`.
+    """
+    Outcome of :func:`run_audit`.
 
-    Attributes:
-        model: 'speed', 'nominal' or 'complete'.
-        n_levels: rows audited.
-        group: column the base model is identified per group of (or None).
-        candidates: the candidate variables examined.
-        rms_before: held-out RMS error of the model alone [friction units].
-        rms_after: held-out RMS error with the effects added.
-        fit_rms_before: in-sample RMS error of the model alone.
-        fit_rms_after: in-sample RMS error with the effects.
-        noise_floor: estimated std of the irreducible level error [friction units].
-        noise_floor_method: how it was estimated (see :func:`noise_floor`).
-        folds: description of the cross-validation folds.
-        effects: the effects added, in order.
-        steps: per step, the best candidates and the decision (for the report).
-        residual_before: in-sample residuals of the model alone, shape (n,).
-        residual_after: in-sample residuals of the extended model, shape (n,).
-        parameters_before: identified base-model parameters without effects.
-        parameters_after: identified base-model parameters with the effects.
-        estimate_changes: how the (T, w) estimates change (None when not applicable).
-        stop_reason: why the loop stopped.
-        excluded: groups left out (too few distinct speeds), with the reason.
-        extended_params: the input parameter set plus the added terms (nominal and complete
-            models; None for the speed model), what ``audit --out-params`` writes.
-        offline: variable -> (default, how chosen) for the terms' variables that the service
-            does not measure online (evaluated at the default there).
-        parameter_flags: fitted parameters at a bound of the fit or with a sign friction
-            cannot have, one sentence each (the speed model (4)).
-        lack_of_fit: the final model against the pure error of replicated conditions (repeated
-            runs at the same speed and direction), None without replicates.
-        rms_by_group: group -> (held-out RMS error before, after) when fitted per ``group``.
+    :ivar model: 'speed', 'nominal' or 'complete'.
+    :ivar n_levels: rows audited.
+    :ivar group: column the base model is identified per group of (or None).
+    :ivar candidates: the candidate variables examined.
+    :ivar rms_before: held-out RMS error of the model alone [friction units].
+    :ivar rms_after: held-out RMS error with the effects added.
+    :ivar fit_rms_before: in-sample RMS error of the model alone.
+    :ivar fit_rms_after: in-sample RMS error with the effects.
+    :ivar noise_floor: estimated std of the irreducible level error [friction units].
+    :ivar noise_floor_method: how it was estimated (see :func:`noise_floor`).
+    :ivar folds: description of the cross-validation folds.
+    :ivar effects: the effects added, in order.
+    :ivar steps: per step, the best candidates and the decision (for the report).
+    :ivar residual_before: in-sample residuals of the model alone, shape (n,).
+    :ivar residual_after: in-sample residuals of the extended model, shape (n,).
+    :ivar parameters_before: identified base-model parameters without effects.
+    :ivar parameters_after: identified base-model parameters with the effects.
+    :ivar estimate_changes: how the (T, w) estimates change (None when not applicable).
+    :ivar stop_reason: why the loop stopped.
+    :ivar excluded: groups left out (too few distinct speeds), with the reason.
+    :ivar extended_params: the input parameter set plus the added terms (nominal and complete
+        models; None for the speed model), what ``audit --out-params`` writes.
+    :ivar offline: variable -> (default, how chosen) for the terms' variables that the service
+        does not measure online (evaluated at the default there).
+    :ivar parameter_flags: fitted parameters at a bound of the fit or with a sign friction
+        cannot have, one sentence each (the speed model (4)).
+    :ivar lack_of_fit: the final model against the pure error of replicated conditions (repeated
+        runs at the same speed and direction), None without replicates.
+    :ivar rms_by_group: group -> (held-out RMS error before, after) when fitted per ``group``.
 
     """
 

@@ -1,4 +1,5 @@
-"""The audit loop: identify, test every candidate, name the best effect, add it, repeat.
+"""
+The audit loop: identify, test every candidate, name the best effect, add it, repeat.
 
 1. identify the chosen model on the table (variable projection, :mod:`.fitting`, the core
    shared with ``identify``);
@@ -55,26 +56,25 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
               group: str | None = None, fdr: float = 0.01, min_gain: float = 0.01,
               max_effects: int = 4, n_folds: int = 5, seed: int = 0,
               estimate: bool = True) -> AuditResult:
-    """Identify ``model`` on ``table``, trace the structure of its residuals and add it.
+    """
+    Identify ``model`` on ``table``, trace the structure of its residuals and add it.
 
-    Args:
-        table: friction levels (see :func:`robot_wear_monitor.audit.data.read_level_table`).
-        model: 'speed' (eq. 4, per ``group``), 'nominal' (eq. 5) or 'complete' (eq. 8).
-        params: parameter set whose coefficients start the nominal/complete fit, that the
-            (T, w) estimator uses and that the extended set extends; the packaged set when
-            None.
-        group: column whose every value gets its own speed model (e.g. ``joint``).
-        fdr: false-discovery rate of the Benjamini-Hochberg control over each step's
-            candidates.
-        min_gain: minimum relative reduction of the held-out error for an effect to be kept.
-        max_effects: at most this many effects are added.
-        n_folds: cross-validation folds (by ``experiment`` when that column exists).
-        seed: seed of the fold assignment.
-        estimate: also report how the (T, w) estimates change (nominal/complete model with an
-            ``experiment`` column; runs the wear estimator twice per experiment).
+    :param table: friction levels (see :func:`robot_wear_monitor.audit.data.read_level_table`).
+    :param model: 'speed' (eq. 4, per ``group``), 'nominal' (eq. 5) or 'complete' (eq. 8).
+    :param params: parameter set whose coefficients start the nominal/complete fit, that the
+        (T, w) estimator uses and that the extended set extends; the packaged set when
+        None.
+    :param group: column whose every value gets its own speed model (e.g. ``joint``).
+    :param fdr: false-discovery rate of the Benjamini-Hochberg control over each step's
+        candidates.
+    :param min_gain: minimum relative reduction of the held-out error for an effect to be kept.
+    :param max_effects: at most this many effects are added.
+    :param n_folds: cross-validation folds (by ``experiment`` when that column exists).
+    :param seed: seed of the fold assignment.
+    :param estimate: also report how the (T, w) estimates change (nominal/complete model with an
+        ``experiment`` column; runs the wear estimator twice per experiment).
 
-    Returns:
-        The :class:`~robot_wear_monitor.audit.result.AuditResult`.
+    :return: The :class:`~robot_wear_monitor.audit.result.AuditResult`.
 
     """
     if model not in MODELS:
@@ -222,7 +222,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
 
 def _rms_by_group(table: AuditTable, group: str | None, before: np.ndarray,
                   after: np.ndarray) -> dict[str, tuple[float, float]]:
-    """Return group -> (held-out RMS before, after) [friction units]; {} without a group.
+    """
+    Return group -> (held-out RMS before, after) [friction units]; {} without a group.
 
     Joints whose friction differs sevenfold are not pooled into one number: each has its own.
     """
@@ -236,7 +237,8 @@ def _rms_by_group(table: AuditTable, group: str | None, before: np.ndarray,
 
 def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
                           table: AuditTable) -> tuple[str, ...]:
-    """Return the speed model's (4) fitted parameters at a bound or with an impossible sign.
+    """
+    Return the speed model's (4) fitted parameters at a bound or with an impossible sign.
 
     The Stribeck speed phi_s and the exponent alpha are fitted within bounds (phi_s from the
     lowest to 5 x the highest speed, 0.5 <= alpha <= 3): a value on a bound is where the data
@@ -265,7 +267,8 @@ def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
 
 
 def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray):
-    """Return the terms of a trial for cross-validation.
+    """
+    Return the terms of a trial for cross-validation.
 
     A sinusoid's period is scanned again on every fold's training levels (over the same range
     of periods), so that the held-out error does not profit from a period chosen on the
@@ -302,7 +305,8 @@ def _distinct_speeds(speed: FloatArray) -> int:
 
 def enough_speeds(table: AuditTable, group: str | None,
                   model: str) -> tuple[AuditTable, tuple[str, ...]]:
-    """Drop the groups with fewer than MIN_SPEEDS distinct speeds (speed model only).
+    """
+    Drop the groups with fewer than MIN_SPEEDS distinct speeds (speed model only).
 
     The speed model (4) has five parameters per group; with fewer distinct speeds it
     interpolates its training speeds exactly and the held-out error is meaningless.
@@ -349,7 +353,8 @@ def _theta_jacobian(base: Base, table: AuditTable, terms: Sequence[Term],
 def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
           variables: Sequence[Variable], group_variable: Variable | None,
           fdr: float, exclude: frozenset = frozenset()) -> dict:
-    """Test every candidate family against the current model; choose the effect to add.
+    """
+    Test every candidate family against the current model; choose the effect to add.
 
     ``exclude``: candidates already tried in this step whose effect did not lower the held-out
     error; the most significant other candidate is chosen.
@@ -433,7 +438,8 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
 
 
 def _marginal(best: dict, rows: Sequence[dict], tester: Tester, fdr: float) -> dict:
-    """Return the single-variable family to name instead of an interaction, if one suffices.
+    """
+    Return the single-variable family to name instead of an interaction, if one suffices.
 
     Marginality: an interaction (a pair, or a variable with speed) is named only when it has
     evidence beyond the smooth term of each of its variables alone (tested with the experiments

@@ -1,4 +1,5 @@
-"""Naming the shape: the simplest term that explains the structure a candidate family found.
+"""
+Naming the shape: the simplest term that explains the structure a candidate family found.
 
 For the variables of the chosen family the audit offers named physical shapes: a linear
 (Coulomb-like) offset, an offset per category, a sinusoid (ripple), a Stribeck amplitude or a
@@ -26,7 +27,8 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Term:
-    """A term the audit adds: named shape, variables and its factors (fixed basis columns).
+    """
+    A term the audit adds: named shape, variables and its factors (fixed basis columns).
 
     The amplitudes are re-identified with the base model; ``info`` holds shape constants
     (period, Stribeck speed) for the report.
@@ -45,7 +47,7 @@ class Term:
 
     @property
     def df(self) -> int:
-        """Number of amplitudes (plus 1 for a scanned period or Stribeck speed)."""
+        """Return the number of amplitudes (plus 1 for a scanned period or Stribeck speed)."""
         size = int(np.prod([f.size for f in self.factors])) - (1 if self.drop_first else 0)
         return size + (1 if self.shape in ('periodic', 'Stribeck interaction') else 0)
 
@@ -149,7 +151,8 @@ class ShapeBuilder:
 
 def choose_shape(shapes: Sequence[Term], q0: FloatArray, residual: FloatArray,
                  table: AuditTable) -> Term | None:
-    """Return the shape with the lowest BIC on the current residual (ties: fewer df).
+    """
+    Return the shape with the lowest BIC on the current residual (ties: fewer df).
 
     None when no shape adds a column outside the span of ``q0``.
     """

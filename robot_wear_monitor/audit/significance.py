@@ -1,4 +1,5 @@
-"""The tests: is there structure in the residual along a candidate basis.
+"""
+The tests: is there structure in the residual along a candidate basis.
 
 Nested F-tests at the fitted model, linearised: the model's design columns and its Jacobian in
 the nonlinear parameters (Stribeck speeds, alpha, T_V0) span the null space that is projected out
@@ -17,16 +18,16 @@ from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize, stats
-
 from robot_wear_monitor.audit.fitting import orthonormal
+from scipy import optimize, stats
 
 FloatArray = NDArray[np.float64]
 
 
 def nested_test(q0: FloatArray, residual: FloatArray, basis: FloatArray,
                 n_theta: int = 0) -> tuple[float, int]:
-    """F-test of adding ``basis`` to the linear model spanned by q0 (orthonormal).
+    """
+    F-test of adding ``basis`` to the linear model spanned by q0 (orthonormal).
 
     Returns (natural log of the p-value, numerator degrees of freedom); (0, 0) when nothing new
     is spanned.
@@ -46,7 +47,8 @@ def nested_test(q0: FloatArray, residual: FloatArray, basis: FloatArray,
 
 
 def _log_f_tail(f_value: float, df1: int, df2: int) -> float:
-    """Return log P(F > f) of the F(df1, df2) distribution, finite far in the tail.
+    """
+    Return log P(F > f) of the F(df1, df2) distribution, finite far in the tail.
 
     Where scipy's value underflows (-inf), the leading term of the chi-square tail of
     df1 x F is used, so that candidates far in the tail are still ranked by their evidence.
@@ -65,7 +67,8 @@ def sinusoid(x: FloatArray, frequency: float) -> FloatArray:
 
 def periodic_scan(basis_of: Callable[[float], FloatArray], frequencies: FloatArray,
                   test: Callable[[FloatArray], tuple[float, int]]) -> tuple[float, float]:
-    """Scan the frequency of a sinusoid; return (log p, period).
+    """
+    Scan the frequency of a sinusoid; return (log p, period).
 
     ``basis_of(f)`` gives the [sin, cos] columns at frequency f and ``test(basis)`` its
     (log p, df).  The grid's best frequency is refined by a bounded scalar search; the p-value
@@ -89,7 +92,8 @@ def periodic_scan(basis_of: Callable[[float], FloatArray], frequencies: FloatArr
 
 
 class Tester:
-    """Nested F-tests of candidate bases against the model, with experiments as random effects.
+    """
+    Nested F-tests of candidate bases against the model, with experiments as random effects.
 
     The levels of one experiment share its operating point; structure the model leaves at the
     experiment level (an effect of some per-experiment variable) makes the levels of an
@@ -105,7 +109,8 @@ class Tester:
 
     def __init__(self, q0: FloatArray, residual: FloatArray, experiments: NDArray | None,
                  scatter_from: FloatArray | None = None):
-        """Prepare the tests against the orthonormal model span q0 and its residual.
+        """
+        Prepare the tests against the orthonormal model span q0 and its residual.
 
         ``experiments``: the experiment index of every level, or None for level-by-level tests.
         ``scatter_from``: columns added to the model only to estimate lambda (the alternative
@@ -134,7 +139,8 @@ class Tester:
         self.residual = r - self.q0 @ (self.q0.T @ r)
 
     def with_columns(self, basis: FloatArray, alternative: FloatArray | None = None) -> 'Tester':
-        """Return the tester of the model plus ``basis``.
+        """
+        Return the tester of the model plus ``basis``.
 
         lambda is estimated anew, from the residual of the model plus ``basis`` plus
         ``alternative`` (the term to be tested) when given.
@@ -176,16 +182,15 @@ def benjamini_hochberg(log_p: Sequence[float] | FloatArray) -> FloatArray:
 
 def confounded(tester: Tester, chosen: FloatArray, others: Sequence[tuple[str, FloatArray]],
                level: float) -> list[dict]:
-    """Re-test candidates given the chosen basis; return those left without evidence.
+    """
+    Re-test candidates given the chosen basis; return those left without evidence.
 
-    Args:
-        tester: the tests against the model.
-        chosen: basis of the named effect.
-        others: (candidate key, basis) of the other significant candidates.
-        level: p-value above which a candidate has no evidence of its own.
+    :param tester: the tests against the model.
+    :param chosen: basis of the named effect.
+    :param others: (candidate key, basis) of the other significant candidates.
+    :param level: p-value above which a candidate has no evidence of its own.
 
-    Returns:
-        [{'candidate', 'log10_p_alone', 'log10_p_given_chosen'}] of the confounded ones.
+    :return: [{'candidate', 'log10_p_alone', 'log10_p_given_chosen'}] of the confounded ones.
 
     """
     out = []

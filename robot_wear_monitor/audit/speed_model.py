@@ -1,4 +1,5 @@
-"""The speed-only friction model (4) identified from levels without temperature or load.
+"""
+The speed-only friction model (4) identified from levels without temperature or load.
 
 :func:`identify_speed_model` fits (4) per group (e.g. per joint) with the shared variable
 projection core, with standard errors and the held-out error by experiment;
@@ -30,16 +31,16 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class SpeedIdentification:
-    """The speed-only model (4) identified per group.
+    """
+    The speed-only model (4) identified per group.
 
-    Attributes:
-        groups: group -> {F_c, F_s, phi_s, alpha, F_v: :class:`Parameter`}.
-        held_out_mean: mean of the held-out error [friction units].
-        held_out_std: its std [friction units].
-        folds: how the levels were split.
-        fit_rms: in-sample RMS error.
-        n_levels: levels used.
-        excluded: groups left out (fewer than six distinct speeds), with the reason.
+    :ivar groups: group -> {F_c, F_s, phi_s, alpha, F_v: :class:`Parameter`}.
+    :ivar held_out_mean: mean of the held-out error [friction units].
+    :ivar held_out_std: its std [friction units].
+    :ivar folds: how the levels were split.
+    :ivar fit_rms: in-sample RMS error.
+    :ivar n_levels: levels used.
+    :ivar excluded: groups left out (fewer than six distinct speeds), with the reason.
 
     """
 
@@ -80,7 +81,8 @@ class SpeedIdentification:
 
 def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds: int = 5,
                          seed: int = 0) -> SpeedIdentification:
-    """Identify the speed model (4) per value of ``group`` with standard errors.
+    """
+    Identify the speed model (4) per value of ``group`` with standard errors.
 
     As in the paper, F_c, F_s, F_v, phi_s, alpha >= 0 (amplitudes by non-negative least squares
     inside the variable projection; an amplitude at 0 is flagged ``at_bound``).  Groups with
@@ -128,12 +130,12 @@ DIRECTION_ALPHA = 0.01
 
 @dataclass(frozen=True)
 class DirectionTest:
-    """Does model (4) differ per direction?  An F-test of 10 against 5 parameters.
+    """
+    Does model (4) differ per direction?  An F-test of 10 against 5 parameters.
 
-    Attributes:
-        f_statistic: ((RSS_symmetric - RSS_per_direction) / 5) / (RSS_per_direction / (n - 10)).
-        p_value: its upper tail probability.
-        differ: p_value < :data:`DIRECTION_ALPHA`: the set holds the per-direction model.
+    :ivar f_statistic: ((RSS_symmetric - RSS_per_direction) / 5) / (RSS_per_direction / (n - 10)).
+    :ivar p_value: its upper tail probability.
+    :ivar differ: p_value < :data:`DIRECTION_ALPHA`: the set holds the per-direction model.
 
     """
 
@@ -167,18 +169,18 @@ def direction_test(symmetric: SpeedIdentification,
 
 @dataclass(frozen=True)
 class SpeedOnlySet:
-    """A parameter set from levels without temperature or load variation (model (4) only).
+    """
+    A parameter set from levels without temperature or load variation (model (4) only).
 
-    Attributes:
-        params: the set: model (4) as the nominal model at the data's conditions (the
-            temperature and load terms zero), the wear model borrowed, sigma = the held-out
-            std; ``not_identified`` temperature, load and wear.
-        fit: the symmetric fit (all levels) with standard errors.
-        per_direction: the fit per direction when the levels have a ``direction`` group with
-            both directions (None otherwise).
-        direction_test: the F-test of the per-direction fit against the symmetric one; when
-            it is significant the set holds model (4) per direction (``direction_model``)
-            beside the symmetric fit (the eq. (3) levels' model).
+    :ivar params: the set: model (4) as the nominal model at the data's conditions (the
+        temperature and load terms zero), the wear model borrowed, sigma = the held-out
+        std; ``not_identified`` temperature, load and wear.
+    :ivar fit: the symmetric fit (all levels) with standard errors.
+    :ivar per_direction: the fit per direction when the levels have a ``direction`` group with
+        both directions (None otherwise).
+    :ivar direction_test: the F-test of the per-direction fit against the symmetric one; when
+        it is significant the set holds model (4) per direction (``direction_model``)
+        beside the symmetric fit (the eq. (3) levels' model).
 
     """
 
@@ -232,7 +234,8 @@ def _terms(group: Mapping[str, Parameter]) -> DirectionTerms:
 
 def speed_only_parameter_set(*, table: AuditTable, from_params: ParameterSet, name: str,
                              friction_unit: str, n_folds: int = 5) -> SpeedOnlySet:
-    """Identify model (4) with standard errors and write it as a (speed-only) parameter set.
+    """
+    Identify model (4) with standard errors and write it as a (speed-only) parameter set.
 
     The nominal model (5) at the data's conditions is model (4): f_c0 = F_c, f_s0 = F_s,
     phi_s0 = phi_s, f_v0 = F_v, alpha, with the load and temperature terms zero.  The speed

@@ -1,4 +1,5 @@
-"""The ``robot-wear-monitor`` command line: the only place that parses argv.
+"""
+The ``robot-wear-monitor`` command line: the only place that parses argv.
 
 One module per verb, in ros2cli's habit: each has ``HELP``, ``add_arguments(parser)`` and
 ``main(args) -> int``; the options several verbs share are built in
@@ -49,7 +50,8 @@ def verb_module(name: str) -> ModuleType:
 
 
 def build_parser(verbs: Sequence[str] = VERBS) -> argparse.ArgumentParser:
-    """Return the argparse parser of ``robot-wear-monitor`` with the subcommands ``verbs``.
+    """
+    Return the argparse parser of ``robot-wear-monitor`` with the subcommands ``verbs``.
 
     All of them by default; :func:`main` builds the parser of the one verb a command names
     (its parsing, messages and ``--help`` are those of the whole parser) and loads no other
@@ -69,7 +71,8 @@ def build_parser(verbs: Sequence[str] = VERBS) -> argparse.ArgumentParser:
 
 
 def freeze_objects_at_exit() -> None:
-    """Let the interpreter's exit skip its last collection of the objects alive (idempotent).
+    """
+    Let the interpreter's exit skip its last collection of the objects alive (idempotent).
 
     As it exits, Python runs the cyclic collector over every object once more before it
     frees the modules; a replay leaves some 60,000 (numpy, rosbags, its own), which

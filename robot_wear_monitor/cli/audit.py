@@ -1,4 +1,5 @@
-"""``robot-wear-monitor audit``: what the friction model misses in measured friction levels.
+"""
+``robot-wear-monitor audit``: what the friction model misses in measured friction levels.
 
 The audit itself is :func:`robot_wear_monitor.audit.run.run_audit`; this verb reads the data,
 prints the summary (or ``--json``), and writes ``--out-params``, ``--plots`` and ``--json-out``.

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor call``: the monitor's services without ros2cli (start, abort, reset-alarm).
+"""
+``robot-wear-monitor call``: the monitor's services without ros2cli (start, abort, reset-alarm).
 
 ``ros2 service call`` needs the ros2cli tools, which a pip-only host does not have; this verb
 calls the same std_srvs/Trigger services with rclpy (:mod:`robot_wear_monitor.nodes.

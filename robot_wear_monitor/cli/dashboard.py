@@ -1,4 +1,5 @@
-"""``robot-wear-monitor dashboard``: the maintenance team's web dashboard, and its users.
+"""
+``robot-wear-monitor dashboard``: the maintenance team's web dashboard, and its users.
 
 ``dashboard --history URL [--host 127.0.0.1] [--port 8080] [--tls-cert F --tls-key F]
 [--insecure-http] [--params FILE ...] [--notify CONFIG]`` serves the dashboard

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor fleet``: every robot joint of a history, worst first.
+"""
+``robot-wear-monitor fleet``: every robot joint of a history, worst first.
 
 The ranking and its texts are :mod:`robot_wear_monitor.fleet.ranking`; this verb reads the
 options and prints a text table (default), ``--json`` (a list of objects) or ``--csv``.

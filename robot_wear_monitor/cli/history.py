@@ -1,4 +1,5 @@
-"""``robot-wear-monitor history``: the stored wear history; its levels as a CSV for audit.
+"""
+``robot-wear-monitor history``: the stored wear history; its levels as a CSV for audit.
 
 ``--alarms``: the fleet's alarm log instead (raised, acknowledged and reset events of every
 robot, newest first, with who and why) as a table, ``--csv`` or ``--json``, for audits.
@@ -122,7 +123,8 @@ ESTIMATE_RIGHT = (True, False, True, False, True, True, True)
 
 
 def estimate_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> str:
-    """Return the estimate table: each column as wide as its widest text, ``alarm`` last.
+    """
+    Return the estimate table: each column as wide as its widest text, ``alarm`` last.
 
     The widths come from the formatted texts, so a longer cell (a local time with its UTC
     offset, ``2024-01-01T01:00:12+01:00``) widens its column instead of shifting the row.

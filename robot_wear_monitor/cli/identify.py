@@ -1,4 +1,5 @@
-"""``robot-wear-monitor identify``: a parameter set (models (5), (7), sigma) from levels.
+"""
+``robot-wear-monitor identify``: a parameter set (models (5), (7), sigma) from levels.
 
 The inputs are read by :func:`robot_wear_monitor.audit.identify_inputs.load_identify_levels`
 and fitted by :func:`robot_wear_monitor.audit.identification.identify`; this verb checks the
@@ -199,7 +200,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
 
 
 def _one_joint(table: Any, *, joint: str | None, pool: bool) -> Any:
-    """Return the levels of one joint of a table with a ``joint`` column (a set is one joint).
+    """
+    Return the levels of one joint of a table with a ``joint`` column (a set is one joint).
 
     ``joint`` selects it; ``pool`` keeps every joint as one; otherwise levels of several
     joints are refused, naming them (their friction can differ manyfold).

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor live``: both monitoring nodes on the live ROS 2 graph in one process.
+"""
+``robot-wear-monitor live``: both monitoring nodes on the live ROS 2 graph in one process.
 
 Needs rclpy; the only rclpy imports stay under :mod:`robot_wear_monitor.nodes`
 (:mod:`robot_wear_monitor.nodes.monitoring_graph`).

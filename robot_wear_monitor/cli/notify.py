@@ -1,4 +1,5 @@
-"""``robot-wear-monitor notify``: send the fleet's events by webhook and e-mail, once each.
+"""
+``robot-wear-monitor notify``: send the fleet's events by webhook and e-mail, once each.
 
 The events, their keys and the once-only claims are
 :mod:`robot_wear_monitor.fleet.notifications`; the configuration file is read by

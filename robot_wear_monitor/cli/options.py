@@ -1,4 +1,5 @@
-"""Option builders and helpers shared by the verbs of ``robot-wear-monitor``.
+"""
+Option builders and helpers shared by the verbs of ``robot-wear-monitor``.
 
 Each option that several verbs take is built here, so it has one spelling and one meaning:
 
@@ -40,7 +41,8 @@ PROG = 'robot-wear-monitor'
 
 @contextmanager
 def loading_modules() -> Iterator[None]:
-    """Load modules with the cyclic collector paused, then keep what they made out of its sight.
+    """
+    Load modules with the cyclic collector paused, then keep what they made out of its sight.
 
     Numpy, scipy, rosbags and the monitor's own modules make some 150,000 objects that live to
     the end of a command and hardly a reference cycle; the collector, run every 700 new
@@ -67,7 +69,8 @@ MAX_MAGNITUDE = 1e9
 
 
 def parse_float_list(text: str) -> list[float]:
-    """Parse '2.1,8.7,15.3' into floats (argparse type); reject empty items, NaN and inf.
+    """
+    Parse '2.1,8.7,15.3' into floats (argparse type); reject empty items, NaN and inf.
 
     At most :data:`MAX_LIST_VALUES` values, each at most :data:`MAX_MAGNITUDE` in magnitude.
     """
@@ -89,7 +92,8 @@ def parse_float_list(text: str) -> list[float]:
 
 def bounded(low: float, high: float, *, unit: str = '', low_open: bool = False,
             integer: bool = False) -> Callable[[str], float]:
-    """Return an argparse type: a finite number in [low, high] (``low_open``: (low, high]).
+    """
+    Return an argparse type: a finite number in [low, high] (``low_open``: (low, high]).
 
     The error names the range and the unit; argparse adds the option's name and exits 2.
     """
@@ -150,7 +154,8 @@ def joint_selection(names: Sequence[str] | None) -> tuple[str | None, list[str] 
 
 def check_option(value: float | None, *, option: str, low: float, high: float, unit: str = '',
                  low_open: bool = False) -> None:
-    """Raise InputError naming ``option`` unless ``value`` is finite and in [low, high].
+    """
+    Raise InputError naming ``option`` unless ``value`` is finite and in [low, high].
 
     ``low_open``: the low end is excluded (``> low``).  ``unit`` is printed after the numbers
     (e.g. ``'rad/s'``); None passes (the option was not given).
@@ -202,7 +207,8 @@ FINITE = bounded(-MAX_MAGNITUDE, MAX_MAGNITUDE)
 
 def add_gear_ratio_and_torque_scale(parser: argparse.ArgumentParser, *, gear_default: str,
                                     scale_default: str | None = None) -> None:
-    """Add ``--gear-ratio R`` and ``--torque-scale S`` (None when not given).
+    """
+    Add ``--gear-ratio R`` and ``--torque-scale S`` (None when not given).
 
     ``gear_default`` and ``scale_default`` (default: the same) say where the value comes from
     when the option is not given.
@@ -235,7 +241,8 @@ def add_progress(parser: argparse.ArgumentParser) -> None:
 
 
 def progress_wanted(args: argparse.Namespace) -> bool:
-    """Return True when a progress bar should be drawn: stderr is a terminal, no --no-progress.
+    """
+    Return True when a progress bar should be drawn: stderr is a terminal, no --no-progress.
 
     A bar in a log file or a pipe is noise (tqdm redraws it), and loading tqdm costs a short
     replay some 10 ms; a script that wants no bar on a terminal passes ``--no-progress``.
@@ -251,7 +258,8 @@ def add_local(parser: argparse.ArgumentParser) -> None:
 
 def add_history(parser: argparse.ArgumentParser, *, help_text: str,
                 required: bool = False, writer: bool = False) -> None:
-    """Add ``--history PATH|URL``: the wear history (an SQLite file or a PostgreSQL URL).
+    """
+    Add ``--history PATH|URL``: the wear history (an SQLite file or a PostgreSQL URL).
 
     ``writer``: the verb writes the history, so it also takes ``--init``.
     """
@@ -267,7 +275,8 @@ def add_history(parser: argparse.ArgumentParser, *, help_text: str,
 
 def add_json(parser: argparse.ArgumentParser, *, what: str = 'one JSON object',
              legacy_path: bool = False) -> None:
-    """Add ``--json`` (print JSON on stdout) and ``--json-out PATH`` (write it to a file).
+    """
+    Add ``--json`` (print JSON on stdout) and ``--json-out PATH`` (write it to a file).
 
     ``legacy_path``: the verb took ``--json PATH`` before; that spelling still writes the
     file (see :func:`resolve_json`, which warns on stderr).
@@ -284,7 +293,8 @@ def add_json(parser: argparse.ArgumentParser, *, what: str = 'one JSON object',
 
 
 def resolve_json(args: argparse.Namespace, *, command: str) -> None:
-    """Turn a deprecated ``--json PATH`` / ``--json -`` into ``--json-out PATH`` / ``--json``.
+    """
+    Turn a deprecated ``--json PATH`` / ``--json -`` into ``--json-out PATH`` / ``--json``.
 
     Warns on stderr once; leaves ``args.json`` a bool and ``args.json_out`` a path or None.
     """
@@ -346,7 +356,8 @@ def rclpy_missing(error: ImportError) -> InputError:
 
 
 def add_level_source(parser: argparse.ArgumentParser) -> None:
-    """Add the options of raw-run and bag inputs that are segmented into levels (audit, identify).
+    """
+    Add the options of raw-run and bag inputs that are segmented into levels (audit, identify).
 
     ``--gear-ratio`` and ``--torque-scale`` are None when not given: see
     :func:`level_source_scales` (these verbs read no node config, so the default is 1).

@@ -1,4 +1,5 @@
-"""Check every output a command names before it does any work (``main`` calls it first).
+"""
+Check every output a command names before it does any work (``main`` calls it first).
 
 A full disk or a read-only folder must not cost an hour of replay and then a traceback: the
 files (``--json-out``, ``--plot``, ``--csv``, ``--out-params``, a file ``--out``), the folders
@@ -66,7 +67,8 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def write_text_output(target: str, text: str) -> bool:
-    """Write ``text`` to the file ``target`` atomically, or to stdout when ``target`` is '-'.
+    """
+    Write ``text`` to the file ``target`` atomically, or to stdout when ``target`` is '-'.
 
     Return True when a file was written; an OS failure is an :class:`InputError` naming the path.
     """

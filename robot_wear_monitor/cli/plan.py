@@ -1,4 +1,5 @@
-"""``robot-wear-monitor plan``: the friction experiment motion of one joint.
+"""
+``robot-wear-monitor plan``: the friction experiment motion of one joint.
 
 The motion is written as a JointTrajectory YAML (for ``ros2 topic pub``), a bag or a CSV.
 """

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor play``: a recorded bag on the live ROS 2 graph, like ros2 bag play.
+"""
+``robot-wear-monitor play``: a recorded bag on the live ROS 2 graph, like ros2 bag play.
 
 Needs rclpy; the only rclpy imports stay under :mod:`robot_wear_monitor.nodes`.
 """

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor replay``: recorded bags through the monitoring service.
+"""
+``robot-wear-monitor replay``: recorded bags through the monitoring service.
 
 One bag: :func:`robot_wear_monitor.monitoring.replay.replay_bag`; this verb reads the options,
 prints the summary line (one per joint with several joints) or the summary JSON, and draws the
@@ -131,7 +132,8 @@ def main(args: argparse.Namespace) -> int:
 
 
 def summary_line(result: Any, summary: dict) -> str:
-    """Return the replay's line: experiments, skipped ones, and the joints' state in words.
+    """
+    Return the replay's line: experiments, skipped ones, and the joints' state in words.
 
     "no alarm" only when no joint's alarm is latched in the history and every estimate of the
     run was valid; an invalid estimate says why the wear cannot be judged; a run that found
@@ -225,7 +227,8 @@ def joint_summary_line(entry: dict, *, estimates: bool = True) -> str:
 
 
 def main_batch(args: argparse.Namespace) -> int:
-    """Run ``replay`` on many bags: one task per bag, a progress bar and a summary.
+    """
+    Run ``replay`` on many bags: one task per bag, a progress bar and a summary.
 
     Exit 2 when any bag failed (each is named with its reason on stderr as it fails).
     """

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor segment``: friction levels of eq. (3) from a bag or raw CSV (CSV out).
+"""
+``robot-wear-monitor segment``: friction levels of eq. (3) from a bag or raw CSV (CSV out).
 
 The segmentation itself is :mod:`robot_wear_monitor.monitoring.segment`; this verb prints the
 CSV (or writes ``--out``) and one report line per joint on stderr.

@@ -1,4 +1,5 @@
-"""The maintenance team's web dashboard of a wear history (``robot-wear-monitor dashboard``).
+"""
+The maintenance team's web dashboard of a wear history (``robot-wear-monitor dashboard``).
 
 FastAPI (an ASGI framework with its OpenAPI page) under uvicorn, Jinja2 pages with autoescape,
 Plotly.js for the charts and Swagger UI for the API page, both served from their installed

@@ -1,4 +1,5 @@
-"""The dashboard's JSON API under ``/api/`` (described at ``/openapi.json`` and ``/docs``).
+"""
+The dashboard's JSON API under ``/api/`` (described at ``/openapi.json`` and ``/docs``).
 
 The same dicts as the pages (:mod:`robot_wear_monitor.dashboard.views`).  ``/api/fleet`` and
 the joint's route send an ``ETag`` (a hash of the content); a request with that value in
@@ -14,16 +15,16 @@ import time
 from typing import Any, Optional
 
 from fastapi import APIRouter, HTTPException, Query, Request
-from starlette.responses import Response
-
 from robot_wear_monitor.dashboard.app import history_of
 from robot_wear_monitor.dashboard.views import alarm_log, fleet_json, joint_json, STATES
+from starlette.responses import Response
 
 router = APIRouter(prefix='/api', tags=['api'])
 
 
 def json_with_etag(request: Request, payload: dict[str, Any]) -> Response:
-    """Return the payload as JSON with its ETag, or 304 when the client has it already.
+    """
+    Return the payload as JSON with its ETag, or 304 when the client has it already.
 
     The ETag is a hash of the JSON text (made once, sent as it is).
     """
@@ -48,7 +49,8 @@ def _state(value: Optional[str]) -> Optional[str]:
 def api_fleet(request: Request, robot: Optional[str] = Query(None, description='one robot'),
               state: Optional[str] = Query(None, description='one state: ' + ', '.join(STATES))
               ) -> Response:
-    """Return the fleet: counts per state, robots, rows worst first (``fleet --json`` keys).
+    """
+    Return the fleet: counts per state, robots, rows worst first (``fleet --json`` keys).
 
     Each row adds ``state``, ``arrow``, ``threshold``, the acknowledgement, the bar's
     positions and the texts the page shows.
@@ -62,7 +64,8 @@ def api_fleet(request: Request, robot: Optional[str] = Query(None, description='
 
 @router.get('/robots/{robot}/joints/{joint}', summary="One joint's wear story")
 def api_joint(request: Request, robot: str, joint: str) -> Response:
-    """Return one joint's wear story.
+    """
+    Return one joint's wear story.
 
     Every experiment (w-hat, 95 % interval, trend, T-hat, p-value), the forecast cone, the
     friction levels of the last experiments with the model, the alarm log.

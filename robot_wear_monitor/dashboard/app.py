@@ -1,4 +1,5 @@
-"""The dashboard's ASGI application: FastAPI with Jinja2 pages, its own static files, sessions.
+"""
+The dashboard's ASGI application: FastAPI with Jinja2 pages, its own static files, sessions.
 
 :func:`create_app` builds the app for one wear history.  Everything the browser loads comes
 from here (no CDN): the app's style and scripts (``static/``), Plotly.js from the installed
@@ -17,12 +18,11 @@ from typing import Any, Optional
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 import jinja2
-from starlette.middleware.sessions import SessionMiddleware
-from starlette.responses import FileResponse
-
 from robot_wear_monitor import __version__
 from robot_wear_monitor.dashboard.auth import LoginLimiter, new_secret_key, RequireSession
 from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
+from starlette.middleware.sessions import SessionMiddleware
+from starlette.responses import FileResponse
 
 HERE = Path(__file__).resolve().parent
 #: How long a session lasts without a new login [s].
@@ -38,7 +38,8 @@ def plotly_js_path() -> Path:
 
 
 def swagger_ui_folder() -> Path:
-    """Return the Swagger UI 5 files of the installed ``fastapi-offline`` package.
+    """
+    Return the Swagger UI 5 files of the installed ``fastapi-offline`` package.
 
     (Swagger UI 5 reads the OpenAPI 3.1 that FastAPI writes; 4.x does not.)
     """
@@ -83,7 +84,8 @@ class HistoryPool:
 
 @dataclass
 class DashboardSettings:
-    """What the app serves: the history, the parameter sets, notifications, sessions.
+    """
+    What the app serves: the history, the parameter sets, notifications, sessions.
 
     ``history``: an SQLite path or a ``postgresql://`` URL; ``params``: parameter-set files
     the estimates may name (beside the packaged ones); ``secret_key``: the session key (a new

@@ -1,4 +1,5 @@
-"""Who may see and do what: sessions, roles, the CSRF token and the login rate limit.
+"""
+Who may see and do what: sessions, roles, the CSRF token and the login rate limit.
 
 The session is Starlette's signed cookie (itsdangerous; HttpOnly, SameSite=Strict, Secure
 under TLS) holding the user's name, role and CSRF token; the key is made at every server start,
@@ -130,7 +131,8 @@ def _wants_json(path: str) -> bool:
 
 
 class RequireSession(BaseHTTPMiddleware):
-    """Refuse every request without a session but the public paths; add security headers.
+    """
+    Refuse every request without a session but the public paths; add security headers.
 
     Pages redirect to ``/login?next=PATH`` (303); the API, the CSV and the OpenAPI schema
     answer 401.  A POST without the session's CSRF token in the ``X-CSRF-Token`` header is

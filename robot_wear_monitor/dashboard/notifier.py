@@ -1,4 +1,5 @@
-"""``dashboard --notify CONFIG``: the notification loop of ``notify`` inside the server.
+"""
+``dashboard --notify CONFIG``: the notification loop of ``notify`` inside the server.
 
 The configuration is read once at start (an error stops the start); every
 ``notify_interval_s`` a background task runs one pass of

@@ -1,4 +1,5 @@
-"""The dashboard's HTML pages and forms: login, fleet, joint, alarm log, the OpenAPI page.
+"""
+The dashboard's HTML pages and forms: login, fleet, joint, alarm log, the OpenAPI page.
 
 Jinja2 with autoescape renders every name and note as text.  The forms (login, logout,
 acknowledge, reset) carry the session's CSRF token; a POST without it gets 403.  Acknowledge
@@ -15,14 +16,13 @@ import time
 from typing import Any, Optional
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request
-from starlette.responses import HTMLResponse, RedirectResponse, Response
-
 from robot_wear_monitor.dashboard.app import history_of
 from robot_wear_monitor.dashboard.auth import (client_address, csrf_ok, csrf_token,
                                                current_user, safe_next, start_session)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
                                                 fleet_row_html, joint_json, joint_url, STATES)
 from robot_wear_monitor.monitoring.history import HistoryError
+from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 router = APIRouter(include_in_schema=False)
 

@@ -1,4 +1,5 @@
-"""Serving the dashboard with uvicorn, and the rule on which addresses it may listen.
+"""
+Serving the dashboard with uvicorn, and the rule on which addresses it may listen.
 
 The server binds 127.0.0.1 by default.  Another address sends passwords and session cookies
 over the network, so it needs TLS (``--tls-cert`` and ``--tls-key``, served by uvicorn) or

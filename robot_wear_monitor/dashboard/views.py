@@ -1,4 +1,5 @@
-"""What the dashboard shows, as JSON-ready dicts: the fleet, one joint and the alarm log.
+"""
+What the dashboard shows, as JSON-ready dicts: the fleet, one joint and the alarm log.
 
 The pages and the ``/api/`` routes both render these, so that a page and its API never tell
 two stories.  The fleet keeps the order of ``robot-wear-monitor fleet``
@@ -35,7 +36,8 @@ SOON_EXPERIMENTS = 10.0
 
 
 class ParameterSets:
-    """The parameter sets the estimates name: the packaged ones and those given by file.
+    """
+    The parameter sets the estimates name: the packaged ones and those given by file.
 
     The history stores the set's name (``parameter_set``), not its file: a name is looked up
     among the files given (``--params``) and the packaged ``config/*.yaml``; an unknown name
@@ -70,7 +72,8 @@ class ParameterSets:
 
 
 def history_version(history: Any) -> tuple:
-    """Return what changes whenever the history gets a row: the last estimate and event ids.
+    """
+    Return what changes whenever the history gets a row: the last estimate and event ids.
 
     Estimates and alarm events are only ever added (ids grow), so equal versions mean equal
     fleets.  Two index lookups.
@@ -79,7 +82,8 @@ def history_version(history: Any) -> tuple:
 
 
 class FleetCache:
-    """The history's fleet rows, read again only when the history changed.
+    """
+    The history's fleet rows, read again only when the history changed.
 
     The pages poll every few seconds; between two experiments the fleet query is skipped.
     Staleness is judged anew at every call (:func:`fleet_view` on the cached rows).  The JSON
@@ -125,7 +129,8 @@ class RowJson(dict):
 
 
 def fleet_row_html(row: dict[str, Any]) -> Markup:
-    """Return the fleet table's ``<tr>`` of a row, every text escaped (kept on a RowJson).
+    """
+    Return the fleet table's ``<tr>`` of a row, every text escaped (kept on a RowJson).
 
     The same cells as the page's script writes (static/fleet.js): one string per row instead
     of a template loop, so that the page of a thousand joints is made fast.
@@ -168,7 +173,8 @@ def joint_url(robot: str, joint: str) -> str:
 
 
 def utc_text(stamp_s: Optional[float]) -> str:
-    """Return a stamp [s since the epoch] as ISO 8601 UTC to the second ('-' when unknown).
+    """
+    Return a stamp [s since the epoch] as ISO 8601 UTC to the second ('-' when unknown).
 
     The text of :func:`robot_wear_monitor.fleet.ranking.iso_time`, made faster (the fleet page
     writes thousands).
@@ -195,7 +201,8 @@ def row_state(view: FleetView) -> str:
 
 
 def trend_arrow(view: FleetView) -> str:
-    """Return the trend arrow of a row from its forecast crossing.
+    """
+    Return the trend arrow of a row from its forecast crossing.
 
     Steep up: the trend is past the threshold or crosses it within :data:`SOON_EXPERIMENTS`
     experiments; up: it crosses within the forecast horizon; flat: not within the horizon;
@@ -274,7 +281,8 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
 def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
                robot: Optional[str] = None, state: Optional[str] = None,
                cache: Optional[FleetCache] = None) -> dict[str, Any]:
-    """Return the fleet worst first, the counts per state and the robots, as one dict.
+    """
+    Return the fleet worst first, the counts per state and the robots, as one dict.
 
     ``robot`` and ``state`` filter the rows (the counts are those of the whole fleet);
     ``cache``: the fleet rows of an unchanged history are not read again.
@@ -346,7 +354,8 @@ def _experiment_json(record: Any) -> dict[str, Any]:
 
 
 def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[str, Any]]:
-    """Return the forecast cone of the latest trend up to the threshold, or None.
+    """
+    Return the forecast cone of the latest trend up to the threshold, or None.
 
     The history keeps the median crossing of the trend's forecast (``crossing_experiments``).
     The cone runs from the latest trend and its 95 % band at the median rate
@@ -388,7 +397,8 @@ def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[
 
 
 def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dict[str, Any]]:
-    """Return the friction levels of the last experiments and the model at their T-hat, w-hat.
+    """
+    Return the friction levels of the last experiments and the model at their T-hat, w-hat.
 
     The model curve is the friction model (8) at the set's mean load, the experiment's T-hat
     [degC] and w-hat, over the speeds [rad/s, motor side] of the levels.

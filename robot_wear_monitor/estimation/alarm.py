@@ -1,4 +1,5 @@
-"""The wear alarm rule: its defaults, the decision on one estimate or a batch, and the latch.
+"""
+The wear alarm rule: its defaults, the decision on one estimate or a batch, and the latch.
 
 One rule for every user: the monitoring service (nodes, replay, demo) latches it with
 :class:`AlarmLatch`, ``bench/bench_alarm.py`` evaluates it on whole simulated tests with
@@ -63,14 +64,14 @@ DEFAULT_ALARM_EVIDENCE = 0.0
 
 @dataclass(frozen=True)
 class AlarmPolicy:
-    """The alarm rule and its parameters.
+    """
+    The alarm rule and its parameters.
 
-    Attributes:
-        threshold: alarm level w1 of the wear [-].
-        healthy: healthy level w0 [-], below ``threshold``.
-        evidence_to_raise: CUSUM evidence h the ``estimate`` rule also needs (>= 0) [-].
-        rule: one of :data:`ALARM_RULES`.
-        probability: posterior P(w >= threshold) that raises the ``trend`` alarm, 0 < p < 1.
+    :ivar threshold: alarm level w1 of the wear [-].
+    :ivar healthy: healthy level w0 [-], below ``threshold``.
+    :ivar evidence_to_raise: CUSUM evidence h the ``estimate`` rule also needs (>= 0) [-].
+    :ivar rule: one of :data:`ALARM_RULES`.
+    :ivar probability: posterior P(w >= threshold) that raises the ``trend`` alarm, 0 < p < 1.
 
     """
 
@@ -100,20 +101,19 @@ class AlarmPolicy:
     def decide(self, *, wear: ArrayLike = math.nan,
                probability_above_threshold: ArrayLike = math.nan,
                evidence: Optional[ArrayLike] = None) -> NDArray[np.bool_]:
-        """Return whether the rule calls for the alarm, elementwise (any matching shapes).
+        """
+        Return whether the rule calls for the alarm, elementwise (any matching shapes).
 
         Rule ``trend``: ``probability_above_threshold >= probability``.  Rule ``estimate``:
         ``wear >= threshold`` and ``evidence >= evidence_to_raise``; ``evidence`` None (no
         CUSUM kept, e.g. a benchmark of single estimates) is allowed only with
         ``evidence_to_raise == 0``, where it never decides.  NaN never raises.
 
-        Args:
-            wear: w-hat of each estimate [-].
-            probability_above_threshold: the trend's posterior P(w >= threshold) [-].
-            evidence: CUSUM evidence after each estimate [-].
+        :param wear: w-hat of each estimate [-].
+        :param probability_above_threshold: the trend's posterior P(w >= threshold) [-].
+        :param evidence: CUSUM evidence after each estimate [-].
 
-        Raises:
-            InputError: ``evidence`` None with ``evidence_to_raise > 0``.
+        :raises InputError: ``evidence`` None with ``evidence_to_raise > 0``.
 
         """
         if self.rule == 'trend':
@@ -139,7 +139,8 @@ class AlarmLatch:
 
     def update(self, *, wear: float, wear_std: float,
                probability_above_threshold: float = math.nan) -> bool:
-        """Add one estimate; return True when this estimate raises the alarm.
+        """
+        Add one estimate; return True when this estimate raises the alarm.
 
         The evidence is updated by every estimate, also while the alarm is active; an active
         alarm is not raised again.

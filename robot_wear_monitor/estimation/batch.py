@@ -1,4 +1,5 @@
-"""Estimates of many experiments at once, each at its own measured speeds.
+"""
+Estimates of many experiments at once, each at its own measured speeds.
 
 A monitor estimates one experiment at a time, and the measured speeds of its experiments differ
 by a few mrad/s, so :func:`~robot_wear_monitor.estimation.estimator.estimate_wear` (one design
@@ -57,14 +58,14 @@ class _StackedProblem(core._WhitenedProblem):
 
 def estimate_wear_rows(speeds_rad_s: Sequence[ArrayLike], friction: Sequence[ArrayLike], *,
                        params: ParameterSet) -> list[core.WearEstimates]:
-    """Estimate (T, w) of B experiments, each with its own speeds; one batch of 1 per row.
+    """
+    Estimate (T, w) of B experiments, each with its own speeds; one batch of 1 per row.
 
     Row ``i`` of the result equals ``estimate_wear(speeds_rad_s[i], friction[i],
     params=params)``; rows with N >= 2 levels are refined together (rows of equal N), rows
     with one level are estimated one by one.
 
-    Raises:
-        InputError: bad speeds or friction in a row (as :func:`estimate_wear`).
+    :raises InputError: bad speeds or friction in a row (as :func:`estimate_wear`).
 
     """
     if len(speeds_rad_s) != len(friction):

@@ -1,4 +1,5 @@
-"""Intervals and likelihood rows of many experiments at once, each at its own measured speeds.
+"""
+Intervals and likelihood rows of many experiments at once, each at its own measured speeds.
 
 The companion of :mod:`robot_wear_monitor.estimation.batch` for
 :func:`~robot_wear_monitor.estimation.intervals.wear_intervals` and
@@ -113,15 +114,15 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
                         estimates: Sequence[WearEstimates], *, params: ParameterSet,
                         trend_grid: Optional[FloatArray] = None, level: float = 0.95
                         ) -> tuple[list[one.WearIntervals], list[Optional[FloatArray]]]:
-    """Return the intervals of B experiments (one batch of 1 per row) and their trend rows.
+    """
+    Return the intervals of B experiments (one batch of 1 per row) and their trend rows.
 
     Row ``i`` equals ``wear_intervals(speeds[i], values[i], params=params,
     estimates=estimates[i], level=level)`` (default grid, calibrated cutoff), and its trend
     row ``profile_log_likelihood(speeds[i], values[i], params=params,
     wear_grid=trend_grid)`` (None without ``trend_grid``).  ``values[i]``: shape (1, N).
 
-    Raises:
-        InputError: as the one-experiment functions.
+    :raises InputError: as the one-experiment functions.
 
     """
     grid = one._validate_grid(one.wear_grid(params.wear_max))

@@ -1,4 +1,5 @@
-"""Experiment design: which N speeds make the wear estimate most accurate, eqs. (22)-(25).
+"""
+Experiment design: which N speeds make the wear estimate most accurate, eqs. (22)-(25).
 
 N >= 2: the Fisher information (22) of theta = (T, w) with the load marginalised into Sigma(Phi)
 of (14), the cost [F^-1]_22 of (23) (the Cramer-Rao bound of w), and its minimum over the speeds
@@ -18,12 +19,11 @@ from math import comb
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import marginal_fisher_information
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
+from scipy import optimize
 
 FloatArray = NDArray[np.float64]
 
@@ -33,12 +33,12 @@ _CONTINUOUS_STARTS = 6
 
 @dataclass(frozen=True)
 class DesignResult:
-    """An experiment design: the speeds, their cost and N.
+    """
+    An experiment design: the speeds, their cost and N.
 
-    Attributes:
-        speeds_rad_s: the N speed levels [rad/s], ascending, shape (N,).
-        cost: [F^-1]_22 of (23) (N >= 2) or 1/F of (25) (N = 1) at the design point [w^2].
-        n: number of levels N.
+    :ivar speeds_rad_s: the N speed levels [rad/s], ascending, shape (N,).
+    :ivar cost: [F^-1]_22 of (23) (N >= 2) or 1/F of (25) (N = 1) at the design point [w^2].
+    :ivar n: number of levels N.
 
     """
 
@@ -50,20 +50,19 @@ class DesignResult:
 def fisher_information(*, speeds_rad_s: ArrayLike, params: ParameterSet,
                        temperature_degc: ArrayLike | None = None,
                        wear: ArrayLike | None = None) -> FloatArray:
-    """Return the Fisher information (22) of (T, w) for batches of speed sets.
+    """
+    Return the Fisher information (22) of (T, w) for batches of speed sets.
 
     F = grad tau_f^T Sigma(Phi)^-1 grad tau_f with Sigma(Phi) = sigma^2 I + sigma_tl^2 M M^T,
     inverted in closed form (Sherman-Morrison).
 
-    Args:
-        speeds_rad_s: speed sets [rad/s], shape (..., N), > 0.
-        params: the parameter set.
-        temperature_degc: operating point T [degC] (default: params.design_temperature_degc),
-            broadcast against the leading shape (...).
-        wear: operating point w (default: params.design_wear), broadcast like T.
+    :param speeds_rad_s: speed sets [rad/s], shape (..., N), > 0.
+    :param params: the parameter set.
+    :param temperature_degc: operating point T [degC] (default: params.design_temperature_degc),
+        broadcast against the leading shape (...).
+    :param wear: operating point w (default: params.design_wear), broadcast like T.
 
-    Returns:
-        F, shape (..., 2, 2), in the order (T, w).
+    :return: F, shape (..., 2, 2), in the order (T, w).
 
     """
     params.require('wear', purpose='designing the experiment (22)-(25)')
@@ -89,7 +88,8 @@ def _information_from_sums(jtj: FloatArray, jtm: FloatArray, mtm: FloatArray,
 
 
 def wear_variance_bound(information: ArrayLike) -> FloatArray:
-    """Return [F^-1]_22 = F11 / (F11 F22 - F12^2) of (23), shape (...) from F (..., 2, 2).
+    """
+    Return [F^-1]_22 = F11 / (F11 F22 - F12^2) of (23), shape (...) from F (..., 2, 2).
 
     Singular information gives +inf (w not identifiable from those speeds).
     """
@@ -103,7 +103,8 @@ def wear_variance_bound(information: ArrayLike) -> FloatArray:
 
 def design_cost(*, speeds_rad_s: ArrayLike, params: ParameterSet,
                 temperature_degc: float | None = None, wear: float | None = None) -> FloatArray:
-    """Return the design cost for speed sets of shape (..., N), shape (...).
+    """
+    Return the design cost for speed sets of shape (..., N), shape (...).
 
     N >= 2: [F^-1]_22 of (23) at (T, w).  N = 1: 1/F of (25), the exact marginal information
     of w (T integrated out, so ``temperature_degc`` is not used).
@@ -151,20 +152,19 @@ def _combinations(count: int, n: int) -> NDArray[np.int64]:
 def best_grid_design(*, n: int, grid_rad_s: ArrayLike, params: ParameterSet,
                      temperature_degc: float | None = None, wear: float | None = None,
                      min_separation_rad_s: float | None = None) -> DesignResult:
-    """Return the best combination of n speeds from a grid, exhaustively (Table V).
+    """
+    Return the best combination of n speeds from a grid, exhaustively (Table V).
 
-    Args:
-        n: number of levels N >= 1.
-        grid_rad_s: the available speeds [rad/s], > 0 (duplicates are ignored).
-        params: the parameter set.
-        temperature_degc: design temperature [degC] (default from params; unused for N = 1).
-        wear: design wear (default from params).
-        min_separation_rad_s: minimum distance between chosen speeds (default
-            params.speed_separation_rad_s).
+    :param n: number of levels N >= 1.
+    :param grid_rad_s: the available speeds [rad/s], > 0 (duplicates are ignored).
+    :param params: the parameter set.
+    :param temperature_degc: design temperature [degC] (default from params; unused for N = 1).
+    :param wear: design wear (default from params).
+    :param min_separation_rad_s: minimum distance between chosen speeds (default
+        params.speed_separation_rad_s).
 
-    Raises:
-        InputError: n < 1, a non-positive or non-finite grid speed, n larger than the grid, or
-            no combination that respects the separation.
+    :raises InputError: n < 1, a non-positive or non-finite grid speed, n larger than the grid, or
+        no combination that respects the separation.
 
     """
     _check_n(n)
@@ -192,21 +192,20 @@ def best_grid_design(*, n: int, grid_rad_s: ArrayLike, params: ParameterSet,
 
 def optimal_design(*, n: int, params: ParameterSet, temperature_degc: float | None = None,
                    wear: float | None = None) -> DesignResult:
-    """Return the continuous optimal design of (24) (N >= 2) or (25) (N = 1), Table IV.
+    """
+    Return the continuous optimal design of (24) (N >= 2) or (25) (N = 1), Table IV.
 
     The speeds lie within [params.speed_min_rad_s, params.speed_max_rad_s] and, for N >= 2, are
     at least params.speed_separation_rad_s apart.  A coarse exhaustive search over a speed grid
     (spacing = the separation) gives the starts of SLSQP with the linear separation constraints;
     N = 1 uses a 1 rad/s grid and a bounded scalar minimisation.
 
-    Args:
-        n: number of levels N >= 1.
-        params: the parameter set (design bounds and default operating point).
-        temperature_degc: design temperature [degC] (default from params; unused for N = 1).
-        wear: design wear (default from params).
+    :param n: number of levels N >= 1.
+    :param params: the parameter set (design bounds and default operating point).
+    :param temperature_degc: design temperature [degC] (default from params; unused for N = 1).
+    :param wear: design wear (default from params).
 
-    Raises:
-        InputError: n < 1, or n levels do not fit between the bounds with the separation.
+    :raises InputError: n < 1, or n levels do not fit between the bounds with the separation.
 
     """
     _check_n(n)

@@ -1,4 +1,5 @@
-"""Maximum-likelihood estimation of temperature T and wear w from friction levels.
+"""
+Maximum-likelihood estimation of temperature T and wear w from friction levels.
 
 N >= 2 levels: the weighted nonlinear least squares (16), the load marginalised into the
 covariance (11)-(14), T bounded, w >= 0, started from a grid.  N = 1: the marginal
@@ -65,21 +66,21 @@ MAX_LEVELS = 100
 
 @dataclass(frozen=True)
 class WearEstimate:
-    """One estimate of (T, w) with its uncertainty and goodness of fit.
+    """
+    One estimate of (T, w) with its uncertainty and goodness of fit.
 
-    Attributes:
-        temperature_degc: estimated joint temperature [degC] (N = 1: posterior mean of T under
-            the uniform prior at the estimated w).
-        wear: estimated wear level w [-].
-        covariance: 2x2 covariance of (T, w), inverse Fisher information at the estimate
-            (N = 1: w from the marginal Fisher information, T from the posterior).
-        temperature_at_bound: the estimate of T lies on a temperature bound.
-        wear_at_bound: the estimate of w lies on w = 0.
-        chi2: weighted residual sum of squares r^T Sigma^-1 r at the estimate.
-        dof: degrees of freedom of chi2 (N minus the parameters estimated in the interior).
-        p_value: P(chi2_dof >= chi2); NaN when dof = 0 (no redundancy to test the fit).
-        n_levels: number N of friction levels used.
-        speeds_rad_s: the motor-side speeds [rad/s] of the levels, shape (N,).
+    :ivar temperature_degc: estimated joint temperature [degC] (N = 1: posterior mean of T under
+        the uniform prior at the estimated w).
+    :ivar wear: estimated wear level w [-].
+    :ivar covariance: 2x2 covariance of (T, w), inverse Fisher information at the estimate
+        (N = 1: w from the marginal Fisher information, T from the posterior).
+    :ivar temperature_at_bound: the estimate of T lies on a temperature bound.
+    :ivar wear_at_bound: the estimate of w lies on w = 0.
+    :ivar chi2: weighted residual sum of squares r^T Sigma^-1 r at the estimate.
+    :ivar dof: degrees of freedom of chi2 (N minus the parameters estimated in the interior).
+    :ivar p_value: P(chi2_dof >= chi2); NaN when dof = 0 (no redundancy to test the fit).
+    :ivar n_levels: number N of friction levels used.
+    :ivar speeds_rad_s: the motor-side speeds [rad/s] of the levels, shape (N,).
 
     """
 
@@ -96,30 +97,30 @@ class WearEstimate:
 
     @property
     def wear_std(self) -> float:
-        """Standard deviation of the wear estimate [-]."""
+        """Return the standard deviation of the wear estimate [-]."""
         return float(np.sqrt(self.covariance[1, 1]))
 
     @property
     def temperature_std_degc(self) -> float:
-        """Standard deviation of the temperature estimate [degC]."""
+        """Return the standard deviation of the temperature estimate [degC]."""
         return float(np.sqrt(self.covariance[0, 0]))
 
 
 @dataclass(frozen=True)
 class WearEstimates:
-    """A batch of B estimates at the same N speeds; ``estimates[i]`` is a :class:`WearEstimate`.
+    """
+    A batch of B estimates at the same N speeds; ``estimates[i]`` is a :class:`WearEstimate`.
 
-    Attributes:
-        temperature_degc: shape (B,) [degC].
-        wear: shape (B,) [-].
-        covariance: shape (B, 2, 2), covariance of (T, w).
-        temperature_at_bound: shape (B,), bool.
-        wear_at_bound: shape (B,), bool.
-        chi2: shape (B,).
-        dof: shape (B,), int.
-        p_value: shape (B,), NaN where dof = 0.
-        n_levels: N.
-        speeds_rad_s: shape (N,) [rad/s].
+    :ivar temperature_degc: shape (B,) [degC].
+    :ivar wear: shape (B,) [-].
+    :ivar covariance: shape (B, 2, 2), covariance of (T, w).
+    :ivar temperature_at_bound: shape (B,), bool.
+    :ivar wear_at_bound: shape (B,), bool.
+    :ivar chi2: shape (B,).
+    :ivar dof: shape (B,), int.
+    :ivar p_value: shape (B,), NaN where dof = 0.
+    :ivar n_levels: N.
+    :ivar speeds_rad_s: shape (N,) [rad/s].
 
     """
 
@@ -155,12 +156,12 @@ class WearEstimates:
 
     @property
     def wear_std(self) -> FloatArray:
-        """Standard deviations of the wear estimates, shape (B,)."""
+        """Return the standard deviations of the wear estimates, shape (B,)."""
         return np.sqrt(self.covariance[:, 1, 1])
 
     @property
     def temperature_std_degc(self) -> FloatArray:
-        """Standard deviations of the temperature estimates [degC], shape (B,)."""
+        """Return the standard deviations of the temperature estimates [degC], shape (B,)."""
         return np.sqrt(self.covariance[:, 0, 0])
 
 
@@ -206,23 +207,21 @@ def _validate_friction(friction: ArrayLike, n_levels: int) -> FloatArray:
 
 def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
                   params: ParameterSet) -> WearEstimates:
-    """Estimate (T, w) for a batch of friction vectors measured at the same speeds.
+    """
+    Estimate (T, w) for a batch of friction vectors measured at the same speeds.
 
     N >= 2: the ML estimate (16) (global optimum over T in the temperature bounds, w >= 0).
     N = 1: the marginal ML estimate (17)-(19) of w, T from its posterior at the estimate.
 
-    Args:
-        speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
-        friction: friction levels (normalised), shape (N,) or (B, N).
-        params: the parameter set (model, sigma, load mean/std, temperature bounds).
+    :param speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
+    :param friction: friction levels (normalised), shape (N,) or (B, N).
+    :param params: the parameter set (model, sigma, load mean/std, temperature bounds).
 
-    Returns:
-        A :class:`WearEstimates` batch (arrays of length B); ``estimates[i]`` is a
+    :return: A :class:`WearEstimates` batch (arrays of length B); ``estimates[i]`` is a
         :class:`WearEstimate`.
 
-    Raises:
-        InputError: non-finite or non-positive speeds, N = 0, non-finite friction or a friction
-            shape that does not match the speeds.
+    :raises InputError: non-finite or non-positive speeds, N = 0, non-finite friction or a friction
+        shape that does not match the speeds.
 
     """
     speeds = validate_speeds(speeds_rad_s)
@@ -236,7 +235,8 @@ def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
 
 def _arc_length_grid(curve, lower: float, upper: float, *, spacing: float,
                      max_step: float) -> FloatArray:
-    """Return a grid on [lower, upper] whose image under ``curve`` has steps <= ``spacing``.
+    """
+    Return a grid on [lower, upper] whose image under ``curve`` has steps <= ``spacing``.
 
     ``curve(x)`` (shape (K,) -> (K, N)) is the whitened model along one parameter; the grid is
     equidistant in the arc length of the curve, so that every model point is within about
@@ -274,7 +274,8 @@ class _WhitenedProblem:
                                       self.params.model))
 
     def apply(self, values: FloatArray) -> FloatArray:
-        """Return whitened values (..., N).
+        """
+        Return whitened values (..., N).
 
         einsum, not BLAS: many small products, which a threaded BLAS makes erratic on a busy
         machine.
@@ -291,7 +292,8 @@ class _WhitenedProblem:
 
     def hessian(self, data_w: FloatArray, t: FloatArray, w: FloatArray, residual: FloatArray,
                 jacobian: FloatArray) -> FloatArray:
-        """Return the Hessian of cost/2, (B, 2, 2), J^T J - sum_n r_n d2f_n.
+        """
+        Return the Hessian of cost/2, (B, 2, 2), J^T J - sum_n r_n d2f_n.
 
         The model curvature is a central difference of the analytic gradients.  It matters: with
         N = 2 levels and a residual left at the optimum, the optimum lies where J is nearly
@@ -359,7 +361,8 @@ class _WhitenedProblem:
         return self._grid_cache
 
     def grid_starts(self, data_w: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Return K starting points (T, w) for every fit, each of shape (B, K).
+        """
+        Return K starting points (T, w) for every fit, each of shape (B, K).
 
         The cost is evaluated on the (T, w) grid, minimised over T at every grid w (the profile
         in w), and the K = _STARTS best local minima of the profile (best grid points fill in
@@ -397,7 +400,8 @@ _PROBLEMS_KEPT = 4
 
 
 def _problem(speeds: FloatArray, params: ParameterSet) -> _WhitenedProblem:
-    """Return the problem of these speeds and this parameter set, built once and kept.
+    """
+    Return the problem of these speeds and this parameter set, built once and kept.
 
     The whitening and the start grid (a few ms) do not depend on the data: a calibration
     estimates thousands of experiments at one design, and a batch shares them.  Kept per
@@ -417,7 +421,8 @@ def _problem(speeds: FloatArray, params: ParameterSet) -> _WhitenedProblem:
 
 def _newton_step(jacobian: FloatArray, hessian: FloatArray, residual: FloatArray,
                  fixed: NDArray[np.bool_], damping: FloatArray) -> FloatArray:
-    """Return the damped Newton step (B, 2) of the cost with the variables in ``fixed`` held.
+    """
+    Return the damped Newton step (B, 2) of the cost with the variables in ``fixed`` held.
 
     The Hessian of cost/2 is ``hessian`` (J^T J minus the residual-weighted model curvature);
     in variables scaled by sqrt(diag(J^T J)) it is shifted by max(damping, -lambda_min + eps)
@@ -571,17 +576,17 @@ def _composite_gauss_legendre(lower: ArrayLike, upper: ArrayLike, panels: int, n
 
 @dataclass(frozen=True)
 class MarginalModel:
-    """The marginal density g(z) of z = y - tilde tau_f(v, w) at one or more speeds, eq. (17).
+    """
+    The marginal density g(z) of z = y - tilde tau_f(v, w) at one or more speeds, eq. (17).
 
     g(z) = 1/(T_max - T_min) int_T N(z; tau_f0(v, mu_tl, T), s^2) dT, with the load marginalised
     (s^2 = sigma^2 + sigma_tl^2 m(v)^2).  Arrays have a leading speed shape S (from the speeds).
 
-    Attributes:
-        speeds_rad_s: shape S [rad/s].
-        nodes_degc: quadrature nodes in T, shape S + (K,).
-        log_weights: log of the normalised quadrature weights (sum to 1), shape S + (K,).
-        nominal: tau_f0 at the nodes, shape S + (K,).
-        std: s, shape S.
+    :ivar speeds_rad_s: shape S [rad/s].
+    :ivar nodes_degc: quadrature nodes in T, shape S + (K,).
+    :ivar log_weights: log of the normalised quadrature weights (sum to 1), shape S + (K,).
+    :ivar nominal: tau_f0 at the nodes, shape S + (K,).
+    :ivar std: s, shape S.
 
     """
 
@@ -653,18 +658,17 @@ class MarginalModel:
 
 def marginal_fisher_information(*, speeds_rad_s: ArrayLike, wear: ArrayLike,
                                 params: ParameterSet) -> FloatArray:
-    """Return the exact Fisher information of w from one friction level, eqs. (17) and (25).
+    """
+    Return the exact Fisher information of w from one friction level, eqs. (17) and (25).
 
     F(v, w) = (d tilde tau_f(v, w) / dw)^2 * J(v), J(v) = int g'(z)^2 / g(z) dz; T is
     integrated out under its uniform prior (no dependence on a true T).
 
-    Args:
-        speeds_rad_s: speed [rad/s], any shape S, > 0.
-        wear: wear level(s) w, broadcast against S.
-        params: the parameter set.
+    :param speeds_rad_s: speed [rad/s], any shape S, > 0.
+    :param wear: wear level(s) w, broadcast against S.
+    :param params: the parameter set.
 
-    Returns:
-        F, the broadcast shape of speeds and wear [1/w^2].
+    :return: F, the broadcast shape of speeds and wear [1/w^2].
 
     """
     speeds = np.asarray(speeds_rad_s, dtype=float)

@@ -1,4 +1,5 @@
-"""Profile-likelihood confidence intervals of wear w and temperature T.
+"""
+Profile-likelihood confidence intervals of wear w and temperature T.
 
 The standard deviation of :func:`~robot_wear_monitor.estimation.estimator.estimate_wear` is the
 inverse Fisher information at the estimate; it is meaningless where the wear profile (7)
@@ -71,20 +72,19 @@ _TABLE_TAIL = 30.0
 
 def wear_grid(wear_max: float = WEAR_GRID_MAX, *, fine_step: float = _FINE_STEP,
               fine_until: float = _FINE_UNTIL, step: float = _COARSE_STEP) -> FloatArray:
-    """Return the default wear grid: 0 to ``wear_max``, finer near w = 0.
+    """
+    Return the default wear grid: 0 to ``wear_max``, finer near w = 0.
 
     Steps of ``fine_step`` on [0, fine_until] and of ``step`` above; the grid starts at exactly
     0 and ends at exactly ``wear_max``.  With the defaults: 0, 0.25, ..., 10, 10.5, ..., 150
     (321 points).
 
-    Args:
-        wear_max: upper end [-], > 0.
-        fine_step: step near 0 [-], > 0.
-        fine_until: where the fine part ends [-].
-        step: step above ``fine_until`` [-], > 0.
+    :param wear_max: upper end [-], > 0.
+    :param fine_step: step near 0 [-], > 0.
+    :param fine_until: where the fine part ends [-].
+    :param step: step above ``fine_until`` [-], > 0.
 
-    Returns:
-        Strictly increasing grid, shape (G,).
+    :return: Strictly increasing grid, shape (G,).
 
     """
     if not (wear_max > 0 and fine_step > 0 and step > 0):
@@ -111,18 +111,18 @@ class WearInterval:
 
 @dataclass(frozen=True)
 class WearIntervals:
-    """A batch of B profile-likelihood intervals at confidence ``level``.
+    """
+    A batch of B profile-likelihood intervals at confidence ``level``.
 
-    Attributes:
-        wear_low: lower end of the wear interval [-], shape (B,); exactly 0 when the interval
-            reaches the bound w = 0.
-        wear_high: upper end of the wear interval [-], shape (B,).  Where
-            ``wear_high_at_grid_end`` is set the likelihood did not fall below the threshold
-            inside the wear grid: the true upper end is *at least* this value (the grid end).
-        temperature_low: lower end of the temperature interval [degC], shape (B,).
-        temperature_high: upper end of the temperature interval [degC], shape (B,).
-        wear_high_at_grid_end: shape (B,), bool, see ``wear_high``.
-        level: confidence level, e.g. 0.95.
+    :ivar wear_low: lower end of the wear interval [-], shape (B,); exactly 0 when the interval
+        reaches the bound w = 0.
+    :ivar wear_high: upper end of the wear interval [-], shape (B,).  Where
+        ``wear_high_at_grid_end`` is set the likelihood did not fall below the threshold
+        inside the wear grid: the true upper end is *at least* this value (the grid end).
+    :ivar temperature_low: lower end of the temperature interval [degC], shape (B,).
+    :ivar temperature_high: upper end of the temperature interval [degC], shape (B,).
+    :ivar wear_high_at_grid_end: shape (B,), bool, see ``wear_high``.
+    :ivar level: confidence level, e.g. 0.95.
 
     """
 
@@ -184,7 +184,8 @@ def _validate_grid(grid: ArrayLike) -> FloatArray:
 
 
 def _parabola_min(values: FloatArray, nodes: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Return the minimum over the last axis refined by a parabola, and where it is.
+    """
+    Return the minimum over the last axis refined by a parabola, and where it is.
 
     ``values`` (..., M) sampled at increasing ``nodes`` (M,), M >= 3.  The parabola through the
     best point and its two neighbours (the two inner neighbours at an end) is minimised on the
@@ -284,7 +285,8 @@ _PROFILES_KEPT = 4
 
 
 def _profile(speeds: FloatArray, params: ParameterSet, grid: FloatArray) -> _Profile:
-    """Return the profile of these speeds, parameter set and grid, built once and kept.
+    """
+    Return the profile of these speeds, parameter set and grid, built once and kept.
 
     Everything in a :class:`_Profile` is data-independent (whitening, model on the grids);
     a monitor evaluates experiment after experiment at the same speeds.  Kept per
@@ -344,7 +346,8 @@ def _single_level(speed: float, params: ParameterSet) -> _SingleLevel:
 
 
 class _WearLikelihood:
-    """The wear log-likelihood of a batch: rows on a grid, the maximum and exact values.
+    """
+    The wear log-likelihood of a batch: rows on a grid, the maximum and exact values.
 
     ``rows`` (B, G): l_p(w) on the wear grid (N >= 2: profile over T; N = 1: marginal (17));
     ``l_hat`` (B,): the log-likelihood at the ML estimate; ``l_max`` (B,): the larger of that and
@@ -406,17 +409,17 @@ _MIN_CUTOFF = 0.05
 
 @dataclass(frozen=True)
 class CutoffCalibration:
-    """Cutoffs c(w) of the likelihood-ratio statistic 2 (l_max - l_p(w)) for one design.
+    """
+    Cutoffs c(w) of the likelihood-ratio statistic 2 (l_max - l_p(w)) for one design.
 
     The interval is {w >= 0 : 2 (l_max - l_p(w)) <= c(w)}, c interpolated linearly in w between
     the calibrated values and held constant beyond the last one.
 
-    Attributes:
-        wear: calibrated wear values [-], shape (C,), increasing.
-        cutoff: the ``level`` quantile of the statistic at the true wear, shape (C,).
-        chi2_cutoff: chi2_1^-1(level), the asymptotic value, for comparison.
-        level: confidence level.
-        runs: simulated experiments per wear value.
+    :ivar wear: calibrated wear values [-], shape (C,), increasing.
+    :ivar cutoff: the ``level`` quantile of the statistic at the true wear, shape (C,).
+    :ivar chi2_cutoff: chi2_1^-1(level), the asymptotic value, for comparison.
+    :ivar level: confidence level.
+    :ivar runs: simulated experiments per wear value.
 
     """
 
@@ -434,7 +437,8 @@ class CutoffCalibration:
 def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: float = 0.95,
                       runs: int = CALIBRATION_RUNS, seed: int = CALIBRATION_SEED
                       ) -> CutoffCalibration:
-    """Calibrate the likelihood-ratio cutoff at each wear value by simulation (Neyman).
+    """
+    Calibrate the likelihood-ratio cutoff at each wear value by simulation (Neyman).
 
     Wilks' chi2_1 cutoff assumes a regular model with the truth inside the parameter space.
     Here neither holds near w = 0: w = 0 is a bound, and the wear profile (7) is nearly
@@ -456,15 +460,13 @@ def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: f
     set's calibration at the default design ships with the package
     (:data:`SHIPPED_CALIBRATIONS`, rebuilt by :func:`write_shipped_calibrations`).
 
-    Args:
-        speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
-        params: the parameter set (the data model).
-        level: confidence level in (0, 1).
-        runs: simulated experiments per wear value, >= 100.
-        seed: random seed.
+    :param speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
+    :param params: the parameter set (the data model).
+    :param level: confidence level in (0, 1).
+    :param runs: simulated experiments per wear value, >= 100.
+    :param seed: random seed.
 
-    Returns:
-        The :class:`CutoffCalibration`.
+    :return: The :class:`CutoffCalibration`.
 
     """
     speeds = validate_speeds(speeds_rad_s)
@@ -495,7 +497,8 @@ CACHE_ENV = 'ROBOT_WEAR_MONITOR_CACHE'
 
 def calibration_key(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
                     seed: int) -> str:
-    """Return the key of a calibration: a hash of everything its numbers depend on.
+    """
+    Return the key of a calibration: a hash of everything its numbers depend on.
 
     The parameter set enters by its values (model, sigma, load, temperature range, wear
     range), not its name, file or identification notes, so a copy of a set elsewhere shares
@@ -510,7 +513,8 @@ def calibration_key(speeds_t: tuple, params: ParameterSet, level: float, runs: i
 
 
 def calibration_cache_dir() -> Path | None:
-    """Return the folder of stored calibrations, or None when the cache is disabled.
+    """
+    Return the folder of stored calibrations, or None when the cache is disabled.
 
     ``$ROBOT_WEAR_MONITOR_CACHE`` if set ('' disables), else
     ``$XDG_CACHE_HOME/robot_wear_monitor`` (default ``~/.cache/robot_wear_monitor``).  A file
@@ -539,7 +543,8 @@ def calibration_to_json(calibration: CutoffCalibration) -> dict:
 
 @lru_cache(maxsize=1)
 def _code_fingerprint() -> str:
-    """Return a hash of the code a calibration's numbers come from (the cache's key part).
+    """
+    Return a hash of the code a calibration's numbers come from (the cache's key part).
 
     A stored calibration is used only by the same estimator, likelihood and model code, so a
     change of that code never reads a calibration an older version stored (the shipped table
@@ -601,7 +606,8 @@ def _calibrate(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
 
 
 def write_shipped_calibrations(path: str | os.PathLike = SHIPPED_CALIBRATIONS) -> Path:
-    """Calibrate the packaged parameter set at the default design and write the shipped table.
+    """
+    Calibrate the packaged parameter set at the default design and write the shipped table.
 
     Rebuild after a change of the calibration or the packaged parameter set:
     ``python3 -c "from robot_wear_monitor.estimation.intervals import
@@ -653,7 +659,8 @@ def simulate_cutoffs(speeds_t: tuple, *, params: ParameterSet, level: float, run
 
 def profile_log_likelihood(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
                            params: ParameterSet, wear_grid: ArrayLike) -> FloatArray:
-    """Return the profile (N >= 2) or marginal (N = 1) log-likelihood of w on a wear grid.
+    """
+    Return the profile (N >= 2) or marginal (N = 1) log-likelihood of w on a wear grid.
 
     N >= 2: l_p(w) = max over T in [T_min, T_max] of the Gaussian log-likelihood (15),
     log N(y; f(v, mu_tl, T, w), Sigma(Phi)) with Sigma of (14) (load marginalised; exact, the
@@ -666,18 +673,15 @@ def profile_log_likelihood(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
     Both are true log-likelihoods (natural log, all normalising constants included), so rows of
     experiments at different speeds can be added on a common wear grid.
 
-    Args:
-        speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
-        friction: friction levels (normalised), shape (N,) or (B, N).
-        params: the parameter set.
-        wear_grid: wear values w >= 0 [-], strictly increasing, shape (G,), G >= 3; e.g.
-            :func:`wear_grid`.
+    :param speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
+    :param friction: friction levels (normalised), shape (N,) or (B, N).
+    :param params: the parameter set.
+    :param wear_grid: wear values w >= 0 [-], strictly increasing, shape (G,), G >= 3; e.g.
+        :func:`wear_grid`.
 
-    Returns:
-        Log-likelihood [nats], shape (B, G).
+    :return: Log-likelihood [nats], shape (B, G).
 
-    Raises:
-        InputError: bad speeds, friction or grid.
+    :raises InputError: bad speeds, friction or grid.
 
     """
     speeds, values = _validate(speeds_rad_s, friction)
@@ -719,7 +723,8 @@ def _illinois(func, x_in: FloatArray, f_in: FloatArray, x_out: FloatArray,
 
 def _hull(values: FloatArray, nodes: FloatArray, threshold: FloatArray, x_hat: FloatArray,
           f_hat: FloatArray, func) -> tuple:
-    """Return the ends (low, high) of {x : values >= threshold} joined with x_hat, refined.
+    """
+    Return the ends (low, high) of {x : values >= threshold} joined with x_hat, refined.
 
     ``values`` (B, M) at ``nodes`` (M,); x_hat (B,) is a point known to be inside (its
     log-likelihood f_hat).  An end on the first/last node stays there (flag returned).
@@ -761,7 +766,8 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
                    level: float = 0.95, wear_grid_values: ArrayLike | None = None,
                    estimates: WearEstimates | None = None,
                    cutoff: str = 'calibrated') -> WearIntervals:
-    """Return profile-likelihood confidence intervals of w and T for a batch of experiments.
+    """
+    Return profile-likelihood confidence intervals of w and T for a batch of experiments.
 
     Wear: {w >= 0 : 2 (l_max - l_p(w)) <= c(w)} with l_p of
     :func:`profile_log_likelihood` (N >= 2: T profiled out within its bounds; N = 1: T
@@ -787,22 +793,19 @@ def wear_intervals(speeds_rad_s: ArrayLike, friction: ArrayLike, *, params: Para
     (honest: one level carries no information on T).  An end at a temperature bound is that
     bound.
 
-    Args:
-        speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
-        friction: friction levels (normalised), shape (N,) or (B, N).
-        params: the parameter set.
-        level: confidence level in (0, 1).
-        wear_grid_values: wear grid (G,) of the profile; default :func:`wear_grid` with
-            ``params.wear_max``.
-        estimates: the result of ``estimate_wear`` for the same data, if already computed.
-        cutoff: ``'calibrated'`` (default) or ``'chi2'``, see above.  The temperature interval
-            always uses chi2_1^-1(level).
+    :param speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
+    :param friction: friction levels (normalised), shape (N,) or (B, N).
+    :param params: the parameter set.
+    :param level: confidence level in (0, 1).
+    :param wear_grid_values: wear grid (G,) of the profile; default :func:`wear_grid` with
+        ``params.wear_max``.
+    :param estimates: the result of ``estimate_wear`` for the same data, if already computed.
+    :param cutoff: ``'calibrated'`` (default) or ``'chi2'``, see above.  The temperature interval
+        always uses chi2_1^-1(level).
 
-    Returns:
-        A :class:`WearIntervals` batch of length B.
+    :return: A :class:`WearIntervals` batch of length B.
 
-    Raises:
-        InputError: bad speeds, friction, grid or level.
+    :raises InputError: bad speeds, friction, grid or level.
 
     """
     if not 0.0 < float(level) < 1.0:

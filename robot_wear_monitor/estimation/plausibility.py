@@ -1,4 +1,5 @@
-"""Can this estimate be trusted?  Plausibility checks of one experiment's levels and estimate.
+"""
+Can this estimate be trusted?  Plausibility checks of one experiment's levels and estimate.
 
 An estimate of (T, w) is only as good as the assumption that the friction levels are the
 joint's friction as the parameter set describes it.  A wrong gear ratio (the speeds scaled by
@@ -57,12 +58,12 @@ CHECK_NAMES = ('speed_range', 'speeds_configured', 'friction_range', 'model_chec
 
 @dataclass(frozen=True)
 class Plausibility:
-    """The verdict on one experiment: valid, or the failed checks in words and the likely cause.
+    """
+    The verdict on one experiment: valid, or the failed checks in words and the likely cause.
 
-    Attributes:
-        failed: the names of the failed checks (see :data:`CHECK_NAMES`), empty when valid.
-        reasons: one sentence per failed check, with the numbers and their units.
-        likely_cause: the configuration mistake the failures point to ('' when none fits).
+    :ivar failed: the names of the failed checks (see :data:`CHECK_NAMES`), empty when valid.
+    :ivar reasons: one sentence per failed check, with the numbers and their units.
+    :ivar likely_cause: the configuration mistake the failures point to ('' when none fits).
 
     """
 
@@ -102,7 +103,8 @@ def _fmt(values: Iterable[float]) -> str:
 
 def friction_range(speeds_rad_s: ArrayLike, *, params: ParameterSet
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the lowest and highest friction level the set allows at each speed, (N,) each.
+    """
+    Return the lowest and highest friction level the set allows at each speed, (N,) each.
 
     The model (8) over T in the set's bounds, w in 0 .. ``wear_max`` and the load within
     :data:`LOAD_SIGMAS` standard deviations of its mean, widened by :data:`NOISE_SIGMAS` noise
@@ -133,7 +135,8 @@ def _speed_factor(speeds: np.ndarray, expected: np.ndarray) -> Optional[float]:
 
 def _best_scale(speeds: np.ndarray, frictions: np.ndarray, params: ParameterSet
                 ) -> tuple[float, float]:
-    """Return (c, p): the factor c whose c * frictions fit the model best, and that fit's p-value.
+    """
+    Return (c, p): the factor c whose c * frictions fit the model best, and that fit's p-value.
 
     Only for N >= 3 (with N <= 2 the two parameters (T, w) fit any scaled levels).
     """
@@ -152,14 +155,14 @@ def _best_scale(speeds: np.ndarray, frictions: np.ndarray, params: ParameterSet
 
 def likely_cause(*, speeds_rad_s: ArrayLike, frictions: ArrayLike, params: ParameterSet,
                  failed: Sequence[str], expected_speeds_rad_s: Sequence[float] = ()) -> str:
-    """Return the configuration mistake the failed checks point to, in words ('' if none fits).
+    """
+    Return the configuration mistake the failed checks point to, in words ('' if none fits).
 
-    Args:
-        speeds_rad_s: the levels' speeds, motor side [rad/s], shape (N,).
-        frictions: the levels (normalised torque), shape (N,).
-        params: the parameter set the estimate used.
-        failed: the names of the failed checks.
-        expected_speeds_rad_s: the configured experiment's speeds [rad/s] (may be empty).
+    :param speeds_rad_s: the levels' speeds, motor side [rad/s], shape (N,).
+    :param frictions: the levels (normalised torque), shape (N,).
+    :param params: the parameter set the estimate used.
+    :param failed: the names of the failed checks.
+    :param expected_speeds_rad_s: the configured experiment's speeds [rad/s] (may be empty).
 
     """
     speeds = np.asarray(speeds_rad_s, dtype=float)
@@ -195,19 +198,18 @@ def check_levels(*, speeds_rad_s: ArrayLike, frictions: ArrayLike, params: Param
                  expected_speeds_rad_s: Sequence[float] = (),
                  speed_tolerance_rad_s: float = 1.0,
                  invalid_p_value: float = INVALID_P_VALUE) -> Plausibility:
-    """Check one experiment's levels (and its estimate) against what the parameter set knows.
+    """
+    Check one experiment's levels (and its estimate) against what the parameter set knows.
 
-    Args:
-        speeds_rad_s: motor-side speeds [rad/s], shape (N,), finite and > 0.
-        frictions: friction levels (normalised torque), shape (N,), finite.
-        params: the parameter set of the estimate.
-        estimate: the estimate of these levels (its p-value and w-hat are checked), or None.
-        expected_speeds_rad_s: the configured experiment's speeds [rad/s]; empty: not checked.
-        speed_tolerance_rad_s: how far a speed may be from a configured one [rad/s].
-        invalid_p_value: the model check fails below this p-value.
+    :param speeds_rad_s: motor-side speeds [rad/s], shape (N,), finite and > 0.
+    :param frictions: friction levels (normalised torque), shape (N,), finite.
+    :param params: the parameter set of the estimate.
+    :param estimate: the estimate of these levels (its p-value and w-hat are checked), or None.
+    :param expected_speeds_rad_s: the configured experiment's speeds [rad/s]; empty: not checked.
+    :param speed_tolerance_rad_s: how far a speed may be from a configured one [rad/s].
+    :param invalid_p_value: the model check fails below this p-value.
 
-    Returns:
-        The :class:`Plausibility` verdict (:data:`VALID` when every check passes).
+    :return: The :class:`Plausibility` verdict (:data:`VALID` when every check passes).
 
     """
     speeds = np.asarray(speeds_rad_s, dtype=float)

@@ -1,4 +1,5 @@
-"""The wear estimate of one experiment as a report: estimate, intervals, alarm, JSON.
+"""
+The wear estimate of one experiment as a report: estimate, intervals, alarm, JSON.
 
 :func:`wear_report` runs the estimator (16)-(19) and the profile-likelihood intervals on one
 set of friction levels and returns a :class:`WearReport`; :meth:`WearReport.to_dict` is the
@@ -25,7 +26,8 @@ if TYPE_CHECKING:  # the estimator and intervals: imported where used (numpy wor
 
 def meaningful_std(*, std: float, value: float, low: float, high: float,
                    open_above: bool = False) -> float:
-    """Return ``std`` when it describes the uncertainty of ``value``, else NaN.
+    """
+    Return ``std`` when it describes the uncertainty of ``value``, else NaN.
 
     The standard deviation (inverse Fisher information) is kept when the 95 % profile-likelihood
     interval [low, high] is interior (low > 0, a finite upper end inside the grid) and the Wald
@@ -45,18 +47,18 @@ def meaningful_std(*, std: float, value: float, low: float, high: float,
 
 @dataclass(frozen=True)
 class WearReport:
-    """The estimate of one experiment with its 95 % intervals and the alarm decision.
+    """
+    The estimate of one experiment with its 95 % intervals and the alarm decision.
 
-    Attributes:
-        estimate: the ML estimate of (T [degC], w [-]) with covariance and chi2 test.
-        interval: the profile-likelihood intervals of w [-] and T [degC].
-        wear_std: standard deviation of w-hat [-], NaN where it is not meaningful
-            (see :func:`meaningful_std`).
-        alarm: w-hat >= the parameter set's wear threshold.
-        warning: w-hat >= the parameter set's warning level.
-        wear_threshold: the alarm threshold of the parameter set [-].
-        plausibility: the verdict of the plausibility checks; when invalid the wear cannot be
-            judged from these levels and ``alarm`` means nothing (JSON ``alarm`` null).
+    :ivar estimate: the ML estimate of (T [degC], w [-]) with covariance and chi2 test.
+    :ivar interval: the profile-likelihood intervals of w [-] and T [degC].
+    :ivar wear_std: standard deviation of w-hat [-], NaN where it is not meaningful
+        (see :func:`meaningful_std`).
+    :ivar alarm: w-hat >= the parameter set's wear threshold.
+    :ivar warning: w-hat >= the parameter set's warning level.
+    :ivar wear_threshold: the alarm threshold of the parameter set [-].
+    :ivar plausibility: the verdict of the plausibility checks; when invalid the wear cannot be
+        judged from these levels and ``alarm`` means nothing (JSON ``alarm`` null).
 
     """
 
@@ -92,12 +94,12 @@ class WearReport:
 
 def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
                 params: ParameterSet) -> WearReport:
-    """Estimate (T, w) from one experiment's friction levels and decide the alarm.
+    """
+    Estimate (T, w) from one experiment's friction levels and decide the alarm.
 
-    Args:
-        speeds_rad_s: motor-side speed levels [rad/s].
-        frictions: friction levels, normalised torque, one per speed.
-        params: the parameter set (model, bounds, thresholds).
+    :param speeds_rad_s: motor-side speed levels [rad/s].
+    :param frictions: friction levels, normalised torque, one per speed.
+    :param params: the parameter set (model, bounds, thresholds).
 
     """
     from robot_wear_monitor.estimation.estimator import estimate_wear

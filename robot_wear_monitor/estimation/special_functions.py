@@ -1,4 +1,5 @@
-"""The few special functions of the estimation path, on numpy and the standard library.
+"""
+The few special functions of the estimation path, on numpy and the standard library.
 
 The estimator, the intervals and the trend need the error function, a log-sum-exp, the
 chi-square tail for an integer number of degrees of freedom and one chi-square quantile.
@@ -35,7 +36,8 @@ MAX_DOF = 100_000
 
 
 def erf(x: ArrayLike) -> FloatArray:
-    """Return the error function of every element of ``x`` (any shape; NaN stays NaN).
+    """
+    Return the error function of every element of ``x`` (any shape; NaN stays NaN).
 
     About 50 ns an element that is not saturated, some 7 times scipy's: the trend keeps the
     tables it builds with it (one per distinct experiment interval).
@@ -63,7 +65,8 @@ def log_sum_exp(values: ArrayLike, *, axis: int = -1) -> FloatArray:
 
 
 def _chi2_survival_one(chi2: float, dof: int) -> float:
-    """P(X >= chi2) for X chi-square with ``dof`` >= 1 degrees of freedom (A&S 26.4.4/5).
+    """
+    P(X >= chi2) for X chi-square with ``dof`` >= 1 degrees of freedom (A&S 26.4.4/5).
 
     Q(chi2|2m) = sum_{j<m} e^-h h^j / j!; Q(chi2|2m+1) = erfc(sqrt h) + sum_{j=1..m}
     e^-h h^(j-1/2) / Gamma(j+1/2), with h = chi2 / 2.  The terms are summed by their
@@ -91,10 +94,10 @@ def _chi2_survival_one(chi2: float, dof: int) -> float:
 
 
 def chi2_survival(chi2: ArrayLike, dof: ArrayLike) -> FloatArray:
-    """Return P(X >= chi2) for X chi-square with integer ``dof`` >= 1 (broadcast shapes).
+    """
+    Return P(X >= chi2) for X chi-square with integer ``dof`` >= 1 (broadcast shapes).
 
-    Raises:
-        ValueError: a dof below 1, above :data:`MAX_DOF` or not an integer.
+    :raises ValueError: a dof below 1, above :data:`MAX_DOF` or not an integer.
 
     """
     x, k = np.broadcast_arrays(np.asarray(chi2, dtype=float), np.asarray(dof, dtype=float))

@@ -1,4 +1,5 @@
-"""Monte Carlo study of the wear estimators, Sec. IV-C and Fig. 8 of the paper.
+"""
+Monte Carlo study of the wear estimators, Sec. IV-C and Fig. 8 of the paper.
 
 For every true temperature T and R runs, friction levels are simulated with the data model (9):
 tau_f(v_i, tl, T, w) + e_i, with one true load tl ~ N(mu_tl, sigma_tl^2) per run (shared by the N
@@ -31,22 +32,22 @@ _ROWS_PER_CALL = 4000  # estimates per call of the estimator (progress granulari
 
 @dataclass(frozen=True)
 class StudyResult:
-    """Bias, variance and MSE of w-hat per true temperature, with the Cramer-Rao bound.
+    """
+    Bias, variance and MSE of w-hat per true temperature, with the Cramer-Rao bound.
 
-    Attributes:
-        n: number of levels N.
-        speeds_rad_s: the speed levels [rad/s], shape (N,).
-        wear: the true wear level w.
-        temperatures_degc: the true temperatures [degC], shape (K,).
-        runs: Monte Carlo runs R per temperature.
-        seed: seed of the numpy Generator.
-        mean: mean of w-hat, shape (K,).
-        bias: mean of w-hat minus w, shape (K,).
-        variance: sample variance of w-hat (ddof = 1), shape (K,).
-        mse: mean of (w-hat - w)^2, shape (K,).
-        crb: Cramer-Rao bound of w, shape (K,).
-        temperature_at_bound: fraction of runs with T-hat on a bound, shape (K,).
-        wear_at_bound: fraction of runs with w-hat = 0, shape (K,).
+    :ivar n: number of levels N.
+    :ivar speeds_rad_s: the speed levels [rad/s], shape (N,).
+    :ivar wear: the true wear level w.
+    :ivar temperatures_degc: the true temperatures [degC], shape (K,).
+    :ivar runs: Monte Carlo runs R per temperature.
+    :ivar seed: seed of the numpy Generator.
+    :ivar mean: mean of w-hat, shape (K,).
+    :ivar bias: mean of w-hat minus w, shape (K,).
+    :ivar variance: sample variance of w-hat (ddof = 1), shape (K,).
+    :ivar mse: mean of (w-hat - w)^2, shape (K,).
+    :ivar crb: Cramer-Rao bound of w, shape (K,).
+    :ivar temperature_at_bound: fraction of runs with T-hat on a bound, shape (K,).
+    :ivar wear_at_bound: fraction of runs with w-hat = 0, shape (K,).
 
     """
 
@@ -80,7 +81,8 @@ class StudyResult:
 
 def simulate_friction(*, speeds_rad_s: ArrayLike, temperature_degc: float, wear: float,
                       runs: int, rng: np.random.Generator, params: ParameterSet) -> FloatArray:
-    """Simulate R friction vectors with the data model (9), shape (R, N).
+    """
+    Simulate R friction vectors with the data model (9), shape (R, N).
 
     One true load tl ~ N(load_mean, load_std^2) per run, shared by its N levels; independent
     errors N(0, sigma^2) per level.
@@ -94,7 +96,8 @@ def simulate_friction(*, speeds_rad_s: ArrayLike, temperature_degc: float, wear:
 
 def cramer_rao_bound(*, speeds_rad_s: ArrayLike, temperatures_degc: ArrayLike, wear: float,
                      params: ParameterSet) -> FloatArray:
-    """Return the Cramer-Rao bound of w-hat at every temperature, shape (K,).
+    """
+    Return the Cramer-Rao bound of w-hat at every temperature, shape (K,).
 
     N >= 2: [F^-1]_22 of (22)-(23) at (T, w).  N = 1: 1/F of the marginal likelihood (17),
     which does not depend on T.
@@ -111,20 +114,19 @@ def cramer_rao_bound(*, speeds_rad_s: ArrayLike, temperatures_degc: ArrayLike, w
 def run_study(*, speeds_rad_s: ArrayLike, temperatures_degc: ArrayLike, wear: float,
               runs: int, seed: int, params: ParameterSet, progress: bool | None = None
               ) -> StudyResult:
-    """Run the Monte Carlo study of Sec. IV-C for one speed set.
+    """
+    Run the Monte Carlo study of Sec. IV-C for one speed set.
 
-    Args:
-        speeds_rad_s: the N speed levels [rad/s].
-        temperatures_degc: true temperatures [degC], shape (K,).
-        wear: true wear level w.
-        runs: Monte Carlo runs R per temperature (>= 2).
-        seed: seed of the numpy Generator (the data of a temperature do not depend on N's
-            chunking: all data are drawn first, temperature by temperature).
-        params: the parameter set.
-        progress: show a tqdm bar on stderr (default: only when stderr is a terminal).
+    :param speeds_rad_s: the N speed levels [rad/s].
+    :param temperatures_degc: true temperatures [degC], shape (K,).
+    :param wear: true wear level w.
+    :param runs: Monte Carlo runs R per temperature (>= 2).
+    :param seed: seed of the numpy Generator (the data of a temperature do not depend on N's
+        chunking: all data are drawn first, temperature by temperature).
+    :param params: the parameter set.
+    :param progress: show a tqdm bar on stderr (default: only when stderr is a terminal).
 
-    Raises:
-        InputError: runs < 2, no temperatures, non-finite temperatures, bad speeds.
+    :raises InputError: runs < 2, no temperatures, non-finite temperatures, bad speeds.
 
     """
     speeds = validate_speeds(speeds_rad_s)
@@ -167,7 +169,8 @@ def run_study(*, speeds_rad_s: ArrayLike, temperatures_degc: ArrayLike, wear: fl
 
 
 def plot_study(results: Sequence[StudyResult], *, path: str) -> None:
-    """Draw bias and variance of w-hat against T, one line per N, like Fig. 8; save to path.
+    """
+    Draw bias and variance of w-hat against T, one line per N, like Fig. 8; save to path.
 
     The Cramer-Rao bound of every N is drawn dashed in the variance panel.
     """

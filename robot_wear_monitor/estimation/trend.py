@@ -1,4 +1,5 @@
-"""Wear trend: a Bayes filter that fuses per-experiment wear likelihoods into a monotone trend.
+"""
+Wear trend: a Bayes filter that fuses per-experiment wear likelihoods into a monotone trend.
 
 Each friction experiment k gives a log-likelihood row l_k(w) of the wear level on a common wear
 grid (:func:`robot_wear_monitor.estimation.intervals.profile_log_likelihood`: T profiled out,
@@ -79,29 +80,29 @@ _TRANSITIONS_KEPT = 16
 
 @dataclass(frozen=True)
 class TrendConfig:
-    """Parameters of the trend filter (rates are in w per experiment).
+    """
+    Parameters of the trend filter (rates are in w per experiment).
 
-    Attributes:
-        wear_grid: strictly increasing wear grid starting at >= 0, shape (G,), G >= 3; the
-            likelihood rows must be given on it (default: ``intervals.wear_grid()``, 0 .. 150,
-            321 points).
-        threshold: alarm threshold of w (default: the paper's 35, ``alarm.WEAR_THRESHOLD``).
-        initial_wear_scale: scale of the half-normal new-joint prior of w [w].
-        initial_rate_mean: mean of the (exponential) new-joint prior of the rate [w/experiment].
-        rate_offset: r0 of the log-rate random walk u = log(r + r0) [w/experiment].
-        rate_step: sd of the usual log-rate change per experiment.
-        rate_jump_step: sd of the rare large log-rate change per experiment.
-        rate_jump_probability: probability of a large log-rate change per experiment.
-        rate_max: largest rate of the grid [w/experiment].
-        rate_points: number R of rate grid points (0 and a geometric grid up to ``rate_max``).
-        outlier_probability: eps of the likelihood mixture (1 - eps) L + eps max L.
-        likelihood_power: the rows are tempered, L^a (0 < a <= 1), before the mixture.
-        filter_wear_step: step of the filter's own equidistant wear grid over the range of
-            ``wear_grid`` [w]; the rows are interpolated onto it (linearly in log L).
-        experiment_interval_s: the time of one experiment [s] for the dynamics; None: the median
-            of the last ``spacing_window`` time differences.
-        spacing_window: number of recent time differences whose median is the spacing.
-        forecast_horizon: experiments the forecast looks ahead.
+    :ivar wear_grid: strictly increasing wear grid starting at >= 0, shape (G,), G >= 3; the
+        likelihood rows must be given on it (default: ``intervals.wear_grid()``, 0 .. 150,
+        321 points).
+    :ivar threshold: alarm threshold of w (default: the paper's 35, ``alarm.WEAR_THRESHOLD``).
+    :ivar initial_wear_scale: scale of the half-normal new-joint prior of w [w].
+    :ivar initial_rate_mean: mean of the (exponential) new-joint prior of the rate [w/experiment].
+    :ivar rate_offset: r0 of the log-rate random walk u = log(r + r0) [w/experiment].
+    :ivar rate_step: sd of the usual log-rate change per experiment.
+    :ivar rate_jump_step: sd of the rare large log-rate change per experiment.
+    :ivar rate_jump_probability: probability of a large log-rate change per experiment.
+    :ivar rate_max: largest rate of the grid [w/experiment].
+    :ivar rate_points: number R of rate grid points (0 and a geometric grid up to ``rate_max``).
+    :ivar outlier_probability: eps of the likelihood mixture (1 - eps) L + eps max L.
+    :ivar likelihood_power: the rows are tempered, L^a (0 < a <= 1), before the mixture.
+    :ivar filter_wear_step: step of the filter's own equidistant wear grid over the range of
+        ``wear_grid`` [w]; the rows are interpolated onto it (linearly in log L).
+    :ivar experiment_interval_s: the time of one experiment [s] for the dynamics; None: the median
+        of the last ``spacing_window`` time differences.
+    :ivar spacing_window: number of recent time differences whose median is the spacing.
+    :ivar forecast_horizon: experiments the forecast looks ahead.
 
     """
 
@@ -163,28 +164,28 @@ class TrendConfig:
 
 @dataclass(frozen=True)
 class TrendEstimate:
-    """The filtered wear trend after one experiment.
+    """
+    The filtered wear trend after one experiment.
 
-    Attributes:
-        time_s: time of the experiment [s] (or its index, if the index is used as time).
-        segment: number of maintenance resets before this estimate (0 for the first joint).
-        experiments: experiments in the current segment, including this one.
-        wear: posterior median of w [-].
-        wear_low: 2.5 % posterior quantile of w [-].
-        wear_high: 97.5 % posterior quantile of w [-].
-        rate: posterior median of the growth rate [w per experiment].
-        threshold: the alarm threshold of w.
-        probability_above_threshold: posterior P(w >= threshold).
-        remaining_experiments: median number of experiments until w >= threshold (0 when the
-            median wear is already above; ``inf`` beyond the forecast horizon; NaN when the
-            update asked for no forecast).
-        remaining_experiments_low: 2.5 % quantile of it.
-        remaining_experiments_high: 97.5 % quantile of it.
-        experiment_spacing_s: the spacing the forecast assumes [s]; NaN while unknown.
-        crossing_time_s: time of the median crossing, time_s + remaining x spacing [s];
-            ``inf`` beyond the horizon, NaN while the spacing is unknown.
-        crossing_time_low_s: 2.5 % quantile of the crossing time [s].
-        crossing_time_high_s: 97.5 % quantile of the crossing time [s].
+    :ivar time_s: time of the experiment [s] (or its index, if the index is used as time).
+    :ivar segment: number of maintenance resets before this estimate (0 for the first joint).
+    :ivar experiments: experiments in the current segment, including this one.
+    :ivar wear: posterior median of w [-].
+    :ivar wear_low: 2.5 % posterior quantile of w [-].
+    :ivar wear_high: 97.5 % posterior quantile of w [-].
+    :ivar rate: posterior median of the growth rate [w per experiment].
+    :ivar threshold: the alarm threshold of w.
+    :ivar probability_above_threshold: posterior P(w >= threshold).
+    :ivar remaining_experiments: median number of experiments until w >= threshold (0 when the
+        median wear is already above; ``inf`` beyond the forecast horizon; NaN when the
+        update asked for no forecast).
+    :ivar remaining_experiments_low: 2.5 % quantile of it.
+    :ivar remaining_experiments_high: 97.5 % quantile of it.
+    :ivar experiment_spacing_s: the spacing the forecast assumes [s]; NaN while unknown.
+    :ivar crossing_time_s: time of the median crossing, time_s + remaining x spacing [s];
+        ``inf`` beyond the horizon, NaN while the spacing is unknown.
+    :ivar crossing_time_low_s: 2.5 % quantile of the crossing time [s].
+    :ivar crossing_time_high_s: 97.5 % quantile of the crossing time [s].
 
     """
 
@@ -257,7 +258,8 @@ class _GridFilter:
         self.prob[rows] = self.rate_prior[:, None] * self.wear_prior[None, :]
 
     def rate_transition(self, elapsed: FloatArray) -> FloatArray:
-        """Return P(r' = j | r = i) over ``elapsed`` experiments, shape (B, R, R).
+        """
+        Return P(r' = j | r = i) over ``elapsed`` experiments, shape (B, R, R).
 
         Each distinct elapsed value's table is computed once and kept (up to
         :data:`_TRANSITIONS_KEPT`, the oldest dropped first): experiments at a regular interval
@@ -403,13 +405,13 @@ class _Spacing:
 # --------------------------------------------------------------------------- public classes
 
 class WearTrend:
-    """A monotone wear trend with a growth rate, filtered from per-experiment likelihood rows.
+    """
+    A monotone wear trend with a growth rate, filtered from per-experiment likelihood rows.
 
     The state is a pure function of the sequence of :meth:`update` and :meth:`reset` calls, so a
     restarted service rebuilds it by replaying its stored rows in order.
 
-    Args:
-        config: filter parameters (default :class:`TrendConfig`).
+    :param config: filter parameters (default :class:`TrendConfig`).
 
     """
 
@@ -426,7 +428,7 @@ class WearTrend:
 
     @property
     def wear_grid(self) -> FloatArray:
-        """The wear grid the likelihood rows must be given on, shape (G,)."""
+        """Return the wear grid the likelihood rows must be given on, shape (G,)."""
         return self.config.wear_grid
 
     def _elapsed(self, interval: float) -> float:
@@ -442,20 +444,19 @@ class WearTrend:
 
     def update(self, *, time_s: float, log_likelihood: ArrayLike,
                forecast: bool = True) -> TrendEstimate:
-        """Add one experiment and return the filtered trend.
+        """
+        Add one experiment and return the filtered trend.
 
-        Args:
-            time_s: time of the experiment [s] (or the experiment index), not before the last
-                experiment or reset.
-            log_likelihood: log-likelihood of w on ``wear_grid`` (any additive constant; -inf
-                allowed), shape (G,).
-            forecast: compute the crossing forecast (about 0.5 ms once the first forecast of the
-                configuration built its rows); False leaves its fields NaN, e.g. when replaying
-                a history (the state does not depend on it).
+        :param time_s: time of the experiment [s] (or the experiment index), not before the last
+            experiment or reset.
+        :param log_likelihood: log-likelihood of w on ``wear_grid`` (any additive constant; -inf
+            allowed), shape (G,).
+        :param forecast: compute the crossing forecast (about 0.5 ms once the first forecast of the
+            configuration built its rows); False leaves its fields NaN, e.g. when replaying
+            a history (the state does not depend on it).
 
-        Raises:
-            InputError: time going backwards or not finite, a row of the wrong shape, NaN, +inf
-                or no finite value.
+        :raises InputError: time going backwards or not finite, a row of the wrong shape, NaN, +inf
+            or no finite value.
 
         """
         time_s = float(time_s)
@@ -483,12 +484,12 @@ class WearTrend:
         return self.last_estimate
 
     def reset(self, *, time_s: Optional[float] = None) -> None:
-        """Start a new segment (maintenance): back to the new-joint prior.
+        """
+        Start a new segment (maintenance): back to the new-joint prior.
 
-        Args:
-            time_s: time of the maintenance [s] on the experiments' clock, not before the last
-                experiment; None: at the last experiment (when the reset comes from another
-                clock than the experiments' stamps, e.g. a node's clock during a bag replay).
+        :param time_s: time of the maintenance [s] on the experiments' clock, not before the last
+            experiment; None: at the last experiment (when the reset comes from another
+            clock than the experiments' stamps, e.g. a node's clock during a bag replay).
 
         """
         if time_s is not None:
@@ -527,7 +528,8 @@ class WearTrend:
             crossing_time_high_s=times[2])
 
     def _forecast(self) -> FloatArray:
-        """Return P(w >= threshold after n more experiments), n = 0 .. horizon, shape (H+1,).
+        """
+        Return P(w >= threshold after n more experiments), n = 0 .. horizon, shape (H+1,).
 
         Without data, one experiment ahead is the same linear map M of p(r, w) every step, so
         P_n = <M^n p, a> = <p, (M^T)^n a> with a the threshold indicator: the rows
@@ -558,7 +560,8 @@ def _config_key(config: TrendConfig) -> tuple:
 
 
 def _forecast_basis(flt: _GridFilter) -> FloatArray:
-    """Return the rows (M^T)^n a, n = 0 .. horizon, shape (H+1, R*G), cached per configuration.
+    """
+    Return the rows (M^T)^n a, n = 0 .. horizon, shape (H+1, R*G), cached per configuration.
 
     M is one experiment ahead without data: the rate transition of one experiment, then every
     rate row shifted by its rate (the linear split between two cells of :meth:`_GridFilter._shift`,
@@ -600,13 +603,13 @@ def _forecast_basis(flt: _GridFilter) -> FloatArray:
 
 @dataclass(frozen=True)
 class TrendBatch:
-    """Filtered trends of B independent experiment series of K experiments each.
+    """
+    Filtered trends of B independent experiment series of K experiments each.
 
-    Attributes:
-        wear: posterior median of w, shape (B, K).
-        wear_low: 2.5 % quantile, shape (B, K).
-        wear_high: 97.5 % quantile, shape (B, K).
-        probability_above_threshold: P(w >= threshold), shape (B, K).
+    :ivar wear: posterior median of w, shape (B, K).
+    :ivar wear_low: 2.5 % quantile, shape (B, K).
+    :ivar wear_high: 97.5 % quantile, shape (B, K).
+    :ivar probability_above_threshold: P(w >= threshold), shape (B, K).
 
     """
 
@@ -618,15 +621,15 @@ class TrendBatch:
 
 def filter_batch(*, times_s: ArrayLike, log_likelihood: ArrayLike,
                  config: TrendConfig | None = None) -> TrendBatch:
-    """Run B independent trends (one segment each) over K experiments, without forecasts.
+    """
+    Run B independent trends (one segment each) over K experiments, without forecasts.
 
     The same filter as :class:`WearTrend` (identical numbers), vectorised over the batch, for
     Monte Carlo studies.
 
-    Args:
-        times_s: experiment times [s] (or indices), shape (B, K), non-decreasing along K.
-        log_likelihood: rows on ``config.wear_grid``, shape (B, K, G).
-        config: filter parameters (default :class:`TrendConfig`).
+    :param times_s: experiment times [s] (or indices), shape (B, K), non-decreasing along K.
+    :param log_likelihood: rows on ``config.wear_grid``, shape (B, K, G).
+    :param config: filter parameters (default :class:`TrendConfig`).
 
     """
     cfg = config if config is not None else TrendConfig()

@@ -1,4 +1,5 @@
-"""Data types passed between segmentation, estimation and the service: friction levels.
+"""
+Data types passed between segmentation, estimation and the service: friction levels.
 
 These are the contract between the friction experiment (eq. (3)) and the estimator (16)-(19):
 a :class:`FrictionLevel` is one constant-speed friction level from a forward/backward pair, and a
@@ -14,20 +15,20 @@ import numpy as np
 
 @dataclass(frozen=True)
 class FrictionLevel:
-    """One friction level tau_f = (tau+ - tau-)/2 of eq. (3) from a forward/backward pass pair.
+    """
+    One friction level tau_f = (tau+ - tau-)/2 of eq. (3) from a forward/backward pass pair.
 
-    Attributes:
-        speed_rad_s: motor-side speed level (positive), mean |speed| of the two passes.
-        friction: tau_f, normalised torque (effort / torque_scale).
-        friction_std_error: standard error of tau_f from the within-pass scatter, normalised.
-        tau_forward: mean normalised torque of the forward (positive-speed) pass.
-        tau_backward: mean normalised torque of the backward (negative-speed) pass.
-        n_forward: samples averaged in the forward pass.
-        n_backward: samples averaged in the backward pass.
-        position_min_rad: lower end of the joint-side position window both passes cover.
-        position_max_rad: upper end of that window.
-        start_time_s: time of the first sample used [s].
-        end_time_s: time of the last sample used [s].
+    :ivar speed_rad_s: motor-side speed level (positive), mean |speed| of the two passes.
+    :ivar friction: tau_f, normalised torque (effort / torque_scale).
+    :ivar friction_std_error: standard error of tau_f from the within-pass scatter, normalised.
+    :ivar tau_forward: mean normalised torque of the forward (positive-speed) pass.
+    :ivar tau_backward: mean normalised torque of the backward (negative-speed) pass.
+    :ivar n_forward: samples averaged in the forward pass.
+    :ivar n_backward: samples averaged in the backward pass.
+    :ivar position_min_rad: lower end of the joint-side position window both passes cover.
+    :ivar position_max_rad: upper end of that window.
+    :ivar start_time_s: time of the first sample used [s].
+    :ivar end_time_s: time of the last sample used [s].
 
     """
 

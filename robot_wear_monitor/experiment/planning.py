@@ -1,4 +1,5 @@
-"""Plan the friction experiment: the motion that gives the designed speeds' friction levels.
+"""
+Plan the friction experiment: the motion that gives the designed speeds' friction levels.
 
 For each designed speed v_i (motor side, rad/s) the tested joint runs a forward and a backward
 pass at the constant joint speed v_i / gear_ratio through a position window around ``center_rad``
@@ -38,12 +39,12 @@ FloatArray = NDArray[np.float64]
 
 
 class PlanError(InputError):
-    """A motion the constraints do not allow.
+    """
+    A motion the constraints do not allow.
 
-    Attributes:
-        field: the :class:`PlanConfig` field to change (``half_range_rad``,
-            ``position_limits_rad``, ``max_speed_rad_s``).
-        detail: the problem with its numbers, without the hint of what to change.
+    :ivar field: the :class:`PlanConfig` field to change (``half_range_rad``,
+        ``position_limits_rad``, ``max_speed_rad_s``).
+    :ivar detail: the problem with its numbers, without the hint of what to change.
 
     """
 
@@ -62,35 +63,35 @@ REPOSITION, DWELL, RAMP, PLATEAU = 0, 1, 2, 3
 
 @dataclass(frozen=True)
 class PlanConfig:
-    """What the friction experiment of one joint must respect; units are in the field names.
+    """
+    What the friction experiment of one joint must respect; units are in the field names.
 
-    Attributes:
-        joint: name of the tested joint.
-        speeds_rad_s: designed speeds, motor side [rad/s], all > 0 (e.g. Table V's N = 4).
-        center_rad: centre phi_bar of the position window, joint side [rad].
-        half_range_rad: half width of the window the constant-speed passes must stay in [rad].
-        gear_ratio: motor speed / joint speed (1 for a direct drive).
-        max_acceleration_rad_s2: joint acceleration limit [rad/s^2].
-        max_jerk_rad_s3: joint jerk limit [rad/s^3]; None: trapezoidal speed changes.
-        max_speed_rad_s: joint speed limit [rad/s]; None: the fastest designed speed (the
-            repositioning moves then run at it).
-        position_limits_rad: (lower, upper) joint limits [rad]; None: not checked.
-        rate_hz: JointState rate the segmentation will see [Hz] (the sample counts).
-        noise_std: torque noise of one sample, normalised (the joint's noise level).
-        target_std_error: wanted standard error of each friction level, normalised; None: only
-            the segmentation's minimum plateau.
-        min_plateau_s: shortest plateau the segmentation keeps after trimming [s].
-        trim_s: time the segmentation trims at each plateau end [s].
-        min_samples: fewest samples per pass the segmentation keeps.
-        dwell_s: standstill at each turn [s].
-        joint_names: all joints of the trajectory (the tested one included); empty: only it.
-        hold_positions_rad: positions of the other joints, in ``joint_names`` order without the
-            tested joint [rad] (held during the experiment).
-        desired_plateau_s: a longer plateau wanted for every speed [s] (None: as short as
-            the segmentation and the accuracy target allow).
-        shorten_to_window: a plateau that does not fit the window is shortened to fit it
-            (down to the segmentation's minimum, ``min_plateau_s`` and ``min_samples``) instead
-            of refused; the accuracy target then does not hold for that speed.
+    :ivar joint: name of the tested joint.
+    :ivar speeds_rad_s: designed speeds, motor side [rad/s], all > 0 (e.g. Table V's N = 4).
+    :ivar center_rad: centre phi_bar of the position window, joint side [rad].
+    :ivar half_range_rad: half width of the window the constant-speed passes must stay in [rad].
+    :ivar gear_ratio: motor speed / joint speed (1 for a direct drive).
+    :ivar max_acceleration_rad_s2: joint acceleration limit [rad/s^2].
+    :ivar max_jerk_rad_s3: joint jerk limit [rad/s^3]; None: trapezoidal speed changes.
+    :ivar max_speed_rad_s: joint speed limit [rad/s]; None: the fastest designed speed (the
+        repositioning moves then run at it).
+    :ivar position_limits_rad: (lower, upper) joint limits [rad]; None: not checked.
+    :ivar rate_hz: JointState rate the segmentation will see [Hz] (the sample counts).
+    :ivar noise_std: torque noise of one sample, normalised (the joint's noise level).
+    :ivar target_std_error: wanted standard error of each friction level, normalised; None: only
+        the segmentation's minimum plateau.
+    :ivar min_plateau_s: shortest plateau the segmentation keeps after trimming [s].
+    :ivar trim_s: time the segmentation trims at each plateau end [s].
+    :ivar min_samples: fewest samples per pass the segmentation keeps.
+    :ivar dwell_s: standstill at each turn [s].
+    :ivar joint_names: all joints of the trajectory (the tested one included); empty: only it.
+    :ivar hold_positions_rad: positions of the other joints, in ``joint_names`` order without the
+        tested joint [rad] (held during the experiment).
+    :ivar desired_plateau_s: a longer plateau wanted for every speed [s] (None: as short as
+        the segmentation and the accuracy target allow).
+    :ivar shorten_to_window: a plateau that does not fit the window is shortened to fit it
+        (down to the segmentation's minimum, ``min_plateau_s`` and ``min_samples``) instead
+        of refused; the accuracy target then does not hold for that speed.
 
     """
 
@@ -169,7 +170,7 @@ class PlanConfig:
 
     @property
     def samples_per_pass(self) -> int:
-        """Samples M each pass needs inside its plateau (segmentation and accuracy)."""
+        """Return the samples M each pass needs inside its plateau (segmentation and accuracy)."""
         needed = float(self.min_samples)
         if self.target_std_error is not None and self.noise_std > 0:
             needed = max(needed, self.noise_std ** 2 / (2.0 * self.target_std_error ** 2))
@@ -209,7 +210,8 @@ class PlannedSpeed:
 
 @dataclass(frozen=True)
 class ExperimentPlan:
-    """A planned friction experiment: phases of constant jerk of the tested joint.
+    """
+    A planned friction experiment: phases of constant jerk of the tested joint.
 
     Arrays of shape (P,) per phase: ``start_s``, ``duration_s``, the state at the phase start
     ``position_rad``, ``velocity_rad_s``, ``acceleration_rad_s2``, its ``jerk_rad_s3``, the
@@ -235,13 +237,12 @@ class ExperimentPlan:
 
     def sample(self, time_s: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray,
                                                  NDArray[np.int64]]:
-        """Return the exact (position, velocity, acceleration, speed index) at ``time_s``.
+        """
+        Return the exact (position, velocity, acceleration, speed index) at ``time_s``.
 
-        Args:
-            time_s: times from the plan's start [s], any shape; clipped to [0, total_s].
+        :param time_s: times from the plan's start [s], any shape; clipped to [0, total_s].
 
-        Returns:
-            Joint-side position [rad], velocity [rad/s], acceleration [rad/s^2] and the index
+        :return: Joint-side position [rad], velocity [rad/s], acceleration [rad/s^2] and the index
             of the designed speed each time belongs to, all of the shape of ``time_s``.
 
         """
@@ -259,7 +260,8 @@ class ExperimentPlan:
     def sampled(self, rate_hz: Optional[float] = None) -> tuple[FloatArray, FloatArray,
                                                                 FloatArray, FloatArray,
                                                                 NDArray[np.int64]]:
-        """Return (time_s, position, velocity, acceleration, speed index) at ``rate_hz``.
+        """
+        Return (time_s, position, velocity, acceleration, speed index) at ``rate_hz``.
 
         The samples are k / rate_hz for k = 0 .. floor(total_s rate_hz), plus the end point.
         Default rate: the configured JointState rate.
@@ -379,22 +381,20 @@ class _Builder:
 # --------------------------------------------------------------------------- the plan
 
 def plan_experiment(*, config: PlanConfig) -> ExperimentPlan:
-    """Plan the friction experiment of one joint (see the module docstring).
+    """
+    Plan the friction experiment of one joint (see the module docstring).
 
     Per designed speed, in the given order: a repositioning move to the start of its forward
     pass, the forward pass, a dwell, the backward pass, a dwell; at the end, back to the centre.
     Each pass ramps up outside the window, runs the plateau (``config.plateau_s``) centred on
     ``center_rad``, and ramps down outside it.
 
-    Args:
-        config: the constraints.
+    :param config: the constraints.
 
-    Returns:
-        The :class:`ExperimentPlan`.
+    :return: The :class:`ExperimentPlan`.
 
-    Raises:
-        PlanError: a plateau that does not fit the window, or a motion beyond the joint
-            limits; the message names the speed and the numbers, ``field`` the constraint.
+    :raises PlanError: a plateau that does not fit the window, or a motion beyond the joint
+        limits; the message names the speed and the numbers, ``field`` the constraint.
 
     """
     cfg = config
@@ -476,13 +476,13 @@ def _position_range(plan: ExperimentPlan) -> list[float]:
 
 @dataclass(frozen=True)
 class TrajectoryPoints:
-    """Waypoints of a planned experiment for a trajectory controller.
+    """
+    Waypoints of a planned experiment for a trajectory controller.
 
-    Attributes:
-        joint_names: the joints, shape (J,) (the tested joint and the held ones).
-        time_from_start_s: point times [s], shape (P,), increasing, all > 0.
-        positions_rad: shape (P, J); velocities_rad_s: shape (P, J);
-        accelerations_rad_s2: shape (P, J) (zero for the held joints).
+    :ivar joint_names: the joints, shape (J,) (the tested joint and the held ones).
+    :ivar time_from_start_s: point times [s], shape (P,), increasing, all > 0.
+    :ivar positions_rad: shape (P, J); velocities_rad_s: shape (P, J);
+    :ivar accelerations_rad_s2: shape (P, J) (zero for the held joints).
 
     """
 
@@ -495,7 +495,8 @@ class TrajectoryPoints:
 
 def trajectory_points(plan: ExperimentPlan, *, point_rate_hz: float = 50.0
                       ) -> TrajectoryPoints:
-    """Return waypoints of ``plan``: a uniform grid at ``point_rate_hz`` plus every phase end.
+    """
+    Return waypoints of ``plan``: a uniform grid at ``point_rate_hz`` plus every phase end.
 
     Position, velocity and acceleration are exact at every point (the plan is piecewise cubic);
     the phase ends are included so that a controller's spline through the points has the

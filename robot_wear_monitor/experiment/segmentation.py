@@ -1,4 +1,5 @@
-"""Segmentation of one joint's stream into constant-speed friction levels, eq. (3) of the paper.
+"""
+Segmentation of one joint's stream into constant-speed friction levels, eq. (3) of the paper.
 
 The friction experiment moves one joint back and forth around a position phi_bar at a constant
 speed.  For every forward/backward pair of constant-speed passes at the same speed level, over the
@@ -88,25 +89,25 @@ _PARTNER_FRACTION = 0.2
 
 @dataclass(frozen=True)
 class SegmenterConfig:
-    """Settings of the segmentation of one joint; units are in the field names.
+    """
+    Settings of the segmentation of one joint; units are in the field names.
 
-    Attributes:
-        joint: name of the joint in the ``JointState`` messages.
-        gear_ratio: motor speed = gear_ratio x joint speed (1 for link-side sensors).
-        torque_scale: normalised torque = effort / torque_scale (same unit as effort).
-        standstill_speed_rad_s: motor-side speed at or below which the joint counts as
-            standing still [rad/s].
-        speed_tolerance_fraction: a sample is at constant speed if its speed is within this
-            fraction of the pass's speed level [-].
-        speed_tolerance_rad_s: lower bound of that tolerance band, motor side [rad/s].
-        min_duration_s: shortest constant-speed plateau kept as a pass [s].
-        trim_s: time dropped at each end of each plateau (ends of the ramps) [s].
-        min_samples: fewest samples per pass inside the common position window.
-        min_window_rad: narrowest common position window of a pair, joint side [rad].
-        window_center_rad: phi_bar, the centre of a fixed position window, joint side [rad];
-            None uses the whole common window of each pair.
-        window_half_width_rad: half width of that fixed window [rad] (set with the centre).
-        max_gap_s: a time step longer than this splits the stream [s].
+    :ivar joint: name of the joint in the ``JointState`` messages.
+    :ivar gear_ratio: motor speed = gear_ratio x joint speed (1 for link-side sensors).
+    :ivar torque_scale: normalised torque = effort / torque_scale (same unit as effort).
+    :ivar standstill_speed_rad_s: motor-side speed at or below which the joint counts as
+        standing still [rad/s].
+    :ivar speed_tolerance_fraction: a sample is at constant speed if its speed is within this
+        fraction of the pass's speed level [-].
+    :ivar speed_tolerance_rad_s: lower bound of that tolerance band, motor side [rad/s].
+    :ivar min_duration_s: shortest constant-speed plateau kept as a pass [s].
+    :ivar trim_s: time dropped at each end of each plateau (ends of the ramps) [s].
+    :ivar min_samples: fewest samples per pass inside the common position window.
+    :ivar min_window_rad: narrowest common position window of a pair, joint side [rad].
+    :ivar window_center_rad: phi_bar, the centre of a fixed position window, joint side [rad];
+        None uses the whole common window of each pair.
+    :ivar window_half_width_rad: half width of that fixed window [rad] (set with the centre).
+    :ivar max_gap_s: a time step longer than this splits the stream [s].
 
     """
 
@@ -177,7 +178,8 @@ class SegmentationResult:
 
 def pick_joint(*, name: Sequence[str], position: Sequence[float], velocity: Sequence[float],
                effort: Sequence[float], joint: str) -> tuple[float, float, float] | str:
-    """Return (position, velocity, effort) of ``joint`` from one JointState, or a reason.
+    """
+    Return (position, velocity, effort) of ``joint`` from one JointState, or a reason.
 
     The reason (a key of :data:`SAMPLE_REASONS`) says why the message cannot be used: the joint
     is absent, an array is empty, or an array's length differs from ``name``.  Values are not
@@ -202,7 +204,8 @@ def pick_joint(*, name: Sequence[str], position: Sequence[float], velocity: Sequ
 
 @dataclass(frozen=True)
 class Pass:
-    """Constant-speed samples of one move: time [s], position [rad], motor speed, torque.
+    """
+    Constant-speed samples of one move: time [s], position [rad], motor speed, torque.
 
     ``direction`` is +1 or -1; ``level_rad_s`` the speed level [rad/s, motor side]; the arrays
     (shape (n,)) are the plateau's samples, torque normalised (effort / ``torque_scale``).
@@ -240,7 +243,8 @@ _TIME_EPS_S = 1e-6
 def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: FloatArray,
                   torque: FloatArray, direction: int, config: SegmenterConfig,
                   rejections: Counter) -> Pass | None:
-    """Find the constant-speed plateau of one move; None (counted) when it is unusable.
+    """
+    Find the constant-speed plateau of one move; None (counted) when it is unusable.
 
     ``speed_rad_s`` is the signed motor speed; moves shorter than ``min_duration_s`` in total
     are standstill jitter and are ignored without being counted.
@@ -286,7 +290,8 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
 
 
 def _torque_at(position: FloatArray, torque: FloatArray, centre: float) -> tuple[float, float]:
-    """Return the torque of a pass at ``centre`` and the residual variance, by a line fit.
+    """
+    Return the torque of a pass at ``centre`` and the residual variance, by a line fit.
 
     The line tau = a + b (q - mean q) is fitted in position; its value at the window centre is
     the mean torque corrected for the pass's samples not being centred in the window (so a
@@ -346,7 +351,8 @@ class _Pairer:
 
 def one_way_passes(*, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
                    effort: ArrayLike, config: SegmenterConfig) -> list[Pass]:
-    """Return every constant-speed pass of a recording (paired or not), in time order.
+    """
+    Return every constant-speed pass of a recording (paired or not), in time order.
 
     For runs that move one way only (one file per speed and direction): their passes are
     paired across files with :func:`pair_passes`.
@@ -367,7 +373,8 @@ def same_speed(first: Pass, second: Pass, config: SegmenterConfig) -> bool:
 
 def pair_passes(first: Pass, second: Pass, config: SegmenterConfig
                 ) -> tuple[FrictionLevel | None, str]:
-    """Return the level of eq. (3) of two opposite passes, or None and the reason.
+    """
+    Return the level of eq. (3) of two opposite passes, or None and the reason.
 
     Both passes are cut to their common position window (at least ``min_window_rad`` wide,
     ``min_samples`` samples each); tau+ and tau- are their torques at the window centre (a
@@ -403,7 +410,8 @@ def pair_passes(first: Pass, second: Pass, config: SegmenterConfig
 
 
 def _at_extreme(torque: FloatArray) -> float:
-    """Return the fraction of a pass's torque samples at its extreme value away from zero.
+    """
+    Return the fraction of a pass's torque samples at its extreme value away from zero.
 
     A drive at its torque limit records the limit itself, sample after sample: a measured
     torque with noise repeats its largest magnitude only by chance.
@@ -416,11 +424,11 @@ def _at_extreme(torque: FloatArray) -> float:
 # --------------------------------------------------------------------------- streaming
 
 class StreamingSegmenter:
-    """Segment one joint's samples as they arrive (the live node); see the module docstring.
+    """
+    Segment one joint's samples as they arrive (the live node); see the module docstring.
 
-    Attributes:
-        config: the settings.
-        rejections: counter reason -> count of rejected messages, samples and passes.
+    :ivar config: the settings.
+    :ivar rejections: counter reason -> count of rejected messages, samples and passes.
 
     """
 
@@ -445,14 +453,14 @@ class StreamingSegmenter:
 
     def add_joint_state(self, *, stamp_s: float, name: Sequence[str], position: Any,
                         velocity: Any, effort: Any) -> list[FrictionLevel]:
-        """Add one ``sensor_msgs/JointState`` message; return the levels it completes.
+        """
+        Add one ``sensor_msgs/JointState`` message; return the levels it completes.
 
-        Args:
-            stamp_s: header stamp [s].
-            name: joint names of the message (any order, any number of joints).
-            position: joint positions [rad], same length as ``name``.
-            velocity: joint velocities [rad/s], same length as ``name``.
-            effort: efforts (unit of ``torque_scale``), same length as ``name``.
+        :param stamp_s: header stamp [s].
+        :param name: joint names of the message (any order, any number of joints).
+        :param position: joint positions [rad], same length as ``name``.
+        :param velocity: joint velocities [rad/s], same length as ``name``.
+        :param effort: efforts (unit of ``torque_scale``), same length as ``name``.
 
         """
         picked = pick_joint(name=name, position=position, velocity=velocity, effort=effort,
@@ -531,21 +539,19 @@ def _as_1d(values: ArrayLike, label: str) -> FloatArray:
 
 def segment_batch(*, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
                   effort: ArrayLike, config: SegmenterConfig) -> SegmentationResult:
-    """Segment a whole recording of one joint at once (the replay path).
+    """
+    Segment a whole recording of one joint at once (the replay path).
 
-    Args:
-        time_s: sample times [s], shape (n,).
-        position_rad: joint positions [rad], shape (n,).
-        velocity_rad_s: joint velocities [rad/s], shape (n,).
-        effort: efforts (unit of ``config.torque_scale``), shape (n,).
-        config: the settings.
+    :param time_s: sample times [s], shape (n,).
+    :param position_rad: joint positions [rad], shape (n,).
+    :param velocity_rad_s: joint velocities [rad/s], shape (n,).
+    :param effort: efforts (unit of ``config.torque_scale``), shape (n,).
+    :param config: the settings.
 
-    Returns:
-        The same levels and sample/pass rejection counts as feeding the samples one by one to a
-        :class:`StreamingSegmenter` and calling ``finish``.
+    :return: The same levels and sample/pass rejection counts as feeding the samples one by one to
+        a :class:`StreamingSegmenter` and calling ``finish``.
 
-    Raises:
-        InputError: the arrays are not one-dimensional or differ in length.
+    :raises InputError: the arrays are not one-dimensional or differ in length.
 
     """
     if not isinstance(config, SegmenterConfig):
@@ -559,7 +565,8 @@ def segment_batch(*, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s:
 
 
 class ChunkSegmenter:
-    """Segment one joint's recording chunk by chunk with numpy (the replay of a long bag).
+    """
+    Segment one joint's recording chunk by chunk with numpy (the replay of a long bag).
 
     Feeding a recording in chunks of any sizes, then calling :meth:`finish`, gives the same
     levels and rejection counts as :func:`segment_batch` on the whole recording, and as the
@@ -567,9 +574,8 @@ class ChunkSegmenter:
     progress (its samples since the last sign change) and a few scalars are kept, so memory
     does not grow with the recording.
 
-    Attributes:
-        config: the settings.
-        rejections: counter reason -> count of rejected samples and passes.
+    :ivar config: the settings.
+    :ivar rejections: counter reason -> count of rejected samples and passes.
 
     """
 
@@ -595,13 +601,13 @@ class ChunkSegmenter:
 
     def add(self, *, time_s: ArrayLike, position_rad: ArrayLike, velocity_rad_s: ArrayLike,
             effort: ArrayLike) -> list[FrictionLevel]:
-        """Add the next chunk of samples; return the levels it completes.
+        """
+        Add the next chunk of samples; return the levels it completes.
 
         Arrays: shape (n,), time [s], joint position [rad], joint speed [rad/s], effort (unit
         of ``config.torque_scale``).
 
-        Raises:
-            InputError: the arrays are not one-dimensional or differ in length.
+        :raises InputError: the arrays are not one-dimensional or differ in length.
 
         """
         config = self.config
@@ -714,7 +720,8 @@ def _count(counter: Counter, reason: str, count: int | np.integer) -> None:
 # --------------------------------------------------------------------------- experiments
 
 def merge_levels(levels: Sequence[FrictionLevel]) -> FrictionLevel:
-    """Combine repeated levels at one speed into one, weighting by inverse variance.
+    """
+    Combine repeated levels at one speed into one, weighting by inverse variance.
 
     The friction, forward and backward torques and the speed are inverse-variance weighted
     means; the standard error is 1/sqrt(sum 1/se^2); counts add; windows and times span all.
@@ -747,7 +754,8 @@ def merge_levels(levels: Sequence[FrictionLevel]) -> FrictionLevel:
 
 
 class SpeedTally:
-    """Count friction levels per speed, a speed being a cluster of measured speeds.
+    """
+    Count friction levels per speed, a speed being a cluster of measured speeds.
 
     A level within ``tolerance_rad_s`` of a speed's mean belongs to it (a measured speed varies
     by a few mrad/s around the commanded one).  ``counts()`` gives mean speed rounded to
@@ -786,7 +794,8 @@ class SpeedTally:
 
 
 class ExperimentAssembler:
-    """Group consecutive friction levels into experiments (one run of the friction experiment).
+    """
+    Group consecutive friction levels into experiments (one run of the friction experiment).
 
     With ``speeds_rad_s`` (motor side) every level is matched to the nearest configured speed
     within ``speed_tolerance_rad_s`` (levels at other speeds are ignored and counted in
@@ -801,11 +810,10 @@ class ExperimentAssembler:
     repeat); a level at the same speed as the one just before (within the tolerance) is merged
     with it.  Its levels are returned in the order they were measured.
 
-    Attributes:
-        ignored: levels at no configured speed.
-        ignored_speeds: a :class:`SpeedTally` of their speeds (reported, never silently
-            dropped).
-        abandoned: incomplete experiments dropped.
+    :ivar ignored: levels at no configured speed.
+    :ivar ignored_speeds: a :class:`SpeedTally` of their speeds (reported, never silently
+        dropped).
+    :ivar abandoned: incomplete experiments dropped.
 
     """
 

@@ -1,4 +1,5 @@
-"""Simulated friction experiments of one joint of a 6-axis arm, and accelerated wear scenarios.
+"""
+Simulated friction experiments of one joint of a 6-axis arm, and accelerated wear scenarios.
 
 One experiment (Sec. II-A of the paper) moves the tested joint back and forth around phi_bar at
 each speed of a list, along the planned motion of ``experiment.planning`` (the same plan that
@@ -56,31 +57,31 @@ TRUTH_SUFFIX = '.truth.json'
 
 @dataclass(frozen=True)
 class JointSimConfig:
-    """The simulated arm, joint, trajectory and sensors; units are in the field names.
+    """
+    The simulated arm, joint, trajectory and sensors; units are in the field names.
 
-    Attributes:
-        joint: name of the tested joint (one of ``joint_names``).
-        joint_names: names of all joints in the JointState samples.
-        gear_ratio: motor speed / joint speed.
-        torque_scale: effort per unit of normalised torque (e.g. N m at the motor).
-        sample_rate_hz: JointState rate [Hz].
-        phi_bar_rad: centre of the back-and-forth moves, joint side [rad].
-        cruise_s: wanted constant-speed time per pass [s].
-        max_stroke_rad: longest travel per pass, joint side [rad].
-        acceleration_rad_s2: joint acceleration limit of the speed changes [rad/s^2].
-        jerk_rad_s3: joint jerk limit [rad/s^3]; None: trapezoidal speed changes.
-        dwell_s: standstill at every turn [s].
-        gravity_amplitude: amplitude of g(q), normalised.
-        gravity_phase_rad: phase of g(q) = amplitude sin(q + phase) [rad].
-        inertia: normalised torque per motor acceleration [1/(rad/s^2)].
-        effort_noise_std: white noise on the tested joint's torque, normalised.
-        velocity_noise_std_rad_s: white noise on the measured speed, motor side [rad/s].
-        effort_resolution: quantisation step of effort (effort units).
-        position_resolution_rad: quantisation step of joint positions [rad].
-        other_positions_rad: positions of the other joints, in ``joint_names`` order without
-            the tested joint [rad].
-        other_efforts: efforts of the other joints (effort units).
-        shuffle_joint_order: give every sample a random order of the joint names.
+    :ivar joint: name of the tested joint (one of ``joint_names``).
+    :ivar joint_names: names of all joints in the JointState samples.
+    :ivar gear_ratio: motor speed / joint speed.
+    :ivar torque_scale: effort per unit of normalised torque (e.g. N m at the motor).
+    :ivar sample_rate_hz: JointState rate [Hz].
+    :ivar phi_bar_rad: centre of the back-and-forth moves, joint side [rad].
+    :ivar cruise_s: wanted constant-speed time per pass [s].
+    :ivar max_stroke_rad: longest travel per pass, joint side [rad].
+    :ivar acceleration_rad_s2: joint acceleration limit of the speed changes [rad/s^2].
+    :ivar jerk_rad_s3: joint jerk limit [rad/s^3]; None: trapezoidal speed changes.
+    :ivar dwell_s: standstill at every turn [s].
+    :ivar gravity_amplitude: amplitude of g(q), normalised.
+    :ivar gravity_phase_rad: phase of g(q) = amplitude sin(q + phase) [rad].
+    :ivar inertia: normalised torque per motor acceleration [1/(rad/s^2)].
+    :ivar effort_noise_std: white noise on the tested joint's torque, normalised.
+    :ivar velocity_noise_std_rad_s: white noise on the measured speed, motor side [rad/s].
+    :ivar effort_resolution: quantisation step of effort (effort units).
+    :ivar position_resolution_rad: quantisation step of joint positions [rad].
+    :ivar other_positions_rad: positions of the other joints, in ``joint_names`` order without
+        the tested joint [rad].
+    :ivar other_efforts: efforts of the other joints (effort units).
+    :ivar shuffle_joint_order: give every sample a random order of the joint names.
 
     """
 
@@ -148,18 +149,18 @@ def segmenter_config_for(config: JointSimConfig, **overrides) -> SegmenterConfig
 
 @dataclass(frozen=True)
 class ExperimentTruth:
-    """What the simulator used for experiment k (the answer the monitor should find).
+    """
+    What the simulator used for experiment k (the answer the monitor should find).
 
-    Attributes:
-        k: experiment index.
-        wear: wear level w.
-        temperature_degc: joint temperature T [degC].
-        load: load torque tau_l, normalised.
-        speeds_rad_s: motor-side speed levels, in the order run.
-        friction_model: tau_f of the complete model (8) at each speed, normalised.
-        friction_true: friction the joint actually had (model + level error), normalised.
-        start_time_s: time of the first sample of the experiment [s].
-        end_time_s: time of the last sample [s].
+    :ivar k: experiment index.
+    :ivar wear: wear level w.
+    :ivar temperature_degc: joint temperature T [degC].
+    :ivar load: load torque tau_l, normalised.
+    :ivar speeds_rad_s: motor-side speed levels, in the order run.
+    :ivar friction_model: tau_f of the complete model (8) at each speed, normalised.
+    :ivar friction_true: friction the joint actually had (model + level error), normalised.
+    :ivar start_time_s: time of the first sample of the experiment [s].
+    :ivar end_time_s: time of the last sample [s].
 
     """
 
@@ -176,18 +177,18 @@ class ExperimentTruth:
 
 @dataclass
 class Scenario:
-    """JointState samples of all joints plus the truth of every experiment.
+    """
+    JointState samples of all joints plus the truth of every experiment.
 
-    Attributes:
-        joint_names: joint names, column order of the arrays.
-        joint: the tested joint.
-        time_s: sample stamps [s], shape (n,).
-        position_rad: joint positions [rad], shape (n, J).
-        velocity_rad_s: joint velocities [rad/s], shape (n, J).
-        effort: efforts (effort units), shape (n, J).
-        truth: one :class:`ExperimentTruth` per experiment.
-        config: the simulated joint.
-        name_order: per-sample permutation of the columns, shape (n, J), or None (column order).
+    :ivar joint_names: joint names, column order of the arrays.
+    :ivar joint: the tested joint.
+    :ivar time_s: sample stamps [s], shape (n,).
+    :ivar position_rad: joint positions [rad], shape (n, J).
+    :ivar velocity_rad_s: joint velocities [rad/s], shape (n, J).
+    :ivar effort: efforts (effort units), shape (n, J).
+    :ivar truth: one :class:`ExperimentTruth` per experiment.
+    :ivar config: the simulated joint.
+    :ivar name_order: per-sample permutation of the columns, shape (n, J), or None (column order).
 
     """
 
@@ -204,7 +205,7 @@ class Scenario:
 
     @property
     def n_samples(self) -> int:
-        """Number of JointState samples."""
+        """Return the number of JointState samples."""
         return int(self.time_s.size)
 
     def joint_samples(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -225,7 +226,8 @@ class Scenario:
 
 def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float] | FloatArray
                     ) -> PlanConfig:
-    """Return the plan the simulated joint executes (``experiment.planning``).
+    """
+    Return the plan the simulated joint executes (``experiment.planning``).
 
     The window is centred on ``phi_bar_rad`` with half width ``max_stroke_rad`` / 2, each
     plateau lasts ``cruise_s`` (``desired_plateau_s``; no accuracy target; shorter where the
@@ -247,14 +249,14 @@ def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float] | Floa
 
 def experiment_trajectory(*, speeds_rad_s: Sequence[float] | FloatArray, config: JointSimConfig
                           ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64]]:
-    """Return the tested joint's planned trajectory, sampled at the sample rate.
+    """
+    Return the tested joint's planned trajectory, sampled at the sample rate.
 
     The motion is the one ``robot-wear-monitor plan`` and the ``friction_experiment_runner``
     node send to the robot (:func:`plan_config_for`, ``planning.plan_experiment``): there is
     no second trajectory generator.
 
-    Returns:
-        (position [rad], velocity [rad/s], acceleration [rad/s^2], speed index) of shape (n,),
+    :return: (position [rad], velocity [rad/s], acceleration [rad/s^2], speed index) of shape (n,),
         joint side, at t = k / sample_rate_hz; the speed index says which speed of
         ``speeds_rad_s`` a sample belongs to.
 
@@ -275,10 +277,10 @@ def simulate_experiment(*, speeds_rad_s: Sequence[float], temperature_degc: floa
                         level_error_std: float = 0.0, k: int = 0
                         ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
                                    ExperimentTruth]:
-    """Simulate one friction experiment of the tested joint, eq. (*) of the module docstring.
+    """
+    Simulate one friction experiment of the tested joint, eq. (*) of the module docstring.
 
-    Returns:
-        (time_s (n,), position_rad (n, J), velocity_rad_s (n, J), effort (n, J), truth).
+    :return: (time_s (n,), position_rad (n, J), velocity_rad_s (n, J), effort (n, J), truth).
 
     """
     speeds = np.asarray(list(speeds_rad_s), dtype=float)
@@ -331,17 +333,17 @@ def simulate_experiment(*, speeds_rad_s: Sequence[float], temperature_degc: floa
 
 @dataclass(frozen=True)
 class ScenarioConfig:
-    """A sequence of experiments k = 0..K-1 with wear, temperature and load per experiment.
+    """
+    A sequence of experiments k = 0..K-1 with wear, temperature and load per experiment.
 
-    Attributes:
-        speeds_rad_s: motor-side speeds of every experiment [rad/s].
-        wear: w(k), one per experiment.
-        temperature_degc: T(k) [degC], one per experiment.
-        load: tau_l(k), normalised, one per experiment.
-        experiment_interval_s: time from one experiment's start to the next [s].
-        start_time_s: stamp of the first sample [s] (default 2024-01-01T00:00:00Z).
-        level_error_std: std of the per-level model error epsilon of eq. (9b), normalised.
-        joint: the simulated arm and sensors.
+    :ivar speeds_rad_s: motor-side speeds of every experiment [rad/s].
+    :ivar wear: w(k), one per experiment.
+    :ivar temperature_degc: T(k) [degC], one per experiment.
+    :ivar load: tau_l(k), normalised, one per experiment.
+    :ivar experiment_interval_s: time from one experiment's start to the next [s].
+    :ivar start_time_s: stamp of the first sample [s] (default 2024-01-01T00:00:00Z).
+    :ivar level_error_std: std of the per-level model error epsilon of eq. (9b), normalised.
+    :ivar joint: the simulated arm and sensors.
 
     """
 
@@ -378,21 +380,20 @@ class ScenarioConfig:
 
     @property
     def n_experiments(self) -> int:
-        """Number of experiments K."""
+        """Return the number of experiments K."""
         return len(self.wear)
 
 
 def simulate_scenario(*, config: ScenarioConfig, model: FrictionModel | None = None,
                       seed: int = 0) -> Scenario:
-    """Simulate every experiment of a scenario; reproducible for a given seed.
+    """
+    Simulate every experiment of a scenario; reproducible for a given seed.
 
-    Args:
-        config: the scenario.
-        model: friction model coefficients (default: the packaged parameter set's).
-        seed: random seed.
+    :param config: the scenario.
+    :param model: friction model coefficients (default: the packaged parameter set's).
+    :param seed: random seed.
 
-    Raises:
-        InputError: an experiment would last longer than ``experiment_interval_s``.
+    :raises InputError: an experiment would last longer than ``experiment_interval_s``.
 
     """
     if model is None:
@@ -424,7 +425,8 @@ def simulate_scenario(*, config: ScenarioConfig, model: FrictionModel | None = N
 def accelerated_wear_profile(*, n_experiments: int = 100, wear_final: float = 60.0,
                              rise_experiments: float = 6.0, baseline: float = 1.0,
                              jitter: float = 0.5, rng: np.random.Generator) -> FloatArray:
-    """Return w(k): about ``baseline`` with small random variations, then an exponential rise.
+    """
+    Return w(k): about ``baseline`` with small random variations, then an exponential rise.
 
     w(k) = baseline + (wear_final - baseline) exp((k - K + 1) / rise_experiments) + jitter, at
     least 0: it stays low for most of the test and crosses 35 in the last few experiments, like
@@ -441,7 +443,8 @@ def accelerated_wear_scenario(*, n_experiments: int = 100,
                               wear_final: float = 60.0, level_error_std: float | None = None,
                               joint: JointSimConfig | None = None,
                               experiment_interval_s: float = 3600.0) -> ScenarioConfig:
-    """Return an accelerated wear test like Sec. V: wear rising at the end, T and load varying.
+    """
+    Return an accelerated wear test like Sec. V: wear rising at the end, T and load varying.
 
     Wear: :func:`accelerated_wear_profile` (low, then past 35 in the last experiments).
     Temperature: a slow drift and a faster swing within 30-50 degC plus 1 degC noise.

@@ -1,4 +1,5 @@
-"""Re-analysis of many recordings: one replay task per bag, on a process pool or a Dask cluster.
+"""
+Re-analysis of many recordings: one replay task per bag, on a process pool or a Dask cluster.
 
 The bags come as paths (a bag, or a folder of bags) or as a manifest CSV with the columns
 ``robot,bag``.  Every bag is one task (:func:`replay_one`), run by a process pool on this
@@ -47,7 +48,8 @@ class BatchError(InputError):
 
 @dataclass(frozen=True)
 class BagTask:
-    """One recording to replay: the robot it comes from and where it is.
+    """
+    One recording to replay: the robot it comes from and where it is.
 
     ``out_bag``: where its node outputs go (``<out>/<robot>/<bag name>``), or None.
     ``order``: its place among the robot's bags (0 first; time order).
@@ -61,7 +63,8 @@ class BagTask:
 
 @dataclass(frozen=True)
 class ReplaySettings:
-    """What every task of a batch replays with (picklable: it travels to the workers).
+    """
+    What every task of a batch replays with (picklable: it travels to the workers).
 
     The fields mirror ``replay``'s options: the node config file, the joint selection, the
     overrides, the history (path or ``postgresql://`` URL) and the output storage.
@@ -81,7 +84,8 @@ class ReplaySettings:
 
 @dataclass
 class BagOutcome:
-    """What one task did with its bag.
+    """
+    What one task did with its bag.
 
     ``status``: ``done``, ``skipped`` (already in the history) or ``failed`` (``reason`` says
     why).  ``experiments``: estimates added; ``alarms``: alarms raised among them;
@@ -152,7 +156,8 @@ def _cut(text: str, limit: int = 80) -> str:
 
 
 def read_manifest(path: str | os.PathLike) -> list[tuple[str, Path]]:
-    """Return the (robot, bag) rows of a manifest CSV with the columns ``robot,bag``.
+    """
+    Return the (robot, bag) rows of a manifest CSV with the columns ``robot,bag``.
 
     A relative bag path is relative to the manifest's folder.  Raises BatchError naming the
     file and line for a missing column, an empty robot or bag, or a file over the limits.
@@ -187,7 +192,8 @@ def read_manifest(path: str | os.PathLike) -> list[tuple[str, Path]]:
 def collect_bags(*, paths: Sequence[str | os.PathLike] = (),
                  manifest: str | os.PathLike | None = None, robot: str | None = None,
                  out_dir: str | os.PathLike | None = None) -> list[BagTask]:
-    """Return the tasks of ``paths`` (bags, or folders of bags) and of a ``manifest``.
+    """
+    Return the tasks of ``paths`` (bags, or folders of bags) and of a ``manifest``.
 
     Bags given as paths belong to ``robot`` (default :data:`DEFAULT_ROBOT`); a manifest names
     each bag's robot.  With ``out_dir``, each bag's output bag is ``out_dir/<robot>/<bag
@@ -247,7 +253,8 @@ def recording_start_ns(bag: Path) -> Optional[int]:
 
 
 def order_tasks(tasks: Iterable[BagTask]) -> list[BagTask]:
-    """Return ``tasks`` with each robot's bags numbered in time order (then by path).
+    """
+    Return ``tasks`` with each robot's bags numbered in time order (then by path).
 
     The list keeps the given order; ``order`` is a bag's place in its robot's sequence.
     """
@@ -266,7 +273,8 @@ def order_tasks(tasks: Iterable[BagTask]) -> list[BagTask]:
 
 
 def recording_fingerprint(bag: str | os.PathLike) -> str:
-    """Return a fingerprint of a recording's content (hex SHA-256).
+    """
+    Return a fingerprint of a recording's content (hex SHA-256).
 
     Over each file's name (relative to the bag), size and its first and last 64 KiB: the same
     recording copied elsewhere has the same fingerprint; a different or grown one does not.
@@ -365,7 +373,8 @@ def run_batch(tasks: Sequence[BagTask], *, settings: ReplaySettings, workers: in
               dask_address: str | None = None, dask_client: Any = None,
               progress: bool = False,
               on_outcome: Optional[Callable[[BagOutcome], None]] = None) -> BatchResult:
-    """Replay every task; return the outcomes in the order of ``tasks``.
+    """
+    Replay every task; return the outcomes in the order of ``tasks``.
 
     ``workers`` 1 runs in this process; more runs a process pool of that size.
     ``dask_address`` (or an open ``dask_client``) submits the tasks to a Dask cluster instead.

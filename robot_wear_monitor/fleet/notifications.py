@@ -1,4 +1,5 @@
-"""Notifications of the fleet's events: a webhook and e-mail, once per event, across restarts.
+"""
+Notifications of the fleet's events: a webhook and e-mail, once per event, across restarts.
 
 A pass (:func:`notify_once`) reads the fleet from the wear history (:func:`fleet_view` at
 ``now_s``) and finds the events that are due (:func:`due_events`), each with a key that is the
@@ -60,7 +61,8 @@ _MAX_WHERE_CHARS = 300
 
 @dataclass(frozen=True)
 class SentNotification:
-    """One send of one event to one channel in a pass, delivered or not.
+    """
+    One send of one event to one channel in a pass, delivered or not.
 
     ``event_key``: the event's key; ``claim_key``: the history row claimed for this send
     (``KEY@CHANNEL``, ``#passN`` for a retry on pass N); ``pass_number``: 1 for the first pass
@@ -141,7 +143,8 @@ def _facts(view: FleetView) -> str:
 
 def due_events(*, history: WearHistory, config: NotificationConfig,
                now_s: float) -> list[DueEvent]:
-    """Return the events due at ``now_s`` [s since the epoch] that the configuration names.
+    """
+    Return the events due at ``now_s`` [s since the epoch] that the configuration names.
 
     Worst joint first (the fleet's order); see the module's text for the events and keys.
     Sent or not, an event stays due while its condition holds: :func:`notify_once` keeps it
@@ -209,7 +212,8 @@ def _send(event: DueEvent, channel: str, config: NotificationConfig,
 
 def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: float,
                 sleep: Callable[[float], None] = time.sleep) -> list[SentNotification]:
-    """Send what is due at ``now_s`` [s since the epoch], once per event and channel.
+    """
+    Send what is due at ``now_s`` [s since the epoch], once per event and channel.
 
     Returns the sends this call made (an empty list when nothing was due or every due event
     was sent already, by this process or another).  Failed sends are stored in the history
@@ -263,7 +267,8 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
                    report: Callable[[list[SentNotification]], None] = lambda sent: None,
                    on_error: Callable[[Exception], None] = lambda error: None,
                    clock: Callable[[], float] = time.time) -> None:
-    """Run a pass every ``interval_s`` [s] until ``stop`` is set (the loop of ``notify``).
+    """
+    Run a pass every ``interval_s`` [s] until ``stop`` is set (the loop of ``notify``).
 
     Opens the history at ``location`` for each pass (a PostgreSQL server that restarts costs
     one pass, not the notifier); a pass that fails is given to ``on_error`` and the loop goes

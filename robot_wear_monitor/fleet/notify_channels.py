@@ -1,4 +1,5 @@
-"""The channels of the notifications: what an event says, a webhook POST and an SMTP e-mail.
+"""
+The channels of the notifications: what an event says, a webhook POST and an SMTP e-mail.
 
 :class:`DueEvent` is one event of one robot's joint that is due (built by
 :mod:`robot_wear_monitor.fleet.notifications`); :func:`webhook_payload` turns it into an
@@ -43,7 +44,8 @@ _USER_AGENT = f'robot-wear-monitor/{__version__}'
 
 @dataclass(frozen=True)
 class DueEvent:
-    """One event of one robot's joint that is due to be notified.
+    """
+    One event of one robot's joint that is due to be notified.
 
     ``key``: the event's identity (the same on every pass and in every process, see
     :mod:`robot_wear_monitor.fleet.notifications`); ``starts_s``: when it happened [s since the
@@ -149,7 +151,8 @@ def _retrying(attempt_once: Callable[[], tuple[bool, bool, str]], retry: RetryPo
 def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPolicy,
                  sleep: Callable[[float], None] = time.sleep,
                  clock: Callable[[], float] = time.monotonic) -> SendResult:
-    """POST ``payload`` as JSON to the webhook; retry connection errors, timeouts, 5xx, 429.
+    """
+    POST ``payload`` as JSON to the webhook; retry connection errors, timeouts, 5xx, 429.
 
     Any 2xx answer is a delivery; another 4xx (or a redirect, never followed) fails at once.
     """
@@ -174,7 +177,8 @@ def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPo
 def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,
                sleep: Callable[[float], None] = time.sleep,
                clock: Callable[[], float] = time.monotonic) -> SendResult:
-    """Send ``message`` through the SMTP server; retry connection errors and SMTP 4xx answers.
+    """
+    Send ``message`` through the SMTP server; retry connection errors and SMTP 4xx answers.
 
     STARTTLS (when configured) verifies the server's certificate against ``mail.ca_file``
     (default: the system's certificate authorities); an SMTP 5xx answer (refused sender or

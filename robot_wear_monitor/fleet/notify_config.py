@@ -1,4 +1,5 @@
-"""The notification configuration: one YAML file, every field checked, unknown keys refused.
+"""
+The notification configuration: one YAML file, every field checked, unknown keys refused.
 
 The file (``config/notifications.example.yaml`` shows every field) says which events are sent
 (``events``), how far ahead a forecast crossing counts (``forecast_horizon_days``), where the
@@ -38,7 +39,8 @@ class NotificationConfigError(InputError):
 
 @dataclass(frozen=True)
 class RetryPolicy:
-    """How hard one send is tried.
+    """
+    How hard one send is tried.
 
     Within a pass: up to ``attempts`` tries, the n-th retry after ``backoff_initial_s`` x 2^(n-1)
     [s] (at most ``backoff_max_s``), all tries of a send within ``total_s`` [s]; a send whose
@@ -59,7 +61,8 @@ class RetryPolicy:
 
 @dataclass(frozen=True)
 class WebhookConfig:
-    """One webhook: a JSON POST of an Alertmanager-like payload to ``url``.
+    """
+    One webhook: a JSON POST of an Alertmanager-like payload to ``url``.
 
     ``name`` identifies the channel in the history's notification log (renaming it sends the
     current events again); ``receiver`` is the payload's ``receiver``; ``timeout_s`` bounds each
@@ -74,7 +77,8 @@ class WebhookConfig:
 
 @dataclass(frozen=True)
 class EmailConfig:
-    """E-mail through one SMTP server (plain text, one message per event to every ``to``).
+    """
+    E-mail through one SMTP server (plain text, one message per event to every ``to``).
 
     ``starttls``: upgrade the connection with STARTTLS before anything else (required for a
     login unless the server is on the loopback), verifying the server's certificate against
@@ -350,7 +354,8 @@ def _is_ip(host: str) -> bool:
 
 def notification_config_from_mapping(values: Any, *, source: str = '<config>',
                                      base: Optional[Path] = None) -> NotificationConfig:
-    """Return the configuration of a parsed YAML document (``source`` names it in errors).
+    """
+    Return the configuration of a parsed YAML document (``source`` names it in errors).
 
     ``base``: the folder relative password files are read from (default: the current one).
     """
@@ -378,7 +383,8 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
 
 
 def load_notification_config(path: str | os.PathLike) -> NotificationConfig:
-    """Return the notification configuration of the YAML file at ``path``.
+    """
+    Return the notification configuration of the YAML file at ``path``.
 
     Raises :class:`NotificationConfigError` (exit 2 on the command line) naming the file and
     the field of the first problem: a missing or unreadable file, bad YAML, an unknown key, a

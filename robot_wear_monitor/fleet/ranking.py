@@ -1,4 +1,5 @@
-"""The fleet at a glance: one row per robot and joint from the history, worst first.
+"""
+The fleet at a glance: one row per robot and joint from the history, worst first.
 
 Order (the maintenance team's): a latched alarm first; then the forecast crossing of the wear
 threshold soonest (in experiments); then the highest upper bound of the 95 % interval of w.
@@ -26,7 +27,8 @@ STALE_FACTOR = 3.0
 
 @dataclass(frozen=True)
 class FleetView:
-    """One row of the fleet view: a joint's latest state and what it means for maintenance.
+    """
+    One row of the fleet view: a joint's latest state and what it means for maintenance.
 
     ``state``: the history's latest state of the joint (:class:`FleetRow`); ``stale``: no
     experiment for longer than :data:`STALE_FACTOR` usual intervals; ``crossing_time_s``: the
@@ -61,7 +63,8 @@ class FleetView:
 
 
 def fleet_view(states: Iterable[FleetRow], *, now_s: float) -> list[FleetView]:
-    """Return the fleet rows in the history's order (worst first), judged at ``now_s``.
+    """
+    Return the fleet rows in the history's order (worst first), judged at ``now_s``.
 
     ``now_s``: the time [s since the epoch] staleness is judged at.
     """

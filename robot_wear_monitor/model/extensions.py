@@ -1,4 +1,5 @@
-"""Terms added to the friction model (8): effects the audit found, with their gradients.
+"""
+Terms added to the friction model (8): effects the audit found, with their gradients.
 
 An added term is a tensor product of one-dimensional bases ("factors"), each in one variable,
 times fixed coefficients::
@@ -59,25 +60,25 @@ def _relu(x: FloatArray) -> FloatArray:
 
 @dataclass(frozen=True)
 class Factor:
-    """A one-dimensional basis in one variable (see :data:`BASES` for the kinds).
+    """
+    A one-dimensional basis in one variable (see :data:`BASES` for the kinds).
 
-    Attributes:
-        variable: the variable (table column) it is evaluated on.
-        basis: 'linear', 'identity', 'polynomial', 'spline', 'periodic', 'stribeck',
-            'log_polynomial', 'log_spline' or 'categories'.
-        centre: linear: the value subtracted from the variable (its unit).
-        lower: polynomial/spline: the variable's value mapped to 0 (its unit).
-        upper: polynomial/spline: the variable's value mapped to 1 (its unit).
-        degree: polynomial/log_polynomial: the highest power.
-        constant: polynomial: include the power 0.
-        knots: spline: knots on the scaled variable (at least 3 for a spline).
-        period: periodic: the period (the variable's unit).
-        stribeck_speed: stribeck: phi [the variable's unit, rad/s for speed].
-        alpha: stribeck: the exponent.
-        log_lower: log_polynomial/log_spline: log of the value mapped to -0.5 (polynomial) or
-            0 (spline, whose knots are on that scale).
-        log_upper: log_polynomial/log_spline: log of the value mapped to +0.5 or 1.
-        levels: categories: the category names (one indicator column each).
+    :ivar variable: the variable (table column) it is evaluated on.
+    :ivar basis: 'linear', 'identity', 'polynomial', 'spline', 'periodic', 'stribeck',
+        'log_polynomial', 'log_spline' or 'categories'.
+    :ivar centre: linear: the value subtracted from the variable (its unit).
+    :ivar lower: polynomial/spline: the variable's value mapped to 0 (its unit).
+    :ivar upper: polynomial/spline: the variable's value mapped to 1 (its unit).
+    :ivar degree: polynomial/log_polynomial: the highest power.
+    :ivar constant: polynomial: include the power 0.
+    :ivar knots: spline: knots on the scaled variable (at least 3 for a spline).
+    :ivar period: periodic: the period (the variable's unit).
+    :ivar stribeck_speed: stribeck: phi [the variable's unit, rad/s for speed].
+    :ivar alpha: stribeck: the exponent.
+    :ivar log_lower: log_polynomial/log_spline: log of the value mapped to -0.5 (polynomial) or
+        0 (spline, whose knots are on that scale).
+    :ivar log_upper: log_polynomial/log_spline: log of the value mapped to +0.5 or 1.
+    :ivar levels: categories: the category names (one indicator column each).
 
     """
 
@@ -98,7 +99,7 @@ class Factor:
 
     @property
     def size(self) -> int:
-        """Number of columns of the basis."""
+        """Return the number of columns of the basis."""
         if self.basis in ('linear', 'identity', 'stribeck'):
             return 1
         if self.basis == 'polynomial':
@@ -112,7 +113,8 @@ class Factor:
         return len(self.levels)
 
     def evaluate(self, x: Any) -> tuple[FloatArray, FloatArray]:
-        """Return the basis and its derivative in the variable, both of shape x.shape + (size,).
+        """
+        Return the basis and its derivative in the variable, both of shape x.shape + (size,).
 
         Categories take text (or numbers, written as ``f'{x:g}'``); their derivative is 0.
         """
@@ -185,18 +187,17 @@ def _as_text(x: Any) -> NDArray[np.str_]:
 def tensor_basis(factors: tuple[Factor, ...], values: Mapping[str, Any], *,
                  drop_first: bool = False,
                  wrt: tuple[str, ...] = ()) -> tuple[FloatArray, dict[str, FloatArray]]:
-    """Return the tensor product of the factors' bases and its derivatives in ``wrt``.
+    """
+    Return the tensor product of the factors' bases and its derivatives in ``wrt``.
 
-    Args:
-        factors: the factors; their columns are combined in row-major order (the last
-            factor's index runs fastest).
-        values: variable -> values (arrays broadcast together).
-        drop_first: drop the first column of the product (the constant when every factor
-            has one).
-        wrt: the variables to differentiate in.
+    :param factors: the factors; their columns are combined in row-major order (the last
+        factor's index runs fastest).
+    :param values: variable -> values (arrays broadcast together).
+    :param drop_first: drop the first column of the product (the constant when every factor
+        has one).
+    :param wrt: the variables to differentiate in.
 
-    Returns:
-        (basis of shape (..., k), {variable: derivative of the basis, same shape}).
+    :return: (basis of shape (..., k), {variable: derivative of the basis, same shape}).
 
     """
     evaluated = [f.evaluate(values[f.variable]) for f in factors]
@@ -223,13 +224,13 @@ def tensor_basis(factors: tuple[Factor, ...], values: Mapping[str, Any], *,
 
 @dataclass(frozen=True)
 class AddedTerm:
-    """A term added to the friction model: a tensor product of factors times coefficients.
+    """
+    A term added to the friction model: a tensor product of factors times coefficients.
 
-    Attributes:
-        name: what the audit named it (shape and variables).
-        factors: the one-dimensional bases.
-        coefficients: one per column of the product, in friction units.
-        drop_first: the first column of the product is dropped.
+    :ivar name: what the audit named it (shape and variables).
+    :ivar factors: the one-dimensional bases.
+    :ivar coefficients: one per column of the product, in friction units.
+    :ivar drop_first: the first column of the product is dropped.
 
     """
 
@@ -240,12 +241,12 @@ class AddedTerm:
 
     @property
     def variables(self) -> tuple[str, ...]:
-        """The variables of the term, in the order of first appearance."""
+        """Return the variables of the term, in the order of first appearance."""
         return tuple(dict.fromkeys(f.variable for f in self.factors))
 
     @property
     def size(self) -> int:
-        """Number of columns (= coefficients) of the term."""
+        """Return the number of columns (= coefficients) of the term."""
         return int(np.prod([f.size for f in self.factors])) - (1 if self.drop_first else 0)
 
     def evaluate(self, values: Mapping[str, Any], wrt: tuple[str, ...] = ()) -> tuple:
@@ -258,13 +259,13 @@ class AddedTerm:
 
 @dataclass(frozen=True)
 class ModelExtension:
-    """The added terms of a parameter set and the defaults of the offline variables.
+    """
+    The added terms of a parameter set and the defaults of the offline variables.
 
-    Attributes:
-        terms: the added terms.
-        defaults: (variable, value) pairs: the value at which a variable the service does not
-            measure online is evaluated (a number, or a category name); ``load`` and
-            ``temperature`` defaults set where m(v) of eq. (14) is linearised.
+    :ivar terms: the added terms.
+    :ivar defaults: (variable, value) pairs: the value at which a variable the service does not
+        measure online is evaluated (a number, or a category name); ``load`` and
+        ``temperature`` defaults set where m(v) of eq. (14) is linearised.
 
     """
 

@@ -1,4 +1,5 @@
-"""Steady-state friction model of a robot joint: nominal (5), wear profile (7), complete (8).
+"""
+Steady-state friction model of a robot joint: nominal (5), wear profile (7), complete (8).
 
 All functions broadcast their array arguments with numpy rules, so one call evaluates many speeds
 and many operating points (T, w, load) at once.  Units: speed is motor side [rad/s] and must be
@@ -42,7 +43,8 @@ def _paper_load_sensitivity(speed: FloatArray, model: FrictionModel) -> FloatArr
 
 
 def load_sensitivity(speed: ArrayLike, model: FrictionModel) -> FloatArray:
-    """Return m(v) = d tau_f / d load of eq. (14): F_c,tl + F_s,tl exp(-|v/phi_s,tl|^alpha).
+    """
+    Return m(v) = d tau_f / d load of eq. (14): F_c,tl + F_s,tl exp(-|v/phi_s,tl|^alpha).
 
     With added terms in load, their load derivative at the extension's default load and
     temperature is added (exact for terms linear in load).
@@ -56,16 +58,15 @@ def load_sensitivity(speed: ArrayLike, model: FrictionModel) -> FloatArray:
 
 def nominal_friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
                      model: FrictionModel) -> FloatArray:
-    """Return the nominal (wear-free) friction level tau_f0 of eq. (5), normalised.
+    """
+    Return the nominal (wear-free) friction level tau_f0 of eq. (5), normalised.
 
-    Args:
-        speed: motor-side speed [rad/s], > 0.
-        load: load torque tau_l (normalised, absolute value).
-        temperature: joint temperature [degC].
-        model: model coefficients.
+    :param speed: motor-side speed [rad/s], > 0.
+    :param load: load torque tau_l (normalised, absolute value).
+    :param temperature: joint temperature [degC].
+    :param model: model coefficients.
 
-    Returns:
-        The broadcast shape of the arguments.
+    :return: The broadcast shape of the arguments.
 
     """
     v = np.asarray(speed, dtype=float)
@@ -138,13 +139,13 @@ def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: Arra
 
 def marginal_covariance(speeds: ArrayLike, *, sigma: float, load_std: float,
                         model: FrictionModel) -> FloatArray:
-    """Return Sigma(Phi) of eq. (14): sigma^2 I + sigma_tl^2 M M^T, shape (..., N, N).
+    """
+    Return Sigma(Phi) of eq. (14): sigma^2 I + sigma_tl^2 M M^T, shape (..., N, N).
 
-    Args:
-        speeds: speed levels [rad/s], shape (..., N).
-        sigma: std of the friction-level error of eq. (9b).
-        load_std: std of the load estimate sigma_tl.
-        model: model coefficients (for m(v)).
+    :param speeds: speed levels [rad/s], shape (..., N).
+    :param sigma: std of the friction-level error of eq. (9b).
+    :param load_std: std of the load estimate sigma_tl.
+    :param model: model coefficients (for m(v)).
 
     """
     v = np.asarray(speeds, dtype=float)
@@ -155,7 +156,8 @@ def marginal_covariance(speeds: ArrayLike, *, sigma: float, load_std: float,
 
 def direction_friction(speed: ArrayLike,
                        direction_model: tuple[DirectionTerms, DirectionTerms]) -> FloatArray:
-    """Return the friction of model (4) per direction of motion at signed ``speed`` [rad/s].
+    """
+    Return the friction of model (4) per direction of motion at signed ``speed`` [rad/s].
 
     ``direction_model`` is a parameter set's (positive, negative) terms; a positive speed
     takes the first, a negative one the second.  The result is the friction magnitude (the

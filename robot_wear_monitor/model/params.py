@@ -1,4 +1,5 @@
-"""Parameter sets of the friction model and the wear monitor, read from YAML and validated.
+"""
+Parameter sets of the friction model and the wear monitor, read from YAML and validated.
 
 A parameter set holds the coefficients of the nominal friction model (5) and of the wear profile
 (7), the measurement model of eqs. (9)-(14) (noise sigma, load mean and std), the temperature
@@ -18,12 +19,11 @@ from pathlib import Path
 import sys
 from typing import Any, Mapping
 
-import yaml
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.extensions import (extension_from_mapping, extension_to_mapping,
                                                  ExtensionError, ModelExtension)
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
+import yaml
 
 PACKAGE_NAME = 'robot_wear_monitor'
 DEFAULT_PARAMETER_FILE = 'irb6620_joint2.yaml'
@@ -35,7 +35,8 @@ class ParameterError(InputError):
 
 @dataclass(frozen=True)
 class FrictionModel:
-    """Coefficients of the complete friction model (8) = nominal (5) + wear profile (7).
+    """
+    Coefficients of the complete friction model (8) = nominal (5) + wear profile (7).
 
     Units: torques normalised; speeds motor side [rad/s]; temperatures [degC]; wear w is the
     dimensionless wear level of the paper (0 = new, 100 = failure).  ``extension`` holds the
@@ -63,7 +64,8 @@ class FrictionModel:
 
 @dataclass(frozen=True)
 class DirectionTerms:
-    """Model (4) of one direction of motion: f = f_c + f_s exp(-|v/phi_s|^alpha) + f_v |v|.
+    """
+    Model (4) of one direction of motion: f = f_c + f_s exp(-|v/phi_s|^alpha) + f_v |v|.
 
     At the conditions of the data the set was identified from; friction in the set's unit,
     speeds motor side [rad/s], f_v [friction/(rad/s)].
@@ -113,7 +115,8 @@ class ParameterSet:
     direction_model: tuple[DirectionTerms, DirectionTerms] | None = None
 
     def require(self, *what: str, purpose: str) -> None:
-        """Raise ParameterError when the set did not identify one of ``what`` (e.g. 'wear').
+        """
+        Raise ParameterError when the set did not identify one of ``what`` (e.g. 'wear').
 
         ``purpose`` says what needs it, e.g. ``'estimating wear'``.
         """
@@ -363,7 +366,8 @@ def _identification(section: Any, source: str) -> dict[str, Any]:
 
 
 def packaged_config_file(file_name: str) -> Path:
-    """Return the path of a packaged ``config/`` file, wherever the package is installed.
+    """
+    Return the path of a packaged ``config/`` file, wherever the package is installed.
 
     Looks in the ament share directory (colcon install on a ROS host), in ``<prefix>/share``
     (pip install), in the ``share`` folder of the prefix this module is installed in (colcon
@@ -394,11 +398,11 @@ def default_parameter_file() -> Path:
 
 
 def load_parameter_set(path: str | os.PathLike | None = None) -> ParameterSet:
-    """Load and validate a parameter-set YAML file (the packaged default when ``path`` is None).
+    """
+    Load and validate a parameter-set YAML file (the packaged default when ``path`` is None).
 
-    Raises:
-        ParameterError: the file is missing, not YAML, or a field is missing or invalid; the
-            message names the file and the field.
+    :raises ParameterError: the file is missing, not YAML, or a field is missing or invalid; the
+        message names the file and the field.
 
     """
     file = Path(path) if path is not None else default_parameter_file()
@@ -407,7 +411,8 @@ def load_parameter_set(path: str | os.PathLike | None = None) -> ParameterSet:
 
 
 def parameter_set_to_mapping(params: ParameterSet) -> dict:
-    """Return the YAML-ready document of a parameter set (what :func:`load_parameter_set` reads).
+    """
+    Return the YAML-ready document of a parameter set (what :func:`load_parameter_set` reads).
 
     The ``added_terms`` section is written only when the model has added terms.
     """

@@ -1,4 +1,5 @@
-"""Diagnostics of the monitoring services: the status type, number text and rejection reports.
+"""
+Diagnostics of the monitoring services: the status type, number text and rejection reports.
 
 :class:`DiagnosticReport` is one DiagnosticStatus (level, message, key-values) as the services
 build it; :func:`fmt_number` and :func:`json_number` write numbers into key-values and JSON,
@@ -55,7 +56,8 @@ BEYOND_HORIZON = 'beyond the forecast horizon'
 
 
 def clean_text(text: str, *, limit: int = 200) -> str:
-    """Return ``text`` safe for a terminal line: control characters escaped, cut at ``limit``.
+    """
+    Return ``text`` safe for a terminal line: control characters escaped, cut at ``limit``.
 
     Names come from recordings and histories other people wrote: a newline, an escape
     sequence or a carriage return in a joint's name must not forge or hide a line of output.
@@ -65,7 +67,8 @@ def clean_text(text: str, *, limit: int = 200) -> str:
 
 
 def fmt_number(value: float, digits: int = 4, *, missing: str = UNKNOWN) -> str:
-    """Return ``value`` with ``digits`` significant digits; ``missing`` when not finite.
+    """
+    Return ``value`` with ``digits`` significant digits; ``missing`` when not finite.
 
     Text a person reads never says 'nan' or 'inf' (JSON says null instead).
     """
@@ -87,7 +90,8 @@ _REASON_PREFIXES = ('segmentation_', 'friction_levels_', 'reader_')
 
 
 def is_routine(reason: str) -> bool:
-    """Return True for a rejection the experiment itself produces (:data:`ROUTINE_REJECTIONS`).
+    """
+    Return True for a rejection the experiment itself produces (:data:`ROUTINE_REJECTIONS`).
 
     ``reason`` may carry a joint (``"<joint>: <reason>"``) or a summary prefix
     (``segmentation_``, ``friction_levels_``, ``reader_``).
@@ -101,7 +105,8 @@ def is_routine(reason: str) -> bool:
 
 
 def split_rejections(rejections: Mapping[str, int]) -> tuple[dict[str, int], dict[str, int]]:
-    """Return ``(bad data, routine)``: the rejections that signal bad data and the routine ones.
+    """
+    Return ``(bad data, routine)``: the rejections that signal bad data and the routine ones.
 
     Both sorted by reason, zero counts left out; :func:`is_routine` tells them apart.
     """
@@ -111,7 +116,8 @@ def split_rejections(rejections: Mapping[str, int]) -> tuple[dict[str, int], dic
 
 
 def rejection_text(rejections: Mapping[str, int]) -> str:
-    """Return the rejections in words: the bad-data ones named, the routine ones only counted.
+    """
+    Return the rejections in words: the bad-data ones named, the routine ones only counted.
 
     '' when nothing was rejected; e.g. ``"rejected as bad data: non_finite 3; routine: 299
     (unpaired passes, gaps between experiments ...)"``.
@@ -127,7 +133,8 @@ def rejection_text(rejections: Mapping[str, int]) -> str:
 
 
 class RejectionLog:
-    """Rate-limited log text of the inputs rejected since the last report, by reason.
+    """
+    Rate-limited log text of the inputs rejected since the last report, by reason.
 
     A node calls :meth:`report` whenever its rejection count grows and from its periodic
     diagnostics timer; the text says how many inputs of each reason were rejected since the
@@ -144,7 +151,8 @@ class RejectionLog:
 
     def report(self, counts: Mapping[str, int], *, now_s: float, detail: str = ''
                ) -> Optional[tuple[str, bool]]:
-        """Return (text, defective) of the rejections not yet reported, or None.
+        """
+        Return (text, defective) of the rejections not yet reported, or None.
 
         None when nothing is new or the last report is less than ``period_s`` old;
         ``defective`` is True when a reason other than :data:`ROUTINE_REJECTIONS` is new

@@ -1,4 +1,5 @@
-"""The wear estimator service: one estimate (T, w) per friction experiment, alarm and history.
+"""
+The wear estimator service: one estimate (T, w) per friction experiment, alarm and history.
 
 :class:`WearEstimatorService` is what the ``wear_estimator_node`` (one per joint) and the bag
 replay drive: it reads a ``friction_levels`` message (or a completed experiment), estimates
@@ -65,16 +66,16 @@ def _estimate_batch(speeds_rad_s: np.ndarray, frictions: np.ndarray, *,
 
 
 class WearEstimatorService:
-    """Estimate (T, w) per experiment, latch the alarm, report diagnostics, keep the history.
+    """
+    Estimate (T, w) per experiment, latch the alarm, report diagnostics, keep the history.
 
-    Args:
-        config: the estimator configuration.
-        history: the SQLite history (``WearHistory(':memory:')`` when None); the trend, the
-            latched alarm and the evidence are restored from it.
-        estimate: ``f(speeds, frictions, *, params) -> WearEstimate`` (the core estimator by
-            default; tests may pass a fake).
-        trend_length: estimates kept in memory for the trend (all stored ones are restored
-            up to this many).
+    :param config: the estimator configuration.
+    :param history: the SQLite history (``WearHistory(':memory:')`` when None); the trend, the
+        latched alarm and the evidence are restored from it.
+    :param estimate: ``f(speeds, frictions, *, params) -> WearEstimate`` (the core estimator by
+        default; tests may pass a fake).
+    :param trend_length: estimates kept in memory for the trend (all stored ones are restored
+        up to this many).
 
     """
 
@@ -113,7 +114,8 @@ class WearEstimatorService:
                                       wear_grid=self.wear_trend.wear_grid)
 
     def _rebuild_trend(self, records: Sequence[HistoryRecord]) -> WearTrend:
-        """Rebuild the trend filter from the stored estimates and maintenance resets.
+        """
+        Rebuild the trend filter from the stored estimates and maintenance resets.
 
         The filter's state is a pure function of its rows, so replaying the stored friction
         levels (grouped by speed set, one batched likelihood call per set) and the ``reset``
@@ -161,7 +163,8 @@ class WearEstimatorService:
         self.wear_trend.reset()
 
     def warm_up(self) -> None:
-        """Run the estimator once on model friction levels (nothing is stored or published).
+        """
+        Run the estimator once on model friction levels (nothing is stored or published).
 
         The first estimate of a process pays for imports and caches (about 0.5 s here), and the
         first interval of a design for the calibration of its cutoffs (about 2 s, see
@@ -180,7 +183,8 @@ class WearEstimatorService:
             calibrate_cutoffs(speeds, params=self.config.params)
 
     def prepare(self, levels: Sequence[FrictionLevelsMessage]) -> int:
-        """Estimate several experiments' levels together, ahead of their one-by-one handling.
+        """
+        Estimate several experiments' levels together, ahead of their one-by-one handling.
 
         :meth:`process_levels` then takes each one's estimate instead of computing it (the
         same numbers); the trend, alarm and history still advance one experiment at a time,
@@ -319,7 +323,8 @@ class WearEstimatorService:
                             stamp_s: float, estimates: Optional[WearEstimates] = None,
                             prepared: Optional[Prepared] = None
                             ) -> tuple[Optional[WearInterval], Optional[TrendEstimate]]:
-        """Return the 95 % intervals of (w, T) and the updated trend (None where they fail).
+        """
+        Return the 95 % intervals of (w, T) and the updated trend (None where they fail).
 
         ``estimates``: the estimator's batch result for these levels, if the default estimator
         made it (the interval needs the ML estimate; it is not computed twice).  ``prepared``:
@@ -347,7 +352,8 @@ class WearEstimatorService:
 
     def reset_alarm(self, *, stamp_s: float, note: str = 'reset after maintenance'
                     ) -> tuple[bool, str]:
-        """Clear the latched alarm (``~/reset_alarm``); return (success, message).
+        """
+        Clear the latched alarm (``~/reset_alarm``); return (success, message).
 
         A reset follows maintenance: the wear trend starts a new segment from the new-joint prior.
         """
@@ -363,7 +369,8 @@ class WearEstimatorService:
         return True, 'no wear alarm was active; evidence and trend reset'
 
     def follow_history_reset(self) -> Optional[AlarmEvent]:
-        """Take over a reset stored in the history by someone else; return it (else None).
+        """
+        Take over a reset stored in the history by someone else; return it (else None).
 
         The dashboard resets an alarm in the history (``WearHistory.reset_alarm``) while this
         estimator runs: it clears the latch and the evidence and restarts the trend exactly as

@@ -1,4 +1,5 @@
-"""The friction experiment service: joint states of one joint -> friction levels -> experiments.
+"""
+The friction experiment service: joint states of one joint -> friction levels -> experiments.
 
 :class:`FrictionExperimentService` is what the ``friction_experiment_node`` (one per joint) and
 the bag replay drive: it segments the joint's samples into friction levels (eq. (3), the
@@ -51,7 +52,8 @@ class _EventExperiment:
 
 @dataclass
 class FrictionExperimentService:
-    """Segment joint states of one joint into friction levels and completed experiments.
+    """
+    Segment joint states of one joint into friction levels and completed experiments.
 
     Wraps the streaming segmenter and the experiment assembler of ``segmentation.py``; the
     node feeds it every /joint_states message, the replay every recorded one.
@@ -159,7 +161,8 @@ class FrictionExperimentService:
                       position_rad: Sequence[float] | FloatArray,
                       velocity_rad_s: Sequence[float] | FloatArray,
                       effort: Sequence[float] | FloatArray) -> list[FrictionExperiment]:
-        """Segment a chunk of a recording of the joint at once (the replay) and assemble it.
+        """
+        Segment a chunk of a recording of the joint at once (the replay) and assemble it.
 
         Chunks are the consecutive parts of one recording (a whole recording is one chunk);
         the chunked batch segmenter gives the same levels and rejection counts as the
@@ -195,7 +198,8 @@ class FrictionExperimentService:
     def _rests(self, time_s: Sequence[float] | FloatArray,
                velocity_rad_s: Sequence[float] | FloatArray,
                motion_before_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Return the end times [s] and lengths [s] of the standstills between moving samples.
+        """
+        Return the end times [s] and lengths [s] of the standstills between moving samples.
 
         A standstill ends at a moving sample; it starts at the moving sample before it (or at
         ``motion_before_s``, the last motion of the previous chunk).
@@ -211,7 +215,8 @@ class FrictionExperimentService:
         return moving, moving - starts
 
     def drop_interrupted(self) -> int:
-        """At the cut of a recording: drop the experiment the cut interrupts; return its levels.
+        """
+        At the cut of a recording: drop the experiment the cut interrupts; return its levels.
 
         The move in progress at the cut is dropped (a cut pass).  The experiment in progress is
         kept when it is complete: the joint paused (0.5 s or more, longer than the turns of one
@@ -242,7 +247,8 @@ class FrictionExperimentService:
         return dropped
 
     def close_idle(self) -> list[FrictionExperiment]:
-        """Close the assembler's experiment because the stream has stopped (no samples).
+        """
+        Close the assembler's experiment because the stream has stopped (no samples).
 
         The live node calls it when no JointState has come for ``idle_gap_s`` (wall time): a
         recording or a robot that stops publishing after an experiment must not hold that
@@ -254,7 +260,8 @@ class FrictionExperimentService:
         return self._completed(self._assembler.flush() or [])
 
     def _idle(self, now_s: float) -> list[FrictionExperiment]:
-        """Close the assembler's experiment once the joint has stood still for idle_gap_s.
+        """
+        Close the assembler's experiment once the joint has stood still for idle_gap_s.
 
         Standing still, not merely no new level: a level at a slow speed takes its time.
         """
@@ -282,7 +289,8 @@ class FrictionExperimentService:
         return self._assembler.ignored_speeds.counts()
 
     def summary(self) -> dict[str, Any]:
-        """Return what the segmentation found, for a report (JSON-ready).
+        """
+        Return what the segmentation found, for a report (JSON-ready).
 
         Keys: ``joint``, ``samples`` (read), ``rejected`` (reason -> count),
         ``passes``, ``levels``, ``levels_per_speed_rad_s`` (speed -> count),
@@ -323,7 +331,8 @@ class FrictionExperimentService:
 
     def _after_sample(self, stamp_s: float, experiments: list[FrictionExperiment]
                       ) -> list[FrictionExperiment]:
-        """Close the event experiment whose ``end`` stamp the samples have reached.
+        """
+        Close the event experiment whose ``end`` stamp the samples have reached.
 
         Also closes the assembler's experiment when the joint has idled for ``idle_gap_s``
         since its last level (with discovered speeds nothing else would close it until the
@@ -341,7 +350,8 @@ class FrictionExperimentService:
     # ----------------------------------------------------------------- experiment events
 
     def handle_experiment_event_msg(self, msg: Any) -> list[FrictionExperiment]:
-        """Read one ``friction_experiment/events`` message and apply it (see the class doc).
+        """
+        Read one ``friction_experiment/events`` message and apply it (see the class doc).
 
         A malformed message is counted (rejection ``experiment_event_<reason>``) and ignored.
         """
@@ -419,7 +429,8 @@ class FrictionExperimentService:
         return f'friction_experiment: {self.joint}'
 
     def current_status(self) -> DiagnosticReport:
-        """Return the segmentation status: counts, last experiment, rejections by reason.
+        """
+        Return the segmentation status: counts, last experiment, rejections by reason.
 
         WARN while malformed inputs (reasons outside :data:`ROUTINE_REJECTIONS`) were rejected
         since the previous call (the node calls it once per diagnostics period), OK otherwise;
@@ -484,7 +495,8 @@ class FrictionExperimentService:
             level=status.level, message=status.message, values=status.values)
 
     def finish(self) -> list[FrictionExperiment]:
-        """Flush the segmenter and the assembler at the end of a stream (bag end, shutdown).
+        """
+        Flush the segmenter and the assembler at the end of a stream (bag end, shutdown).
 
         An experiment opened by a ``start`` event and not ended is closed (emitted if it has
         levels).
@@ -505,7 +517,8 @@ def explain_no_experiment(*, service: FrictionExperimentService,
                           reader_rejections: Mapping[str, int], seen: bool = True,
                           joints_seen: Optional[list[str]] = None,
                           topic: str = '/joint_states') -> str:
-    """Return one sentence on why a recording of the joint gave no friction experiment.
+    """
+    Return one sentence on why a recording of the joint gave no friction experiment.
 
     Checked in order: a joint name that is in no message (the names seen are listed), no
     usable sample of the joint, no motion (motor speed never above the standstill speed), no

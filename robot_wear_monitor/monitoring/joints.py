@@ -1,4 +1,5 @@
-"""Several monitored joints: one segmentation and one estimator per joint.
+"""
+Several monitored joints: one segmentation and one estimator per joint.
 
 The nodes and the replay share these objects.  A node (or a replay) monitors the joints of
 its ``joints`` parameter, or every joint that appears with ``joints: [all]``, or the one
@@ -60,7 +61,8 @@ def _joints_with_values(values: Mapping[str, Any]) -> list[str]:
 
 
 def rejections_by_joint(counts: Mapping[str, Mapping[str, int]]) -> dict[str, int]:
-    """Return the rejection counts of several joints as one mapping for a rejection log.
+    """
+    Return the rejection counts of several joints as one mapping for a rejection log.
 
     ``counts``: joint -> reason -> count.  With one joint the reasons keep their names; with
     several each is named ``"<joint>: <reason>"`` (:class:`RejectionLog` still tells routine
@@ -83,19 +85,20 @@ def merge_diagnostics(arrays: Sequence[Any]) -> Any:
 
 
 class FrictionExperimentFleet:
-    """The friction-experiment services of the monitored joints (see the module docstring).
+    """
+    The friction-experiment services of the monitored joints (see the module docstring).
 
-    Attributes:
-        services: joint -> service, in the order the joints were configured or first seen.
-        selection: the configured joints, or None for every joint that appears.
-        per_joint: outputs under per-joint namespaces.
+    :ivar services: joint -> service, in the order the joints were configured or first seen.
+    :ivar selection: the configured joints, or None for every joint that appears.
+    :ivar per_joint: outputs under per-joint namespaces.
 
     """
 
     def __init__(self, values: Mapping[str, Any], *,
                  parameters_for: Optional[ParametersFor] = None,
                  source: str = '<parameters>') -> None:
-        """Build the services of the configured joints (validated node ``values``).
+        """
+        Build the services of the configured joints (validated node ``values``).
 
         ``parameters_for(joint)`` returns a joint's validated parameters (the node declares
         ``<joint>.<name>`` first); default: :func:`joint_parameters` over ``values``.
@@ -113,10 +116,10 @@ class FrictionExperimentFleet:
             self.service(joint)
 
     def service(self, joint: str) -> FrictionExperimentService:
-        """Return the service of ``joint``, built on first use.
+        """
+        Return the service of ``joint``, built on first use.
 
-        Raises:
-            ParameterError: the joint's parameters are invalid.
+        :raises ParameterError: the joint's parameters are invalid.
 
         """
         service = self.services.get(joint)
@@ -179,16 +182,16 @@ class FrictionExperimentFleet:
 
 
 class WearEstimatorFleet:
-    """The wear estimators of the monitored joints, sharing one history.
+    """
+    The wear estimators of the monitored joints, sharing one history.
 
     ``friction_levels`` messages are routed by their joint (``header.frame_id``); levels of a
     joint that is not monitored are counted in ``rejections`` (``other_joint``).
 
-    Attributes:
-        services: joint -> estimator service.
-        selection: the configured joints, or None for every joint that comes.
-        per_joint: outputs under per-joint namespaces.
-        rejections: counts of messages no joint's estimator took, by reason.
+    :ivar services: joint -> estimator service.
+    :ivar selection: the configured joints, or None for every joint that comes.
+    :ivar per_joint: outputs under per-joint namespaces.
+    :ivar rejections: counts of messages no joint's estimator took, by reason.
 
     """
 
@@ -197,7 +200,8 @@ class WearEstimatorFleet:
                  source: str = '<parameters>',
                  on_new_service: Optional[Callable[[WearEstimatorService], None]] = None
                  ) -> None:
-        """Build the estimators of the configured joints (validated node ``values``).
+        """
+        Build the estimators of the configured joints (validated node ``values``).
 
         ``warm_up``: run each new estimator once (imports, caches, the calibration of its
         configured design) before its first experiment.  ``on_new_service(service)`` is called
@@ -223,11 +227,11 @@ class WearEstimatorFleet:
             self.service(joint)
 
     def service(self, joint: str) -> WearEstimatorService:
-        """Return the estimator of ``joint``, built (and restored from history) on first use.
+        """
+        Return the estimator of ``joint``, built (and restored from history) on first use.
 
-        Raises:
-            ParameterError: the joint's parameters are invalid.
-            InputError: with per-joint outputs, its topic namespace is another joint's.
+        :raises ParameterError: the joint's parameters are invalid.
+        :raises InputError: with per-joint outputs, its topic namespace is another joint's.
 
         """
         service = self.services.get(joint)
@@ -249,7 +253,8 @@ class WearEstimatorFleet:
 
     def handle_friction_levels(self, msg: Any
                                ) -> tuple[Optional[WearEstimatorService], Optional[WearUpdate]]:
-        """Route one ``friction_levels`` message to its joint's estimator; return its update.
+        """
+        Route one ``friction_levels`` message to its joint's estimator; return its update.
 
         Returns (None, None) when no monitored joint takes it (counted).
         """
@@ -273,7 +278,8 @@ class WearEstimatorFleet:
         return service, service.handle_friction_levels(msg)
 
     def prepare(self, msgs: Sequence[Any]) -> int:
-        """Estimate the levels of several ``friction_levels`` messages ahead, per joint.
+        """
+        Estimate the levels of several ``friction_levels`` messages ahead, per joint.
 
         Each joint's estimator that exists already prepares its messages' estimates
         (:meth:`WearEstimatorService.prepare`); :meth:`handle_friction_levels` then handles

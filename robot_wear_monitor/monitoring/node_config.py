@@ -1,4 +1,5 @@
-"""Declaration table of the nodes' ROS parameters: names, types, defaults, descriptions, checks.
+"""
+Declaration table of the nodes' ROS parameters: names, types, defaults, descriptions, checks.
 
 The rclpy nodes declare exactly these parameters (with the description as ParameterDescriptor);
 the replay, the demo and the tests validate the very same values without rclpy, from the same
@@ -40,16 +41,16 @@ PARAMETER_TYPES = ('bool', 'integer', 'double', 'string', 'double_array', 'strin
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One declared node parameter.
+    """
+    One declared node parameter.
 
-    Attributes:
-        name: ROS parameter name.
-        type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
-            ``string_array``.
-        default: default value (of the declared type).
-        description: ParameterDescriptor description, with the unit.
-        check: returns an error text for an invalid value, or None.
-        read_only: cannot be changed after start (the nodes build their core objects once).
+    :ivar name: ROS parameter name.
+    :ivar type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
+        ``string_array``.
+    :ivar default: default value (of the declared type).
+    :ivar description: ParameterDescriptor description, with the unit.
+    :ivar check: returns an error text for an invalid value, or None.
+    :ivar read_only: cannot be changed after start (the nodes build their core objects once).
 
     """
 
@@ -350,12 +351,12 @@ def _type_name(value: Any) -> str:
 
 
 def coerce_value(spec: ParameterSpec, value: Any, *, source: str = '<parameters>') -> Any:
-    """Check ``value`` against ``spec`` (type as strict as rclpy, then the range check).
+    """
+    Check ``value`` against ``spec`` (type as strict as rclpy, then the range check).
 
     Returns the value in canonical form (tuple for arrays).
 
-    Raises:
-        ParameterError: naming the source, the parameter and the problem.
+    :raises ParameterError: naming the source, the parameter and the problem.
 
     """
     where = f'{source}: {spec.name}'
@@ -409,7 +410,8 @@ def _specs(node_name: str) -> tuple[ParameterSpec, ...]:
 
 def validate_parameters(node_name: str, values: Mapping[str, Any], *,
                         source: str = '<parameters>') -> dict[str, Any]:
-    """Return defaults overridden by ``values``, each checked; reject unknown names.
+    """
+    Return defaults overridden by ``values``, each checked; reject unknown names.
 
     Cross-parameter rule of the estimator: wear_healthy < wear_threshold and
     wear_warning <= wear_threshold.
@@ -455,7 +457,8 @@ def per_joint_outputs(values: Mapping[str, Any]) -> bool:
 
 def joint_parameters(node_name: str, values: Mapping[str, Any], joint: str, *,
                      source: str = '<parameters>') -> dict[str, Any]:
-    """Return the parameters of one monitored joint: ``<joint>.<name>`` over the node's values.
+    """
+    Return the parameters of one monitored joint: ``<joint>.<name>`` over the node's values.
 
     ``joint`` is set to the joint; the result is validated as a whole (e.g. the estimator's
     wear_healthy < wear_threshold per joint) and has no dotted names left.
@@ -469,7 +472,8 @@ def joint_parameters(node_name: str, values: Mapping[str, Any], joint: str, *,
 
 
 def joint_namespace(joint: str) -> str:
-    """Return the topic namespace token of a joint name (invalid characters become ``_``).
+    """
+    Return the topic namespace token of a joint name (invalid characters become ``_``).
 
     ROS 2 name tokens hold letters, digits and underscores and do not start with a digit.
     """
@@ -495,7 +499,8 @@ def default_node_config_file() -> Path:
 
 
 def read_ros_parameters_file(path: str | os.PathLike, node_name: str) -> dict[str, Any]:
-    """Return the raw ``ros__parameters`` of ``node_name`` in a ROS 2 parameter YAML.
+    """
+    Return the raw ``ros__parameters`` of ``node_name`` in a ROS 2 parameter YAML.
 
     Entries under ``/**`` apply to every node; ``<node>`` and ``/<node>`` are both accepted;
     the node's own entries win.
@@ -520,7 +525,8 @@ def read_ros_parameters_file(path: str | os.PathLike, node_name: str) -> dict[st
 
 def load_node_parameters(node_name: str, path: str | os.PathLike | None = None, *,
                          overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """Load, override and validate the parameters of ``node_name`` (packaged file when None).
+    """
+    Load, override and validate the parameters of ``node_name`` (packaged file when None).
 
     Entries of ``/**`` that the node does not declare are ignored, as rclpy does with
     wildcard entries; unknown names under the node's own key are errors.

@@ -1,4 +1,5 @@
-"""Estimates made ahead for the experiments a replay has at hand, used as they come one by one.
+"""
+Estimates made ahead for the experiments a replay has at hand, used as they come one by one.
 
 The estimator service handles one experiment at a time, in order: the trend filter, the alarm
 latch and the history need that.  The estimate of an experiment, though, depends on its
@@ -45,13 +46,13 @@ def batchable(levels: FrictionLevelsMessage, *, joint: str) -> bool:
 
 @dataclass(frozen=True)
 class Prepared:
-    """What was computed ahead for one experiment's levels.
+    """
+    What was computed ahead for one experiment's levels.
 
-    Attributes:
-        estimates: the ``estimate_wear`` batch of 1.
-        intervals: the ``wear_intervals`` batch of 1 (None: not prepared).
-        trend_row: the ``profile_log_likelihood`` rows (1, G) on ``trend_grid`` (or None).
-        trend_grid: the wear grid of ``trend_row``.
+    :ivar estimates: the ``estimate_wear`` batch of 1.
+    :ivar intervals: the ``wear_intervals`` batch of 1 (None: not prepared).
+    :ivar trend_row: the ``profile_log_likelihood`` rows (1, G) on ``trend_grid`` (or None).
+    :ivar trend_grid: the wear grid of ``trend_row``.
 
     """
 
@@ -81,7 +82,8 @@ class PreparedEstimates:
 
     def prepare(self, levels: Sequence[FrictionLevelsMessage], *, joint: str,
                 params: ParameterSet, trend_grid: Optional[np.ndarray] = None) -> int:
-        """Estimate the batchable ``levels`` together; return how many were prepared.
+        """
+        Estimate the batchable ``levels`` together; return how many were prepared.
 
         The estimates, then their intervals and (with ``trend_grid``) their trend rows.
         Replaces what an earlier call prepared and was not taken.  A failure of the batch

@@ -1,4 +1,5 @@
-"""Replay a recorded ROS 2 bag through the monitoring service, writing the nodes' outputs.
+"""
+Replay a recorded ROS 2 bag through the monitoring service, writing the nodes' outputs.
 
 The replay drives the very objects the nodes drive (:mod:`~robot_wear_monitor.monitoring.joints`:
 one :class:`FrictionExperimentService` and one :class:`WearEstimatorService` per monitored
@@ -136,7 +137,8 @@ def replay_parameters(*, config_file: str | os.PathLike | None = None,
                       torque_scale: float | None = None, params_file: str | None = None,
                       joints: Optional[list[str]] = None, robot: str | None = None
                       ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Return the validated parameters of both nodes, with the CLI overrides applied.
+    """
+    Return the validated parameters of both nodes, with the CLI overrides applied.
 
     ``joint``: the one monitored joint (plain topics); ``joints``: several, or ``['all']``
     (per-joint topics); the CLI's ``--gear-ratio``, ``--torque-scale`` and ``--params`` apply
@@ -169,7 +171,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                progress: bool = False, truth: Optional[list] = None,
                recover: bool = True, chunk_messages: int = 32768,
                batch_experiments: int = 64) -> ReplayResult:
-    """Replay ``bag`` through the services; write the node outputs to ``out_bag`` if given.
+    """
+    Replay ``bag`` through the services; write the node outputs to ``out_bag`` if given.
 
     The monitored joints are those of the parameters (``joint``, or ``joints``, or every joint
     of the recording with ``joints: [all]``).  An unfinished recording (MCAP files without
@@ -182,13 +185,12 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     in time order: the trend, alarm, history and outputs are those of one-by-one estimation,
     number for number (1: no batching).
 
-    Raises:
-        BagError: the input bag is missing, corrupt, truncated, lacks the topic or has the
-            wrong type, or is unfinished and ``recover`` is false (raised before OUT_BAG is
-            touched).
-        NoExperimentError: no experiment was found in any monitored joint (none already in the
-            history either); its message says why, per joint, and no OUT_BAG is written.
-        ParameterError: invalid parameters or parameter set.
+    :raises BagError: the input bag is missing, corrupt, truncated, lacks the topic or has the
+        wrong type, or is unfinished and ``recover`` is false (raised before OUT_BAG is
+        touched).
+    :raises NoExperimentError: no experiment was found in any monitored joint (none already in the
+        history either); its message says why, per joint, and no OUT_BAG is written.
+    :raises ParameterError: invalid parameters or parameter set.
 
     """
     experiments = FrictionExperimentFleet(experiment_parameters, source='replay parameters')
@@ -331,7 +333,8 @@ def _rejections(experiments: FrictionExperimentFleet, estimators: WearEstimatorF
 
 
 def joint_states(history: WearHistory, joints: Sequence[str]) -> list[dict[str, Any]]:
-    """Return the joints' state in the history (JSON-ready): what a maintenance team acts on.
+    """
+    Return the joints' state in the history (JSON-ready): what a maintenance team acts on.
 
     Per joint: ``alarm`` (latched) and ``alarm_since_stamp_s`` (its raise [s]), ``estimates``
     stored, and ``last_estimate``: the stamp [s], w-hat, its 95 % interval and the validity of
@@ -365,7 +368,8 @@ def explain_joint(service: FrictionExperimentService, stream: Any) -> str:
 
 def joint_summary(service: FrictionExperimentService, stream: Any,
                   updates: Sequence[WearUpdate] = ()) -> dict[str, Any]:
-    """Return what a bag gave for one joint (JSON-ready), replay and segment alike.
+    """
+    Return what a bag gave for one joint (JSON-ready), replay and segment alike.
 
     :meth:`FrictionExperimentService.summary` with the reader's rejections (``reader_*``),
     the joint's ``estimates`` and ``first_alarm`` among ``updates``, and ``no_experiment``:

@@ -1,4 +1,5 @@
-"""The friction experiment runner without ROS: plans, schedule, events, abort and status.
+"""
+The friction experiment runner without ROS: plans, schedule, events, abort and status.
 
 The ``friction_experiment_runner`` node is a thin shell over :class:`ExperimentRunner`.  From
 the node's parameters (``node_config.FRICTION_EXPERIMENT_RUNNER_PARAMETERS``) it builds one
@@ -47,16 +48,16 @@ def trajectory_topic(controller: str) -> str:
 
 @dataclass(frozen=True)
 class RunnerConfig:
-    """What one start request runs: a plan configuration per tested joint and the timing.
+    """
+    What one start request runs: a plan configuration per tested joint and the timing.
 
-    Attributes:
-        plans: one PlanConfig per tested joint, in the order they are run.
-        joint_names: every joint of the controller.
-        posture_rad: the held posture, one per ``joint_names`` [rad].
-        point_rate_hz: rate of the trajectory points [Hz].
-        controller: the joint_trajectory_controller's name.
-        end_margin_s: the ``end`` event comes this long after the planned end [s].
-        pause_between_joints_s: from one joint's ``end`` event to the next joint's start [s].
+    :ivar plans: one PlanConfig per tested joint, in the order they are run.
+    :ivar joint_names: every joint of the controller.
+    :ivar posture_rad: the held posture, one per ``joint_names`` [rad].
+    :ivar point_rate_hz: rate of the trajectory points [Hz].
+    :ivar controller: the joint_trajectory_controller's name.
+    :ivar end_margin_s: the ``end`` event comes this long after the planned end [s].
+    :ivar pause_between_joints_s: from one joint's ``end`` event to the next joint's start [s].
 
     """
 
@@ -84,14 +85,14 @@ def _fail(source: str, name: str, problem: str) -> ParameterError:
 
 
 def runner_config(values: Mapping[str, Any], *, source: str = '<parameters>') -> RunnerConfig:
-    """Build the :class:`RunnerConfig` of validated ``friction_experiment_runner`` parameters.
+    """
+    Build the :class:`RunnerConfig` of validated ``friction_experiment_runner`` parameters.
 
     Checks what one parameter cannot check alone: the lengths of the per-joint arrays, the
     tested joints among ``joint_names``, the speeds within ``max_speed_rad_s`` and each window
     inside the joint limits.
 
-    Raises:
-        ParameterError: one line naming the source and the parameter.
+    :raises ParameterError: one line naming the source and the parameter.
 
     """
     names = tuple(values['joint_names'])
@@ -186,16 +187,16 @@ def _plan_error(error: InputError, joint: str, source: str) -> ParameterError:
 
 @dataclass(frozen=True)
 class PlannedJoint:
-    """One tested joint of a run: its plan, trajectory points and times from the request.
+    """
+    One tested joint of a run: its plan, trajectory points and times from the request.
 
-    Attributes:
-        index: position in the run (0-based).
-        joint: the tested joint.
-        plan: its planned motion.
-        points: the JointTrajectory points of the plan (all joints of the controller).
-        start_offset_s: when its ``start`` event and trajectory are published [s].
-        end_offset_s: the planned end of its motion [s].
-        end_event_offset_s: when its ``end`` event is published [s].
+    :ivar index: position in the run (0-based).
+    :ivar joint: the tested joint.
+    :ivar plan: its planned motion.
+    :ivar points: the JointTrajectory points of the plan (all joints of the controller).
+    :ivar start_offset_s: when its ``start`` event and trajectory are published [s].
+    :ivar end_offset_s: the planned end of its motion [s].
+    :ivar end_event_offset_s: when its ``end`` event is published [s].
 
     """
 
@@ -215,10 +216,10 @@ class PlannedJoint:
 
 def plan_run(config: RunnerConfig, *, source: str = '<parameters>'
              ) -> tuple[PlannedJoint, ...]:
-    """Plan every tested joint and its offsets from a start request (see the module doc).
+    """
+    Plan every tested joint and its offsets from a start request (see the module doc).
 
-    Raises:
-        ParameterError: a motion that cannot be planned, naming the parameter to change.
+    :raises ParameterError: a motion that cannot be planned, naming the parameter to change.
 
     """
     steps = []
@@ -247,7 +248,8 @@ class RunnerAction:
 
 
 class ExperimentRunner:
-    """The runner's state: idle or running a schedule of :class:`PlannedJoint`.
+    """
+    The runner's state: idle or running a schedule of :class:`PlannedJoint`.
 
     Times are the node clock's, in seconds; the node calls :meth:`due` from a timer set to
     :meth:`next_due_s` (never blocking in a callback).
@@ -289,7 +291,8 @@ class ExperimentRunner:
         return self.run_start_s
 
     def start(self, now_s: float, *, trajectory_subscribers: int = 1) -> tuple[bool, str]:
-        """Start a run at ``now_s`` if idle; return (success, one-line message).
+        """
+        Start a run at ``now_s`` if idle; return (success, one-line message).
 
         Refused while running and when nothing subscribes to the trajectory topic (the
         controller is not loaded: the events would announce a motion that never happens).
@@ -360,7 +363,8 @@ class ExperimentRunner:
 
     def abort(self, now_s: float) -> tuple[bool, str, Optional[RunnerAction],
                                            Optional[TrajectoryPoints]]:
-        """Stop the run; return (success, message, ``aborted`` action, hold point).
+        """
+        Stop the run; return (success, message, ``aborted`` action, hold point).
 
         The hold point (:meth:`hold_points`) takes the running joint back to the posture.  The
         ``aborted`` action and the hold point are None when no joint is moving (idle, or
@@ -388,7 +392,8 @@ class ExperimentRunner:
         return True, message, action, hold
 
     def hold_points(self, step: PlannedJoint, elapsed_s: float) -> TrajectoryPoints:
-        """Return one point at the posture for ``step``'s joint, from its state at ``elapsed_s``.
+        """
+        Return one point at the posture for ``step``'s joint, from its state at ``elapsed_s``.
 
         A trajectory controller reaches a point given by position and velocity (no
         acceleration) along a cubic spline from its current state; the point's time is the
@@ -428,7 +433,8 @@ class ExperimentRunner:
         return 'finishing'
 
     def status(self, now_s: float, *, trajectory_subscribers: int) -> DiagnosticReport:
-        """Return the runner's diagnostics: idle or running joint k of n, and the counts.
+        """
+        Return the runner's diagnostics: idle or running joint k of n, and the counts.
 
         WARN when nothing subscribes to the trajectory topic (no controller listening).
         """
@@ -459,7 +465,8 @@ class ExperimentRunner:
 
 def cubic_stop_time(*, distance: float, velocity: float, max_acceleration: float,
                     max_speed: float, minimum_s: float) -> float:
-    """Return the shortest time T >= ``minimum_s`` of a cubic from (0, velocity) to (distance, 0).
+    """
+    Return the shortest time T >= ``minimum_s`` of a cubic from (0, velocity) to (distance, 0).
 
     The cubic Hermite spline p(t) with p(0) = 0, p'(0) = ``velocity``, p(T) = ``distance``,
     p'(T) = 0 has a linear acceleration, (6 d - 4 v T) / T^2 at 0 and (2 v T - 6 d) / T^2 at T;

@@ -1,4 +1,5 @@
-"""Friction levels of a recording, as ``robot-wear-monitor segment`` writes them (CSV).
+"""
+Friction levels of a recording, as ``robot-wear-monitor segment`` writes them (CSV).
 
 :func:`segment_bag` segments the joints of a ROS 2 bag as the replay does (joint discovery,
 chunked reading, the per-joint services of :mod:`~robot_wear_monitor.monitoring.joints`) and
@@ -27,16 +28,16 @@ LEVEL_COLUMNS = ('speed', 'friction', 'friction_std_error', 'tau_forward', 'tau_
 
 @dataclass
 class SegmentedLevels:
-    """The friction levels of a recording and what was found per joint.
+    """
+    The friction levels of a recording and what was found per joint.
 
-    Attributes:
-        rows: (level, experiment index or '' when the level is in no experiment, joint name).
-        notes: the reader's notes on the recording (bag input).
-        joints: one :func:`~robot_wear_monitor.monitoring.replay.joint_summary` per monitored
-            joint (bag input).
-        rejections: raw-run input: the segmentation's rejection counts by reason.
-        n_levels: raw-run input: the levels segmented (also those in no experiment at
-            ``speeds_rad_s``).
+    :ivar rows: (level, experiment index or '' when the level is in no experiment, joint name).
+    :ivar notes: the reader's notes on the recording (bag input).
+    :ivar joints: one :func:`~robot_wear_monitor.monitoring.replay.joint_summary` per monitored
+        joint (bag input).
+    :ivar rejections: raw-run input: the segmentation's rejection counts by reason.
+    :ivar n_levels: raw-run input: the levels segmented (also those in no experiment at
+        ``speeds_rad_s``).
 
     """
 
@@ -51,7 +52,8 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
                     torque_scale: Optional[float] = None,
                     speeds_rad_s: Optional[Sequence[float]] = None,
                     standstill_speed_rad_s: Optional[float] = None) -> SegmentedLevels:
-    """Segment one KUKA-style raw run with the raw-run settings (gear ratio and scale 1).
+    """
+    Segment one KUKA-style raw run with the raw-run settings (gear ratio and scale 1).
 
     ``gear_ratio`` / ``torque_scale`` / ``standstill_speed_rad_s``: override the raw-run
     settings when not None (a set standstill threshold is used also for a slow run);
@@ -88,7 +90,8 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
 
 
 def explain_raw_run(velocity: Any, rejections: Mapping[str, int], config: Any) -> str:
-    """Return why a raw run gave no friction level, in words with its speeds [rad/s].
+    """
+    Return why a raw run gave no friction level, in words with its speeds [rad/s].
 
     Too slow to tell from standstill (the typical speed is at the standstill threshold), one
     direction only (eq. (3) needs a pass each way at one speed), passes never paired, or no
@@ -124,7 +127,8 @@ def explain_raw_run(velocity: Any, rejections: Mapping[str, int], config: Any) -
 def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, Any],
                 topic: str = '/joint_states',
                 speeds_rad_s: Optional[Sequence[float]] = None) -> SegmentedLevels:
-    """Segment the joints of a bag as the replay does; raise NoExperimentError on no level.
+    """
+    Segment the joints of a bag as the replay does; raise NoExperimentError on no level.
 
     ``experiment_parameters``: the validated friction experiment node parameters (e.g. of
     :func:`~robot_wear_monitor.monitoring.replay.replay_parameters`); ``speeds_rad_s``: keep
@@ -169,7 +173,8 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
 
 def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]], *,
                     robot: str | None = None) -> str:
-    """Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text.
+    """
+    Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text.
 
     ``robot``: a last column ``robot`` with this name (none when None).
     """

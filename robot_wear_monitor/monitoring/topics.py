@@ -1,4 +1,5 @@
-"""Names of the monitoring nodes' topics and service, and the ROS type of every output.
+"""
+Names of the monitoring nodes' topics and service, and the ROS type of every output.
 
 Relative names resolve to ``/<name>`` in the root namespace; a node of several joints puts
 each joint's outputs under ``<joint>/`` (see ``monitoring/joints.py``).

@@ -1,4 +1,5 @@
-"""The wear estimator service's configuration and its result for one experiment.
+"""
+The wear estimator service's configuration and its result for one experiment.
 
 :class:`EstimatorConfig` comes from the ``wear_estimator_node`` parameters; a
 :class:`WearUpdate` is what :class:`~robot_wear_monitor.monitoring.estimator_service.
@@ -93,7 +94,8 @@ class WearUpdate:
 
     @property
     def wear_std(self) -> float:
-        """Return the standard deviation of w-hat where it means something, else NaN.
+        """
+        Return the standard deviation of w-hat where it means something, else NaN.
 
         See :func:`meaningful_std`: near w = 0 or on a bound the inverse Fisher information is
         no measure of the uncertainty and only the interval is reported.

@@ -1,4 +1,5 @@
-"""The rclpy nodes of the wear monitor: thin shells over the services of ``monitoring/``.
+"""
+The rclpy nodes of the wear monitor: thin shells over the services of ``monitoring/``.
 
 Only the modules of this package import rclpy and the ROS message packages.  Importing the
 package itself imports nothing from ROS, so the core stays usable without it.
@@ -22,7 +23,8 @@ def _import_message(type_name: str) -> Any:
 
 
 def message_kit() -> MessageKit:
-    """Return the :class:`MessageKit` of the rclpy message classes the nodes use.
+    """
+    Return the :class:`MessageKit` of the rclpy message classes the nodes use.
 
     The types every node uses are imported at once; others (trajectory_msgs for the
     friction_experiment_runner) on first use, so that a node never needs a message package
@@ -57,7 +59,8 @@ def message_kit() -> MessageKit:
 
 
 def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
-    """Declare ``specs`` on an rclpy node (with descriptions) and return their raw values.
+    """
+    Declare ``specs`` on an rclpy node (with descriptions) and return their raw values.
 
     The parameters are declared read-only with dynamic typing, so that a value of the wrong
     type (``150`` for a double) reaches
@@ -93,7 +96,8 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
 
 def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[ParameterSpec],
                              values: Mapping[str, Any], joint: str) -> dict[str, Any]:
-    """Return one monitored joint's validated parameters, declaring ``<joint>.<name>`` first.
+    """
+    Return one monitored joint's validated parameters, declaring ``<joint>.<name>`` first.
 
     Every per-joint parameter of the node
     (:data:`~robot_wear_monitor.monitoring.node_config.PER_JOINT_PARAMETERS`) is declared as
@@ -120,7 +124,8 @@ def node_time_s(node: Any) -> float:
 
 
 def log_rejection_report(logger: Any, report: tuple[str, bool] | None) -> None:
-    """Log a :class:`~robot_wear_monitor.monitoring.diagnostics.RejectionLog` report, if any.
+    """
+    Log a :class:`~robot_wear_monitor.monitoring.diagnostics.RejectionLog` report, if any.
 
     Malformed inputs are logged as WARN, the routine rejections of the protocol as INFO (one
     call site per severity: rclpy refuses a call site that changes its severity).
@@ -158,7 +163,8 @@ def node_help(node: str) -> str:
 
 
 def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -> int:
-    """Init rclpy, build the node and spin it until shutdown (the Jazzy try/finally pattern).
+    """
+    Init rclpy, build the node and spin it until shutdown (the Jazzy try/finally pattern).
 
     Returns 0 after a normal shutdown (SIGINT, SIGTERM) and 2 when the node refuses its
     parameters (an :class:`~robot_wear_monitor.errors.InputError`, logged as one fatal line).
@@ -168,7 +174,8 @@ def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -
 
 def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
                args=None) -> int:
-    """Init rclpy, build the nodes and spin them in one executor until shutdown.
+    """
+    Init rclpy, build the nodes and spin them in one executor until shutdown.
 
     All nodes share one SingleThreadedExecutor: rclpy's MultiThreadedExecutor costs more per
     callback than it saves here, and lost /joint_states messages at 1 kHz (measured).  An

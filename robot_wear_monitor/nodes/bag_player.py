@@ -1,4 +1,5 @@
-"""Play a recorded bag on the live ROS 2 graph (``robot-wear-monitor play``).
+"""
+Play a recorded bag on the live ROS 2 graph (``robot-wear-monitor play``).
 
 For hosts without rosbag2 (a pip-only install): the bag is read with rosbags and every message
 of the chosen topics is published as recorded (raw CDR bytes, header stamps untouched) at the
@@ -74,18 +75,17 @@ class BagPlayer(Node):
 def play_bag(bag: str | os.PathLike, *, rate: float = 1.0, topics: Sequence[str] | None = None,
              wait_for_subscribers: int = 1, wait_timeout_s: float = 10.0,
              say: Callable[[str], None] = print) -> PlayResult:
-    """Publish the messages of ``bag`` at the recorded pace / ``rate`` (rclpy must be init).
+    """
+    Publish the messages of ``bag`` at the recorded pace / ``rate`` (rclpy must be init).
 
-    Args:
-        bag: the bag folder (MCAP or sqlite3).
-        rate: speed-up of the recorded pace (2.0 plays twice as fast); > 0.
-        topics: topics to play (all recorded ones when None).
-        wait_for_subscribers: subscribers each topic waits for before the play starts.
-        wait_timeout_s: how long to wait for them; the play starts anyway afterwards.
-        say: where progress lines go.
+    :param bag: the bag folder (MCAP or sqlite3).
+    :param rate: speed-up of the recorded pace (2.0 plays twice as fast); > 0.
+    :param topics: topics to play (all recorded ones when None).
+    :param wait_for_subscribers: subscribers each topic waits for before the play starts.
+    :param wait_timeout_s: how long to wait for them; the play starts anyway afterwards.
+    :param say: where progress lines go.
 
-    Raises:
-        BagError: the bag cannot be read, or a requested topic is not in it.
+    :raises BagError: the bag cannot be read, or a requested topic is not in it.
 
     """
     if not rate > 0:

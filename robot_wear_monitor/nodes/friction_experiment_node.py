@@ -1,4 +1,5 @@
-"""friction_experiment_node: /joint_states -> friction_levels, one message per experiment.
+"""
+friction_experiment_node: /joint_states -> friction_levels, one message per experiment.
 
 Segments the monitored joint(s) into constant-speed friction levels (eq. (3)) and experiments
 with one :class:`robot_wear_monitor.monitoring.experiment_service.FrictionExperimentService` per
@@ -18,8 +19,6 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
-
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, rejections_by_joint
@@ -32,6 +31,7 @@ from robot_wear_monitor.nodes import (declare_joint_parameters, declare_paramete
 from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
                                           FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
 from robot_wear_monitor.recordings.messages import stamp_to_seconds
+from sensor_msgs.msg import JointState
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0
@@ -46,7 +46,8 @@ class FrictionExperimentNode(Node):
     """Segment /joint_states of the monitored joints and publish each completed experiment."""
 
     def __init__(self, **kwargs):
-        """Declare and validate the parameters, then subscribe and advertise.
+        """
+        Declare and validate the parameters, then subscribe and advertise.
 
         ``kwargs`` go to rclpy Node (e.g. ``parameter_overrides`` in tests).
         """
@@ -178,7 +179,8 @@ class FrictionExperimentNode(Node):
             self._all_rejections(), now_s=node_time_s(self), detail=detail))
 
     def close_if_stream_stopped(self):
-        """Publish the experiments in progress when /joint_states has stopped for idle_gap_s.
+        """
+        Publish the experiments in progress when /joint_states has stopped for idle_gap_s.
 
         Measured on the monotonic clock since the last message (not on the message stamps,
         which stop too): the experiment of a robot that stops publishing after it is not held

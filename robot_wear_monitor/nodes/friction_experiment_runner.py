@@ -1,4 +1,5 @@
-"""friction_experiment_runner: runs the planned friction experiment via a trajectory controller.
+"""
+friction_experiment_runner: runs the planned friction experiment via a trajectory controller.
 
 A thin shell over :class:`robot_wear_monitor.monitoring.runner.ExperimentRunner`.  Every tested
 joint's motion is planned at start-up (a motion the parameters do not allow refuses the node with
@@ -15,9 +16,6 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from std_srvs.srv import Trigger
-from trajectory_msgs.msg import JointTrajectory
-
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_RUNNER_NODE,
                                                        FRICTION_EXPERIMENT_RUNNER_PARAMETERS,
                                                        validate_parameters)
@@ -28,6 +26,8 @@ from robot_wear_monitor.nodes import declare_parameters, message_kit, node_time_
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS, TRAJECTORY_QOS
 from robot_wear_monitor.recordings.messages import (diagnostics_to_msg, experiment_event_to_msg,
                                                     EXPERIMENT_EVENTS_TOPIC, trajectory_to_msg)
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
 
 DIAGNOSTICS_PERIOD_S = 1.0
 
@@ -36,7 +36,8 @@ class FrictionExperimentRunner(Node):
     """Run the planned friction experiment of the tested joints on request."""
 
     def __init__(self, **kwargs):
-        """Declare and validate the parameters, plan every joint, advertise.
+        """
+        Declare and validate the parameters, plan every joint, advertise.
 
         ``kwargs`` go to rclpy Node (e.g. ``parameter_overrides`` in tests).
         """

@@ -1,4 +1,5 @@
-"""The live monitoring graph without ros2cli: both nodes in one process, and the bag player.
+"""
+The live monitoring graph without ros2cli: both nodes in one process, and the bag player.
 
 ``robot-wear-monitor live`` and ``robot-wear-monitor play`` call these for a pip-only install
 (ros2cli, launch and rosbag2 are not on PyPI); on a ROS 2 host ``ros2 launch robot_wear_monitor
@@ -26,7 +27,8 @@ def ros_arguments(*, params_file: str | os.PathLike,
 
 
 def run_monitoring_graph(*, args: Sequence[str]) -> int:
-    """Spin friction_experiment_node and wear_estimator_node in one executor until shutdown.
+    """
+    Spin friction_experiment_node and wear_estimator_node in one executor until shutdown.
 
     Returns 0 after SIGINT/SIGTERM, 2 when a node refuses its parameters.
     """
@@ -39,7 +41,8 @@ def run_monitoring_graph(*, args: Sequence[str]) -> int:
 def run_player(bag: str | os.PathLike, *, rate: float, topics: Sequence[str] | None,
                wait_for_subscribers: int, wait_timeout_s: float, args: Sequence[str] = (),
                say: Callable[[str], None] = print) -> int:
-    """Play ``bag`` on the graph (see :func:`~robot_wear_monitor.nodes.bag_player.play_bag`).
+    """
+    Play ``bag`` on the graph (see :func:`~robot_wear_monitor.nodes.bag_player.play_bag`).
 
     Returns 0 when played, 130 when interrupted; a bad bag raises BagError (exit 2 in the CLI).
     """

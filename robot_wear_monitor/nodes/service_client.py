@@ -1,4 +1,5 @@
-"""Call the monitor's std_srvs/Trigger services from Python: ``ros2 service call`` without ros2cli.
+"""
+Call the monitor's std_srvs/Trigger services from Python: ``ros2 service call`` without ros2cli.
 
 A pip-only host has rclpy but no ``ros2`` command; :func:`call_trigger` finds the first of the
 candidate service names that the graph offers, calls it once and returns the node's answer.
@@ -29,15 +30,15 @@ class ServiceNotFound(Exception):
 
 def call_trigger(*, candidates: Sequence[str], timeout_s: float,
                  args: Sequence[str] = ()) -> TriggerAnswer:
-    """Call the first of ``candidates`` (full service names) the graph offers; return its answer.
+    """
+    Call the first of ``candidates`` (full service names) the graph offers; return its answer.
 
     ``timeout_s`` bounds the wait for the service and, again, for the answer [s]; ``args`` are
     ROS arguments for ``rclpy.init`` (``--ros-args ...``).
 
-    Raises:
-        ServiceNotFound: no candidate appeared within ``timeout_s`` (the message lists them and
-            the Trigger services that the graph does offer).
-        TimeoutError: the service did not answer within ``timeout_s``.
+    :raises ServiceNotFound: no candidate appeared within ``timeout_s`` (the message lists them and
+        the Trigger services that the graph does offer).
+    :raises TimeoutError: the service did not answer within ``timeout_s``.
 
     """
     import rclpy

@@ -1,4 +1,5 @@
-"""wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagnostics.
+"""
+wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagnostics.
 
 A thin shell over
 :class:`robot_wear_monitor.monitoring.estimator_service.WearEstimatorService`, one per monitored
@@ -15,10 +16,6 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from sensor_msgs.msg import JointState, Temperature
-from std_msgs.msg import Bool, Float64, Float64MultiArray
-from std_srvs.srv import Trigger
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
@@ -36,6 +33,9 @@ from robot_wear_monitor.nodes import (declare_joint_parameters, declare_paramete
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
 from robot_wear_monitor.recordings.messages import alarm_to_msg
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Bool, Float64, Float64MultiArray
+from std_srvs.srv import Trigger
 
 DIAGNOSTICS_PERIOD_S = 1.0
 REJECTION_LOG_PERIOD_S = 10.0
@@ -50,7 +50,8 @@ class WearEstimatorNode(Node):
     """Estimate (T, w) per experiment, publish them, latch the alarm and keep the history."""
 
     def __init__(self, **kwargs):
-        """Declare and validate the parameters, restore the history, advertise.
+        """
+        Declare and validate the parameters, restore the history, advertise.
 
         ``kwargs`` go to rclpy Node (e.g. ``parameter_overrides`` in tests).
         """
@@ -122,7 +123,8 @@ class WearEstimatorNode(Node):
                 alarm_to_msg(self.kit, active=self.fleet.services[name].latch.active))
 
     def publish_diagnostics(self):
-        """Publish every joint's current diagnostics (periodic, like diagnostic_updater).
+        """
+        Publish every joint's current diagnostics (periodic, like diagnostic_updater).
 
         First take over the resets stored in the history meanwhile (the dashboard's): the
         joint's alarm is published clear at once.

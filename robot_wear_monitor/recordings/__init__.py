@@ -1,4 +1,5 @@
-"""Recordings: ROS 2 bags, message mapping, measured raw tables.
+"""
+Recordings: ROS 2 bags, message mapping, measured raw tables.
 
 :func:`is_bag` lives here, beside no heavy import, so that a command can tell a bag from a
 folder of bags before it loads rosbags or the batch machinery.
@@ -11,7 +12,8 @@ BAG_SUFFIXES = ('.mcap', '.db3')
 
 
 def is_bag(path: Path) -> bool:
-    """Return True when ``path`` is a recording the replay reads.
+    """
+    Return True when ``path`` is a recording the replay reads.
 
     A bag folder (``metadata.yaml``, or MCAP / sqlite3 files of an unfinished recording
     directly in it) or an MCAP file.

@@ -1,4 +1,5 @@
-"""Pure mapping between the monitoring service's results and ROS 2 message fields.
+"""
+Pure mapping between the monitoring service's results and ROS 2 message fields.
 
 The same functions build messages for the live nodes (rclpy message classes) and for the bag
 replay (rosbags typestore classes): the message classes come from a :class:`MessageKit`, which also
@@ -79,13 +80,13 @@ class MessageError(InputError):
 
 @dataclass(frozen=True)
 class MessageKit:
-    """Message classes plus the two field conventions that differ between rclpy and rosbags.
+    """
+    Message classes plus the two field conventions that differ between rclpy and rosbags.
 
-    Attributes:
-        get_type: returns the message class of a ROS type name such as
-            ``'sensor_msgs/msg/JointState'``.
-        float_array: converts a sequence of floats to what a ``float64[]`` field takes.
-        byte: converts an int in 0..255 to what a ``byte`` field takes.
+    :ivar get_type: returns the message class of a ROS type name such as
+        ``'sensor_msgs/msg/JointState'``.
+    :ivar float_array: converts a sequence of floats to what a ``float64[]`` field takes.
+    :ivar byte: converts an int in 0..255 to what a ``byte`` field takes.
 
     """
 
@@ -179,7 +180,8 @@ def friction_levels_to_msg(kit: MessageKit, *, stamp_s: float, joint: str,
 
 
 def friction_levels_from_msg(msg: Any) -> FrictionLevelsMessage:
-    """Read a friction_levels JointState; raise :class:`MessageError` when it is unusable.
+    """
+    Read a friction_levels JointState; raise :class:`MessageError` when it is unusable.
 
     Reasons (diagnostic counter keys): ``empty``, ``length_mismatch``, ``not_finite``,
     ``non_positive_speed``.
@@ -272,7 +274,8 @@ def _duration(kit: MessageKit, seconds: float) -> Any:
 
 def trajectory_to_msg(kit: MessageKit, *, points: Any, stamp_s: float = 0.0,
                       frame_id: str = '') -> Any:
-    """Build a trajectory_msgs/JointTrajectory from ``TrajectoryPoints``.
+    """
+    Build a trajectory_msgs/JointTrajectory from ``TrajectoryPoints``.
 
     ``stamp_s`` = 0 means "start on receipt" for ros2_control's joint_trajectory_controller.
     """
@@ -306,7 +309,8 @@ def trajectory_to_dict(points: Any) -> dict[str, Any]:
 
 
 def trajectory_from_msg(msg: Any) -> dict[str, Any]:
-    """Return the content of a JointTrajectory as a dict; raise MessageError when malformed.
+    """
+    Return the content of a JointTrajectory as a dict; raise MessageError when malformed.
 
     Keys: ``joint_names``, ``time_from_start_s`` (P,) [s], ``positions`` [rad],
     ``velocities`` [rad/s] and ``accelerations`` [rad/s^2] of shape (P, J) (or (P, 0) where the
@@ -344,18 +348,18 @@ EXPERIMENT_EVENT_KEYS = ('event', 'joint', 'experiment_id', 'speeds_rad_s',
 
 @dataclass(frozen=True)
 class ExperimentEvent:
-    """One event of the friction experiment runner (see the module docstring).
+    """
+    One event of the friction experiment runner (see the module docstring).
 
-    Attributes:
-        event: ``start``, ``end`` or ``aborted``.
-        joint: the tested joint.
-        experiment_id: the runner's number of this joint's experiment (start, end and aborted
-            of one experiment share it).
-        speeds_rad_s: the planned speeds, motor side [rad/s], in the order they are run.
-        planned_duration_s: duration of the planned motion [s].
-        controller_topic: the JointTrajectory topic the motion was sent to.
-        stamp_s: ``header.stamp`` [s] as read by :func:`experiment_event_from_msg` (the
-            runner's clock); :func:`experiment_event_to_msg` stamps with its own argument.
+    :ivar event: ``start``, ``end`` or ``aborted``.
+    :ivar joint: the tested joint.
+    :ivar experiment_id: the runner's number of this joint's experiment (start, end and aborted
+        of one experiment share it).
+    :ivar speeds_rad_s: the planned speeds, motor side [rad/s], in the order they are run.
+    :ivar planned_duration_s: duration of the planned motion [s].
+    :ivar controller_topic: the JointTrajectory topic the motion was sent to.
+    :ivar stamp_s: ``header.stamp`` [s] as read by :func:`experiment_event_from_msg` (the
+        runner's clock); :func:`experiment_event_to_msg` stamps with its own argument.
 
     """
 
@@ -369,7 +373,8 @@ class ExperimentEvent:
 
 
 def experiment_event_to_msg(kit: MessageKit, *, stamp_s: float, event: ExperimentEvent) -> Any:
-    """Build the DiagnosticArray of one experiment event, stamped ``stamp_s`` [s].
+    """
+    Build the DiagnosticArray of one experiment event, stamped ``stamp_s`` [s].
 
     Level OK for ``start`` and ``end``, WARN for ``aborted``.
     """
@@ -389,7 +394,8 @@ def experiment_event_to_msg(kit: MessageKit, *, stamp_s: float, event: Experimen
 
 
 def experiment_event_from_msg(msg: Any) -> ExperimentEvent:
-    """Read an experiment event; raise :class:`MessageError` when it is unusable.
+    """
+    Read an experiment event; raise :class:`MessageError` when it is unusable.
 
     Reasons (diagnostic counter keys): ``malformed`` (not a DiagnosticArray with exactly one
     status of the runner), ``missing_key``, ``unknown_event``, ``bad_value``.

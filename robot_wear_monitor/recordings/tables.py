@@ -1,4 +1,5 @@
-"""Readers of raw measured runs (not bags) into sample arrays for the segmenter.
+"""
+Readers of raw measured runs (not bags) into sample arrays for the segmenter.
 
 The KUKA LBR iiwa 14 friction runs of ``../shared/data/external/kuka_iiwa_yezhao_drake`` are one
 gzip CSV per run (``raw_runs/<set>_<vel_label>.csv.gz``) with the columns ``t_s, q_rad, dq_rad_s,
@@ -38,17 +39,17 @@ class RecordingError(InputError):
 
 @dataclass(frozen=True)
 class RawRun:
-    """One raw run of one joint, as sample arrays of shape (n,).
+    """
+    One raw run of one joint, as sample arrays of shape (n,).
 
-    Attributes:
-        t_s: time [s].
-        q_rad: joint position [rad].
-        dq_rad_s: joint velocity [rad/s].
-        tau_measured_Nm: measured joint torque [N m] (raw sign).
-        joint: tested joint number (1..7), 0 when unknown.
-        test_set: name of the test set, e.g. ``joint5_new_pose_friction_test``.
-        nominal_speed_rad_s: commanded speed from the file name [rad/s], NaN when unknown.
-        source: the file read.
+    :ivar t_s: time [s].
+    :ivar q_rad: joint position [rad].
+    :ivar dq_rad_s: joint velocity [rad/s].
+    :ivar tau_measured_Nm: measured joint torque [N m] (raw sign).
+    :ivar joint: tested joint number (1..7), 0 when unknown.
+    :ivar test_set: name of the test set, e.g. ``joint5_new_pose_friction_test``.
+    :ivar nominal_speed_rad_s: commanded speed from the file name [rad/s], NaN when unknown.
+    :ivar source: the file read.
 
     """
 
@@ -91,10 +92,10 @@ def parse_run_name(path: str | os.PathLike) -> tuple[str, int, float]:
 
 def read_raw_csv(path: str | os.PathLike, *,
                  columns: tuple[str, ...] = KUKA_COLUMNS) -> tuple[FloatArray, ...]:
-    """Read a (gzip) CSV with a header row; return the named columns as float arrays (n,).
+    """
+    Read a (gzip) CSV with a header row; return the named columns as float arrays (n,).
 
-    Raises:
-        RecordingError: the file is missing, not CSV, lacks a column or has no rows.
+    :raises RecordingError: the file is missing, not CSV, lacks a column or has no rows.
 
     """
     file = Path(path)
@@ -119,7 +120,8 @@ def read_raw_csv(path: str | os.PathLike, *,
 
 
 def read_kuka_run(path: str | os.PathLike) -> RawRun:
-    """Read one KUKA iiwa run ``raw_runs/<set>_<vel_label>.csv.gz`` into a :class:`RawRun`.
+    """
+    Read one KUKA iiwa run ``raw_runs/<set>_<vel_label>.csv.gz`` into a :class:`RawRun`.
 
     The arrays are unpackable: ``t_s, q_rad, dq_rad_s, tau_measured_Nm = read_kuka_run(p)``.
     """
@@ -130,11 +132,11 @@ def read_kuka_run(path: str | os.PathLike) -> RawRun:
 
 
 def list_kuka_runs(directory: str | os.PathLike, *, test_set: str | None = None) -> list[Path]:
-    """Return the run files of a KUKA data folder (or its ``raw_runs``), sorted by speed.
+    """
+    Return the run files of a KUKA data folder (or its ``raw_runs``), sorted by speed.
 
-    Args:
-        directory: the ``kuka_iiwa_yezhao_drake`` folder or its ``raw_runs`` subfolder.
-        test_set: keep only this set, e.g. ``joint3`` or ``joint5_new_pose_friction_test``.
+    :param directory: the ``kuka_iiwa_yezhao_drake`` folder or its ``raw_runs`` subfolder.
+    :param test_set: keep only this set, e.g. ``joint3`` or ``joint5_new_pose_friction_test``.
 
     """
     folder = Path(directory)
@@ -149,7 +151,8 @@ def list_kuka_runs(directory: str | os.PathLike, *, test_set: str | None = None)
 
 
 def read_author_table(path: str | os.PathLike) -> tuple[FloatArray, FloatArray]:
-    """Read a processed table ``FRICTION_*_SET_JOINT*.dat``: (velocity [rad/s], torque [N m]).
+    """
+    Read a processed table ``FRICTION_*_SET_JOINT*.dat``: (velocity [rad/s], torque [N m]).
 
     Rows are returned sorted by |velocity|.
     """
@@ -165,7 +168,8 @@ def read_author_table(path: str | os.PathLike) -> tuple[FloatArray, FloatArray]:
 
 
 def kuka_segmenter_config(**overrides) -> SegmenterConfig:
-    """Return the segmenter settings for the KUKA iiwa runs (link-side sensors, N m).
+    """
+    Return the segmenter settings for the KUKA iiwa runs (link-side sensors, N m).
 
     gear_ratio 1 and torque_scale 1 (levels in link-side rad/s and N m); the runs are logged at
     200 Hz with a speed estimate that ripples by a few percent, so the constant-speed band is
@@ -183,7 +187,8 @@ def kuka_segmenter_config(**overrides) -> SegmenterConfig:
 
 def with_standstill_speed(config: SegmenterConfig,
                           standstill_speed_rad_s: float) -> SegmenterConfig:
-    """Return ``config`` with the user's standstill threshold [rad/s, motor side].
+    """
+    Return ``config`` with the user's standstill threshold [rad/s, motor side].
 
     The absolute constant-speed band is kept within half the threshold, so that a run just
     above it is not taken for one at another speed.
@@ -194,7 +199,8 @@ def with_standstill_speed(config: SegmenterConfig,
 
 
 def slow_run_config(config: SegmenterConfig, velocity_rad_s: Any) -> SegmenterConfig | None:
-    """Return settings whose standstill threshold follows the run's speed noise, or None.
+    """
+    Return settings whose standstill threshold follows the run's speed noise, or None.
 
     For a run slower than the configured standstill threshold (motor side): the velocity's
     noise std is estimated from its sample-to-sample differences (median absolute deviation),

@@ -1,4 +1,5 @@
-"""Files of a planned friction-experiment trajectory: JointTrajectory YAML, one-message bag, CSV.
+"""
+Files of a planned friction-experiment trajectory: JointTrajectory YAML, one-message bag, CSV.
 
 * YAML: the fields of a ``trajectory_msgs/msg/JointTrajectory``, as ``ros2 topic pub`` takes
   them: ``ros2 topic pub --once /joint_trajectory_controller/joint_trajectory
@@ -18,13 +19,12 @@ import io
 import os
 from pathlib import Path
 
-import yaml
-
 from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import ExperimentPlan, TrajectoryPoints
 from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.bags import atomic_bag_writer, MONITOR_TYPESTORE
+import yaml
 
 #: Default controller of ros2_control whose ``joint_trajectory`` topic takes the plan.
 DEFAULT_CONTROLLER = 'joint_trajectory_controller'

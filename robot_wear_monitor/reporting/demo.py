@@ -1,4 +1,5 @@
-"""The demo: simulate an accelerated wear test, replay it through the service, write a report.
+"""
+The demo: simulate an accelerated wear test, replay it through the service, write a report.
 
 ``robot-wear-monitor demo`` needs no arguments and no data: it simulates about a hundred
 friction experiments of joint 2 (Table V's N = 4 speeds) with wear rising past 35 at the end and
@@ -28,10 +29,10 @@ from robot_wear_monitor.reporting.report import plot_friction_curves, plot_wear_
 def run_demo(*, out_dir: str | os.PathLike = 'wear_demo', n_experiments: int = 100,
              seed: int = 0, progress: bool = False,
              log: Callable[[str], Any] = lambda text: None) -> dict[str, Any]:
-    """Run the demo into ``out_dir`` (replacing the demo files there); return the summary.
+    """
+    Run the demo into ``out_dir`` (replacing the demo files there); return the summary.
 
-    Raises:
-        InputError: ``out_dir`` exists and is not a folder, or a step fails with bad input.
+    :raises InputError: ``out_dir`` exists and is not a folder, or a step fails with bad input.
 
     """
     started = time.perf_counter()

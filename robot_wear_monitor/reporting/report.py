@@ -1,4 +1,5 @@
-"""Figures and the Markdown report of a replay: wear trend like the paper's Fig. 11, friction.
+"""
+Figures and the Markdown report of a replay: wear trend like the paper's Fig. 11, friction.
 
 :func:`plot_wear_trend` draws w-hat with its 95 % interval band, the filtered trend with its
 interval, the threshold, the truth when known (simulated bags) with the region where detection
@@ -55,7 +56,8 @@ def _arrays(result: Any) -> dict[str, np.ndarray]:
 
 def plot_wear_trend(result: Any, path: str | os.PathLike, *, threshold: float,
                     title: str = 'Wear estimate') -> Path:
-    """Draw w-hat with its 95 % interval, the trend with its interval, truth, alarm; save a PNG.
+    """
+    Draw w-hat with its 95 % interval, the trend with its interval, truth, alarm; save a PNG.
 
     The bands are the profile-likelihood intervals of each estimate and the trend's posterior
     interval (never +-2 std, which is meaningless near w = 0).
@@ -235,7 +237,8 @@ def write_report(result: Any, folder: str | os.PathLike, *, threshold: float,
 
 def plot_replay(result: Any, path: str | os.PathLike, *, bag: str | os.PathLike,
                 threshold: float) -> list[Path]:
-    """Draw the wear trend of a replay, one PNG per joint with estimates; return the files.
+    """
+    Draw the wear trend of a replay, one PNG per joint with estimates; return the files.
 
     One joint (or none with estimates): ``path`` itself; several: ``<stem>_<joint><suffix>``
     beside it.  ``threshold``: the alarm threshold of w [-].

@@ -1,4 +1,5 @@
-"""Audit on undeclared effects: synthetic friction levels from model (5) plus a hidden effect.
+"""
+Audit on undeclared effects: synthetic friction levels from model (5) plus a hidden effect.
 
 Each experiment runs 8 speeds twice at one operating point (temperature, load and the
 undeclared variables are constant within an experiment, as in the paper's procedure), so the
@@ -11,14 +12,13 @@ import math
 
 import numpy as np
 import pytest
-
-from effect_generator import model_friction
 from robot_wear_monitor.audit.data import load_audit_data, read_level_table, table_from_columns
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.audit.run import run_audit
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import load_parameter_set
+from wear_testing.effect_generator import model_friction
 
 PARAMS = load_parameter_set()
 SPEEDS = np.array([2.1, 8.7, 15.3, 28.5, 41.7, 82.2, 133.5, 236.2])

@@ -5,10 +5,9 @@ import os
 
 import numpy as np
 import pytest
-from threadpoolctl import threadpool_info, threadpool_limits
-
 from robot_wear_monitor.audit.data import load_audit_data
 from robot_wear_monitor.audit.run import run_audit
+from threadpoolctl import threadpool_info, threadpool_limits
 
 
 @pytest.fixture(scope='module')

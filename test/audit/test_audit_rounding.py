@@ -1,4 +1,5 @@
-"""The audit's fits and scans do not follow rounding (the BLAS summation order).
+"""
+The audit's fits and scans do not follow rounding (the BLAS summation order).
 
 A Stribeck speed that the data do not determine (a joint without a Stribeck rise) leaves the sum
 of squares flat to rounding; a period scan with two equal peaks is a tie.  Without care the
@@ -10,7 +11,6 @@ The KUKA audit itself is compared under one and under several threads in test_au
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.audit.fitting import AuditTable, fit_model, speed_base
 from robot_wear_monitor.audit.significance import periodic_scan
 

@@ -1,4 +1,5 @@
-"""Identification of parameter sets (``identify``) on robots simulated independently.
+"""
+Identification of parameter sets (``identify``) on robots simulated independently.
 
 The friction levels come from ``test/independent_robot.py``'s model functions (written from the
 paper, sharing no code with the package) with parameter dicts that differ from the packaged
@@ -13,8 +14,6 @@ import math
 
 import numpy as np
 import pytest
-
-import independent_robot as robot
 from robot_wear_monitor.audit.export import parameter_set_yaml, write_identified_parameter_set
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.audit.identification import identify, identify_nominal
@@ -23,6 +22,7 @@ from robot_wear_monitor.audit.speed_model import identify_speed_model
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
+from wear_testing import independent_robot as robot
 
 GRID = np.array([2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1])
 SIGMA = 4.23e-3  # level error of the simulated robots (the model error of (5), Sec. II-B1)
@@ -70,7 +70,8 @@ def baseline_table(p, *, seed, n_experiments=40, temperatures=(30.0, 50.0),
 
 
 def wear_test_table(p, *, seed, n_experiments=30, repeats=4):
-    """Accelerated wear test: w = 35 (k / K)^2, so w = 35 exactly at experiment K.
+    """
+    Accelerated wear test: w = 35 (k / K)^2, so w = 35 exactly at experiment K.
 
     Every experiment runs each speed ``repeats`` times (one level per run).
     """

@@ -1,4 +1,5 @@
-"""``identify`` on a recorded bag: temperature and load from topics the user names.
+"""
+``identify`` on a recorded bag: temperature and load from topics the user names.
 
 The recording comes from the independent generator (``test/independent_robot.py``, its own
 trajectory and noise); the bag, with ``/joint_temperature`` (sensor_msgs/Temperature) and
@@ -10,12 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import get_typestore, Stores
-
-import independent_robot as robot
 from robot_wear_monitor import cli
 from robot_wear_monitor.model.params import load_parameter_set
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import get_typestore, Stores
+from wear_testing import independent_robot as robot
 
 PAPER_SPEEDS = (2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1)
 TS = get_typestore(Stores.ROS2_JAZZY)

@@ -1,4 +1,5 @@
-"""Friction data in the forms labs record them (part of the lab-data issue).
+"""
+Friction data in the forms labs record them (part of the lab-data issue).
 
 Own generator here (a speed-only curve (4) with a direction offset, in N.m, repeated runs):
 signed speeds (one row per direction, signed torque), a numeric joint column, a table without
@@ -9,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.audit.data import table_from_columns
 from robot_wear_monitor.audit.fitting import speed_base
 from robot_wear_monitor.audit.run import run_audit, speed_parameter_flags

@@ -1,4 +1,5 @@
-"""Issue 10: every variable a suspect, no false discoveries, power, and the loop closed.
+"""
+Issue 10: every variable a suspect, no false discoveries, power, and the loop closed.
 
 Data: :mod:`effect_generator` (42 experiments x 12 speeds = 504 levels, level error SIGMA), one
 undeclared effect each, of the size stated per test in units of SIGMA (RMS over the table).
@@ -10,13 +11,13 @@ import math
 
 import numpy as np
 import pytest
-
-from effect_generator import DECOYS, EFFECTS, levels, PARAMS, SIGMA, SPEEDS, with_effect
 from robot_wear_monitor.audit.data import table_from_columns
 from robot_wear_monitor.audit.run import run_audit
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.model.friction import friction, nominal_friction
 from robot_wear_monitor.model.params import load_parameter_set
+from wear_testing.effect_generator import (DECOYS, EFFECTS, levels, PARAMS, SIGMA, SPEEDS,
+                                           with_effect)
 
 
 def audit_effect(kind, *, size_sigma, seed, **kwargs):
@@ -80,7 +81,8 @@ def test_the_extended_parameter_set_evaluates_what_the_audit_fitted():
 
 
 def test_audit_out_params_then_estimate_params_lowers_the_wear_error(tmp_path, capsys):
-    """End to end: an undeclared speed bump, audit --out-params, estimate --params.
+    """
+    End to end: an undeclared speed bump, audit --out-params, estimate --params.
 
     The wear error over 24 fresh experiments of the joint (T, w, load random; all 12 speeds)
     with the extended set is at most 0.8 x that of the original set.

@@ -3,7 +3,6 @@
 import json
 
 import pytest
-
 from robot_wear_monitor.cli import main
 
 GRID_27 = '2.1,8.7,15.3,21.9,28.5,35.1,41.7,82.2,133.5,184.7,236.2,287.1'

@@ -4,7 +4,6 @@ import json
 import math
 
 import pytest
-
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.estimation.report import meaningful_std, wear_report
 from robot_wear_monitor.model.params import load_parameter_set

@@ -5,7 +5,6 @@ import io
 import json
 
 import pytest
-
 from robot_wear_monitor.cli import main
 
 HOUR_S = 3600

@@ -5,7 +5,6 @@ import io
 import json
 
 import pytest
-
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.cli.history import ALARM_LOG_COLUMNS
 from robot_wear_monitor.fleet.ranking import iso_time

@@ -6,8 +6,8 @@ from pathlib import Path
 import subprocess
 import sys
 
-from conftest import REPO_ROOT
 from robot_wear_monitor import cli
+from wear_testing.paths import REPO_ROOT
 
 VERBS = ('design', 'plan', 'estimate', 'study', 'simulate', 'segment', 'replay', 'demo',
          'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify', 'dashboard')

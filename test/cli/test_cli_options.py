@@ -4,10 +4,9 @@ import json
 
 import numpy as np
 import pytest
-import test_identify_cli as levels
-
 from robot_wear_monitor import cli
 from robot_wear_monitor.cli.options import level_source_scales
+import test_identify_cli as levels
 
 REPLAY_DEPRECATED = ('robot-wear-monitor replay: warning: --json PATH is deprecated; use '
                      '--json-out PATH')

@@ -1,4 +1,5 @@
-"""The dashboard as a person uses it: a real headless Chromium (Selenium) against uvicorn.
+"""
+The dashboard as a person uses it: a real headless Chromium (Selenium) against uvicorn.
 
 The server runs in a thread on 127.0.0.1 with a free port, over a history with known values
 (fleet_history.py).  Debian's ``chromium`` and ``chromium-driver`` (``.ci/run`` installs them):
@@ -12,12 +13,11 @@ import threading
 import time
 
 import pytest
-
-from fleet_history import (EXPERIMENTS, make_fleet, ORDER, PASSWORDS, record, wear_of,
-                           XSS_ROBOT)
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.pages import joint_url
 from robot_wear_monitor.monitoring.history import open_history
+from wear_testing.fleet_history import (EXPERIMENTS, make_fleet, ORDER, PASSWORDS, record,
+                                        wear_of, XSS_ROBOT)
 
 CHROMEDRIVER = '/usr/bin/chromedriver'
 CHROMIUM = '/usr/bin/chromium'

@@ -1,4 +1,5 @@
-"""``robot-wear-monitor dashboard``: users from the command line, the host rule, a real start.
+"""
+``robot-wear-monitor dashboard``: users from the command line, the host rule, a real start.
 
 The password is read from stdin (never argv); a non-loopback ``--host`` without TLS or
 ``--insecure-http`` is refused with exit 2; the command serves the login page on the port given.
@@ -13,12 +14,11 @@ import time
 
 import httpx
 import pytest
-
-from fleet_history import make_fleet
 from robot_wear_monitor.cli import main as cli_main
 from robot_wear_monitor.dashboard.server import check_listen, is_loopback
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.monitoring.history import open_history
+from wear_testing.fleet_history import make_fleet
 
 REPO = Path(__file__).resolve().parents[2]
 

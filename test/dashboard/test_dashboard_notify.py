@@ -1,4 +1,5 @@
-"""``dashboard --notify CONFIG``: the server process sends the fleet's notifications, once.
+"""
+``dashboard --notify CONFIG``: the server process sends the fleet's notifications, once.
 
 A webhook receiver on 127.0.0.1 (the test's own, stdlib ``http.server``) gets the alarm of the
 known fleet while the app runs; a second app on the same history sends nothing again (the
@@ -12,10 +13,9 @@ import time
 
 from fastapi.testclient import TestClient
 import pytest
-
-from fleet_history import make_fleet
 from robot_wear_monitor.cli import main as cli_main
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
+from wear_testing.fleet_history import make_fleet
 
 
 @pytest.fixture()

@@ -1,4 +1,5 @@
-"""The dashboard's server with FastAPI's TestClient: API vs the history, roles, CSRF, limits.
+"""
+The dashboard's server with FastAPI's TestClient: API vs the history, roles, CSRF, limits.
 
 The history is written with known values (fleet_history.py); the API must tell what the history
 holds, in the order of ``fleet``; a viewer may not change anything; every POST needs the CSRF
@@ -16,14 +17,13 @@ import time
 
 from fastapi import testclient as fastapi_testclient
 import pytest
-
-from fleet_history import (csrf_of, EXPERIMENTS, login, make_fleet, ORDER, PASSWORDS, PLAN,
-                           record, wear_of, XSS_ROBOT)
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.auth import LoginLimiter
 from robot_wear_monitor.dashboard.pages import joint_url
 from robot_wear_monitor.fleet.ranking import fleet_view
 from robot_wear_monitor.monitoring.history import AlarmEvent, open_history
+from wear_testing.fleet_history import (csrf_of, EXPERIMENTS, login, make_fleet, ORDER,
+                                        PASSWORDS, PLAN, record, wear_of, XSS_ROBOT)
 
 
 @pytest.fixture()

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import (AlarmLatch, AlarmPolicy,
                                                  DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,

@@ -6,7 +6,6 @@ import sys
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.estimation import intervals
 from robot_wear_monitor.estimation.intervals import (calibrate_cutoffs, calibration_key,
                                                      simulate_cutoffs)

@@ -4,14 +4,13 @@ from itertools import combinations
 
 import numpy as np
 import pytest
-from scipy import integrate, stats
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import (best_grid_design, design_cost, DesignResult,
                                                   fisher_information, optimal_design,
                                                   wear_variance_bound)
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import load_parameter_set
+from scipy import integrate, stats
 
 PARAMS = load_parameter_set()
 GRID_27 = [2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1]
@@ -40,7 +39,8 @@ def test_table_v_best_combination_of_the_grid_27(n):
 
 
 def _marginal_information_by_scipy_quad(speed, wear):
-    """Independent slow computation of the N = 1 Fisher information of (25).
+    """
+    Independent slow computation of the N = 1 Fisher information of (25).
 
     F = E[(d/dw log p(y|w))^2] with p(y|w) = 1/20 int_30^50 N(y; tau_f(v, mu, T, w), s^2) dT.
     The score is -g'(z)/g(z) d tilde tau_f/dw at z = y - tilde tau_f, so F is

@@ -2,8 +2,6 @@
 
 import numpy as np
 import pytest
-from scipy import integrate, optimize, stats
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import design_cost, fisher_information
 from robot_wear_monitor.estimation.estimator import (estimate_wear, marginal_fisher_information,
@@ -11,6 +9,7 @@ from robot_wear_monitor.estimation.estimator import (estimate_wear, marginal_fis
 from robot_wear_monitor.estimation.study import simulate_friction
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import load_parameter_set
+from scipy import integrate, optimize, stats
 
 PARAMS = load_parameter_set()
 TABLE_IV = {2: [35.84, 40.84], 3: [33.68, 38.68, 43.68], 4: [31.65, 36.65, 41.65, 46.65]}

@@ -1,4 +1,5 @@
-"""Estimates, intervals and likelihood rows of many experiments at once equal one at a time.
+"""
+Estimates, intervals and likelihood rows of many experiments at once equal one at a time.
 
 Rows at their own speeds (N = 1 .. 6 levels, at the bounds of T and w, wear beyond the wear
 grid's end so that the temperature profile's grid is extended) are compared exactly with
@@ -7,7 +8,6 @@ grid's end so that the temperature profile's grid is extended) are compared exac
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.estimation import estimator as core
 from robot_wear_monitor.estimation.batch import estimate_wear_rows
 from robot_wear_monitor.estimation.batch_intervals import wear_intervals_rows

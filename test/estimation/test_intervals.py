@@ -1,4 +1,5 @@
-"""Tests of the profile-likelihood intervals of w and T (estimation/intervals.py).
+"""
+Tests of the profile-likelihood intervals of w and T (estimation/intervals.py).
 
 Data come from the independent generator ``test/independent_robot.py`` (model (8) written
 without the package): levels = model(v, load ~ N(0.5, 0.1), T ~ U[30, 50], w) + N(0, sigma).
@@ -23,15 +24,14 @@ case into 93-98 %.
 
 import numpy as np
 import pytest
-from scipy import integrate, optimize, stats
-
-import independent_robot as robot
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.estimation.intervals import (calibrate_cutoffs, profile_log_likelihood,
                                                      wear_grid, WEAR_GRID_MAX, wear_intervals,
                                                      WearInterval, WearIntervals)
 from robot_wear_monitor.model.params import load_parameter_set
+from scipy import integrate, optimize, stats
+from wear_testing import independent_robot as robot
 
 PARAMS = load_parameter_set()
 SPEEDS = {4: (2.1, 28.5, 35.1, 41.7), 2: (35.1, 41.7), 1: (35.1,)}

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.estimation.plausibility import check_levels, friction_range
 from robot_wear_monitor.model.friction import friction

@@ -7,10 +7,9 @@ import sys
 
 import numpy as np
 import pytest
-from scipy import special
-
 from robot_wear_monitor.estimation.special_functions import (chi2_quantile_one_dof,
                                                              chi2_survival, erf, log_sum_exp)
+from scipy import special
 
 
 def test_erf_equals_scipy_to_a_few_ulp_and_saturates_exactly():
@@ -81,7 +80,8 @@ def test_chi2_quantile_one_dof_refuses_a_level_outside_zero_one():
 
 
 def test_the_estimation_path_and_the_replay_do_not_import_scipy():
-    """Importing scipy takes 0.14 s, which the short replay cannot afford (issue 28).
+    """
+    Importing scipy takes 0.14 s, which the short replay cannot afford (issue 28).
 
     Nor does it load rosbags' stores of the older distributions (0.04 s).
     """

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.study import (cramer_rao_bound, plot_study, run_study,
                                                  simulate_friction)

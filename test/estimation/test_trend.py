@@ -1,4 +1,5 @@
-"""Tests of the wear trend filter and the trend alarm rule on it.
+"""
+Tests of the wear trend filter and the trend alarm rule on it.
 
 Friction data come from the independent generator (``independent_robot.friction_model``, which
 shares no code with the package) at the Table V speeds, with one load N(0.5, 0.1) per experiment,
@@ -11,14 +12,13 @@ import math
 
 import numpy as np
 import pytest
-
-import independent_robot as robot
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation import trend as trend_module
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood
 from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig, WearTrend
 from robot_wear_monitor.model.params import load_parameter_set
+from wear_testing import independent_robot as robot
 
 SPEEDS = robot.TABLE_V_SPEEDS_RAD_S
 PARAMS = load_parameter_set()

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.experiment.segmentation import segment_batch, StreamingSegmenter
 from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, list_kuka_runs,
                                                   read_author_table, read_kuka_run)

@@ -1,4 +1,5 @@
-"""Tests of the friction-experiment planner (experiment/planning.py) and ``plan``.
+"""
+Tests of the friction-experiment planner (experiment/planning.py) and ``plan``.
 
 The motion is checked by finite differences of densely sampled points and by executing the
 trajectory *points* (what a controller receives) with a controller written here: a cubic
@@ -13,11 +14,6 @@ import json
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import Reader
-from scipy.interpolate import CubicHermiteSpline
-import yaml
-
-import independent_robot as robot
 from robot_wear_monitor import cli
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import (plan_experiment, plan_summary, PlanConfig,
@@ -27,6 +23,10 @@ from robot_wear_monitor.experiment.simulation import (experiment_trajectory, Joi
                                                       plan_config_for)
 from robot_wear_monitor.recordings.bags import TYPESTORE
 from robot_wear_monitor.recordings.messages import trajectory_from_msg
+from rosbags.rosbag2 import Reader
+from scipy.interpolate import CubicHermiteSpline
+from wear_testing import independent_robot as robot
+import yaml
 
 SPEEDS = (2.1, 28.5, 35.1, 41.7)
 IRB = {'joint': 'joint_2', 'speeds_rad_s': SPEEDS, 'center_rad': 0.2, 'half_range_rad': 0.5,

@@ -4,7 +4,6 @@ from collections import Counter
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, segment_batch,
@@ -172,8 +171,8 @@ def test_assembler_without_speeds_splits_on_idle_and_repeat():
 @pytest.mark.parametrize('seed', [1, 2])
 def test_chunks_of_any_size_give_the_streaming_levels(seed):
     """The chunked replay path equals the live one on an independent recording with faults."""
-    import independent_robot as robot
     from robot_wear_monitor.experiment.segmentation import ChunkSegmenter
+    from wear_testing import independent_robot as robot
     recording = robot.generate_wear_test(n_experiments=3, seed=seed, rate_hz=500.0)
     column = recording.joint_index
     t = recording.stamps_s.copy()

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, JointSimConfig,

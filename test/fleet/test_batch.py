@@ -5,7 +5,6 @@ import json
 from pathlib import Path
 
 import pytest
-
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                       simulate_scenario)
 from robot_wear_monitor.fleet.batch import (BatchError, collect_bags, read_manifest,

@@ -1,4 +1,5 @@
-"""Replays at once into one history (SQLite and a real PostgreSQL): nothing lost, nothing twice.
+"""
+Replays at once into one history (SQLite and a real PostgreSQL): nothing lost, nothing twice.
 
 Eight replays of eight robots start together against one history and must store exactly the
 rows of the same replays run one after the other; two replays of the same robot's recording at
@@ -12,7 +13,6 @@ from dataclasses import replace
 import multiprocessing
 
 import pytest
-
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                       simulate_scenario)
 from robot_wear_monitor.model.params import load_parameter_set

@@ -1,4 +1,5 @@
-"""Tests of the notifications against real servers on 127.0.0.1 started here.
+"""
+Tests of the notifications against real servers on 127.0.0.1 started here.
 
 A webhook receiver (http.server in a thread) records the JSON bodies and can fail its first
 requests; an SMTP server (aiosmtpd) receives the e-mails, with STARTTLS and a login in one test.
@@ -23,9 +24,6 @@ import threading
 from aiosmtpd.controller import Controller
 from aiosmtpd.smtp import AuthResult
 import pytest
-import yaml
-
-from conftest import REPO_ROOT
 from robot_wear_monitor.cli import main as cli_main
 from robot_wear_monitor.fleet.notifications import (load_notification_config,
                                                     NotificationConfigError, notify_forever,
@@ -34,6 +32,8 @@ from robot_wear_monitor.fleet.notify_config import notification_config_from_mapp
 from robot_wear_monitor.fleet.ranking import iso_time
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.yaml_files import load_yaml_file
+from wear_testing.paths import REPO_ROOT
+import yaml
 
 HOUR = 3600.0
 DAY = 86400.0
@@ -165,7 +165,8 @@ RAISE_S = T0 + 3 * HOUR
 
 
 def _fleet(history):
-    """Four joints, 1 h between experiments (the last at T0 + 3 h, except the stale one).
+    """
+    Four joints, 1 h between experiments (the last at T0 + 3 h, except the stale one).
 
     cell_1/joint_2: alarm raised at RAISE_S, w = 80, its trend past the threshold (crossing
     -1 experiments); cell_1/joint_3: crossing in 5

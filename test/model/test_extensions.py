@@ -4,11 +4,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-import yaml
-
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
                                              parameter_set_yaml_text, ParameterError)
+import yaml
 
 PARAMS = load_parameter_set()
 

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import load_parameter_set
 

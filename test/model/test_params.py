@@ -4,11 +4,10 @@ from pathlib import Path
 import re
 
 import pytest
-import yaml
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
                                              ParameterError)
+import yaml
 
 
 def _default_document() -> dict:

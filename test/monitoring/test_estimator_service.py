@@ -5,8 +5,6 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from rosbags.typesys import get_typestore, Stores
-
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
 from robot_wear_monitor.model.params import load_parameter_set
@@ -15,6 +13,7 @@ from robot_wear_monitor.monitoring.estimator_service import (EstimatorConfig,
                                                              WearEstimatorService)
 from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.recordings import messages
+from rosbags.typesys import get_typestore, Stores
 
 KIT = messages.rosbags_kit(get_typestore(Stores.ROS2_JAZZY))
 PARAMS = load_parameter_set()
@@ -133,7 +132,7 @@ def _real_service(history, **config):
 
 
 def _levels_of(k, wear, rng):
-    import independent_robot as robot
+    from wear_testing import independent_robot as robot
     speeds = (2.1, 28.5, 35.1, 41.7)
     temperature, load = rng.uniform(30.0, 50.0), rng.normal(0.5, 0.1)
     frictions = [float(robot.friction_model(v, load, temperature, wear)
@@ -203,7 +202,8 @@ def test_the_trend_rule_raises_on_the_trend_and_a_reset_starts_a_new_segment(tmp
 
 def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_estimator(
         history_location, tmp_path, request):
-    """The dashboard's reset (history.reset_alarm) and ~/reset_alarm restore the same state.
+    """
+    The dashboard's reset (history.reset_alarm) and ~/reset_alarm restore the same state.
 
     Three estimators after the same experiments: restarted after a reset stored through the
     history, restarted after ~/reset_alarm, and one that runs on while the dashboard resets

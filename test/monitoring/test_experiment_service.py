@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor.monitoring import node_config
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.recordings import messages
@@ -80,7 +79,7 @@ def _cut_service(recording, cut, chunk):
 @pytest.mark.parametrize('gap_s', [1.0, 5.0])
 @pytest.mark.parametrize('chunk', [700, 100_000])
 def test_a_cut_in_the_next_experiments_first_move_keeps_the_complete_one(gap_s, chunk):
-    import independent_robot as robot
+    from wear_testing import independent_robot as robot
     recording = robot.generate_wear_test(n_experiments=2, seed=1, rate_hz=500.0, gap_s=gap_s)
     first_end = recording.truth[0].end_s
     speed = np.abs(recording.velocity[:, recording.joint_index]) * recording.gear_ratio
@@ -91,7 +90,7 @@ def test_a_cut_in_the_next_experiments_first_move_keeps_the_complete_one(gap_s, 
 
 
 def test_a_cut_in_a_pause_inside_an_experiment_drops_that_experiment_only():
-    import independent_robot as robot
+    from wear_testing import independent_robot as robot
     recording = robot.generate_wear_test(n_experiments=2, seed=1, rate_hz=500.0,
                                          standstill_s=1.0)
     whole, _, service = _cut_service(recording, recording.stamps_s.size, 100_000)

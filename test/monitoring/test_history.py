@@ -1,4 +1,5 @@
-"""Tests of the wear history on both backends (SQLite file, real PostgreSQL server).
+"""
+Tests of the wear history on both backends (SQLite file, real PostgreSQL server).
 
 Atomic rows, restore of trend and latched alarm per robot and joint, migration of the files of
 older releases, foreign databases refused untouched, concurrent writers, a lost server, the
@@ -13,7 +14,6 @@ import subprocess
 import sys
 
 import pytest
-
 from robot_wear_monitor.monitoring.history import (
     AlarmEvent, DEFAULT_ROBOT, HistoryError, HistoryRecord, INTERVAL_COLUMNS, is_postgresql_url,
     open_history, redact_url, SCHEMA_VERSION, WearHistory)

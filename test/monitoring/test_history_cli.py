@@ -7,7 +7,6 @@ import time
 
 import numpy as np
 import pytest
-
 from robot_wear_monitor import cli
 from robot_wear_monitor.audit.data import load_audit_data
 from robot_wear_monitor.experiment.simulation import read_truth_json, truth_path_for

@@ -1,4 +1,5 @@
-"""Tests of the history's schema 5 (the dashboard's data) on both backends.
+"""
+Tests of the history's schema 5 (the dashboard's data) on both backends.
 
 The migration of a version-4 file written by the released code (and of a version-4 PostgreSQL
 database), acknowledge and reset by people (the latch ignores acknowledgements; a stored reset
@@ -14,7 +15,6 @@ import threading
 import time
 
 import pytest
-
 from robot_wear_monitor.monitoring.history import (
     AlarmEvent, HistoryError, HistoryRecord, is_postgresql_url, POSTGRESQL_MIGRATIONS,
     SCHEMA_VERSION, WearHistory)

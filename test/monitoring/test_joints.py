@@ -1,8 +1,6 @@
 """Several joints in one service: refused joints, restored joints, names and parameters."""
 
 import pytest
-
-import independent_robot as robot
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config
 from robot_wear_monitor.monitoring.history import WearHistory
@@ -10,6 +8,7 @@ from robot_wear_monitor.monitoring.joints import (FrictionExperimentFleet, outpu
                                                   WearEstimatorFleet)
 from robot_wear_monitor.monitoring.replay import KIT
 from robot_wear_monitor.recordings import messages
+from wear_testing import independent_robot as robot
 
 SPEEDS = (2.1, 28.5, 35.1, 41.7)
 

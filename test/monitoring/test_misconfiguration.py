@@ -1,4 +1,5 @@
-"""A misconfigured monitor never says "no alarm": it says it cannot judge, and names the cause.
+"""
+A misconfigured monitor never says "no alarm": it says it cannot judge, and names the cause.
 
 The recordings come from the independent generator (``test/independent_robot.py``: its own
 trajectory, noise and protocol) of a joint that wears from w = 20 to w = 70, so that the right
@@ -15,10 +16,9 @@ import subprocess
 import sys
 
 import pytest
-
-import independent_robot as robot  # noqa: I100 - the test folder's generator
 from robot_wear_monitor.monitoring.diagnostics import is_routine
 from robot_wear_monitor.monitoring.history import open_history
+from wear_testing import independent_robot as robot
 
 N_EXPERIMENTS = 3
 

@@ -1,7 +1,6 @@
 """Tests of the node parameter table: the packaged file, checks, file layout, defaults."""
 
 import pytest
-
 from robot_wear_monitor.estimation import alarm
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config

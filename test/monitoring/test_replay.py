@@ -7,15 +7,14 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
-from rosbags.rosbag2 import Reader
-from rosbags.typesys import get_typestore, Stores
-
 from robot_wear_monitor import cli
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, simulate_scenario,
                                                       truth_path_for, write_truth_json)
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.monitoring.topics import OUTPUT_TOPICS
 from robot_wear_monitor.recordings.bags import BagError, write_joint_state_bag
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 TOPICS = {('/' + t).replace('//', '/'): msgtype for t, msgtype in OUTPUT_TOPICS.items()}
@@ -308,6 +307,7 @@ def test_two_replays_writing_one_history_at_once_store_each_experiment_once(tmp_
     import os
     import subprocess
     import sys
+
     from robot_wear_monitor.monitoring.history import WearHistory
     root = Path(__file__).resolve().parents[2]
     bag = tmp_path / 'small'
@@ -341,7 +341,7 @@ def test_two_replays_writing_one_history_at_once_store_each_experiment_once(tmp_
 @pytest.fixture(scope='module')
 def independent_bags(tmp_path_factory):
     """Write recordings of the independent generator: Table V, other speeds, no plateau."""
-    import independent_robot as robot
+    from wear_testing import independent_robot as robot
     folder = tmp_path_factory.mktemp('no_experiment')
     bags = {}
     for name, settings in (('table_v', {}), ('other_speeds', {'speeds_rad_s': (35.84, 40.84)}),
@@ -377,7 +377,7 @@ def test_a_recording_without_experiments_exits_2_and_says_why(
 
 def test_unconfigured_speeds_are_found_in_the_recording(independent_bags, tmp_path, capsys):
     """The issue's case: a design the config does not know is found and estimated."""
-    import independent_robot as robot
+    from wear_testing import independent_robot as robot
     recording = robot.generate_wear_test(n_experiments=2, seed=2, rate_hz=250.0,
                                          speeds_rad_s=(35.84, 40.84))
     summary_path = tmp_path / 's.json'

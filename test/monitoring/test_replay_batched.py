@@ -1,4 +1,5 @@
-"""Batched estimation in the replay equals one-by-one estimation, number for number.
+"""
+Batched estimation in the replay equals one-by-one estimation, number for number.
 
 The replay estimates the experiments it has at hand together (``batch_experiments``); the
 services then take them one by one.  Each bag here is replayed with batching off
@@ -12,13 +13,12 @@ import math
 import sqlite3
 
 import pytest
-from rosbags.rosbag2 import Reader
-
-import foreign_recordings as fr
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
 from robot_wear_monitor.monitoring import estimator_service
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
+from rosbags.rosbag2 import Reader
+from wear_testing import foreign_recordings as fr
 
 
 def _bag_messages(path):
@@ -41,7 +41,8 @@ def _history_rows(path):
 
 
 def _replay(bag, folder, *, batch, monkeypatch, **parameters):
-    """Replay ``bag`` with ``batch_experiments=batch``; return (summary, bag msgs, history, calls).
+    """
+    Replay ``bag`` with ``batch_experiments=batch``; return (summary, bag msgs, history, calls).
 
     ``calls``: how many times the service computed an estimate itself (not prepared).
     """

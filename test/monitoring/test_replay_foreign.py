@@ -1,4 +1,5 @@
-"""Replay of foreign recordings through the CLI, against the independent generator's truth.
+"""
+Replay of foreign recordings through the CLI, against the independent generator's truth.
 
 Issue 8: recordings made by another tool on another arm (``test/foreign_recordings.py``: its own
 trajectory, noise, protocol and bag writing).  Replay runs with no configuration other than the
@@ -24,11 +25,10 @@ import sqlite3
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import Reader
-
-import foreign_recordings as fr
 from robot_wear_monitor import cli
 from robot_wear_monitor.recordings.bags import TYPESTORE
+from rosbags.rosbag2 import Reader
+from wear_testing import foreign_recordings as fr
 
 #: Speeds found must be within this of the truth [rad/s] (motor side).
 SPEED_TOLERANCE_RAD_S = 0.05
@@ -47,7 +47,8 @@ def run_cli(argv):
 
 
 def joint_config(path, recording, joints, **extra):
-    """Write a node config giving each joint its generator gear ratio and torque scale.
+    """
+    Write a node config giving each joint its generator gear ratio and torque scale.
 
     ``extra``: joint -> further per-joint parameters of friction_experiment_node.
     """
@@ -70,7 +71,8 @@ def friction_tolerance(recording):
 
 
 def expected_bumps(recording, joint):
-    """Return the repositioning bumps of ``joint``: moves without a constant-speed plateau.
+    """
+    Return the repositioning bumps of ``joint``: moves without a constant-speed plateau.
 
     A bump precedes each level whose start ``a`` differs from where the joint is; after a
     complete level the joint is back at ``a``, after an interrupted one at the end of its cut
@@ -374,7 +376,8 @@ def test_all_joints_experiments_per_joint(arm):
 
 
 def test_the_alarm_comes_at_the_right_experiment_per_joint(arm):
-    """The first alarm of each joint is within one experiment of its true crossing of 35.
+    """
+    The first alarm of each joint is within one experiment of its true crossing of 35.
 
     The wear of a joint steps by (wear_end - wear_start) / (MULTI_RUNS - 1) (12 for the
     shoulder and elbow) per experiment; the trend rule fires when P(w >= 35) reaches 0.15,

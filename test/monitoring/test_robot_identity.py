@@ -3,7 +3,6 @@
 from dataclasses import replace
 
 import pytest
-
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                       simulate_scenario)
 from robot_wear_monitor.model.params import load_parameter_set

@@ -1,4 +1,5 @@
-"""The friction experiment runner without ROS, its events, and the event-driven experiments.
+"""
+The friction experiment runner without ROS, its events, and the event-driven experiments.
 
 The runner's schedule, start/busy/abort and status are checked against plans built here from
 ``planning`` directly; its parameters are refused with one line naming the parameter.  The
@@ -14,15 +15,14 @@ import math
 
 import numpy as np
 import pytest
-from rosbags.typesys import get_typestore, Stores
-
 from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig, trajectory_points
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.monitoring.runner import ExperimentRunner, runner_config
 from robot_wear_monitor.recordings import messages
-from trajectory_follower import JointTruth, SimulatedArm
+from rosbags.typesys import get_typestore, Stores
+from wear_testing.trajectory_follower import JointTruth, SimulatedArm
 
 KIT = messages.rosbags_kit(get_typestore(Stores.ROS2_JAZZY))
 RUNNER = node_config.FRICTION_EXPERIMENT_RUNNER_NODE
@@ -254,7 +254,8 @@ TRUTH = {'joint_2': JointTruth(gear_ratio=150.0, load=0.45, temperature_degc=38.
 
 
 def run_session(commands, *, events=True, event_lag_s=0.0, seed=4, idle_gap_s=3.0):
-    """Simulate the runner driving the arm; feed a FrictionExperimentService of joint_2.
+    """
+    Simulate the runner driving the arm; feed a FrictionExperimentService of joint_2.
 
     ``commands``: (time from the session start [s], 'start' | 'abort').  Events are applied
     ``event_lag_s`` later than their stamps (negative: before the samples reach them), or not

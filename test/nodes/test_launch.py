@@ -1,4 +1,5 @@
-"""The launch file: the nodes from their executables with the packaged params file.
+"""
+The launch file: the nodes from their executables with the packaged params file.
 
 ROS 2's ``launch`` and ``launch_ros`` are not on PyPI, so the test loads the launch file with
 minimal stand-ins of the few classes it uses and asserts on the description it returns: the three

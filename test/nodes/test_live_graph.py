@@ -1,4 +1,5 @@
-"""End to end on a live ROS 2 graph, as processes, the way a user runs the monitor.
+"""
+End to end on a live ROS 2 graph, as processes, the way a user runs the monitor.
 
 ``friction_experiment_node`` and ``wear_estimator_node`` start from their console scripts with
 the packaged params file; ``robot-wear-monitor play`` plays a recording made by the test's own
@@ -18,22 +19,15 @@ import sys
 import threading
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 import pytest
-
-from conftest import require_rclpy
-import independent_robot as robot
-
-rclpy = require_rclpy()
-
-from process_graph import console_script, ProcessGraph  # noqa: E402
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Bool, Float64  # noqa: E402
-
-from robot_wear_monitor.monitoring.node_config import default_node_config_file  # noqa: E402
-from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS  # noqa: E402
-from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
+from robot_wear_monitor.monitoring.node_config import default_node_config_file
+from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS
+from robot_wear_monitor.recordings.messages import diagnostics_from_msg
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Bool, Float64
+from wear_testing import independent_robot as robot
+from wear_testing.process_graph import console_script, ProcessGraph
 
 N_EXPERIMENTS = 8
 BIN = Path(sys.executable).parent

@@ -1,4 +1,5 @@
-"""Two joints on a live ROS 2 graph, as processes: per-joint topics, alarm, reset and replay.
+"""
+Two joints on a live ROS 2 graph, as processes: per-joint topics, alarm, reset and replay.
 
 ``friction_experiment_node`` (``joints: [all]``: every joint of ``/joint_states``, its
 ``<joint>.*`` parameters declared when first seen) and ``wear_estimator_node`` (``joints:
@@ -27,24 +28,17 @@ import subprocess
 import sys
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 import pytest
-
-from conftest import require_rclpy
-import foreign_recordings as foreign
-
-rclpy = require_rclpy()
-
-from process_graph import console_script, ProcessGraph  # noqa: E402
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from rclpy.qos import qos_profile_sensor_data  # noqa: E402
-from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-
-from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS,  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data
+from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS,
                                           ESTIMATE_QOS, FRICTION_LEVELS_QOS)
-from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
+from robot_wear_monitor.recordings.messages import diagnostics_from_msg
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Bool, Float64, Float64MultiArray
+from std_srvs.srv import Trigger
+from wear_testing import foreign_recordings as foreign
+from wear_testing.process_graph import console_script, ProcessGraph
 
 BIN = Path(sys.executable).parent
 WORN, HEALTHY = 'shoulder', 'wrist_3'
@@ -305,7 +299,8 @@ wear_estimator_node:
 
 def test_estimator_under_all_serves_joints_as_they_come_with_their_own_parameters(graph,
                                                                                   tmp_path):
-    """``joints: [all]``: a joint's topics, reset and ``<joint>.*`` values come when first seen.
+    """
+    ``joints: [all]``: a joint's topics, reset and ``<joint>.*`` values come when first seen.
 
     The first estimate of a joint reaches a subscriber that was waiting for it.
     """

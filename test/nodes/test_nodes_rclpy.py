@@ -1,4 +1,5 @@
-"""The rclpy nodes in-process on a real ROS 2 graph (Fast DDS, this session's own domain).
+"""
+The rclpy nodes in-process on a real ROS 2 graph (Fast DDS, this session's own domain).
 
 Each test builds the node(s) and a probe node in one executor, publishes as any other node
 would and asserts on what a subscriber sees: parameters and their validation, the estimator's
@@ -10,27 +11,22 @@ messages on both inputs (counted on /diagnostics, the node keeps running).
 import math
 import sqlite3
 
+from diagnostic_msgs.msg import DiagnosticArray
 import pytest
-
-from conftest import require_rclpy
-import independent_robot as robot
-
-rclpy = require_rclpy()
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from sensor_msgs.msg import JointState, Temperature  # noqa: E402
-from std_msgs.msg import Bool, Float64, Float64MultiArray  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-
-from robot_wear_monitor.nodes.friction_experiment_node import (  # noqa: E402
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from robot_wear_monitor.nodes.friction_experiment_node import (
     FrictionExperimentNode, main as friction_main)
-from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS  # noqa: E402
-from robot_wear_monitor.nodes.wear_estimator_node import (  # noqa: E402
+from robot_wear_monitor.nodes.qos import ALARM_QOS, DIAGNOSTICS_QOS
+from robot_wear_monitor.nodes.wear_estimator_node import (
     main as estimator_main, WearEstimatorNode)
-from robot_wear_monitor.recordings.messages import (  # noqa: E402
+from robot_wear_monitor.recordings.messages import (
     diagnostics_from_msg, trend_from_msg)
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Bool, Float64, Float64MultiArray
+from std_srvs.srv import Trigger
+from wear_testing import independent_robot as robot
 
 SPEEDS = [2.1, 28.5, 35.1, 41.7]
 

@@ -1,4 +1,5 @@
-"""``reset_service_enabled`` on a real ROS 2 graph: false offers no ``~/reset_alarm`` at all.
+"""
+``reset_service_enabled`` on a real ROS 2 graph: false offers no ``~/reset_alarm`` at all.
 
 A probe node looks at the graph as any other node would: with the switch off, the estimator's
 own services (its parameter services) are discovered but no reset service; with the default,
@@ -7,20 +8,16 @@ reaches the running node (its alarm is published clear within its diagnostics pe
 what its next start restores.
 """
 
-from conftest import require_rclpy
 
-rclpy = require_rclpy()
-
-from process_graph import write_latched_history  # noqa: E402, I100
-
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402, I100
-from rclpy.parameter import Parameter  # noqa: E402
-from std_msgs.msg import Bool  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-
-from robot_wear_monitor.monitoring.history import open_history  # noqa: E402
-from robot_wear_monitor.nodes.qos import ALARM_QOS  # noqa: E402
-from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode  # noqa: E402
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.nodes.qos import ALARM_QOS
+from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
+from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
+from wear_testing.process_graph import write_latched_history
 
 RESET = '/wear_estimator_node/reset_alarm'
 PARAMETER_SERVICE = '/wear_estimator_node/get_parameters'

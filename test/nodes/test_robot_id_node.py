@@ -1,21 +1,16 @@
 """robot_id on the live graph: the estimator node keys its history rows and names the robot."""
 
-
-from conftest import require_rclpy
-
-rclpy = require_rclpy()
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-
-from robot_wear_monitor.model.friction import friction  # noqa: E402
-from robot_wear_monitor.model.params import load_parameter_set  # noqa: E402
-from robot_wear_monitor.monitoring.history import open_history  # noqa: E402
-from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS  # noqa: E402
-from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from robot_wear_monitor.model.friction import friction
+from robot_wear_monitor.model.params import load_parameter_set
+from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS
+from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
 
 SPEEDS = [2.1, 28.5, 35.1, 41.7]
 

@@ -1,8 +1,10 @@
-"""Closed loop on a live ROS 2 graph: runner -> simulated arm -> segmentation -> estimate.
+"""
+Closed loop on a live ROS 2 graph: runner -> simulated arm -> segmentation -> estimate.
 
 Four processes, started the way a user starts them, with their parameters on the command line:
 ``friction_experiment_runner``, ``friction_experiment_node``, ``wear_estimator_node`` and
-``simulated_arm_node.py`` (the tests' own stand-in for a robot with a joint_trajectory_controller:
+``wear_testing/simulated_arm_node.py`` (the tests' own stand-in for a robot with a
+joint_trajectory_controller:
 it follows the JointTrajectory and publishes /joint_states at 250 Hz in real time with
 ``independent_robot``'s friction at a known wear, temperature and load).  The test calls
 ``~/start`` twice (joint_2 then joint_3 each time) and then starts a third run and aborts it
@@ -18,28 +20,20 @@ import sys
 import threading
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import pytest
-
-from conftest import require_rclpy
-
-rclpy = require_rclpy()
-
-from process_graph import console_script, ProcessGraph  # noqa: E402
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-
-from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS  # noqa: E402
-from robot_wear_monitor.recordings.messages import (diagnostics_from_msg,  # noqa: E402
+from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS
+from robot_wear_monitor.recordings.messages import (diagnostics_from_msg,
                                                     experiment_event_from_msg,
                                                     stamp_to_seconds)
-from trajectory_follower import JointTruth  # noqa: E402
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
+from wear_testing.process_graph import console_script, ProcessGraph
+from wear_testing.trajectory_follower import JointTruth
 
 BIN = Path(sys.executable).parent
-ARM_SCRIPT = Path(__file__).resolve().parent / 'simulated_arm_node.py'
 NAMES = [f'joint_{i}' for i in range(1, 7)]
 POSTURE = [0.1, 0.6, -0.4, 0.05, 0.5, -0.2]
 SPEEDS = [2.1, 28.5, 35.1, 41.7]
@@ -116,7 +110,8 @@ def graph(tmp_path):
 def test_runner_drives_the_arm_and_the_monitor_finds_exactly_the_planned_experiments(
         graph, tmp_path):
     arm = {'names': NAMES, 'posture': POSTURE, 'tested': TRUTH, 'rate_hz': 250.0, 'seed': 5}
-    graph.start('simulated_arm', *[sys.executable, str(ARM_SCRIPT), json.dumps(arm)])
+    graph.start('simulated_arm', *[sys.executable, '-m', 'wear_testing.simulated_arm_node',
+                                   json.dumps(arm)])
     graph.start('friction_experiment_node', *[
         console_script('friction_experiment_node'), '--ros-args', '-p', 'joint:=joint_2',
         '-p', 'gear_ratio:=150.0', '-p', 'torque_scale:=10.0',

@@ -1,4 +1,5 @@
-"""friction_experiment_runner in-process on a real ROS 2 graph (Fast DDS, this session's domain).
+"""
+friction_experiment_runner in-process on a real ROS 2 graph (Fast DDS, this session's domain).
 
 The runner and a probe node share one SingleThreadedExecutor; the probe subscribes as a
 trajectory controller and a friction_experiment_node would, and calls the services: the
@@ -10,30 +11,25 @@ abort sends ``aborted`` and a point back at the posture, and bad parameters refu
 
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import pytest
-
-from conftest import require_rclpy
-
-rclpy = require_rclpy()
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
-from trajectory_msgs.msg import JointTrajectory  # noqa: E402
-
-from robot_wear_monitor.experiment.planning import (plan_experiment, PlanConfig,  # noqa: E402
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from robot_wear_monitor.experiment.planning import (plan_experiment, PlanConfig,
                                                     trajectory_points)
-from robot_wear_monitor.monitoring.node_config import (  # noqa: E402
+from robot_wear_monitor.monitoring.node_config import (
     FRICTION_EXPERIMENT_RUNNER_PARAMETERS)
-from robot_wear_monitor.nodes.friction_experiment_runner import (  # noqa: E402
+from robot_wear_monitor.nodes.friction_experiment_runner import (
     FrictionExperimentRunner, main as runner_main)
-from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,  # noqa: E402
+from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
                                           TRAJECTORY_QOS)
-from robot_wear_monitor.recordings.messages import (diagnostics_from_msg,  # noqa: E402
+from robot_wear_monitor.recordings.messages import (diagnostics_from_msg,
                                                     experiment_event_from_msg,
                                                     trajectory_from_msg)
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
 
 NAMES = [f'joint_{i}' for i in range(1, 7)]
 POSTURE = [0.1, 0.6, -0.4, 0.05, 0.5, -0.2]

@@ -6,19 +6,14 @@ import subprocess
 import sys
 import time
 
-from conftest import require_rclpy
-
-require_rclpy()
-
-from process_graph import console_script, ProcessGraph, write_latched_history  # noqa: E402, I100
-
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from trajectory_msgs.msg import JointTrajectory  # noqa: E402
-
-from robot_wear_monitor.cli.call import service_candidates  # noqa: E402
-from robot_wear_monitor.monitoring.history import open_history  # noqa: E402
-from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, TRAJECTORY_QOS  # noqa: E402
-from robot_wear_monitor.recordings.messages import diagnostics_from_msg  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray
+from robot_wear_monitor.cli.call import service_candidates
+from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, TRAJECTORY_QOS
+from robot_wear_monitor.recordings.messages import diagnostics_from_msg
+from trajectory_msgs.msg import JointTrajectory
+from wear_testing.process_graph import (
+    console_script, ProcessGraph, write_latched_history)
 
 TRAJECTORY_TOPIC = '/joint_trajectory_controller/joint_trajectory'
 #: The runner's parameters beside its defaults (joint_2): a long standstill at every turn, so

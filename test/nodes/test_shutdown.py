@@ -1,4 +1,5 @@
-"""A node stopped by SIGINT or SIGTERM exits 0 with its history whole, every time.
+"""
+A node stopped by SIGINT or SIGTERM exits 0 with its history whole, every time.
 
 rclpy's own signal handler shuts the context down before the nodes are destroyed; destroying a
 Fast DDS publisher of a shut-down context crashed the estimator now and then (SIGSEGV, exit
@@ -14,16 +15,9 @@ import subprocess
 import sys
 
 import pytest
-
-from conftest import require_rclpy
-
-require_rclpy()
-
-from process_graph import ProcessGraph, write_latched_history  # noqa: E402, I100
-
-from std_msgs.msg import Bool  # noqa: E402, I100
-
-from robot_wear_monitor.nodes.qos import ALARM_QOS  # noqa: E402
+from robot_wear_monitor.nodes.qos import ALARM_QOS
+from std_msgs.msg import Bool
+from wear_testing.process_graph import ProcessGraph, write_latched_history
 
 ROUNDS = 3
 

@@ -2,14 +2,13 @@
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import Reader
-
 from robot_wear_monitor.experiment.simulation import (JointSimConfig, ScenarioConfig,
                                                       simulate_scenario)
 from robot_wear_monitor.recordings.bags import (atomic_bag_writer, BagError, decode_joint_state,
                                                 encode_joint_states, JOINT_STATE_TYPE,
                                                 read_joint_samples, TYPESTORE,
                                                 write_joint_state_bag)
+from rosbags.rosbag2 import Reader
 
 
 @pytest.fixture(scope='module')

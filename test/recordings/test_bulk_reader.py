@@ -1,4 +1,5 @@
-"""The bulk MCAP reader gives exactly what rosbags' message iteration gives, on every bag kind.
+"""
+The bulk MCAP reader gives exactly what rosbags' message iteration gives, on every bag kind.
 
 Own simulator bags, the foreign recorder's bags (shuffled joint order, absent joints, empty
 efforts, zero stamps, dropped messages, files split in parts), an MCAP with zstd- and
@@ -13,11 +14,10 @@ import json
 
 import numpy as np
 import pytest
-
-import foreign_recordings as foreign
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.recordings.bags import iter_joint_chunks
 from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source
+from wear_testing import foreign_recordings as foreign
 
 
 def _read(bag, *, bulk, joints=None):

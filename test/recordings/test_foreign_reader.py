@@ -1,4 +1,5 @@
-"""The multi-joint bag reader on foreign recordings, item by item of issue 8 point 5.
+"""
+The multi-joint bag reader on foreign recordings, item by item of issue 8 point 5.
 
 Recordings come from ``test/foreign_recordings.py`` (an independent generator: its own
 trajectory, noise, protocol and rosbags writing).  Every test compares what the reader returns
@@ -8,12 +9,11 @@ count and the rejections per joint and reason.
 
 import numpy as np
 import pytest
-
-import foreign_recordings as fr
 from robot_wear_monitor.experiment.segmentation import segment_batch, SegmenterConfig
 from robot_wear_monitor.recordings.bags import (BagError, iter_joint_chunks, JOINT_STATE_TYPE,
                                                 read_joint_samples, read_joints, READER_REASONS,
                                                 TYPESTORE)
+from wear_testing import foreign_recordings as fr
 
 SCHEDULE = ('shoulder', 'wrist_3', 'elbow', 'shoulder')
 

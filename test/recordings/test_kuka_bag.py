@@ -1,4 +1,5 @@
-"""The KUKA iiwa raw runs as one MCAP bag of all 7 joints: the same passes as the raw runs.
+"""
+The KUKA iiwa raw runs as one MCAP bag of all 7 joints: the same passes as the raw runs.
 
 ``bench/kuka_to_bag.py`` lays the 80 raw runs on one time line in one bag; each joint's stream
 of that bag, read with :func:`iter_joint_chunks` and segmented with the same
@@ -23,12 +24,11 @@ import sys
 
 import numpy as np
 import pytest
-
-from conftest import REPO_ROOT
 from robot_wear_monitor.experiment.segmentation import segment_batch
 from robot_wear_monitor.recordings.bags import iter_joint_chunks, JOINT_STATE_TYPE, TYPESTORE
 from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, list_kuka_runs,
                                                   read_kuka_run)
+from wear_testing.paths import REPO_ROOT
 
 FIELDS = ('time_s', 'position_rad', 'velocity_rad_s', 'effort')
 

@@ -1,13 +1,12 @@
 """The monitor's small typestore equals rosbags' ROS 2 Jazzy store for every type it holds."""
 
 import pytest
-from rosbags.typesys import get_typestore, Stores
-
 from robot_wear_monitor.recordings import bags
 from robot_wear_monitor.recordings.bags.message_types import FIELDDEFS, monitor_typestore
 from robot_wear_monitor.recordings.messages import (ALARM_TYPE, DIAGNOSTICS_TYPE,
                                                     TEMPERATURE_TYPE, TRAJECTORY_TYPE,
                                                     TREND_TYPE, WEAR_TYPE)
+from rosbags.typesys import get_typestore, Stores
 
 
 def test_every_type_equals_the_jazzy_store_with_the_same_definition_and_hash():

@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
-from rosbags.typesys import get_typestore, Stores
-
 from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.messages import MessageError
+from rosbags.typesys import get_typestore, Stores
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 KIT = messages.rosbags_kit(TYPESTORE)

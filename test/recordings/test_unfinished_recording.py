@@ -1,4 +1,5 @@
-"""Recordings cut off by a crash: MCAP files without metadata.yaml, summary or footer.
+"""
+Recordings cut off by a crash: MCAP files without metadata.yaml, summary or footer.
 
 The recording comes from the independent generator (``test/independent_robot.py``: its own
 trajectory, noise and rosbags writer); the cut is made here by truncating the MCAP file at
@@ -14,8 +15,7 @@ import subprocess
 import sys
 
 import pytest
-
-import independent_robot as robot
+from wear_testing import independent_robot as robot
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 

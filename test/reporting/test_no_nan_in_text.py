@@ -1,4 +1,5 @@
-"""No 'nan' or 'inf' in anything a person reads (JSON keeps null).
+"""
+No 'nan' or 'inf' in anything a person reads (JSON keeps null).
 
 The demo's stdout and report, the diagnostics messages and key-values the nodes publish, and
 the history text.
@@ -6,9 +7,8 @@ the history text.
 
 import re
 
-from rosbags.highlevel import AnyReader
-
 from robot_wear_monitor import cli
+from rosbags.highlevel import AnyReader
 
 #: 'nan'/'inf' as a word (not inside 'info', 'infinite', 'inference', ...)
 NOT_A_NUMBER = re.compile(r'(?<![A-Za-z])[-+]?(nan|inf)(?![A-Za-z])', re.IGNORECASE)

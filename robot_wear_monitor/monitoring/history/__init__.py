@@ -1,4 +1,5 @@
-"""Wear history of a fleet: every estimate and alarm event per robot and joint, and the fleet view.
+"""
+Wear history of a fleet: every estimate and alarm event per robot and joint, and the fleet view.
 
 One store behind one interface, :class:`WearHistory` (:func:`open_history`): an SQLite file
 (the default; WAL, ``synchronous=FULL``) or a PostgreSQL database (``postgresql://`` URL,

@@ -1,4 +1,5 @@
-"""Alarm events of the wear history: acknowledge and reset by people, the fleet's alarm log.
+"""
+Alarm events of the wear history: acknowledge and reset by people, the fleet's alarm log.
 
 The latch of a robot's joint is its last ``raised`` or ``reset`` event: latched when that is a
 raise.  An ``acknowledged`` event (schema version 5) is a remark on a latched alarm (who takes
@@ -108,7 +109,8 @@ def _action_lock(robot: str, joint: str) -> int:
 
 def latch_events(backend: Any, *, robot: str, joint: str
                  ) -> tuple[Optional[AlarmEvent], Optional[AlarmEvent]]:
-    """Return the latch of (robot, joint): its last raise/reset and the acknowledgement after.
+    """
+    Return the latch of (robot, joint): its last raise/reset and the acknowledgement after.
 
     The acknowledgement is the last one that follows a latched raise (None otherwise).
     """
@@ -138,7 +140,8 @@ def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
 
 def acknowledge_alarm(backend: Any, *, robot: str, joint: str, user: str, owner: str,
                       comment: str, planned_maintenance: str = '') -> AlarmEvent:
-    """Store an acknowledgement of the latched alarm of (robot, joint); return the event.
+    """
+    Store an acknowledgement of the latched alarm of (robot, joint); return the event.
 
     Raises :class:`HistoryError` when the joint has no latched alarm, when it is acknowledged
     already, or on bad text (see :meth:`WearHistory.acknowledge_alarm`).
@@ -166,7 +169,8 @@ def acknowledge_alarm(backend: Any, *, robot: str, joint: str, user: str, owner:
 
 def reset_alarm(backend: Any, *, robot: str, joint: str, user: str, reason: str,
                 stamp_s: Optional[float] = None) -> AlarmEvent:
-    """Store a reset of the latched alarm of (robot, joint) after maintenance; return it.
+    """
+    Store a reset of the latched alarm of (robot, joint) after maintenance; return it.
 
     The event is tied to the joint's latest estimate, as the ROS reset service ties it: a
     restarted estimator restores evidence 0 and restarts the trend after that estimate.
@@ -191,7 +195,8 @@ def reset_alarm(backend: Any, *, robot: str, joint: str, user: str, reason: str,
 
 def alarm_log(backend: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
               limit: Optional[int] = None, before_id: Optional[int] = None) -> list[AlarmEvent]:
-    """Return the fleet's alarm events, newest first (id descending).
+    """
+    Return the fleet's alarm events, newest first (id descending).
 
     ``robot``/``joint`` keep one robot's or one joint's events (a joint name of every robot
     when ``robot`` is None); ``before_id`` keeps the events older than that id (the next page);

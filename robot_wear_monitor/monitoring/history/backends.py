@@ -1,4 +1,5 @@
-"""The two stores of the wear history: an SQLite file (the default) and a PostgreSQL server.
+"""
+The two stores of the wear history: an SQLite file (the default) and a PostgreSQL server.
 
 Both take the same SQL (``?`` placeholders, values only as bound parameters; PostgreSQL's
 ``%s`` is put in here) and give rows as tuples.  Each opens its connection, runs transactions,
@@ -83,7 +84,8 @@ class SqliteBackend:
     migrations = SQLITE_MIGRATIONS
 
     def __init__(self, path: str | os.PathLike, *, init: Optional[bool]) -> None:
-        """Open ``path``; create it when missing (unless ``init`` is False).
+        """
+        Open ``path``; create it when missing (unless ``init`` is False).
 
         An existing empty file is initialised only when ``init`` is True; a file that is not a
         wear history (other tables, no ``schema_version``) is refused and not touched.
@@ -167,7 +169,8 @@ class SqliteBackend:
             raise HistoryError(f'{self.name}: cannot read it: {error.strerror}') from None
 
     def _create_atomically(self, path: Path) -> None:
-        """Create a WAL-mode database under a temporary name and link it to ``path``.
+        """
+        Create a WAL-mode database under a temporary name and link it to ``path``.
 
         The layout itself is made by the migration on open; the link never replaces a file
         another process created meanwhile (that one is opened instead).
@@ -313,7 +316,8 @@ class PostgresqlBackend:
         self.execute('SELECT pg_advisory_xact_lock(?)', (_MIGRATION_LOCK_KEY,))
 
     def lock_in_transaction(self, key: int) -> None:
-        """Hold the advisory lock ``key`` until the transaction ends (a check, then a write).
+        """
+        Hold the advisory lock ``key`` until the transaction ends (a check, then a write).
 
         Use keys other than the writer locks' (a writer holds its lock for a whole run).
         """

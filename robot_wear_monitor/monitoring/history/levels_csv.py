@@ -17,7 +17,8 @@ LEVEL_CSV_COLUMNS = ('speed', 'friction', 'experiment', 'time_s', 'wear_hat',
 
 
 def write_levels_csv(path: str | os.PathLike, *, records: Sequence[HistoryRecord]) -> Path:
-    """Write the friction levels of stored estimates as a CSV table for ``audit``.
+    """
+    Write the friction levels of stored estimates as a CSV table for ``audit``.
 
     One row per friction level: ``speed`` [rad/s, motor side], ``friction`` (normalised),
     ``experiment`` (the estimate id, so that the audit folds by experiment), ``time_s`` (stamp

@@ -1,4 +1,5 @@
-"""The layout of the wear history: one ordered list of SQL steps per schema version and backend.
+"""
+The layout of the wear history: one ordered list of SQL steps per schema version and backend.
 
 A history records its version in the one-row table ``schema_version``.  Opening a history
 applies, in one transaction, the steps of every version above the recorded one; a new history

@@ -1,4 +1,5 @@
-"""Notifications sent, kept in the wear history (schema version 5): each event once.
+"""
+Notifications sent, kept in the wear history (schema version 5): each event once.
 
 A notifier claims an event before it sends it: the claim inserts one row under the event's
 key (``INSERT ... ON CONFLICT DO NOTHING``, a unique key), so of any number of notifiers at
@@ -30,7 +31,8 @@ def _event_key(value: Any) -> str:
 def claim_notification(backend: Any, *, event_key: str, robot: Optional[str],
                        joint: Optional[str], kind: str, channel: str,
                        payload: dict[str, Any]) -> bool:
-    """Store the notification of ``event_key``; True when this call stored it (send it).
+    """
+    Store the notification of ``event_key``; True when this call stored it (send it).
 
     False when the event was claimed before (by this or another notifier): do not send.
     ``payload``: what is sent, as JSON (kept for the audit).

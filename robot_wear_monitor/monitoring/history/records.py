@@ -23,7 +23,8 @@ class HistoryError(InputError):
 
 @dataclass(frozen=True)
 class HistoryRecord:
-    """One stored estimate: the inputs, the result and the alarm state after it.
+    """
+    One stored estimate: the inputs, the result and the alarm state after it.
 
     ``stamp_s`` is the ROS stamp of the experiment's end [s]; with ``robot`` and ``joint`` it is
     the experiment's identity.  ``robot`` None means the robot the history was opened for;
@@ -75,7 +76,8 @@ ALARM_EVENT_KINDS = ('raised', 'reset', 'acknowledged')
 
 @dataclass(frozen=True)
 class AlarmEvent:
-    """An alarm raise, reset or acknowledgement of one robot's joint.
+    """
+    An alarm raise, reset or acknowledgement of one robot's joint.
 
     ``robot`` None means the history's robot; events read back carry their robot, their ``id``
     and ``wall_time_s`` (when stored [s since the epoch]).  ``stamp_s``: the experiment's stamp
@@ -111,7 +113,8 @@ class RestoredState:
 
 @dataclass(frozen=True)
 class FleetRow:
-    """The latest state of one robot's joint, for the fleet view (one row per robot and joint).
+    """
+    The latest state of one robot's joint, for the fleet view (one row per robot and joint).
 
     ``wear*``, ``trend*`` and ``crossing*`` are those of the latest estimate (NaN when not
     stored); ``alarm`` is the latched alarm (the last alarm event is a raise) and
@@ -159,7 +162,8 @@ class FleetRow:
         return (self.last_stamp_s - self.first_stamp_s) / (self.experiments - 1)
 
     def rank_key(self) -> tuple[int, float, float, str, str]:
-        """Return the sort key of the fleet view, worst first.
+        """
+        Return the sort key of the fleet view, worst first.
 
         A latched alarm first, then the joints whose latest estimate cannot be judged (an
         invalid estimate: a monitor that does not know is no healthy joint), then the soonest

@@ -1,4 +1,5 @@
-"""The wear history of a fleet: every estimate and alarm event of every robot's joints.
+"""
+The wear history of a fleet: every estimate and alarm event of every robot's joints.
 
 :class:`WearHistory` stores and reads the rows the same way on both backends (an SQLite file or
 a PostgreSQL database, see ``backends.py``): one transaction per experiment (the estimate and
@@ -62,17 +63,17 @@ def _record_from_row(row: Sequence[Any]) -> HistoryRecord:
 
 
 class WearHistory:
-    """The wear history of one or more robots' joints, in SQLite or PostgreSQL.
+    """
+    The wear history of one or more robots' joints, in SQLite or PostgreSQL.
 
-    Args:
-        location: an SQLite file path (``':memory:'`` for a history that is not kept) or a
-            PostgreSQL URL ``postgresql://USER[:PASSWORD]@HOST:PORT/DB``.
-        robot: the robot of the calls that name none, and of the rows of a version-2 history
-            migrated on open (default ``'default'``).
-        init: None (default): create a missing SQLite file or initialise an empty PostgreSQL
-            database; True: also initialise an existing empty SQLite file, or add the tables
-            to a PostgreSQL database that holds other tables; False: never create anything
-            (read an existing history only).
+    :param location: an SQLite file path (``':memory:'`` for a history that is not kept) or a
+        PostgreSQL URL ``postgresql://USER[:PASSWORD]@HOST:PORT/DB``.
+    :param robot: the robot of the calls that name none, and of the rows of a version-2 history
+        migrated on open (default ``'default'``).
+    :param init: None (default): create a missing SQLite file or initialise an empty PostgreSQL
+        database; True: also initialise an existing empty SQLite file, or add the tables
+        to a PostgreSQL database that holds other tables; False: never create anything
+        (read an existing history only).
 
     Raises :class:`HistoryError` (an :class:`~robot_wear_monitor.errors.InputError`, one line
     naming the history) when the history cannot be opened, is not a wear history, has a newer
@@ -188,7 +189,8 @@ class WearHistory:
 
     def append(self, record: HistoryRecord, *,
                events: Sequence[AlarmEvent] = ()) -> Optional[int]:
-        """Store one estimate and its alarm events in one transaction; return the estimate id.
+        """
+        Store one estimate and its alarm events in one transaction; return the estimate id.
 
         Returns None, storing nothing, when the history already holds that experiment (same
         robot, joint and end stamp, see :meth:`find_estimate`): the unique key makes the check
@@ -225,7 +227,8 @@ class WearHistory:
         return estimate_id
 
     def record_event(self, event: AlarmEvent) -> AlarmEvent:
-        """Store an alarm event on its own (the ROS reset service's); return it as stored.
+        """
+        Store an alarm event on its own (the ROS reset service's); return it as stored.
 
         People acknowledge and reset through :meth:`acknowledge_alarm` and :meth:`reset_alarm`,
         which check the latch first.
@@ -241,7 +244,8 @@ class WearHistory:
     def acknowledge_alarm(self, *, joint: str, robot: Optional[str] = None, user: str,
                           owner: str, comment: str, planned_maintenance: str = ''
                           ) -> AlarmEvent:
-        """Acknowledge the latched alarm of the robot's ``joint``; return the stored event.
+        """
+        Acknowledge the latched alarm of the robot's ``joint``; return the stored event.
 
         The alarm stays latched and shows as acknowledged (``FleetRow.acknowledged``) until a
         reset or a new raise.  ``user``: who acknowledges; ``owner``: who takes the
@@ -258,7 +262,8 @@ class WearHistory:
 
     def reset_alarm(self, *, joint: str, robot: Optional[str] = None, user: str, reason: str,
                     stamp_s: Optional[float] = None) -> AlarmEvent:
-        """Reset the latched alarm of the robot's ``joint`` after maintenance; return the event.
+        """
+        Reset the latched alarm of the robot's ``joint`` after maintenance; return the event.
 
         Exactly what the ROS ``~/reset_alarm`` stores (a ``reset`` tied to the joint's latest
         estimate), with ``user`` and ``reason`` (non-empty): a restarted estimator restores
@@ -274,7 +279,8 @@ class WearHistory:
     def alarm_log(self, *, robot: Optional[str] = None, joint: Optional[str] = None,
                   limit: Optional[int] = None, before_id: Optional[int] = None
                   ) -> list[AlarmEvent]:
-        """Return the alarm events of the fleet, newest first (each with robot, id, times).
+        """
+        Return the alarm events of the fleet, newest first (each with robot, id, times).
 
         ``robot`` None: every robot (not the history's robot); ``joint``: that joint only;
         ``before_id``: the events older than that id (the next page); ``limit``: at most so
@@ -292,7 +298,8 @@ class WearHistory:
     # ------------------------------------------------------------------ users, notifications
 
     def add_user(self, *, name: str, role: str, password: str) -> user_accounts.User:
-        """Add a dashboard user (role 'viewer' or 'maintainer'; argon2 hash of ``password``).
+        """
+        Add a dashboard user (role 'viewer' or 'maintainer'; argon2 hash of ``password``).
 
         Raises :class:`HistoryError` when the name exists or is not 1-64 of
         ``A-Za-z0-9_.@-``, the role is unknown, or the password has fewer than 8 characters.
@@ -318,7 +325,8 @@ class WearHistory:
     def claim_notification(self, *, event_key: str, robot: Optional[str],
                            joint: Optional[str], kind: str, channel: str,
                            payload: dict[str, Any]) -> bool:
-        """Claim the notification of ``event_key``: True when this call stored it (send it).
+        """
+        Claim the notification of ``event_key``: True when this call stored it (send it).
 
         False when it was claimed before, by any notifier, also before a restart.
         """
@@ -341,7 +349,8 @@ class WearHistory:
     @contextmanager
     def writer_lock(self, *, joint: str, robot: Optional[str] = None,
                     wait: bool = True) -> Iterator[None]:
-        """Be the only writer of (robot, joint) while the block runs (an advisory lock).
+        """
+        Be the only writer of (robot, joint) while the block runs (an advisory lock).
 
         Take it before restoring the state of the joint and hold it for the whole run: a second
         writer of the same robot's joint waits (``wait``) or gets :class:`HistoryError`, and
@@ -356,7 +365,8 @@ class WearHistory:
 
     def add_recording(self, *, fingerprint: str, name: str, experiments: int,
                       robot: Optional[str] = None) -> bool:
-        """Note that a recording was replayed completely; return False when it already was.
+        """
+        Note that a recording was replayed completely; return False when it already was.
 
         ``fingerprint``: the recording's content fingerprint (hex); ``name``: its bag name (for
         people); ``experiments``: the estimates it added.
@@ -381,7 +391,8 @@ class WearHistory:
 
     def find_estimate(self, *, joint: str, stamp_s: float, robot: Optional[str] = None,
                       tolerance_s: float = 1e-6) -> Optional[int]:
-        """Return the id of the stored estimate of the experiment ending at ``stamp_s`` [s].
+        """
+        Return the id of the stored estimate of the experiment ending at ``stamp_s`` [s].
 
         An experiment's identity is its robot, its joint and the stamp of its end (one joint
         ends one experiment at a time): a re-run of the same recording finds its estimates here.
@@ -396,7 +407,8 @@ class WearHistory:
 
     def records(self, *, joint: str, robot: Optional[str] = None,
                 limit: Optional[int] = None) -> tuple[HistoryRecord, ...]:
-        """Return the stored estimates of the robot's ``joint``, oldest first.
+        """
+        Return the stored estimates of the robot's ``joint``, oldest first.
 
         With ``limit``: the last ``limit`` of them.
         """
@@ -434,7 +446,8 @@ class WearHistory:
 
     def restore(self, *, joint: str, robot: Optional[str] = None,
                 trend_length: Optional[int] = None) -> RestoredState:
-        """Return the trend, the latched alarm and the alarm evidence of the robot's ``joint``.
+        """
+        Return the trend, the latched alarm and the alarm evidence of the robot's ``joint``.
 
         The alarm is latched when the last raise or reset is ``raised`` (acknowledgements
         leave the latch as it is; ``last_event`` is that raise or reset); the evidence is that
@@ -454,7 +467,8 @@ class WearHistory:
                              last_event=last_event)
 
     def latest_ids(self) -> tuple[int, int]:
-        """Return the ids of the newest estimate and alarm event (0 when none), in one query.
+        """
+        Return the ids of the newest estimate and alarm event (0 when none), in one query.
 
         They change whenever a row the fleet view or the alarm log shows is added (ids only
         grow): a cache of those views is current while they are the same.
@@ -465,7 +479,8 @@ class WearHistory:
         return int(rows[0][0] or 0), int(rows[0][1] or 0)
 
     def latch_event(self, *, joint: str, robot: Optional[str] = None) -> Optional[AlarmEvent]:
-        """Return the last raise or reset of the robot's ``joint`` (None: never raised).
+        """
+        Return the last raise or reset of the robot's ``joint`` (None: never raised).
 
         One indexed query: a running estimator polls it to take over a reset stored by
         someone else (the dashboard).
@@ -475,7 +490,8 @@ class WearHistory:
                                        joint=_check_name('joint', joint))[0]
 
     def fleet(self, *, robot: Optional[str] = None) -> list[FleetRow]:
-        """Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
+        """
+        Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
 
         ``robot`` keeps one robot's joints (all robots when None).  Three queries whatever the
         fleet's size: the latest estimate and the count per (robot, joint) (``joint_summary``:
@@ -527,7 +543,8 @@ class WearHistory:
 
 def open_history(location: str | os.PathLike, *, robot: Optional[str] = None,
                  init: Optional[bool] = None) -> WearHistory:
-    """Open the wear history at an SQLite path or a ``postgresql://`` URL.
+    """
+    Open the wear history at an SQLite path or a ``postgresql://`` URL.
 
     See :class:`WearHistory` for the arguments.
     """

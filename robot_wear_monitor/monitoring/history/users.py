@@ -1,4 +1,5 @@
-"""The dashboard's users, kept in the wear history (schema version 5): name, role, argon2 hash.
+"""
+The dashboard's users, kept in the wear history (schema version 5): name, role, argon2 hash.
 
 Two roles: ``viewer`` reads; ``maintainer`` may also acknowledge and reset alarms.  Passwords
 are hashed with argon2id (argon2-cffi's :class:`~argon2.PasswordHasher`, its default cost);
@@ -71,7 +72,8 @@ def check_role(role: Any) -> str:
 
 
 def add_user(backend: Any, *, name: str, role: str, password: str) -> User:
-    """Add a user with the argon2 hash of ``password``; return it.
+    """
+    Add a user with the argon2 hash of ``password``; return it.
 
     Raises :class:`HistoryError` when the name is taken or not allowed, the role unknown, or
     the password empty, shorter than :data:`MIN_PASSWORD_CHARS` or longer than
@@ -114,7 +116,8 @@ def list_users(backend: Any) -> list[User]:
 
 
 def verify_user(backend: Any, *, name: str, password: str) -> Optional[User]:
-    """Return the user when ``password`` is theirs; None otherwise (also for unknown names).
+    """
+    Return the user when ``password`` is theirs; None otherwise (also for unknown names).
 
     An unknown or malformed name costs one argon2 verification too (against a dummy hash).
     """

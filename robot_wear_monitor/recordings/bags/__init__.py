@@ -1,4 +1,5 @@
-"""ROS 2 bags of ``sensor_msgs/msg/JointState`` with rosbags: atomic writing and a fast reader.
+"""
+ROS 2 bags of ``sensor_msgs/msg/JointState`` with rosbags: atomic writing and a fast reader.
 
 One module per job: :mod:`.common` (the typestore, names, the error type, opening a bag),
 :mod:`.message_types` (the Jazzy types the monitor reads and writes),

@@ -1,4 +1,5 @@
-"""Decoding ``sensor_msgs/msg/JointState`` CDR with numpy, many messages at a time.
+"""
+Decoding ``sensor_msgs/msg/JointState`` CDR with numpy, many messages at a time.
 
 :func:`decode_joint_state` decodes one message.  :class:`MultiDecoder` decodes a chunk: the
 messages are grouped by layout (same length and same bytes apart from the stamp and the float
@@ -38,7 +39,8 @@ class Layout:
     size: int
 
     def structure_ranges(self) -> list[tuple[int, int]]:
-        """Byte ranges [start, stop) that must match for a message to share this layout.
+        """
+        Byte ranges [start, stop) that must match for a message to share this layout.
 
         Everything but the stamp and the float arrays: the encapsulation header, frame_id,
         names and the array lengths.
@@ -102,10 +104,10 @@ def parse_layout(raw: bytes | memoryview) -> Layout:
 
 def decode_joint_state(raw: bytes | memoryview) -> tuple[float, str, list[str], FloatArray,
                                                          FloatArray, FloatArray]:
-    """Decode one CDR JointState: (stamp [s], frame_id, names, position, velocity, effort).
+    """
+    Decode one CDR JointState: (stamp [s], frame_id, names, position, velocity, effort).
 
-    Raises:
-        BagError: the bytes are not a JointState.
+    :raises BagError: the bytes are not a JointState.
 
     """
     try:
@@ -145,13 +147,13 @@ def _layout_reason(layout: Layout) -> str | None:
 
 @dataclass
 class JointChunk:
-    """One joint's usable samples of one chunk of messages, in bag order; shape (m,).
+    """
+    One joint's usable samples of one chunk of messages, in bag order; shape (m,).
 
-    Attributes:
-        time_s: header stamps [s] (the bag receive time where the header stamp is zero).
-        position_rad: joint positions [rad].
-        velocity_rad_s: joint velocities [rad/s].
-        effort: efforts (as recorded).
+    :ivar time_s: header stamps [s] (the bag receive time where the header stamp is zero).
+    :ivar position_rad: joint positions [rad].
+    :ivar velocity_rad_s: joint velocities [rad/s].
+    :ivar effort: efforts (as recorded).
 
     """
 
@@ -192,7 +194,8 @@ def _identifying_words(size: int, arrays: tuple[tuple[int, int], ...]) -> NDArra
 
 
 class _Known:
-    """A parsed layout: the words that identify it, its joints and its message tally.
+    """
+    A parsed layout: the words that identify it, its joints and its message tally.
 
     In a decoding block every message starts 4 bytes into an 8-byte word, so that CDR's
     8-byte alignment (counted from after the 4-byte encapsulation header) falls on words: the
@@ -221,7 +224,8 @@ class _Known:
 
 
 class MultiDecoder:
-    """Decode the joints of chunks of raw JointState messages, grouping them by layout.
+    """
+    Decode the joints of chunks of raw JointState messages, grouping them by layout.
 
     Messages of the same size are compared word-wise, outside the stamp and the float arrays,
     with the recent layouts of that size; the rest are grouped by those words (``np.unique``)

@@ -1,4 +1,5 @@
-"""What the bag modules share: the typestore, names, the error type, opening a bag.
+"""
+What the bag modules share: the typestore, names, the error type, opening a bag.
 
 The storage plugins (MCAP by default, sqlite3 on request) and opening a bag for reading with
 rosbags (:class:`rosbags.rosbag2.Reader`), with a one-line :class:`BagError` for a bad bag.
@@ -13,11 +14,10 @@ from typing import Any, Literal, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.rosbag2 import Reader, StoragePlugin
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.recordings.bags.message_types import monitor_typestore
 from robot_wear_monitor.yaml_files import load_yaml_file
+from rosbags.rosbag2 import Reader, StoragePlugin
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore

@@ -1,4 +1,5 @@
-"""The raw messages of one topic of a finished MCAP bag, a whole chunk at a time.
+"""
+The raw messages of one topic of a finished MCAP bag, a whole chunk at a time.
 
 rosbags iterates an MCAP bag message by message (a heap merge over its message sources, a few
 Python calls per message); for replay that is most of the reading time.  This module reads the
@@ -40,7 +41,8 @@ _CHUNK_HEAD = struct.Struct('<QQQI')  # start, end, uncompressed size, crc
 
 
 class RawRows:
-    """Messages of one size as the rows of a uint8 array (count, size): a sequence of bytes.
+    """
+    Messages of one size as the rows of a uint8 array (count, size): a sequence of bytes.
 
     What a chunk of same-size records gives without a Python object per message; indexing
     gives one message (a memoryview), slicing a :class:`RawRows`, and :attr:`array` is read by
@@ -68,7 +70,8 @@ class RawRows:
 
 @dataclass
 class RawBatch:
-    """The messages of the topic in one chunk: bag times [ns] and CDR bytes, in log-time order.
+    """
+    The messages of the topic in one chunk: bag times [ns] and CDR bytes, in log-time order.
 
     ``raws``: a list of memoryviews, or a :class:`RawRows` when the chunk's messages of the
     topic are records of one size (the usual case).
@@ -217,7 +220,8 @@ def _record_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
 
 def _stride_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
                  channels: set[int]) -> Optional[RawBatch]:
-    """Return the messages of a chunk that is one run of same-size records, as rows.
+    """
+    Return the messages of a chunk that is one run of same-size records, as rows.
 
     None when the run has no message of ``channels`` (or the caller should list them one by
     one); the order is the log-time order (stable), as :func:`split_records` gives it.
@@ -248,7 +252,8 @@ def _take_stride(fixed: tuple[int, int, int], data: bytes | memoryview, channels
 
 
 def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
-    """Return the bulk reader of ``topic`` in the bag at ``path``, or None when it does not apply.
+    """
+    Return the bulk reader of ``topic`` in the bag at ``path``, or None when it does not apply.
 
     None for: an MCAP file given directly or a folder without ``metadata.yaml`` (unfinished:
     :mod:`.recovery` reads it), sqlite3 storage, file-level compression, a file without a

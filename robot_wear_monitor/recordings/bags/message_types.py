@@ -1,4 +1,5 @@
-"""The ROS 2 Jazzy message types the monitor reads and writes, for a small rosbags typestore.
+"""
+The ROS 2 Jazzy message types the monitor reads and writes, for a small rosbags typestore.
 
 rosbags' Jazzy store (``get_typestore(Stores.ROS2_JAZZY)``) defines every message of the
 distribution, and loading it imports the stores of the older distributions it builds on: about

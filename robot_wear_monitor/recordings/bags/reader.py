@@ -1,4 +1,5 @@
-"""Reading JointState samples from ROS 2 bags, chunk by chunk, so that memory stays flat.
+"""
+Reading JointState samples from ROS 2 bags, chunk by chunk, so that memory stays flat.
 
 :func:`iter_joint_chunks` streams the samples of several joints (or all) chunk by chunk;
 :func:`read_joints` and :func:`read_joint_samples` concatenate the chunks.  Raw messages come
@@ -33,18 +34,18 @@ FloatArray = NDArray[np.float64]
 
 @dataclass
 class JointSamples:
-    """Samples of one joint read from a bag, in bag order; arrays have shape (n,).
+    """
+    Samples of one joint read from a bag, in bag order; arrays have shape (n,).
 
-    Attributes:
-        time_s: header stamps [s].
-        position_rad: joint positions [rad].
-        velocity_rad_s: joint velocities [rad/s].
-        effort: efforts (as recorded).
-        message_count: JointState messages on the topic.
-        recovery: set when the recording was unfinished and read up to its cut.
-        rejections: messages not used, reason -> count (:data:`READER_REASONS`).
-        zero_stamps: messages whose header stamp is zero (read at their bag receive time).
-        notes: one-line remarks on the reading (the zero-stamp fallback, said once).
+    :ivar time_s: header stamps [s].
+    :ivar position_rad: joint positions [rad].
+    :ivar velocity_rad_s: joint velocities [rad/s].
+    :ivar effort: efforts (as recorded).
+    :ivar message_count: JointState messages on the topic.
+    :ivar recovery: set when the recording was unfinished and read up to its cut.
+    :ivar rejections: messages not used, reason -> count (:data:`READER_REASONS`).
+    :ivar zero_stamps: messages whose header stamp is zero (read at their bag receive time).
+    :ivar notes: one-line remarks on the reading (the zero-stamp fallback, said once).
 
     """
 
@@ -93,7 +94,8 @@ def recorded_topics(path: str | os.PathLike) -> dict[str, str]:
 
 def iter_recorded_messages(path: str | os.PathLike, *, topics: Sequence[str]
                            ) -> Iterator[tuple[str, int, bytes]]:
-    """Yield (topic, bag time [ns], CDR bytes) of ``topics`` in bag-time order.
+    """
+    Yield (topic, bag time [ns], CDR bytes) of ``topics`` in bag-time order.
 
     The bytes are the serialized messages as recorded (CDR with its encapsulation header),
     which is what an rclpy publisher sends as a raw message.
@@ -120,14 +122,14 @@ SCALAR_FIELDS = {'sensor_msgs/msg/Temperature': 'temperature', 'std_msgs/msg/Flo
 
 def read_scalar_topic(path: str | os.PathLike, *, topic: str
                       ) -> tuple[FloatArray, FloatArray, str]:
-    """Return (time [s], value, type) of a scalar topic of a bag, e.g. a joint temperature.
+    """
+    Return (time [s], value, type) of a scalar topic of a bag, e.g. a joint temperature.
 
     ``sensor_msgs/msg/Temperature`` gives ``temperature`` [degC] at its header stamp;
     ``std_msgs/msg/Float64`` and ``Float32`` give ``data`` at the bag time.  Samples are sorted
     by time; non-finite values are dropped.
 
-    Raises:
-        BagError: the bag is unreadable, the topic is absent, empty or of another type.
+    :raises BagError: the bag is unreadable, the topic is absent, empty or of another type.
 
     """
     topics = recorded_topics(path)
@@ -168,7 +170,8 @@ def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[tuple[list
 
 
 def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[tuple[Any, list]]:
-    """Yield (bag times [ns], CDR bytes) of ``size`` messages at a time from whole MCAP chunks.
+    """
+    Yield (bag times [ns], CDR bytes) of ``size`` messages at a time from whole MCAP chunks.
 
     The batches are those of the message-by-message path (``size`` each, the last one shorter),
     so that the chunks a reader yields do not depend on how the bag is read.
@@ -213,7 +216,8 @@ def _joined(pieces: list) -> Any:
 
 
 class JointStream:
-    """Chunks of the samples of several joints of a bag; see :func:`iter_joint_chunks`.
+    """
+    Chunks of the samples of several joints of a bag; see :func:`iter_joint_chunks`.
 
     Iterating yields one ``dict`` per chunk of messages: joint name -> :class:`JointChunk`
     (the samples of that joint in the chunk, in bag order; empty arrays when the chunk has
@@ -392,7 +396,7 @@ class JointStream:
 
     @property
     def joints_missing(self) -> list[str]:
-        """Requested joints that no message read so far carries."""
+        """Return the requested joints that no message read so far carries."""
         return [j for j in self.joints or () if j not in self._decoder.seen]
 
 
@@ -400,7 +404,8 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                       progress: Callable[[int, int], None] | None = None,
                       recover: bool = True, require_joints: bool = True) -> JointStream:
-    """Stream the samples of several joints of a bag chunk by chunk (flat memory).
+    """
+    Stream the samples of several joints of a bag chunk by chunk (flat memory).
 
     Raw messages are taken from rosbags in chunks of ``chunk_messages`` and decoded with numpy
     (see the module docstring); each chunk yields joint -> :class:`JointChunk`.  A message
@@ -411,22 +416,20 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
     split into several files are rosbags' business; an unfinished MCAP recording is read up
     to its last complete message (``recovery``, see :func:`read_joint_samples`).
 
-    Args:
-        path: the bag folder (or an unfinished recording, see :class:`Recovery`).
-        joints: the joints to read; None: every joint, as each is first seen.
-        topic: the JointState topic.
-        chunk_messages: messages per chunk.
-        progress: ``progress(read, total)`` after each chunk.
-        recover: read an unfinished recording whose end is cut (False: refuse it).
-        require_joints: raise when a requested joint is in no message (at the end of the
-            iteration); False leaves it with no samples (see ``joints_missing``).
+    :param path: the bag folder (or an unfinished recording, see :class:`Recovery`).
+    :param joints: the joints to read; None: every joint, as each is first seen.
+    :param topic: the JointState topic.
+    :param chunk_messages: messages per chunk.
+    :param progress: ``progress(read, total)`` after each chunk.
+    :param recover: read an unfinished recording whose end is cut (False: refuse it).
+    :param require_joints: raise when a requested joint is in no message (at the end of the
+        iteration); False leaves it with no samples (see ``joints_missing``).
 
-    Raises:
-        BagError: at the call, the bag is missing or unreadable, the topic is absent (the
-            message lists the topics) or has another type; during the iteration, the bag is
-            corrupt or truncated; at its end, the topic has no message, a requested joint is
-            in no message (the message lists the joints seen), or a cut recording when
-            ``recover`` is false.
+    :raises BagError: at the call, the bag is missing or unreadable, the topic is absent (the
+        message lists the topics) or has another type; during the iteration, the bag is
+        corrupt or truncated; at its end, the topic has no message, a requested joint is
+        in no message (the message lists the joints seen), or a cut recording when
+        ``recover`` is false.
 
     """
     return JointStream(path, joints=joints, topic=topic, chunk_messages=chunk_messages,
@@ -447,7 +450,8 @@ def read_joints(path: str | os.PathLike, *, joints: Sequence[str] | None = None,
                 topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                 progress: Callable[[int, int], None] | None = None, recover: bool = True,
                 require_joints: bool = True) -> dict[str, JointSamples]:
-    """Read several joints' samples at once: joint -> :class:`JointSamples` (whole arrays).
+    """
+    Read several joints' samples at once: joint -> :class:`JointSamples` (whole arrays).
 
     The chunks of :func:`iter_joint_chunks` concatenated per joint (every joint seen with
     ``joints=None``, in the order first seen); each entry carries the stream's message count,
@@ -470,7 +474,8 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
                        topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                        progress: Callable[[int, int], None] | None = None,
                        recover: bool = True) -> JointSamples:
-    """Read one joint's samples from the JointState messages of a bag (fast path).
+    """
+    Read one joint's samples from the JointState messages of a bag (fast path).
 
     The chunks of :func:`iter_joint_chunks` for this joint, concatenated.
     ``progress(read, total)`` is called after each chunk with the number of messages read so
@@ -481,9 +486,8 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
     last complete message; ``JointSamples.recovery`` then says how much was read and where the
     recording stops.  With ``recover`` false a recording whose end is cut is refused.
 
-    Raises:
-        BagError: the bag is missing, corrupt or truncated, the topic is absent or has another
-            type, or no message carries the joint; a cut recording when ``recover`` is false.
+    :raises BagError: the bag is missing, corrupt or truncated, the topic is absent or has another
+        type, or no message carries the joint; a cut recording when ``recover`` is false.
 
     """
     stream = iter_joint_chunks(path, joints=[joint], topic=topic,
@@ -495,7 +499,8 @@ def read_joint_samples(path: str | os.PathLike, *, joint: str,
 def iter_joint_states(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPIC
                       ) -> Iterator[tuple[int, float, list[str], FloatArray, FloatArray,
                                           FloatArray]]:
-    """Yield (bag time [ns], stamp [s], names, position, velocity, effort) per message.
+    """
+    Yield (bag time [ns], stamp [s], names, position, velocity, effort) per message.
 
     The per-message path (for a streaming replay); malformed messages raise BagError.
     """

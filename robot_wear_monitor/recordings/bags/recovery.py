@@ -1,4 +1,5 @@
-"""Recordings cut off by a crash, read up to their last complete message.
+"""
+Recordings cut off by a crash, read up to their last complete message.
 
 MCAP files without ``metadata.yaml`` (or an MCAP file given directly) are read record by record
 with the ``mcap`` package (:class:`Recovery` says where the reading stopped).
@@ -21,15 +22,15 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Recovery:
-    """What was read from an unfinished recording (a recorder killed before it closed the bag).
+    """
+    What was read from an unfinished recording (a recorder killed before it closed the bag).
 
-    Attributes:
-        files: the MCAP files read.
-        messages: complete messages recovered on the topic.
-        last_stamp_s: bag time of the last complete message [s] (where the recording stops).
-        complete: the files end with their footer (nothing was lost, e.g. an MCAP file
-            given directly); False: the recording stops at ``last_stamp_s``.
-        reason: how the recording was read (no metadata.yaml, a file given directly, a cut).
+    :ivar files: the MCAP files read.
+    :ivar messages: complete messages recovered on the topic.
+    :ivar last_stamp_s: bag time of the last complete message [s] (where the recording stops).
+    :ivar complete: the files end with their footer (nothing was lost, e.g. an MCAP file
+        given directly); False: the recording stops at ``last_stamp_s``.
+    :ivar reason: how the recording was read (no metadata.yaml, a file given directly, a cut).
 
     """
 
@@ -57,7 +58,8 @@ def unfinished_mcap_files(path: Path) -> tuple[list[Path], str] | None:
 
 def iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: dict
                          ) -> Iterator[tuple[int, bytes]]:
-    """Yield (log time [ns], CDR bytes) of every complete message on ``topic``, in order.
+    """
+    Yield (log time [ns], CDR bytes) of every complete message on ``topic``, in order.
 
     A recorder killed mid-write leaves an MCAP without summary and footer, often with a cut
     chunk at the end; the mcap stream reader reads the file record by record, and reading stops

@@ -1,4 +1,5 @@
-"""Writing ROS 2 bags of JointState messages, atomically.
+"""
+Writing ROS 2 bags of JointState messages, atomically.
 
 :func:`atomic_bag_writer` writes into a temporary sibling folder and renames it to the target
 only when the ``with`` block ends without an error (nothing half-written is left);
@@ -16,8 +17,6 @@ from typing import Any, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.rosbag2 import Writer
-
 from robot_wear_monitor.atomic_files import (output_lock, remove_stale_partials,
                                              staging_folder)
 from robot_wear_monitor.recordings.bags.cdr import Layout, parse_layout
@@ -25,6 +24,7 @@ from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError, JO
                                                        JOINT_STATES_TOPIC, MONITOR_TYPESTORE,
                                                        storage_plugin, typestore_of)
 from robot_wear_monitor.yaml_files import shorten
+from rosbags.rosbag2 import Writer
 
 FloatArray = NDArray[np.float64]
 
@@ -78,15 +78,14 @@ class BagWriter:
 @contextmanager
 def atomic_bag_writer(path: str | os.PathLike, *, storage: str = 'mcap',
                       overwrite: bool = False) -> Iterator[BagWriter]:
-    """Write a bag folder atomically: into a temporary sibling, renamed on success.
+    """
+    Write a bag folder atomically: into a temporary sibling, renamed on success.
 
-    Args:
-        path: the bag folder to create.
-        storage: ``'mcap'`` (default) or ``'sqlite3'``.
-        overwrite: replace an existing bag at ``path`` (only once the new one is complete).
+    :param path: the bag folder to create.
+    :param storage: ``'mcap'`` (default) or ``'sqlite3'``.
+    :param overwrite: replace an existing bag at ``path`` (only once the new one is complete).
 
-    Raises:
-        BagError: ``path`` exists and ``overwrite`` is false, or the bag cannot be written.
+    :raises BagError: ``path`` exists and ``overwrite`` is false, or the bag cannot be written.
 
     """
     plugin = storage_plugin(storage)
@@ -142,19 +141,18 @@ def _split_stamps(stamps_s: FloatArray) -> tuple[NDArray[np.int64], NDArray[np.i
 def encode_joint_states(*, stamps_s: Sequence[float] | FloatArray, names: Sequence[str],
                         position: Any, velocity: Any, effort: Any,
                         name_order: Any = None, frame_id: str = '') -> list[bytes]:
-    """Encode JointState messages to CDR (little endian) with numpy.
+    """
+    Encode JointState messages to CDR (little endian) with numpy.
 
-    Args:
-        stamps_s: header stamps [s], shape (n,).
-        names: joint names, the column order of the arrays, length J.
-        position: positions [rad], shape (n, J).
-        velocity: velocities [rad/s], shape (n, J).
-        effort: efforts, shape (n, J).
-        name_order: optional per-message column permutation, shape (n, J).
-        frame_id: header frame_id.
+    :param stamps_s: header stamps [s], shape (n,).
+    :param names: joint names, the column order of the arrays, length J.
+    :param position: positions [rad], shape (n, J).
+    :param velocity: velocities [rad/s], shape (n, J).
+    :param effort: efforts, shape (n, J).
+    :param name_order: optional per-message column permutation, shape (n, J).
+    :param frame_id: header frame_id.
 
-    Returns:
-        One ``bytes`` per message, identical to rosbags' ``serialize_cdr``.
+    :return: One ``bytes`` per message, identical to rosbags' ``serialize_cdr``.
 
     """
     stamps = np.asarray(stamps_s, dtype=np.float64)

@@ -1,6 +1,7 @@
 # flake8: noqa  (a one-off script run with the released code; see README.md)
 """Add joint_3 (raised, then reset after maintenance) to the v2 history, with the released API."""
 import sys
+
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory, SCHEMA_VERSION
 assert SCHEMA_VERSION == 2
 with WearHistory(sys.argv[1]) as h:

@@ -1,6 +1,7 @@
 # flake8: noqa  (a one-off script run with the released code; see README.md)
 """Write a small version-4 fleet history with the released API (main at 1885e4b)."""
 import sys
+
 from robot_wear_monitor.monitoring.history import (AlarmEvent, HistoryRecord, SCHEMA_VERSION,
                                                    WearHistory)
 assert SCHEMA_VERSION == 4

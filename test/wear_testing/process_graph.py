@@ -1,4 +1,5 @@
-"""A ROS 2 graph of real processes and one probe node, for the process-level node tests.
+"""
+A ROS 2 graph of real processes and one probe node, for the process-level node tests.
 
 launch_testing's habit without launch (not on PyPI): start the real executables on a fresh
 ROS domain, wait for what a subscriber sees, stop everything at the end.  A test's graph
@@ -16,10 +17,11 @@ import time
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-
-from conftest import next_ros_domain_id
-
 from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, open_history
+from wear_testing.ros_graph import next_ros_domain_id
+
+#: ``test/``, where the package ``wear_testing`` is.
+TEST_DIR = Path(__file__).resolve().parents[1]
 
 BIN = Path(sys.executable).parent
 
@@ -52,7 +54,10 @@ class ProcessGraph:
         self.env = {**os.environ, 'ROS_DOMAIN_ID': str(next_ros_domain_id()),
                     'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1',
                     'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
-                    'PYTHONFAULTHANDLER': '1'}  # a crash prints every thread's stack
+                    'PYTHONFAULTHANDLER': '1',  # a crash prints every thread's stack
+                    # the tests' helper package for ``python -m wear_testing...`` processes
+                    'PYTHONPATH': os.pathsep.join(
+                        [str(TEST_DIR), *filter(None, [os.environ.get('PYTHONPATH')])])}
         self.processes = {}
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=int(self.env['ROS_DOMAIN_ID']))
@@ -107,7 +112,8 @@ class ProcessGraph:
             return predicate()
 
     def settle(self, state, *, quiet_s=0.5, timeout_s=10.0):
-        """Wait until ``state()`` (under the lock) has not changed for ``quiet_s``; return True.
+        """
+        Wait until ``state()`` (under the lock) has not changed for ``quiet_s``; return True.
 
         The condition of "nothing more arrives": False when it still changes at the deadline.
         """

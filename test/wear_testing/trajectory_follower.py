@@ -1,4 +1,5 @@
-"""A simulated arm that follows JointTrajectory points, for the runner's tests (no ROS).
+"""
+A simulated arm that follows JointTrajectory points, for the runner's tests (no ROS).
 
 Written for the tests, independent of ``robot_wear_monitor.experiment.simulation``: the arm
 follows the last trajectory it received like a trajectory controller does, by a cubic Hermite
@@ -18,8 +19,7 @@ from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np
-
-import independent_robot as robot
+from wear_testing import independent_robot as robot
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Friction levels of simulated experiments with one undeclared effect (test data generator).
+"""
+Friction levels of simulated experiments with one undeclared effect (test data generator).
 
 Protocol of the paper's experiments, written here for the tests: each experiment runs the
 discrete speeds of eq. (27) once at one operating point (temperature, load and the per-experiment
@@ -15,7 +16,6 @@ is added on top.  Columns:
 """
 
 import numpy as np
-
 from robot_wear_monitor.model.friction import friction, nominal_friction
 from robot_wear_monitor.model.params import load_parameter_set
 
@@ -63,7 +63,8 @@ def levels(*, seed: int, n_experiments: int = 42, wear: bool = False,
 
 
 def with_effect(columns: dict, effect, size_sigma: float | None = None) -> dict:
-    """Add ``effect(columns)`` to the friction; scaled to RMS ``size_sigma`` x SIGMA if given.
+    """
+    Add ``effect(columns)`` to the friction; scaled to RMS ``size_sigma`` x SIGMA if given.
 
     The effect is centred (its mean over the table removed: a constant is no effect).
     """

@@ -1,4 +1,5 @@
-"""Foreign recordings: multi-joint JointState bags of friction experiments made by another tool.
+"""
+Foreign recordings: multi-joint JointState bags of friction experiments made by another tool.
 
 An independent generator of test recordings.  It shares no trajectory, noise, protocol or bag
 code with ``robot_wear_monitor`` (it does not use ``experiment/simulation.py``, the package's
@@ -74,11 +75,10 @@ import shutil
 from typing import Sequence
 
 import numpy as np
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import get_typestore, Stores
-
 from robot_wear_monitor.model.friction import friction
 from robot_wear_monitor.model.params import load_parameter_set
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import get_typestore, Stores
 
 JOINT_NAMES = ('base_yaw', 'shoulder', 'elbow', 'wrist_1', 'wrist_2', 'wrist_3')
 TOPIC = '/joint_states'
@@ -90,20 +90,20 @@ EPOCH_S = 1_750_000_000.0
 
 @dataclass(frozen=True)
 class JointSpec:
-    """One joint of the arm and its friction experiment.
+    """
+    One joint of the arm and its friction experiment.
 
-    Attributes:
-        name: joint name.
-        gear_ratio: motor speed / joint speed (1: direct drive).
-        torque_scale: effort = torque_scale x normalised torque.
-        speeds_rad_s: motor-side speeds of the experiment's levels, in the order run.
-        load: load torque (normalised) of the model.
-        wear_start: wear at the joint's first experiment.
-        wear_end: wear at its last experiment.
-        posture_rad: position while not tested [rad].
-        centre_rad: window centre of the joint's first experiment [rad].
-        gravity: amplitude of the gravity torque (normalised).
-        inertia: inertia (normalised torque per rad/s^2 of joint acceleration).
+    :ivar name: joint name.
+    :ivar gear_ratio: motor speed / joint speed (1: direct drive).
+    :ivar torque_scale: effort = torque_scale x normalised torque.
+    :ivar speeds_rad_s: motor-side speeds of the experiment's levels, in the order run.
+    :ivar load: load torque (normalised) of the model.
+    :ivar wear_start: wear at the joint's first experiment.
+    :ivar wear_end: wear at its last experiment.
+    :ivar posture_rad: position while not tested [rad].
+    :ivar centre_rad: window centre of the joint's first experiment [rad].
+    :ivar gravity: amplitude of the gravity torque (normalised).
+    :ivar inertia: inertia (normalised torque per rad/s^2 of joint acceleration).
 
     """
 
@@ -140,20 +140,20 @@ def default_joints() -> dict[str, JointSpec]:
 
 @dataclass(frozen=True)
 class Protocol:
-    """Timing of the experiments [s] and the noise of the measurements.
+    """
+    Timing of the experiments [s] and the noise of the measurements.
 
-    Attributes:
-        plateau_s: constant-speed time of each pass.
-        ramp_s: duration of each smoothstep ramp.
-        dwell_s: standstill between moves.
-        bump_s: duration of a repositioning bump.
-        idle_gap_s: standstill between experiments.
-        lead_in_s: standstill before the first experiment.
-        torque_noise_std: white noise of the normalised torque per sample.
-        level_error_std: one offset per level of the normalised friction (in the truth).
-        velocity_noise_fraction: velocity noise, relative to the joint speed u of the level.
-        position_noise_rad: position noise [rad].
-        temperature_degc: (min, max) of the joint temperature over the recording [degC].
+    :ivar plateau_s: constant-speed time of each pass.
+    :ivar ramp_s: duration of each smoothstep ramp.
+    :ivar dwell_s: standstill between moves.
+    :ivar bump_s: duration of a repositioning bump.
+    :ivar idle_gap_s: standstill between experiments.
+    :ivar lead_in_s: standstill before the first experiment.
+    :ivar torque_noise_std: white noise of the normalised torque per sample.
+    :ivar level_error_std: one offset per level of the normalised friction (in the truth).
+    :ivar velocity_noise_fraction: velocity noise, relative to the joint speed u of the level.
+    :ivar position_noise_rad: position noise [rad].
+    :ivar temperature_degc: (min, max) of the joint temperature over the recording [degC].
 
     """
 
@@ -220,7 +220,7 @@ class ExperimentTruth:
 
     @property
     def complete_levels(self) -> tuple[LevelTruth, ...]:
-        """The levels with both passes."""
+        """Return the levels with both passes."""
         return tuple(level for level in self.levels if level.complete)
 
 
@@ -254,7 +254,8 @@ class ForeignRecording:
         return np.any(self.order == self.joint_names.index(joint), axis=1)
 
     def expected_samples(self, joint: str) -> dict[str, np.ndarray]:
-        """Return what a reader must return for ``joint``: time_s, position_rad, ... (m,).
+        """
+        Return what a reader must return for ``joint``: time_s, position_rad, ... (m,).
 
         time_s is the header stamp, or the bag receive time where the stamp is zero.
         """
@@ -333,7 +334,8 @@ class _Path:
 
     def move(self, speed: float, ramp_s: float, plateau_s: float,
              stop_after_s: float | None = None) -> tuple[float, float]:
-        """Smoothstep up, plateau at ``speed`` (signed joint speed), smoothstep down.
+        """
+        Smoothstep up, plateau at ``speed`` (signed joint speed), smoothstep down.
 
         With ``stop_after_s`` the plateau ends after that time (an interruption) and the joint
         ramps down.  Returns the (start, end) times of the constant-speed plateau.
@@ -407,17 +409,17 @@ def generate(*, schedule: Sequence[str], joints: dict[str, JointSpec] | None = N
              protocol: Protocol = Protocol(), imperfections: Imperfections = Imperfections(),
              window_drift_rad: float = 0.0, hold_s: float = 0.0,
              seed: int = 0) -> ForeignRecording:
-    """Generate a recording: one experiment per entry of ``schedule`` (the tested joint).
+    """
+    Generate a recording: one experiment per entry of ``schedule`` (the tested joint).
 
-    Args:
-        schedule: the joint tested by each experiment, in order.
-        joints: the arm (default :func:`default_joints`); every name is published.
-        protocol: timing and noise.
-        imperfections: what makes the recording real (see :class:`Imperfections`).
-        window_drift_rad: shift of a joint's window centre per experiment of that joint [rad].
-        hold_s: standstill added at the end [s] (with an empty schedule: a bag in which no
-            joint moves).
-        seed: random seed (noise, drops, orders, absences, stamps).
+    :param schedule: the joint tested by each experiment, in order.
+    :param joints: the arm (default :func:`default_joints`); every name is published.
+    :param protocol: timing and noise.
+    :param imperfections: what makes the recording real (see :class:`Imperfections`).
+    :param window_drift_rad: shift of a joint's window centre per experiment of that joint [rad].
+    :param hold_s: standstill added at the end [s] (with an empty schedule: a bag in which no
+        joint moves).
+    :param seed: random seed (noise, drops, orders, absences, stamps).
 
     """
     arm = dict(default_joints() if joints is None else joints)
@@ -598,7 +600,8 @@ def _write_part(folder: Path, recording: ForeignRecording, rows: range,
 
 def write_bag(recording: ForeignRecording, path: str | os.PathLike, *,
               storage: str = 'mcap', split_files: int = 1, topic: str = TOPIC) -> Path:
-    """Write the recording as a bag folder (MCAP or sqlite3), optionally split in files.
+    """
+    Write the recording as a bag folder (MCAP or sqlite3), optionally split in files.
 
     ``topic`` is the JointState topic (another name makes a bag without ``/joint_states``).
 

@@ -1,4 +1,5 @@
-"""A real PostgreSQL server for the tests, in a temporary folder (initdb + pg_ctl), and fixtures.
+"""
+A real PostgreSQL server for the tests, in a temporary folder (initdb + pg_ctl), and fixtures.
 
 :func:`find_postgresql_binaries` looks for ``initdb`` and ``pg_ctl`` on PATH, in
 ``/usr/lib/postgresql/<version>/bin`` (Debian's ``postgresql`` package) and in ``/usr/local/bin``.

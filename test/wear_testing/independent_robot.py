@@ -1,4 +1,5 @@
-"""Independent test data: a 6-axis arm running the friction experiment while its joint wears.
+"""
+Independent test data: a 6-axis arm running the friction experiment while its joint wears.
 
 This generator shares no code with ``robot_wear_monitor`` (it does not import or copy
 ``simulation.py`` or ``model.py``): the friction model, the trajectories, the noise and the
@@ -101,18 +102,18 @@ def friction_model(speed_rad_s, load, temperature_degc, wear, p=PAPER_PARAMETERS
 
 @dataclass(frozen=True)
 class ExperimentTruth:
-    """What really happened in one experiment.
+    """
+    What really happened in one experiment.
 
-    Attributes:
-        index: 0-based experiment number.
-        wear: true wear w.
-        temperature_degc: true joint temperature [degC].
-        load: true load torque tau_l [normalised].
-        start_s: time of the first sample of the experiment (its first repositioning) [s].
-        end_s: time of the last sample of its final standstill [s].
-        speeds_rad_s: commanded motor-side speeds, in the order they were run.
-        friction_model: tau_f of model (8) at each speed (no model error) [normalised].
-        friction_true: friction actually applied at each constant speed (model + level error).
+    :ivar index: 0-based experiment number.
+    :ivar wear: true wear w.
+    :ivar temperature_degc: true joint temperature [degC].
+    :ivar load: true load torque tau_l [normalised].
+    :ivar start_s: time of the first sample of the experiment (its first repositioning) [s].
+    :ivar end_s: time of the last sample of its final standstill [s].
+    :ivar speeds_rad_s: commanded motor-side speeds, in the order they were run.
+    :ivar friction_model: tau_f of model (8) at each speed (no model error) [normalised].
+    :ivar friction_true: friction actually applied at each constant speed (model + level error).
 
     """
 
@@ -133,21 +134,21 @@ class ExperimentTruth:
 
 @dataclass
 class Recording:
-    """A recorded joint-state stream of the whole arm and its truth.
+    """
+    A recorded joint-state stream of the whole arm and its truth.
 
-    Attributes:
-        stamps_s: sample times [s], shape (n,), a realistic ROS epoch.
-        stamps_ns: the same times in integer nanoseconds, shape (n,).
-        names: joint names (joint_1 .. joint_6).
-        position: joint positions [rad], shape (n, 6).
-        velocity: joint velocities [rad/s, joint side], shape (n, 6).
-        effort: efforts (torque_scale x normalised torque), shape (n, 6).
-        truth: one :class:`ExperimentTruth` per experiment.
-        joint: the monitored joint.
-        gear_ratio: motor speed / joint speed of the monitored joint.
-        torque_scale: effort per normalised torque.
-        centre_rad: position the passes are centred on [rad].
-        repositionings: number of repositioning bumps (moves without a constant-speed part).
+    :ivar stamps_s: sample times [s], shape (n,), a realistic ROS epoch.
+    :ivar stamps_ns: the same times in integer nanoseconds, shape (n,).
+    :ivar names: joint names (joint_1 .. joint_6).
+    :ivar position: joint positions [rad], shape (n, 6).
+    :ivar velocity: joint velocities [rad/s, joint side], shape (n, 6).
+    :ivar effort: efforts (torque_scale x normalised torque), shape (n, 6).
+    :ivar truth: one :class:`ExperimentTruth` per experiment.
+    :ivar joint: the monitored joint.
+    :ivar gear_ratio: motor speed / joint speed of the monitored joint.
+    :ivar torque_scale: effort per normalised torque.
+    :ivar centre_rad: position the passes are centred on [rad].
+    :ivar repositionings: number of repositioning bumps (moves without a constant-speed part).
 
     """
 
@@ -188,7 +189,8 @@ def _hold(n: int, dt: float):
 
 
 def _pass_profile(speed: float, n_ramp: int, n_plateau: int, dt: float):
-    """Raised-cosine ramp up, constant ``speed``, raised-cosine ramp down (signed speed).
+    """
+    Raised-cosine ramp up, constant ``speed``, raised-cosine ramp down (signed speed).
 
     Returns displacement from the start, velocity and acceleration, each over
     ``2 n_ramp + n_plateau`` samples; the displacement at the end (one sample later) is
@@ -254,46 +256,44 @@ def generate_wear_test(*, n_experiments: int = 8, wear_start: float = 0.0,
                        start_time_s: float = 1_700_000_000.0,
                        friction_parameters: dict | None = None,
                        effort_limit: float | None = None) -> Recording:
-    """Simulate an accelerated wear test: ``n_experiments`` friction experiments of one joint.
+    """
+    Simulate an accelerated wear test: ``n_experiments`` friction experiments of one joint.
 
-    Args:
-        n_experiments: number of experiments.
-        wear_start: true wear of the first experiment.
-        wear_end: true wear of the last one (linear in between).
-        seed: random seed (temperatures, loads, noise).
-        rate_hz: sample rate of the joint states [Hz].
-        joint: the monitored joint (one of joint_1 .. joint_6).
-        speeds_rad_s: motor-side constant speeds of each experiment, run in this order.
-        gear_ratio: motor speed / joint speed.
-        torque_scale: effort per normalised torque.
-        temperatures_degc: per-experiment temperature; default uniform in [30, 50] degC.
-        loads: per-experiment load tau_l; default N(0.5, 0.1) clipped to [0.2, 0.8].
-        wears: per-experiment wear, overriding ``wear_start``/``wear_end``.
-        plateau_s: duration of each constant-speed part [s].
-        ramp_s: duration of each raised-cosine ramp [s].
-        standstill_s: standstill after a repositioning and after each pass [s].
-        reposition_s: duration of a repositioning bump [s].
-        gap_s: standstill between experiments [s].
-        centre_rad: joint position the passes are centred on [rad].
-        gravity: amplitude g of the gravity torque g cos(q) [normalised].
-        inertia: J of the inertial torque J qdd (qdd joint side) [normalised s^2/rad].
-        level_noise_std: std of the model error per experiment and speed [normalised].
-        torque_noise_std: std of the white torque noise per sample [normalised].
-        effort_resolution: quantisation step of the recorded effort (effort units); 0 = none.
-        velocity_noise_std: std of the white velocity noise [rad/s, joint side].
-        position_noise_std: std of the white position noise [rad].
-        start_time_s: time of the first sample [s].
-        friction_parameters: the joint's friction coefficients (default
-            :data:`PAPER_PARAMETERS`: the joint the packaged parameter set describes; another
-            dict: another joint).
-        effort_limit: the drive's torque limit (effort units): the recorded effort of the
-            monitored joint saturates at +- this value (None: no limit).
+    :param n_experiments: number of experiments.
+    :param wear_start: true wear of the first experiment.
+    :param wear_end: true wear of the last one (linear in between).
+    :param seed: random seed (temperatures, loads, noise).
+    :param rate_hz: sample rate of the joint states [Hz].
+    :param joint: the monitored joint (one of joint_1 .. joint_6).
+    :param speeds_rad_s: motor-side constant speeds of each experiment, run in this order.
+    :param gear_ratio: motor speed / joint speed.
+    :param torque_scale: effort per normalised torque.
+    :param temperatures_degc: per-experiment temperature; default uniform in [30, 50] degC.
+    :param loads: per-experiment load tau_l; default N(0.5, 0.1) clipped to [0.2, 0.8].
+    :param wears: per-experiment wear, overriding ``wear_start``/``wear_end``.
+    :param plateau_s: duration of each constant-speed part [s].
+    :param ramp_s: duration of each raised-cosine ramp [s].
+    :param standstill_s: standstill after a repositioning and after each pass [s].
+    :param reposition_s: duration of a repositioning bump [s].
+    :param gap_s: standstill between experiments [s].
+    :param centre_rad: joint position the passes are centred on [rad].
+    :param gravity: amplitude g of the gravity torque g cos(q) [normalised].
+    :param inertia: J of the inertial torque J qdd (qdd joint side) [normalised s^2/rad].
+    :param level_noise_std: std of the model error per experiment and speed [normalised].
+    :param torque_noise_std: std of the white torque noise per sample [normalised].
+    :param effort_resolution: quantisation step of the recorded effort (effort units); 0 = none.
+    :param velocity_noise_std: std of the white velocity noise [rad/s, joint side].
+    :param position_noise_std: std of the white position noise [rad].
+    :param start_time_s: time of the first sample [s].
+    :param friction_parameters: the joint's friction coefficients (default
+        :data:`PAPER_PARAMETERS`: the joint the packaged parameter set describes; another
+        dict: another joint).
+    :param effort_limit: the drive's torque limit (effort units): the recorded effort of the
+        monitored joint saturates at +- this value (None: no limit).
 
-    Returns:
-        The :class:`Recording` with its truth.
+    :return: The :class:`Recording` with its truth.
 
-    Raises:
-        ValueError: a bad argument.
+    :raises ValueError: a bad argument.
 
     """
     if joint not in JOINT_NAMES:
@@ -444,7 +444,8 @@ def messages(recording: Recording) -> Iterator[tuple[float, list[str], list[floa
 
 
 def write_bag(path, recording: Recording, *, storage: str = 'mcap') -> Path:
-    """Write ``recording`` as /joint_states (sensor_msgs/msg/JointState) into a new bag.
+    """
+    Write ``recording`` as /joint_states (sensor_msgs/msg/JointState) into a new bag.
 
     One message per sample; header.stamp and the bag (log) time are the sample's time.  Uses
     rosbags directly with the ROS 2 Jazzy typestore.  ``storage`` is 'mcap' or 'sqlite3'.

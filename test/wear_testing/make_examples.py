@@ -1,4 +1,7 @@
-"""Write the example level tables under ``examples/`` (run: python3 test/make_examples.py).
+"""
+Write the example level tables under ``examples/``.
+
+Run: ``PYTHONPATH=test python3 -m wear_testing.make_examples``.
 
 The tables come from the independent generator's model functions (``independent_robot.py``,
 which shares no code with the package) for a joint that differs from the packaged set, with
@@ -9,15 +12,11 @@ README shows.  ``test/test_examples.py`` checks that the shipped files are what 
 from __future__ import annotations
 
 from pathlib import Path
-import sys
 
 import numpy as np
+from wear_testing import independent_robot as robot
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import independent_robot as robot  # noqa: E402
-
-EXAMPLES = Path(__file__).resolve().parents[1] / 'examples'
+EXAMPLES = Path(__file__).resolve().parents[2] / 'examples'
 #: Motor-side speeds of every experiment [rad/s]: Table V's grid and beyond.
 GRID = (2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1)
 #: The example joint: the paper's coefficients with a stronger load effect and wear profile.
@@ -46,7 +45,8 @@ def _table(*, seed: int, wears: np.ndarray, temperature: tuple[float, float],
 def example_files() -> dict[str, str]:
     """Return the example files' names and texts (deterministic)."""
     wears = 35.0 * (np.arange(20) / CRITICAL) ** 2
-    truth = ['# The truth of the example tables (test/make_examples.py, independent generator).',
+    truth = ['# The truth of the example tables (test/wear_testing/make_examples.py, '
+             'independent generator).',
              '# Friction model (8) = (5) + (7) with these coefficients (paper notation):']
     truth += [f'{name}: {value:g}' for name, value in JOINT.items()]
     truth += [f'sigma: {SIGMA:g}   # std of the friction-level error [normalised]',

@@ -1,6 +1,7 @@
-"""A simulated arm on the ROS 2 graph for the closed-loop test (the tests' own code).
+"""
+A simulated arm on the ROS 2 graph for the closed-loop test (the tests' own code).
 
-Usage: ``python3 simulated_arm_node.py CONFIG_JSON [--ros-args ...]`` with CONFIG_JSON
+Usage: ``python3 -m wear_testing.simulated_arm_node CONFIG_JSON [--ros-args ...]`` with CONFIG_JSON
 ``{"names": [...], "posture": [...], "tested": {"joint_2": {JointTruth fields}, ...},
 "controller": "joint_trajectory_controller", "rate_hz": 250.0, "seed": 0}``.
 
@@ -13,20 +14,16 @@ friction model at the configured wear, temperature and load, gravity, inertia an
 """
 
 import json
-from pathlib import Path
 import sys
 import threading
 import time
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # test/: the tests' own modules
-
-import rclpy  # noqa: E402
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
-from trajectory_msgs.msg import JointTrajectory  # noqa: E402
-
-from trajectory_follower import JointTruth, SimulatedArm  # noqa: E402
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
+from wear_testing.trajectory_follower import JointTruth, SimulatedArm
 
 
 def _qos(depth):

@@ -1,4 +1,5 @@
-"""A small fleet history with known values for the dashboard's tests, and logging in.
+"""
+A small fleet history with known values for the dashboard's tests, and logging in.
 
 Five joints written as HistoryRecords directly (so every number is known), whose order worst
 first is known from the fleet rule (alarm, then the soonest crossing, then the highest upper
