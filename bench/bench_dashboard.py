@@ -33,7 +33,7 @@ import time
 from fastapi.testclient import TestClient
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.views import FleetCache, joint_url
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, open_history
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, open_history
 
 HOUR_S = 3600.0
 TARGETS_MS = {'fleet page': 300.0, 'joint page': 200.0}

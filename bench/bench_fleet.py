@@ -30,8 +30,8 @@ import time
 
 from robot_wear_monitor.experiment.simulation import accelerated_wear_scenario, simulate_scenario
 from robot_wear_monitor.fleet.batch import collect_bags, replay_one, ReplaySettings, run_batch
+from robot_wear_monitor.history import HistoryRecord, WearHistory
 from robot_wear_monitor.model.params import load_parameter_set
-from robot_wear_monitor.monitoring.history import HistoryRecord, WearHistory
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
 
 HOUR_S = 3600.0

@@ -30,8 +30,8 @@ import tempfile
 import time
 from typing import Any, Callable
 
-from robot_wear_monitor.monitoring.history import INTERVAL_COLUMNS, WearHistory
-from robot_wear_monitor.monitoring.history.migrations import JOINT_SUMMARY_REBUILD
+from robot_wear_monitor.history import INTERVAL_COLUMNS, WearHistory
+from robot_wear_monitor.history.migrations import JOINT_SUMMARY_REBUILD
 
 HOUR_S = 3600.0
 START_S = 1.75e9

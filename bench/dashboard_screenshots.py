@@ -48,7 +48,7 @@ def make_history(folder: Path) -> Path:
     history = folder / 'history.sqlite3'
     _cli('replay', '--manifest', str(folder / 'manifest.csv'), '--history', str(history),
          '--workers', '2')
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     with open_history(history) as stored:
         stored.add_user(name='maria', role='maintainer', password=PASSWORD)
         latched = [row for row in stored.fleet() if row.alarm]
@@ -71,7 +71,7 @@ def take_screenshots(history: Path, out: Path) -> list[Path]:
     """Serve ``history``, log in with headless Chromium and save the two pages as PNG."""
     from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
     from robot_wear_monitor.dashboard.pages import joint_url
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
     from selenium.webdriver.common.by import By

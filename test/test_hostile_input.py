@@ -286,7 +286,7 @@ def test_two_replays_to_one_output_one_wins_the_other_says_in_use(tmp_path, smal
 # ----------------------------------------------------------------------------- 8. names
 
 def test_control_characters_in_names_are_escaped_in_text(tmp_path):
-    from robot_wear_monitor.monitoring.history import HistoryRecord, open_history
+    from robot_wear_monitor.history import HistoryRecord, open_history
     path = tmp_path / 'h.db'
     with open_history(path, robot='cell\x1b]0;owned\x07') as stored:
         stored.append(HistoryRecord(

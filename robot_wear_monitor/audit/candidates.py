@@ -23,7 +23,6 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.model.extensions import Factor, tensor_basis
 

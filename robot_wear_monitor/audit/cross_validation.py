@@ -13,7 +13,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.fitting import as_text, AuditTable, Base, design_matrix, fit_model
 
 FloatArray = NDArray[np.float64]

@@ -16,7 +16,6 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.errors import InputError
 

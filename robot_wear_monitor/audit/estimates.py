@@ -18,7 +18,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.model.params import ParameterSet
 

@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-
 from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.audit.candidates import ORDER_COLUMN
 from robot_wear_monitor.audit.fitting import AuditTable, Base, Fit

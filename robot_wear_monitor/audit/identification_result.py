@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.json_values import finite_or_none, json_clean
 from robot_wear_monitor.model.params import (ParameterSet)
 

@@ -18,7 +18,6 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.audit.data import is_bag, load_audit_data
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.audit.identification_result import (GOOD_SPEEDS, MIN_SPEEDS,

@@ -9,7 +9,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-
 from robot_wear_monitor.atomic_files import save_figure
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.audit.identification_result import Identification

@@ -12,7 +12,6 @@ from typing import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.noise import LackOfFit
 from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import extension_to_mapping

@@ -22,7 +22,6 @@ from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.candidates import (candidate_columns, families, make_variable,
                                                  make_variables, periodic_frequencies, Variable,
                                                  with_experiment_order)

@@ -15,7 +15,6 @@ from typing import Mapping, Optional
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, multistart_fit,
                                               parameter_errors, speed_base)

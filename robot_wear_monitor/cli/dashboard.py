@@ -76,7 +76,7 @@ def read_password(*, name: str) -> str:
 
 
 def _users(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     with open_history(args.history, init=None if args.user_action == 'add' else False) \
             as history:
         if args.user_action == 'add':
@@ -120,7 +120,7 @@ def main(args: argparse.Namespace) -> int:
     if args.notify:
         from robot_wear_monitor.dashboard.notifier import load_config
         extra['notify'] = load_config(args.notify)  # a bad file stops the start (exit 2)
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     with open_history(args.history, init=False) as history:
         if not history.users():
             print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '

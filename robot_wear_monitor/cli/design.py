@@ -30,7 +30,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run ``design``: print the speeds [rad/s] and the cost of the optimal design."""
     import numpy as np
-
     from robot_wear_monitor.estimation.design import best_grid_design, optimal_design
     params = params_from(args)
     params.require('wear', purpose='designing the experiment (22)-(25)')

@@ -58,7 +58,7 @@ def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     from robot_wear_monitor.cli.outputs import write_text_output
     from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     now_s = parse_time(args.now) if args.now else time.time()
     with open_history(args.history, init=False) as history:
         rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s)

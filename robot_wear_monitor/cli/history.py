@@ -48,9 +48,9 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.history import (is_postgresql_url, open_history,
+                                            write_levels_csv)
     from robot_wear_monitor.monitoring.diagnostics import clean_text, json_number
-    from robot_wear_monitor.monitoring.history import (is_postgresql_url, open_history,
-                                                       write_levels_csv)
 
     if not is_postgresql_url(args.database) and not Path(args.database).is_file():
         raise InputError(f'{args.database}: no such wear history database')
@@ -173,8 +173,8 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
 def alarm_log_main(args: argparse.Namespace) -> int:
     """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
     from robot_wear_monitor.cli.outputs import write_text_output
+    from robot_wear_monitor.history import open_history
     from robot_wear_monitor.monitoring.diagnostics import clean_text
-    from robot_wear_monitor.monitoring.history import open_history
 
     if args.csv and (args.json or args.json_out):
         raise InputError('--alarms: give --csv or --json, not both')

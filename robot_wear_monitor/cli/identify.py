@@ -79,8 +79,8 @@ def main(args: argparse.Namespace) -> int:
     """Run ``identify``: write the parameter set, print the summary or the JSON report."""
     from robot_wear_monitor.audit.export import write_identified_parameter_set
     from robot_wear_monitor.audit.identification import identify
-    from robot_wear_monitor.audit.report import plot_identification
     from robot_wear_monitor.audit.identify_inputs import default_set_name, load_identify_levels
+    from robot_wear_monitor.audit.report import plot_identification
     from robot_wear_monitor.model.params import load_parameter_set
 
     if (args.wear_test is None) != (args.critical_experiment is None):
@@ -141,7 +141,6 @@ def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float,
                           torque_scale: float) -> bool:
     """Return True when the baseline gives temperature and load (columns, topics) that vary."""
     import numpy as np
-
     from robot_wear_monitor.audit.data import load_audit_data
     if any((args.temperature_topic, args.load_topic, args.temperature_column,
             args.load_column)):

@@ -98,7 +98,7 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.errors import InputError
     from robot_wear_monitor.fleet.notifications import (load_notification_config,
                                                         notify_forever, notify_once)
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     if args.log is not None:
         if args.once or args.now:
             raise InputError('--log reads the log only: not with --once or --now')

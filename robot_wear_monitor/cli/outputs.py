@@ -61,7 +61,7 @@ def check_outputs(args: argparse.Namespace) -> None:
             check_writable(out, what='--out')
     history = getattr(args, 'history', None)
     if history and command in HISTORY_WRITERS and str(history) != ':memory:':
-        from robot_wear_monitor.monitoring.history.backends import is_postgresql_url
+        from robot_wear_monitor.history.backends import is_postgresql_url
         if not is_postgresql_url(history):
             check_writable_file(history, what='--history')
 

@@ -234,10 +234,9 @@ def main_batch(args: argparse.Namespace) -> int:
     """
     import sys
 
-    from tqdm import tqdm
-
     from robot_wear_monitor.fleet.batch import (BagOutcome, collect_bags, ReplaySettings,
                                                 run_batch)
+    from tqdm import tqdm
     for option, given in (('--truth', args.truth), ('--plot', args.plot)):
         if given:
             raise InputError(f'{option} is for one bag; with many bags the history is the '
@@ -257,7 +256,7 @@ def main_batch(args: argparse.Namespace) -> int:
                               params_file=args.params, storage=args.storage,
                               overwrite=args.overwrite, recover=not args.strict)
     if args.history is not None:  # made (or refused) once, before the workers start
-        from robot_wear_monitor.monitoring.history import open_history
+        from robot_wear_monitor.history import open_history
         open_history(args.history, init=True if args.init else None).close()
 
     def report(outcome: BagOutcome) -> None:  # a failure as it happens, above the bar

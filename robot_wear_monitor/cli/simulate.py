@@ -87,8 +87,8 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed, wear_final=args.wear_final, experiment_interval_s=args.interval,
         joint=JointSimConfig(sample_rate_hz=args.sample_rate))
     if args.start_time is not None:
-        import math
         from dataclasses import replace
+        import math
 
         from robot_wear_monitor.cli.fleet import parse_time
         start_s = parse_time(args.start_time, option='--start-time')

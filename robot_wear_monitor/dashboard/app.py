@@ -52,7 +52,7 @@ class HistoryPool:
 
     def __init__(self, location: str) -> None:
         """Check that ``location`` is a wear history now (HistoryError when not)."""
-        from robot_wear_monitor.monitoring.history import open_history
+        from robot_wear_monitor.history import open_history
         self.location = location
         self._open = open_history
         self._local = threading.local()

@@ -28,7 +28,7 @@ def load_config(path: str) -> Any:
 def notify_pass(*, location: str, config: Any) -> int:
     """Run one notification pass on the history at ``location``; return the notices sent."""
     from robot_wear_monitor.fleet.notifications import notify_once
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     with open_history(location, init=False) as history:
         sent = notify_once(history=history, config=config, now_s=time.time())
     return len(sent)

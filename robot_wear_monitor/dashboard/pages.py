@@ -21,7 +21,7 @@ from robot_wear_monitor.dashboard.auth import (client_address, csrf_ok, csrf_tok
                                                current_user, safe_next, start_session)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
                                                 fleet_row_html, joint_json, joint_url, STATES)
-from robot_wear_monitor.monitoring.history import HistoryError
+from robot_wear_monitor.history import HistoryError
 from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 router = APIRouter(include_in_schema=False)

@@ -19,7 +19,6 @@ from urllib.parse import quote
 
 from markupsafe import Markup
 import numpy as np
-
 from robot_wear_monitor.fleet.ranking import crossing_text, fleet_view, FleetView, iso_time
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,

@@ -42,7 +42,6 @@ from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.errors import InputError
 
 #: Alarm level of the wear w [-] (the paper's Sec. V): the alarm is about w >= this.

@@ -20,7 +20,6 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.estimation import estimator as core
 from robot_wear_monitor.model.params import ParameterSet
 

@@ -19,7 +19,6 @@ from typing import Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.estimation import intervals as one
 from robot_wear_monitor.estimation.estimator import WearEstimates
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof

@@ -32,7 +32,6 @@ from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.special_functions import chi2_survival, log_sum_exp
 from robot_wear_monitor.model import friction as fm

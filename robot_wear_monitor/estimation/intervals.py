@@ -44,7 +44,6 @@ from typing import Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import (estimate_wear, MarginalModel,
                                                      validate_speeds, WearEstimates)

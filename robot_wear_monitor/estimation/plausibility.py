@@ -33,7 +33,6 @@ from typing import Any, Iterable, Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
-
 from robot_wear_monitor.model.friction import friction
 from robot_wear_monitor.model.params import ParameterSet
 

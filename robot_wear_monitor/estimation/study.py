@@ -17,7 +17,6 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.atomic_files import save_figure
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import design_cost

@@ -64,7 +64,6 @@ from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
 from robot_wear_monitor.estimation.intervals import wear_grid

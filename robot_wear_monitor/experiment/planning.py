@@ -32,7 +32,6 @@ from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.errors import InputError
 
 FloatArray = NDArray[np.float64]

@@ -37,7 +37,6 @@ from typing import Any, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig

@@ -304,7 +304,7 @@ def _peak_rss_mb() -> float:
 def replay_one(task: BagTask, settings: ReplaySettings) -> BagOutcome:
     """Replay one bag into the history; never raise (a failure is the outcome's ``reason``)."""
     from robot_wear_monitor.blas_threads import use_single_blas_thread
-    from robot_wear_monitor.monitoring.history import open_history
+    from robot_wear_monitor.history import open_history
     from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
     use_single_blas_thread()
     started = time.perf_counter()

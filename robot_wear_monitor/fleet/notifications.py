@@ -48,7 +48,7 @@ from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, iso_time, STALE_FACTOR
-from robot_wear_monitor.monitoring.history import WearHistory
+from robot_wear_monitor.history import WearHistory
 
 __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
            'load_notification_config', 'NotificationConfig', 'NotificationConfigError',
@@ -218,7 +218,7 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     Returns the sends this call made (an empty list when nothing was due or every due event
     was sent already, by this process or another).  Failed sends are stored in the history
     and tried again on later passes (see the module's text).  Raises
-    :class:`~robot_wear_monitor.monitoring.history.HistoryError` when the history cannot be
+    :class:`~robot_wear_monitor.history.HistoryError` when the history cannot be
     read or written; a channel that fails never raises.
     """
     events = due_events(history=history, config=config, now_s=now_s)
@@ -274,7 +274,7 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
     one pass, not the notifier); a pass that fails is given to ``on_error`` and the loop goes
     on; the sends of each pass go to ``report``.
     """
-    from robot_wear_monitor.monitoring.history import HistoryError, open_history
+    from robot_wear_monitor.history import HistoryError, open_history
 
     def wait(seconds: float) -> None:
         stop.wait(seconds)

@@ -17,9 +17,9 @@ import datetime
 import math
 from typing import Any, Iterable, Optional, Sequence
 
+from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.diagnostics import clean_text
-from robot_wear_monitor.monitoring.history import FleetRow
 
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
 STALE_FACTOR = 3.0

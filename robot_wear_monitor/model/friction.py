@@ -14,7 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from robot_wear_monitor.model.params import DirectionTerms, FrictionModel
 
 FloatArray = NDArray[np.float64]

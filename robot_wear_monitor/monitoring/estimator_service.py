@@ -6,7 +6,7 @@ replay drive: it reads a ``friction_levels`` message (or a completed experiment)
 (T, w) with :func:`~robot_wear_monitor.estimation.estimator.estimate_wear`, their 95 %
 profile-likelihood intervals and the wear trend (:mod:`robot_wear_monitor.estimation.trend`),
 updates the latched alarm (:class:`~robot_wear_monitor.estimation.alarm.AlarmLatch`), stores
-the estimate in the SQLite :class:`~robot_wear_monitor.monitoring.history.WearHistory` (from
+the estimate in the SQLite :class:`~robot_wear_monitor.history.WearHistory` (from
 which a restarted service restores its trend and latched alarm) and builds the diagnostics
 status and the node's output messages.  A reset (``~/reset_alarm``, after maintenance) clears
 the alarm and its evidence and starts a new trend segment.  The configuration comes from the
@@ -26,12 +26,12 @@ from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import AlarmLatch
 from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
 from robot_wear_monitor.experiment.levels import FrictionExperiment
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,
                                                        forecast_text, interval_text,
                                                        meaningful_std, STD_NOT_REPORTED,
                                                        trend_values)
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.monitoring.prepared import Prepared, PreparedEstimates
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC)

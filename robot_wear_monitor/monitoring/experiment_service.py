@@ -20,7 +20,6 @@ from typing import Any, Mapping, Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,

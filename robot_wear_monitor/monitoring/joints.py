@@ -25,11 +25,11 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment
+from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring.estimator_service import (EstimatorConfig, WearEstimatorService,
                                                              WearUpdate)
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
-from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE, joint_namespace,
                                                        joint_parameters, monitored_joints,
                                                        per_joint_outputs, WEAR_ESTIMATOR_NODE)

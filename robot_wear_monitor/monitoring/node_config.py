@@ -16,7 +16,6 @@ import os
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
-
 from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
                                                  DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
                                                  WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)

@@ -21,7 +21,6 @@ import math
 from typing import Any, Optional, Sequence
 
 import numpy as np
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.recordings.messages import FrictionLevelsMessage

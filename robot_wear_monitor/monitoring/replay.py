@@ -27,10 +27,10 @@ from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.monitoring.diagnostics import json_number, split_rejections
 from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
                                                               FrictionExperimentService)
-from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)

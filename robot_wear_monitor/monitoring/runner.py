@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from typing import Any, Mapping, Optional
 
 import numpy as np
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import (ExperimentPlan, plan_experiment, PlanConfig,
                                                     PlanError, trajectory_points, TrajectoryPoints)

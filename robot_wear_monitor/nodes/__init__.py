@@ -70,7 +70,6 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
     """
     from rcl_interfaces.msg import ParameterDescriptor
     from rclpy.exceptions import ParameterException
-
     from robot_wear_monitor.model.params import ParameterError
 
     values = {}
@@ -198,7 +197,6 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
-
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     from robot_wear_monitor.errors import InputError
 

@@ -20,7 +20,6 @@ from typing import Any, Callable, Optional, Sequence
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
 from robot_wear_monitor.recordings.bags import BagError, iter_recorded_messages, recorded_topics
 
 PLAYER_NODE = 'robot_wear_monitor_player'

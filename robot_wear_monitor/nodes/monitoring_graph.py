@@ -48,7 +48,6 @@ def run_player(bag: str | os.PathLike, *, rate: float, topics: Sequence[str] | N
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException
-
     from robot_wear_monitor.nodes.bag_player import play_bag
     rclpy.init(args=[GRAPH_LOGGER, *args])
     try:

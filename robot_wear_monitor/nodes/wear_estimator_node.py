@@ -17,9 +17,9 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
-from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.joints import (output_topic, rejections_by_joint,
                                                   reset_service_name, WearEstimatorFleet)
 from robot_wear_monitor.monitoring.node_config import (expand_history_path, per_joint_outputs,

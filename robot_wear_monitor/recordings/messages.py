@@ -42,7 +42,6 @@ import math
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
-
 from robot_wear_monitor.errors import InputError
 
 FRICTION_LEVELS_TYPE = 'sensor_msgs/msg/JointState'

@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation import SegmenterConfig
 

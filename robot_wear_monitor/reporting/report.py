@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any, Optional
 
 import numpy as np
-
 from robot_wear_monitor.atomic_files import save_figure, write_text_atomic
 from robot_wear_monitor.model.params import ParameterSet
 

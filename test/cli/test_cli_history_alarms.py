@@ -8,7 +8,7 @@ import pytest
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.cli.history import ALARM_LOG_COLUMNS
 from robot_wear_monitor.fleet.ranking import iso_time
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
 
 T0_S = 1.8e9
 #: a joint name from a hostile recording: an escape sequence and a forged line

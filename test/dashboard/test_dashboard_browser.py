@@ -15,7 +15,7 @@ import time
 import pytest
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.pages import joint_url
-from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.history import open_history
 from wear_testing.fleet_history import (EXPERIMENTS, make_fleet, ORDER, PASSWORDS, record,
                                         wear_of, XSS_ROBOT)
 

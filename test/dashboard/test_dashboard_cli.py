@@ -17,7 +17,7 @@ import pytest
 from robot_wear_monitor.cli import main as cli_main
 from robot_wear_monitor.dashboard.server import check_listen, is_loopback
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.history import open_history
 from wear_testing.fleet_history import make_fleet
 
 REPO = Path(__file__).resolve().parents[2]

@@ -21,7 +21,7 @@ from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.auth import LoginLimiter
 from robot_wear_monitor.dashboard.pages import joint_url
 from robot_wear_monitor.fleet.ranking import fleet_view
-from robot_wear_monitor.monitoring.history import AlarmEvent, open_history
+from robot_wear_monitor.history import AlarmEvent, open_history
 from wear_testing.fleet_history import (csrf_of, EXPERIMENTS, login, make_fleet, ORDER,
                                         PASSWORDS, PLAN, record, wear_of, XSS_ROBOT)
 

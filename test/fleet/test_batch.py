@@ -9,8 +9,8 @@ from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                       simulate_scenario)
 from robot_wear_monitor.fleet.batch import (BatchError, collect_bags, read_manifest,
                                             recording_fingerprint, ReplaySettings, run_batch)
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.model.params import load_parameter_set
-from robot_wear_monitor.monitoring.history import open_history
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
 

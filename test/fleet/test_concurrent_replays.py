@@ -15,8 +15,8 @@ import multiprocessing
 import pytest
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                       simulate_scenario)
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.model.params import load_parameter_set
-from robot_wear_monitor.monitoring.history import open_history
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
 

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
+from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.monitoring import node_config
 from robot_wear_monitor.monitoring.estimator_service import (EstimatorConfig,
                                                              WearEstimatorService)
-from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.recordings import messages
 from rosbags.typesys import get_typestore, Stores
 

@@ -117,7 +117,7 @@ def test_history_local_times_carry_the_offset_and_the_columns_line_up(replayed, 
 
 
 def test_history_escapes_control_characters_in_names(tmp_path, capsys):
-    from robot_wear_monitor.monitoring.history import HistoryRecord, open_history
+    from robot_wear_monitor.history import HistoryRecord, open_history
     path = tmp_path / 'h.sqlite3'
     with open_history(path, robot='r\x1b[2J') as stored:
         stored.append(HistoryRecord(

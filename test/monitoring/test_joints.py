@@ -1,9 +1,9 @@
 """Several joints in one service: refused joints, restored joints, names and parameters."""
 
 import pytest
+from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring import node_config
-from robot_wear_monitor.monitoring.history import WearHistory
 from robot_wear_monitor.monitoring.joints import (FrictionExperimentFleet, output_topic,
                                                   WearEstimatorFleet)
 from robot_wear_monitor.monitoring.replay import KIT

@@ -16,8 +16,8 @@ import subprocess
 import sys
 
 import pytest
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.monitoring.diagnostics import is_routine
-from robot_wear_monitor.monitoring.history import open_history
 from wear_testing import independent_robot as robot
 
 N_EXPERIMENTS = 3

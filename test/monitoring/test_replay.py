@@ -112,7 +112,7 @@ def test_summary_plot_and_history_written(replayed):
     assert (folder / 'trend.png').stat().st_size > 10_000
     assert summary['rejections'] == {k: v for k, v in summary['rejections'].items()
                                      if not k.startswith('friction_levels_')}
-    from robot_wear_monitor.monitoring.history import WearHistory
+    from robot_wear_monitor.history import WearHistory
     with WearHistory(folder / 'h.sqlite3') as history:
         assert len(history.records(joint='joint_2')) == 100
         assert history.restore(joint='joint_2').alarm_active
@@ -279,7 +279,7 @@ def test_a_killed_replays_partial_output_is_removed_by_the_next_run(tmp_path, ca
 
 
 def test_a_recording_replayed_twice_into_one_history_is_stored_once(tmp_path, capsys):
-    from robot_wear_monitor.monitoring.history import WearHistory
+    from robot_wear_monitor.history import WearHistory
     bag = tmp_path / 'small'
     scenario = _write_scenario(bag, n_experiments=4, seed=6)
     history = tmp_path / 'h.sqlite3'
@@ -308,7 +308,7 @@ def test_two_replays_writing_one_history_at_once_store_each_experiment_once(tmp_
     import subprocess
     import sys
 
-    from robot_wear_monitor.monitoring.history import WearHistory
+    from robot_wear_monitor.history import WearHistory
     root = Path(__file__).resolve().parents[2]
     bag = tmp_path / 'small'
     scenario = _write_scenario(bag, n_experiments=6, seed=8)

@@ -12,7 +12,7 @@ what its next start restores.
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.nodes.qos import ALARM_QOS
 from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
 from std_msgs.msg import Bool

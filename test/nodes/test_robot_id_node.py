@@ -4,9 +4,9 @@ from diagnostic_msgs.msg import DiagnosticArray
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.model.friction import friction
 from robot_wear_monitor.model.params import load_parameter_set
-from robot_wear_monitor.monitoring.history import open_history
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS
 from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
 from sensor_msgs.msg import JointState

@@ -8,7 +8,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from robot_wear_monitor.cli.call import service_candidates
-from robot_wear_monitor.monitoring.history import open_history
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, TRAJECTORY_QOS
 from robot_wear_monitor.recordings.messages import diagnostics_from_msg
 from trajectory_msgs.msg import JointTrajectory

@@ -10,7 +10,7 @@ import math
 import re
 import time
 
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, open_history
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, open_history
 
 HOUR_S = 3600.0
 EXPERIMENTS = 6

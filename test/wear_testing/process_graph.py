@@ -17,7 +17,7 @@ import time
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, open_history
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, open_history
 from wear_testing.ros_graph import next_ros_domain_id
 
 #: ``test/``, where the package ``wear_testing`` is.

@@ -22,7 +22,6 @@ from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.recordings.bags.common import BagError
 
 FloatArray = NDArray[np.float64]

@@ -29,7 +29,6 @@ from typing import Any, Iterator, Optional
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.yaml_files import load_yaml_file
 

@@ -20,7 +20,6 @@ from typing import Any, Callable, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-
 from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChunk, MultiDecoder
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,

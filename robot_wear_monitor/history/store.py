@@ -19,17 +19,17 @@ import os
 import time
 from typing import Any, Iterator, Optional, Sequence
 
-from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.monitoring.history import alarms, notifications_store
-from robot_wear_monitor.monitoring.history import users as user_accounts
-from robot_wear_monitor.monitoring.history.alarms import EVENT_COLUMNS, event_from_row
-from robot_wear_monitor.monitoring.history.backends import (
+from robot_wear_monitor.history import alarms, notifications_store
+from robot_wear_monitor.history import users as user_accounts
+from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
+from robot_wear_monitor.history.backends import (
     is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend, SqliteBackend)
-from robot_wear_monitor.monitoring.history.migrations import (
+from robot_wear_monitor.history.migrations import (
     JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
-from robot_wear_monitor.monitoring.history.records import (
+from robot_wear_monitor.history.records import (
     AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
     RestoredState)
+from robot_wear_monitor.json_values import finite_or_none
 
 _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions',
                    'temperature_degc', 'temperature_std_degc', 'wear', 'wear_std', 'chi2',

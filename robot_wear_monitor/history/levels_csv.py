@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Sequence
 
 from robot_wear_monitor.atomic_files import write_text_atomic
+from robot_wear_monitor.history.records import HistoryRecord
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.monitoring.history.records import HistoryRecord
 
 LEVEL_CSV_COLUMNS = ('speed', 'friction', 'experiment', 'time_s', 'wear_hat',
                      'temperature_hat_degc', 'fit_p_value')

@@ -2,7 +2,7 @@
 """Add joint_3 (raised, then reset after maintenance) to the v2 history, with the released API."""
 import sys
 
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory, SCHEMA_VERSION
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory, SCHEMA_VERSION
 assert SCHEMA_VERSION == 2
 with WearHistory(sys.argv[1]) as h:
     base = h.records(joint='joint_2')

@@ -22,15 +22,15 @@ hashes), ``notifications_store`` (each notification event once), ``levels_csv`` 
 ``audit``).
 """
 
-from robot_wear_monitor.monitoring.history.backends import is_postgresql_url, redact_url
-from robot_wear_monitor.monitoring.history.levels_csv import LEVEL_CSV_COLUMNS, write_levels_csv
-from robot_wear_monitor.monitoring.history.migrations import (
+from robot_wear_monitor.history.backends import is_postgresql_url, redact_url
+from robot_wear_monitor.history.levels_csv import LEVEL_CSV_COLUMNS, write_levels_csv
+from robot_wear_monitor.history.migrations import (
     POSTGRESQL_MIGRATIONS, SCHEMA_VERSION, SQLITE_MIGRATIONS)
-from robot_wear_monitor.monitoring.history.records import (
+from robot_wear_monitor.history.records import (
     ALARM_EVENT_KINDS, AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord,
     INTERVAL_COLUMNS, RestoredState)
-from robot_wear_monitor.monitoring.history.store import open_history, WearHistory
-from robot_wear_monitor.monitoring.history.users import (
+from robot_wear_monitor.history.store import open_history, WearHistory
+from robot_wear_monitor.history.users import (
     MIN_PASSWORD_CHARS, ROLES, User)
 
 __all__ = ['ALARM_EVENT_KINDS', 'AlarmEvent', 'DEFAULT_ROBOT', 'FleetRow', 'HistoryError',

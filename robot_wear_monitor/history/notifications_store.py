@@ -13,7 +13,7 @@ import json
 import time
 from typing import Any, Optional
 
-from robot_wear_monitor.monitoring.history.records import HistoryError
+from robot_wear_monitor.history.records import HistoryError
 
 #: Longest event key [characters].
 MAX_EVENT_KEY_CHARS = 512

@@ -26,7 +26,7 @@ of the fleet's alarm log per robot, newest first.
 
 from __future__ import annotations
 
-from robot_wear_monitor.monitoring.history.records import INTERVAL_COLUMNS
+from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
 SCHEMA_VERSION = 5
 

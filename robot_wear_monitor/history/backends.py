@@ -27,9 +27,9 @@ import time
 from typing import Any, Iterator, Optional, Sequence
 from urllib.parse import urlsplit, urlunsplit
 
-from robot_wear_monitor.monitoring.history.migrations import (
+from robot_wear_monitor.history.migrations import (
     POSTGRESQL_MIGRATIONS, SQLITE_MIGRATIONS)
-from robot_wear_monitor.monitoring.history.records import HistoryError
+from robot_wear_monitor.history.records import HistoryError
 
 #: How long a writer waits for another process's transaction [s] (SQLite busy timeout).
 BUSY_TIMEOUT_S = 30.0

@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 import pytest
-from robot_wear_monitor.monitoring.history import (
+from robot_wear_monitor.history import (
     AlarmEvent, DEFAULT_ROBOT, HistoryError, HistoryRecord, INTERVAL_COLUMNS, is_postgresql_url,
     open_history, redact_url, SCHEMA_VERSION, WearHistory)
 
@@ -325,8 +325,7 @@ def test_the_fleet_view_ranks_alarms_then_crossings_then_upper_bounds(history_lo
 
 _WRITER = """
 import sys
-sys.path.insert(0, sys.argv[1])
-from robot_wear_monitor.monitoring.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
 location, worker = sys.argv[2], int(sys.argv[3])
 workers = [worker] if worker >= 0 else list(range(8))
 with WearHistory(location) as history:
@@ -392,8 +391,7 @@ def test_eight_writers_at_once_lose_nothing_and_duplicate_nothing(
 
 _LOCKER = """
 import sys
-sys.path.insert(0, sys.argv[1])
-from robot_wear_monitor.monitoring.history import HistoryError, WearHistory
+from robot_wear_monitor.history import HistoryError, WearHistory
 with WearHistory(sys.argv[2], robot='cell_1') as history:
     for joint in ('joint_2', 'joint_3'):
         try:
@@ -430,8 +428,8 @@ def test_processes_opening_a_new_history_at_once_all_succeed(tmp_path):
     # "database is locked" without waiting, so opening retries (it failed in about 3 % of
     # opens of six racing processes before); a new file appears whole (linked into place)
     path = tmp_path / 'shared.sqlite3'
-    code = ('import sys; sys.path.insert(0, sys.argv[1]); '
-            'from robot_wear_monitor.monitoring.history import WearHistory; '
+    code = ('import sys; '
+            'from robot_wear_monitor.history import WearHistory; '
             'h = WearHistory(sys.argv[2]); h.close(); print("ok")')
     runs = [subprocess.Popen([sys.executable, '-c', code, str(ROOT), str(path)],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -441,3 +439,17 @@ def test_processes_opening_a_new_history_at_once_all_succeed(tmp_path):
         assert run.returncode == 0 and out.strip() == 'ok', err
     assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(
         'shared.sqlite3-')) == ['shared.sqlite3']
+
+
+def test_the_old_import_path_works_for_a_release_with_a_deprecation_warning():
+    code = ('import warnings\n'
+            'with warnings.catch_warnings(record=True) as caught:\n'
+            '    warnings.simplefilter("always")\n'
+            '    from robot_wear_monitor.monitoring.history import open_history, WearHistory\n'
+            'import robot_wear_monitor.history as new\n'
+            'assert open_history is new.open_history and WearHistory is new.WearHistory\n'
+            'print([(w.category.__name__, str(w.message)) for w in caught])\n')
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                            check=True)
+    assert 'DeprecationWarning' in result.stdout
+    assert 'import from robot_wear_monitor.history' in result.stdout

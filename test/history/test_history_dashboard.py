@@ -15,7 +15,7 @@ import threading
 import time
 
 import pytest
-from robot_wear_monitor.monitoring.history import (
+from robot_wear_monitor.history import (
     AlarmEvent, HistoryError, HistoryRecord, is_postgresql_url, POSTGRESQL_MIGRATIONS,
     SCHEMA_VERSION, WearHistory)
 

@@ -15,7 +15,7 @@ import re
 import time
 from typing import Any, Optional
 
-from robot_wear_monitor.monitoring.history.records import HistoryError
+from robot_wear_monitor.history.records import HistoryError
 
 #: The roles of the dashboard's users.
 ROLES = ('viewer', 'maintainer')

@@ -21,10 +21,10 @@ import re
 import time
 from typing import Any, Optional, Sequence
 
-from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.monitoring.history.backends import lock_key
-from robot_wear_monitor.monitoring.history.records import (
+from robot_wear_monitor.history.backends import lock_key
+from robot_wear_monitor.history.records import (
     ALARM_EVENT_KINDS, AlarmEvent, HistoryError)
+from robot_wear_monitor.json_values import finite_or_none
 
 #: The columns of an alarm event, in the order of :func:`event_from_row`.
 EVENT_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, note, estimate_id, '

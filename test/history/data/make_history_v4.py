@@ -2,7 +2,7 @@
 """Write a small version-4 fleet history with the released API (main at 1885e4b)."""
 import sys
 
-from robot_wear_monitor.monitoring.history import (AlarmEvent, HistoryRecord, SCHEMA_VERSION,
+from robot_wear_monitor.history import (AlarmEvent, HistoryRecord, SCHEMA_VERSION,
                                                    WearHistory)
 assert SCHEMA_VERSION == 4
 
