@@ -112,3 +112,31 @@ def test_bad_alarm_log_options_are_one_line_errors(history_path, tmp_path, capsy
     assert code == 0 and out.splitlines() == [
         '0 alarm event(s), newest first; times UTC',
         'id  time  robot  joint  event  wear  user  owner  planned  note']
+
+
+@pytest.mark.parametrize('start', ['=', '+', '-', '@', '\uff1d', '\uff0b', '\uff0d', '\uff20'])
+def test_csv_exports_of_the_command_line_carry_no_live_formula(tmp_path, capsys, start):
+    # a robot, a user, an owner and a comment that a spreadsheet would run as formulas
+    formula = start + 'HYPERLINK("http://attacker.invalid","click")'
+    path = tmp_path / 'hostile.sqlite3'
+    with WearHistory(path) as history:
+        history.append(_record(formula, 'joint_2', 0, wear=40.0),
+                       events=[AlarmEvent(joint='joint_2', stamp_s=T0_S, event='raised',
+                                          wear=40.0, robot=formula, note=formula)])
+        history.acknowledge_alarm(joint='joint_2', robot=formula, user=formula, owner=formula,
+                                  comment=formula, planned_maintenance='2026-12-01')
+    alarms_csv, fleet_csv = tmp_path / 'alarms.csv', tmp_path / 'fleet.csv'
+    assert _run(capsys, path, '--alarms', '--csv', alarms_csv)[0] == 0
+    assert main(['fleet', '--history', str(path), '--csv', str(fleet_csv)]) == 0
+    for written in (alarms_csv, fleet_csv):
+        rows = list(csv.DictReader(io.StringIO(written.read_text(encoding='utf-8'))))
+        assert rows
+        cells = [cell for row in rows for cell in row.values() if cell]
+        # every text cell that held the formula is neutralised by a leading apostrophe
+        assert not [cell for cell in cells if cell[:1] == start], written.name
+        assert ("'" + formula) in cells, written.name
+    # numbers stay numbers: the wear is written as a number, not as text
+    fleet_row = next(csv.DictReader(io.StringIO(fleet_csv.read_text(encoding='utf-8'))))
+    assert float(fleet_row['wear']) == pytest.approx(40.0)
+    alarm_rows = list(csv.DictReader(io.StringIO(alarms_csv.read_text(encoding='utf-8'))))
+    assert {float(r['wear']) for r in alarm_rows if r['wear']} == {40.0}

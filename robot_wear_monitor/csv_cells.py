@@ -1,0 +1,17 @@
+"""
+Text cells of the CSV files the monitor writes, safe to open in a spreadsheet.
+
+A spreadsheet runs a cell that starts with ``=``, ``+``, ``-`` or ``@`` (and, in several of
+them, their full-width forms, a tab or a carriage return) as a formula: a robot name, a user
+name or a note such as ``=HYPERLINK(...)`` would become a live link or a command.  Text cells
+get a leading apostrophe (OWASP's advice on CSV injection); numbers are written by the caller
+as numbers and never pass through here, so ``-0.5`` stays a number.
+"""
+
+#: First characters that make a spreadsheet read a cell as a formula.
+FORMULA_STARTS = frozenset('=+-@\t\r\uff1d\uff0b\uff0d\uff20')
+
+
+def spreadsheet_text(text: str) -> str:
+    """Return ``text`` with a leading apostrophe when a spreadsheet would run it as a formula."""
+    return "'" + text if text[:1] in FORMULA_STARTS else text
