@@ -21,7 +21,7 @@ from typing import NoReturn, Sequence
 
 from robot_wear_monitor import __version__
 from robot_wear_monitor.cli.options import (loading_modules, parse_float_list, parse_range,
-                                            PROG, resolve_json)
+                                            PROG, resolve_json, secrets_kept_out)
 from robot_wear_monitor.cli.outputs import check_outputs
 from robot_wear_monitor.errors import InputError
 
@@ -106,6 +106,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with loading_modules():  # numpy (and scipy when OPENBLAS_NUM_THREADS is set to > 1)
             use_single_blas_thread()
+        with secrets_kept_out(args):  # no history password reaches the terminal
+            return _run_command(args)
+    except KeyboardInterrupt:
+        print(f'{PROG} {args.command}: interrupted', file=sys.stderr)
+        return 130
+    finally:
+        gc.unfreeze()  # what loading_modules kept out of sight (the exit freezes all again)
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    """Run a parsed command; return the exit code (errors as one line on stderr)."""
+    try:
         resolve_json(args, command=args.command)
         check_outputs(args)
         return int(args.handler(args) or 0)
@@ -125,5 +137,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'{PROG} {args.command}: error: {where}{error.strerror or error}',
               file=sys.stderr)
         return 2
-    finally:
-        gc.unfreeze()  # what loading_modules kept out of sight (the exit freezes all again)

@@ -15,7 +15,7 @@ import argparse
 import getpass
 import sys
 
-from robot_wear_monitor.cli.options import PROG
+from robot_wear_monitor.cli.options import PROG, shown_location
 from robot_wear_monitor.errors import InputError
 
 HELP = ("web dashboard of a wear history: the fleet worst first, each joint's wear story, "
@@ -93,7 +93,7 @@ def _users(args: argparse.Namespace) -> int:
                 print(f'{user.name}  {user.role}  created {iso_time(user.created_wall_time_s)}')
             if not found:
                 print(f'no users yet: {PROG} dashboard user add NAME --role maintainer '
-                      f'--history {args.history}')
+                      f'--history {shown_location(args.history)}')
     return 0
 
 
@@ -124,13 +124,14 @@ def main(args: argparse.Namespace) -> int:
     with open_history(args.history, init=False) as history:
         if not history.users():
             print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '
-                  f'add NAME --role maintainer --history {args.history}`', file=sys.stderr)
+                  f'add NAME --role maintainer --history {shown_location(args.history)}`',
+                  file=sys.stderr)
     app = create_app(DashboardSettings(
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
         https=bool(args.tls_cert), notify_config=args.notify,
         notify_interval_s=args.notify_interval_s, extra=extra))
     scheme = 'https' if args.tls_cert else 'http'
-    print(f'dashboard of {args.history} on {scheme}://{args.host}:{args.port}/ '
+    print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
           '(Ctrl-C stops)', file=sys.stderr)
     serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key)
     return 0

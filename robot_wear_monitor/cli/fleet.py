@@ -13,7 +13,7 @@ import io
 import time
 
 from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
-                                            emit_json)
+                                            emit_json, shown_location)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'every robot joint of a wear history, worst first (alarm, forecast crossing, wear)'
@@ -63,7 +63,8 @@ def main(args: argparse.Namespace) -> int:
     with open_history(args.history, init=False) as history:
         rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s)
     if args.robot and not rows:
-        raise InputError(f'{args.history}: no estimates of robot {args.robot!r}')
+        raise InputError(f'{shown_location(args.history)}: no estimates of robot '
+                         f'{args.robot!r}')
     if emit_json(args, [row.as_json() for row in rows]):
         return 0
     if args.csv:
@@ -74,7 +75,7 @@ def main(args: argparse.Namespace) -> int:
             print(f'{len(rows)} rows written to {args.csv}')
         return 0
     if not rows:
-        print(f'{args.history}: no estimates yet')
+        print(f'{shown_location(args.history)}: no estimates yet')
         return 0
     alarms = sum(1 for row in rows if row.state.alarm)
     stale = sum(1 for row in rows if row.stale)

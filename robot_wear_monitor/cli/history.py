@@ -12,7 +12,8 @@ import csv
 import io
 from typing import Any, Sequence
 
-from robot_wear_monitor.cli.options import add_json, add_local, add_robot, emit_json, PROG
+from robot_wear_monitor.cli.options import (add_json, add_local, add_robot, emit_json, PROG,
+                                            shown_location)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'show the stored wear history and export its friction levels for audit'
@@ -53,33 +54,34 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.monitoring.diagnostics import clean_text, json_number
 
     if not is_postgresql_url(args.database) and not Path(args.database).is_file():
-        raise InputError(f'{args.database}: no such wear history database')
+        raise InputError(f'{shown_location(args.database)}: no such wear history database')
     if args.last is not None and args.last < 1:
         raise InputError(f'--last must be >= 1, got {args.last}')
     if args.alarms:
         return alarm_log_main(args)
     if args.csv == '-':
         raise InputError('--csv needs the file to write the levels to: --csv LEVELS')
+    where = shown_location(args.database)
     with open_history(args.database, init=False) as history:
         robots = history.robots()
         robot = args.robot
         if robot is None:
             if len(robots) > 1:
-                raise InputError(f'{args.database}: holds robots {", ".join(robots)}; '
+                raise InputError(f'{where}: holds robots {", ".join(robots)}; '
                                  'choose one with --robot')
             robot = robots[0] if robots else history.robot
         elif robot not in robots:
-            raise InputError(f'{args.database}: no estimates of robot {robot!r} '
+            raise InputError(f'{where}: no estimates of robot {robot!r} '
                              f'(stored: {", ".join(robots) or "none"})')
         joints = history.joints(robot=robot)
         joint = args.joint
         if joint is None:
             if len(joints) != 1:
-                raise InputError(f'{args.database}: holds joints {", ".join(joints) or "none"}; '
+                raise InputError(f'{where}: holds joints {", ".join(joints) or "none"}; '
                                  'choose one with --joint')
             joint = joints[0]
         elif joint not in joints:
-            raise InputError(f'{args.database}: no estimates for joint {joint!r} '
+            raise InputError(f'{where}: no estimates for joint {joint!r} '
                              f'(stored: {", ".join(joints) or "none"})')
         state = history.restore(joint=joint, robot=robot)
         records = history.records(joint=joint, robot=robot, limit=args.last)

@@ -18,7 +18,8 @@ import threading
 import time
 from typing import Any, TYPE_CHECKING
 
-from robot_wear_monitor.cli.options import add_history, add_json, bounded, emit_json
+from robot_wear_monitor.cli.options import (add_history, add_json, bounded, emit_json,
+                                            shown_location)
 
 if TYPE_CHECKING:
     from robot_wear_monitor.fleet.notifications import SentNotification
@@ -128,7 +129,7 @@ def main(args: argparse.Namespace) -> int:
         return 0 if all(item.delivered for item in sent) else 1
     with open_history(args.history, init=False):
         pass  # a history that cannot be opened is exit 2 now, not a loop of errors
-    print(f'notify: {args.history}: a pass every {args.interval_s:g} s to '
+    print(f'notify: {shown_location(args.history)}: a pass every {args.interval_s:g} s to '
           f'{", ".join(config.channels)} (Ctrl-C stops)', flush=True)
 
     def report(sent: list[SentNotification]) -> None:

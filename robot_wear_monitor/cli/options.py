@@ -381,3 +381,64 @@ def level_source_scales(args: argparse.Namespace) -> tuple[float, float]:
     """Return (gear ratio, torque scale) of a level source: the options, else 1 and 1."""
     return (1.0 if args.gear_ratio is None else args.gear_ratio,
             1.0 if args.torque_scale is None else args.torque_scale)
+
+
+def shown_location(location: str) -> str:
+    """Return a history location as it may be printed: no password, control characters escaped."""
+    from robot_wear_monitor.history.passwords import redact_location
+    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    return clean_text(redact_location(location))
+
+
+class _RedactingStream:
+    """A text stream that writes through another with every secret replaced by ``***``."""
+
+    def __init__(self, stream: Any, secrets: Sequence[str]) -> None:
+        self._stream = stream
+        self._secrets = tuple(secrets)
+
+    def write(self, text: str) -> int:
+        for secret in self._secrets:
+            text = text.replace(secret, '***')
+        return self._stream.write(text)
+
+    def __getattr__(self, name: str) -> Any:  # flush, fileno, isatty, encoding, ...
+        return getattr(self._stream, name)
+
+
+#: the shortest password the output guard replaces (a shorter one is hidden where printed only)
+MIN_GUARDED_SECRET_CHARS = 3
+
+
+@contextmanager
+def secrets_kept_out(args: argparse.Namespace) -> Iterator[None]:
+    """
+    Keep the passwords of the command's history URLs out of stdout and stderr while it runs.
+
+    Every option value that is a PostgreSQL URL gives its password (``user:PASS@`` and
+    ``?password=``, as given and decoded); whatever the command, a library or a traceback
+    prints through ``sys.stdout``/``sys.stderr`` has them replaced by ``***``.  The places that
+    print a location also show it redacted (:func:`shown_location`): this guard is the second
+    line.
+    """
+    from robot_wear_monitor.history.passwords import location_secrets
+    secrets: set[str] = set()
+    for value in vars(args).values():
+        for item in value if isinstance(value, (list, tuple)) else (value,):
+            secrets.update(location_secrets(item))
+    secrets = {s for s in secrets if len(s) >= MIN_GUARDED_SECRET_CHARS}
+    if not secrets:
+        yield
+        return
+    ordered = sorted(secrets, key=len, reverse=True)
+    saved = sys.stdout, sys.stderr
+    sys.stdout = _RedactingStream(sys.stdout, ordered)
+    sys.stderr = _RedactingStream(sys.stderr, ordered)
+    try:
+        yield
+    except Exception:  # a traceback is printed here, through the guard, not after it
+        import traceback
+        traceback.print_exc()
+        raise SystemExit(1) from None
+    finally:
+        sys.stdout, sys.stderr = saved

@@ -18,7 +18,7 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             add_history, add_joints, add_json, add_params,
                                             add_progress, add_robot, emit_json,
                                             joint_selection, loading_modules, print_json,
-                                            progress_wanted, write_json_out)
+                                            progress_wanted, shown_location, write_json_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'replay a recorded bag through the monitoring service'
@@ -124,7 +124,8 @@ def main(args: argparse.Namespace) -> int:
         print_json(summary)
         return 0
     print(summary_line(result, summary)
-          + (f'; wrote {args.out}' if args.out else f'; history {args.history}'))
+          + (f'; wrote {args.out}' if args.out
+             else f'; history {shown_location(args.history)}'))
     if joints:
         for entry in result.joints:
             print(joint_summary_line(entry))

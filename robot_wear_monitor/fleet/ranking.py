@@ -165,7 +165,8 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[li
     out = [list(FLEET_COLUMNS)]
     for row in rows:
         s = row.state
-        out.append([spreadsheet_text(s.robot), spreadsheet_text(s.joint), number(s.wear), number(s.wear_low), number(s.wear_high),
+        out.append([spreadsheet_text(s.robot), spreadsheet_text(s.joint), number(s.wear),
+                    number(s.wear_low), number(s.wear_high),
                     number(s.trend_wear), 'latched' if s.alarm else 'no',
                     iso_time(s.alarm_since_stamp_s, local=local) if s.alarm else '',
                     str(s.experiments), iso_time(s.last_stamp_s, local=local),

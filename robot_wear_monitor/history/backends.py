@@ -25,10 +25,10 @@ import sqlite3
 import tempfile
 import time
 from typing import Any, Iterator, Optional, Sequence
-from urllib.parse import urlsplit, urlunsplit
 
 from robot_wear_monitor.history.migrations import (
     POSTGRESQL_MIGRATIONS, SQLITE_MIGRATIONS)
+from robot_wear_monitor.history.passwords import redact_location
 from robot_wear_monitor.history.records import HistoryError
 
 #: How long a writer waits for another process's transaction [s] (SQLite busy timeout).
@@ -50,13 +50,8 @@ def is_postgresql_url(location: str | os.PathLike) -> bool:
 
 
 def redact_url(url: str) -> str:
-    """Return ``url`` without its password (for messages and logs)."""
-    parts = urlsplit(url)
-    if parts.password is None:
-        return url
-    host = parts.hostname or ''
-    netloc = f'{parts.username}:***@{host}' + (f':{parts.port}' if parts.port else '')
-    return urlunsplit(parts._replace(netloc=netloc))
+    """Return ``url`` without its password, in either form (for messages and logs)."""
+    return redact_location(url)
 
 
 def lock_key(robot: str, joint: str) -> int:
