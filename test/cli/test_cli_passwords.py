@@ -19,8 +19,7 @@ import pytest
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.history import open_history
 from robot_wear_monitor.history.passwords import location_secrets, redact_location
-from wear_testing.paths import REPO_ROOT
-from wear_testing.process_graph import console_script
+from wear_testing.paths import console_script, REPO_ROOT
 
 PASSWORD = 'Pa55-w0rd%21s3cret'  # percent-encoded '!' : printed neither raw nor decoded
 DECODED = 'Pa55-w0rd!s3cret'

@@ -27,7 +27,8 @@ from robot_wear_monitor.recordings.messages import diagnostics_from_msg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64
 from wear_testing import independent_robot as robot
-from wear_testing.process_graph import console_script, ProcessGraph
+from wear_testing.paths import console_script
+from wear_testing.process_graph import ProcessGraph
 
 N_EXPERIMENTS = 8
 BIN = Path(sys.executable).parent

@@ -38,7 +38,8 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 from wear_testing import foreign_recordings as foreign
-from wear_testing.process_graph import console_script, ProcessGraph
+from wear_testing.paths import console_script
+from wear_testing.process_graph import ProcessGraph
 
 BIN = Path(sys.executable).parent
 WORN, HEALTHY = 'shoulder', 'wrist_3'

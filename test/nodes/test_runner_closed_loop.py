@@ -30,7 +30,8 @@ from robot_wear_monitor.recordings.messages import (diagnostics_from_msg,
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
-from wear_testing.process_graph import console_script, ProcessGraph
+from wear_testing.paths import console_script
+from wear_testing.process_graph import ProcessGraph
 from wear_testing.trajectory_follower import JointTruth
 
 BIN = Path(sys.executable).parent

@@ -12,8 +12,8 @@ from robot_wear_monitor.history import open_history
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, TRAJECTORY_QOS
 from robot_wear_monitor.recordings.messages import diagnostics_from_msg
 from trajectory_msgs.msg import JointTrajectory
-from wear_testing.process_graph import (
-    console_script, ProcessGraph, write_latched_history)
+from wear_testing.paths import console_script
+from wear_testing.process_graph import ProcessGraph, write_latched_history
 
 TRAJECTORY_TOPIC = '/joint_trajectory_controller/joint_trajectory'
 #: The runner's parameters beside its defaults (joint_2): a long standstill at every turn, so

@@ -1,6 +1,7 @@
 """Where the repository and the measured data kept beside it (``../shared``) are."""
 
 from pathlib import Path
+import sys
 
 import pytest
 
@@ -12,6 +13,8 @@ SHARED_DIR = REPO_ROOT.parent / 'shared'
 EXTERNAL_DIR = SHARED_DIR / 'data' / 'external'
 #: The paper and PARAMETERS.md.
 SEED_DIR = SHARED_DIR / 'seed'
+#: Where the interpreter's console scripts are installed.
+BIN = Path(sys.executable).parent
 
 
 def require_path(path: Path) -> Path:
@@ -20,3 +23,9 @@ def require_path(path: Path) -> Path:
         pytest.skip(f'measured data not available: {path} is absent '
                     '(clone the repository with ../shared beside it)')
     return path
+
+
+def console_script(name: str) -> str:
+    """Return the path of an installed console script (or the name, found on PATH)."""
+    path = BIN / name
+    return str(path) if path.exists() else name

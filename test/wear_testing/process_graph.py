@@ -11,25 +11,17 @@ import os
 from pathlib import Path
 import signal
 import subprocess
-import sys
 import threading
 import time
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, open_history
+from wear_testing.paths import console_script
 from wear_testing.ros_graph import next_ros_domain_id
 
 #: ``test/``, where the package ``wear_testing`` is.
 TEST_DIR = Path(__file__).resolve().parents[1]
-
-BIN = Path(sys.executable).parent
-
-
-def console_script(name):
-    """Return the path of an installed console script (or the name, found on PATH)."""
-    path = BIN / name
-    return str(path) if path.exists() else name
 
 
 def write_latched_history(path, *, robot=None):
