@@ -3,8 +3,8 @@ Reading YAML files other people wrote: bounded in size, no aliases, values cut i
 
 A parameter set, a node configuration or a bag's ``metadata.yaml`` is untrusted input.  YAML
 aliases (``*name``) let a few hundred bytes expand to gigabytes ("billion laughs"), so they are
-refused while the document is composed, before anything is expanded; files over
-:data:`MAX_YAML_BYTES` are refused before they are read; and a value echoed in an error is cut
+refused while the document is composed, before anything is expanded; a file that is not a
+regular file, or holds more than :data:`MAX_YAML_BYTES`, is refused as it is read; and a value echoed in an error is cut
 to :data:`ECHO_LIMIT` characters (:func:`shorten`).  Only plain data is built (``SafeLoader``):
 no Python objects, no code.
 
@@ -22,22 +22,16 @@ import os
 from pathlib import Path
 from typing import Any
 
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import ECHO_LIMIT, InputError, shorten
+from robot_wear_monitor.input_files import read_text_file
 import yaml
+
+__all__ = ['ECHO_LIMIT', 'load_yaml_file', 'load_yaml_text', 'MAX_YAML_BYTES', 'shorten']
 
 #: The largest YAML file read [bytes] (the packaged parameter set is 2 kB).
 MAX_YAML_BYTES = 1_000_000
-#: The most characters of a value an error message echoes.
-ECHO_LIMIT = 80
 #: How many parsed texts :func:`load_yaml_text` keeps (the latest).
 RECENT_TEXTS = 8
-
-
-def shorten(value: Any, limit: int = ECHO_LIMIT) -> str:
-    """Return ``repr``-free text of ``value`` cut to ``limit`` characters with an ellipsis."""
-    text = str(value)
-    text = ''.join(c if c.isprintable() else repr(c)[1:-1] for c in text[:limit + 1])
-    return text if len(text) <= limit else text[:limit - 1] + '\u2026'
 
 
 class _NoAliasLoader(yaml.SafeLoader):
@@ -77,21 +71,11 @@ def _parsed(text: str) -> Any:
 def load_yaml_file(path: str | os.PathLike, *, what: str = 'YAML file',
                    error: type[InputError] = InputError) -> Any:
     """
-    Return the document of the YAML file at ``path`` (size checked before it is read).
+    Return the document of the YAML file at ``path`` (a regular file, read with a bound).
 
     Raises ``error`` (an :class:`InputError` type) naming the path: missing or unreadable, over
     :data:`MAX_YAML_BYTES`, not valid YAML, or with aliases.
     """
     file = Path(path)
-    try:
-        size = file.stat().st_size
-        if size > MAX_YAML_BYTES:
-            raise error(f'{file}: {what} of {size} bytes, more than the limit of '
-                        f'{MAX_YAML_BYTES} bytes')
-        with open(file, encoding='utf-8') as stream:
-            text = stream.read(MAX_YAML_BYTES + 1)
-    except OSError as problem:
-        raise error(f'{file}: cannot read {what}: {problem.strerror}') from None
-    except UnicodeDecodeError:
-        raise error(f'{file}: {what} is not UTF-8 text') from None
+    text = read_text_file(file, what=what, limit_bytes=MAX_YAML_BYTES, error=error)
     return load_yaml_text(text, source=str(file), error=error)

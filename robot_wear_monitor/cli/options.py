@@ -227,11 +227,11 @@ def add_robot(parser: argparse.ArgumentParser, *, help_text: str) -> None:
 
 def robot_name(text: str) -> str:
     """Parse a ``--robot`` value: a non-empty name of at most 128 printable characters."""
-    name = text.strip()
-    if not name or len(name) > 128 or not name.isprintable():
-        raise argparse.ArgumentTypeError(
-            f'a robot name is 1-128 printable characters, got {text[:40]!r}')
-    return name
+    from robot_wear_monitor.input_files import check_robot_name
+    try:
+        return check_robot_name(text)
+    except InputError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def add_progress(parser: argparse.ArgumentParser) -> None:

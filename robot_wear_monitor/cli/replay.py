@@ -237,6 +237,7 @@ def main_batch(args: argparse.Namespace) -> int:
 
     from robot_wear_monitor.fleet.batch import (BagOutcome, collect_bags, ReplaySettings,
                                                 run_batch)
+    from robot_wear_monitor.monitoring.diagnostics import clean_text
     from tqdm import tqdm
     for option, given in (('--truth', args.truth), ('--plot', args.plot)):
         if given:
@@ -262,8 +263,9 @@ def main_batch(args: argparse.Namespace) -> int:
 
     def report(outcome: BagOutcome) -> None:  # a failure as it happens, above the bar
         if outcome.status == 'failed':
-            tqdm.write(f'failed: {outcome.bag} (robot {outcome.robot}): {outcome.reason}',
-                       file=sys.stderr)
+            # bag folder names and reasons come from other people's files: escaped
+            tqdm.write(f'failed: {clean_text(outcome.bag)} (robot {clean_text(outcome.robot)}):'
+                       f' {clean_text(outcome.reason, limit=400)}', file=sys.stderr)
 
     result = run_batch(tasks, settings=settings, workers=args.workers or 1,
                        dask_address=args.dask, progress=progress_wanted(args),

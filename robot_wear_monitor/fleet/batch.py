@@ -19,7 +19,6 @@ from __future__ import annotations
 
 from collections import deque
 import concurrent.futures
-import csv
 from dataclasses import dataclass, field, replace
 import hashlib
 import math
@@ -29,7 +28,8 @@ from pathlib import Path
 import time
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import InputError, shorten
+from robot_wear_monitor.input_files import check_robot_name, csv_rows, read_text_file
 from robot_wear_monitor.recordings import is_bag
 from robot_wear_monitor.yaml_files import load_yaml_text
 
@@ -159,33 +159,36 @@ def read_manifest(path: str | os.PathLike) -> list[tuple[str, Path]]:
     """
     Return the (robot, bag) rows of a manifest CSV with the columns ``robot,bag``.
 
-    A relative bag path is relative to the manifest's folder.  Raises BatchError naming the
-    file and line for a missing column, an empty robot or bag, or a file over the limits.
+    A relative bag path is relative to the manifest's folder.  The file is read with a bound
+    as it is read (:func:`~robot_wear_monitor.input_files.read_text_file`: a regular file of
+    at most :data:`MAX_MANIFEST_BYTES`); robot names follow ``--robot``'s rule.  Raises
+    BatchError naming the file and line for a missing column, an empty robot or bag, a bad
+    robot name, a field over the csv limit, text that is not UTF-8, or a file over the limits.
     """
     manifest = Path(path)
-    try:
-        size = manifest.stat().st_size
-    except OSError as error:
-        raise BatchError(f'--manifest {manifest}: {error.strerror}') from None
-    if size > MAX_MANIFEST_BYTES:
-        raise BatchError(f'--manifest {manifest}: {size} bytes, over the limit of '
-                         f'{MAX_MANIFEST_BYTES} bytes')
-    rows = []
-    with manifest.open(newline='', encoding='utf-8') as handle:
-        reader = csv.DictReader(handle)
-        missing = {'robot', 'bag'} - set(reader.fieldnames or ())
-        if missing:
-            raise BatchError(f'--manifest {manifest}: missing column(s) '
-                             f'{", ".join(sorted(missing))} (the header must name robot,bag)')
-        for line, row in enumerate(reader, start=2):
-            robot = (row.get('robot') or '').strip()
-            bag = (row.get('bag') or '').strip()
-            if not robot or not bag:
-                raise BatchError(f'--manifest {manifest}: line {line}: empty robot or bag')
-            rows.append((robot, (manifest.parent / bag) if not Path(bag).is_absolute()
-                         else Path(bag)))
-            if len(rows) > MAX_BAGS:
-                raise BatchError(f'--manifest {manifest}: more than {MAX_BAGS} bags')
+    where = f'--manifest {shorten(manifest, 200)}'
+    text = read_text_file(manifest, what='manifest', limit_bytes=MAX_MANIFEST_BYTES,
+                          error=BatchError)
+    rows: list[tuple[str, Path]] = []
+    lines = csv_rows(text, source=f'--manifest {manifest}', error=BatchError)
+    header = next(lines, (1, []))[1]
+    columns = {name.strip(): index for index, name in enumerate(header)}
+    missing = {'robot', 'bag'} - set(columns)
+    if missing:
+        raise BatchError(f'{where}: missing column(s) {", ".join(sorted(missing))} '
+                         '(the header must name robot,bag)')
+    for line, row in lines:
+        if not any(cell.strip() for cell in row):
+            continue  # a blank line
+        cells = {name: row[i].strip() if i < len(row) else '' for name, i in columns.items()}
+        robot, bag = cells['robot'], cells['bag']
+        if not robot or not bag:
+            raise BatchError(f'{where}: line {line}: empty robot or bag')
+        robot = check_robot_name(robot, where=f'{where}: line {line}: ', error=BatchError)
+        rows.append((robot, (manifest.parent / bag) if not Path(bag).is_absolute()
+                     else Path(bag)))
+        if len(rows) > MAX_BAGS:
+            raise BatchError(f'{where}: more than {MAX_BAGS} bags')
     return rows
 
 
