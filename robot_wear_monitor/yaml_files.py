@@ -4,8 +4,8 @@ Reading YAML files other people wrote: bounded in size, no aliases, values cut i
 A parameter set, a node configuration or a bag's ``metadata.yaml`` is untrusted input.  YAML
 aliases (``*name``) let a few hundred bytes expand to gigabytes ("billion laughs"), so they are
 refused while the document is composed, before anything is expanded; a file that is not a
-regular file, or holds more than :data:`MAX_YAML_BYTES`, is refused as it is read; and a value echoed in an error is cut
-to :data:`ECHO_LIMIT` characters (:func:`shorten`).  Only plain data is built (``SafeLoader``):
+regular file, or holds more than :data:`MAX_YAML_BYTES`, is refused as it is read; and a
+value echoed in an error is cut to :data:`ECHO_LIMIT` characters (:func:`shorten`).  Only plain data is built (``SafeLoader``):
 no Python objects, no code.
 
 The same text is not parsed twice: a replay reads the node configuration four times and the
