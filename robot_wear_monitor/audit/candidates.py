@@ -150,7 +150,7 @@ def with_experiment_order(table: AuditTable) -> AuditTable:
     numeric = dict(table.numeric)
     numeric[ORDER_COLUMN] = np.array([float(matches[v].group(2))  # type: ignore[union-attr]
                                       for v in labels])  # (None excluded above)
-    return AuditTable(numeric, dict(table.text), table.source)
+    return AuditTable(numeric, dict(table.text), table.source, table.levels)
 
 
 def candidate_columns(table: AuditTable, *, model: str, group: str | None = None) -> list[str]:

@@ -8,6 +8,7 @@ unit (normalised for the packaged model; N.m for the KUKA data), temperature [de
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 import gzip
 import math
 import os
@@ -197,7 +198,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     as the pass's torque minus ``known_torque``, a column of the run with a torque the user
     knows (gravity, a model torque; the torque's unit); without one it is reported.
     ``standstill_speed_rad_s`` sets the standstill threshold (default: the settings', or 5
-    times the speed noise of a run slower than it).
+    times the speed noise of a run slower than it).  The table's ``levels`` are the segmented
+    levels of its rows (friction with the table's sign), labelled by run and joint.
     """
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
@@ -214,14 +216,17 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     rejected: list[str] = []
     one_way: list[tuple[str, Any, Any]] = []  # (run name, run, pass) of one-way runs
     one_way_files: dict[str, tuple[Any, Any]] = {}  # run name -> (path, settings)
+    levels: list[tuple[Any, str, str]] = []  # (level, experiment, joint) of each row
 
     def add(level: Any, run: Any, experiment: str, i: int, duration: float) -> None:
         pose = 'new_pose' if 'new_pose' in run.test_set else 'standard'
+        joint = f'joint{run.joint}' if run.joint else run.test_set
+        levels.append((replace(level, friction=sign * level.friction), experiment, joint))
         columns['speed'].append(level.speed_rad_s)
         columns['friction'].append(sign * level.friction)
         columns['friction_std_error'].append(level.friction_std_error)
         columns['experiment'].append(experiment)
-        columns['joint'].append(f'joint{run.joint}' if run.joint else run.test_set)
+        columns['joint'].append(joint)
         columns['pose'].append(pose)
         columns['position_centre'].append(0.5 * (level.position_min_rad
                                                  + level.position_max_rad))
@@ -281,7 +286,7 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     if len(set(columns['joint'])) == 1:
         del columns['joint']
     table = table_from_columns(columns, source=f'{len(paths)} raw runs', model=model)
-    return table
+    return replace(table, levels=tuple(levels))
 
 
 def _pair_one_way_runs(one_way: list, settings: Any, add: Any) -> list[str]:
@@ -347,41 +352,27 @@ def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states'
     """
     Segment the joint states of a recorded bag into friction levels (one per pass pair).
 
-    Uses :func:`robot_wear_monitor.recordings.bags.read_joint_samples` and the segmenter;
-    ``config`` is a :class:`~robot_wear_monitor.experiment.segmentation.SegmenterConfig`
-    (default: link side, scale 1).
+    The bag is segmented as ``segment`` and the replay do
+    (:func:`robot_wear_monitor.monitoring.segment.segment_bag`), with ``config``, a
+    :class:`~robot_wear_monitor.experiment.segmentation.SegmenterConfig` (default: the
+    bag-and-stream settings, link side, scale 1); the table's ``levels`` are ``segment``'s rows.
     """
-    try:
-        from robot_wear_monitor.recordings.bags import read_joint_samples
-    except ImportError as error:
-        raise InputError(f'{path}: reading bags needs robot_wear_monitor.recordings.bags '
-                         f'({error})') from None
-    from robot_wear_monitor.experiment.segmentation import SegmenterConfig, segment_batch
+    from robot_wear_monitor.experiment.segmentation_settings import stream_segmenter_config
+    from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
+                                                           SEGMENTER_FIELDS, validate_parameters)
+    from robot_wear_monitor.monitoring.segment import segment_bag
 
-    samples = read_joint_samples(path, joint=joint, topic=topic)
-    time_s, position, velocity, effort = (_sample_field(samples, name) for name in (
-        'time_s', 'position_rad', 'velocity_rad_s', 'effort'))
-    settings = config if config is not None else SegmenterConfig(joint=joint)
-    result = segment_batch(time_s=time_s, position_rad=position, velocity_rad_s=velocity,
-                           effort=effort, config=settings)
-    if not result.levels:
-        raise InputError(f'{path}: no friction level found for joint {joint!r} on {topic}')
-    return table_from_levels(result.levels, source=str(path), model=model)
-
-
-def _sample_field(samples, name: str) -> FloatArray:
-    """Return one sample array from the bag reader's result (attribute, key or position)."""
-    aliases = {'time_s': ('time_s', 't_s', 'time'),
-               'position_rad': ('position_rad', 'position', 'q_rad'),
-               'velocity_rad_s': ('velocity_rad_s', 'velocity', 'dq_rad_s'),
-               'effort': ('effort', 'effort_Nm', 'tau')}
-    for alias in aliases[name]:
-        if hasattr(samples, alias):
-            return np.asarray(getattr(samples, alias), dtype=float)
-        if isinstance(samples, Mapping) and alias in samples:
-            return np.asarray(samples[alias], dtype=float)
-    index = ('time_s', 'position_rad', 'velocity_rad_s', 'effort').index(name)
-    return np.asarray(samples[index], dtype=float)
+    settings = config if config is not None else stream_segmenter_config(joint)
+    if settings.window_center_rad is not None:
+        raise InputError('table_from_bag: a fixed position window is not a setting of the bag '
+                         'segmentation')
+    parameters = validate_parameters(
+        FRICTION_EXPERIMENT_NODE, {name: getattr(settings, name) for name in SEGMENTER_FIELDS},
+        source='segmentation settings')
+    result = segment_bag(path, experiment_parameters=parameters, topic=topic)
+    table = table_from_levels([level for level, _, _ in result.rows], source=str(path),
+                              model=model)
+    return replace(table, levels=tuple(result.rows))
 
 
 def is_bag(path: str | os.PathLike) -> bool:
@@ -401,7 +392,9 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
 
     ``known_torque``: the column of raw runs subtracted from one-way runs without a partner
     (see :func:`table_from_raw_runs`); ``standstill_speed_rad_s``: the standstill threshold
-    of raw runs (None: 0.03 rad/s, or from a slow run's speed noise).
+    of raw runs (None: the raw-run set's 0.03 rad/s, or from a slow run's speed noise).  A
+    bag is segmented with the bag-and-stream settings, a raw run with the raw-run settings
+    (:mod:`robot_wear_monitor.experiment.segmentation_settings`).
 
     * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
     * a CSV with ``t_s, q_rad, dq_rad_s, tau_measured_Nm``: one raw run, segmented;
@@ -414,8 +407,8 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
     if is_bag(file):
         if not joint:
             raise InputError(f'{file}: a bag needs --joint NAME (the joint to segment)')
-        from robot_wear_monitor.experiment.segmentation import SegmenterConfig
-        config = SegmenterConfig(joint=joint, gear_ratio=gear_ratio, torque_scale=torque_scale)
+        from robot_wear_monitor.experiment.segmentation_settings import stream_segmenter_config
+        config = stream_segmenter_config(joint, gear_ratio=gear_ratio, torque_scale=torque_scale)
         return table_from_bag(file, joint=joint, topic=topic, model=model, config=config)
     if file.is_dir():
         from robot_wear_monitor.recordings.tables import list_kuka_runs
@@ -430,6 +423,37 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
                                    known_torque=known_torque,
                                    standstill_speed_rad_s=standstill_speed_rad_s)
     return read_level_table(file, model=model)
+
+
+def levels_out_text(tables: Sequence[AuditTable], *,
+                    roles: Sequence[str] | None = None) -> str:
+    """
+    Return the segmented levels behind the rows of ``tables`` as ``segment``'s level CSV.
+
+    The columns are ``segment``'s (:data:`robot_wear_monitor.monitoring.segment.LEVEL_COLUMNS`,
+    the same numbers for the same input and settings), then ``temperature`` [degC] and ``load``
+    where every table has them, then ``role`` (one of ``roles`` per table) when given.  A bag's
+    ``experiment`` and ``joint`` are ``segment``'s; a raw run's are the run's name and the joint
+    of its file name, and its friction has the table's sign (flipped unless --raw-sign).
+
+    :raises InputError: a table was read as levels (a CSV): there are no segmented levels.
+
+    """
+    from robot_wear_monitor.monitoring.segment import levels_csv_text
+    rows: list = []
+    extra: dict[str, list] = {}
+    shared = [name for name in ('temperature', 'load')
+              if all(name in table.numeric for table in tables)]
+    for i, table in enumerate(tables):
+        if len(table.levels) != table.n_rows:
+            raise InputError(f'--levels-out: {table.source} is a table of levels already; '
+                             '--levels-out writes the levels segmented from a bag or raw runs')
+        rows += table.levels
+        for name in shared:
+            extra.setdefault(name, []).extend(float(v) for v in table.numeric[name])
+        if roles is not None:
+            extra.setdefault('role', []).extend([roles[i]] * table.n_rows)
+    return levels_csv_text(rows, extra=extra)
 
 
 def _is_raw_run(file: Path) -> bool:

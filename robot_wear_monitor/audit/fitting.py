@@ -34,12 +34,16 @@ class AuditTable:
     :ivar numeric: column name -> float array, shape (n,); always holds ``speed`` and ``friction``.
     :ivar text: column name -> str array, shape (n,) (categorical columns such as a pose name).
     :ivar source: where the table came from (file name), for messages.
+    :ivar levels: the segmented levels behind the rows of a table read from a bag or raw runs,
+        one (FrictionLevel, experiment label, joint label) per row, in row order (what
+        ``--levels-out`` writes); empty for a table read as levels (a CSV).
 
     """
 
     numeric: Mapping[str, FloatArray]
     text: Mapping[str, NDArray[np.str_]] = field(default_factory=dict)
     source: str = '<table>'
+    levels: tuple = field(default=(), compare=False, repr=False)
 
     @property
     def n_rows(self) -> int:
@@ -53,8 +57,10 @@ class AuditTable:
 
     def subset(self, rows: NDArray) -> 'AuditTable':
         """Return the table restricted to ``rows`` (boolean mask or index array)."""
+        levels = (tuple(self.levels[i] for i in np.arange(self.n_rows)[rows])
+                  if self.levels else ())
         return AuditTable({k: v[rows] for k, v in self.numeric.items()},
-                          {k: v[rows] for k, v in self.text.items()}, self.source)
+                          {k: v[rows] for k, v in self.text.items()}, self.source, levels)
 
 
 # --------------------------------------------------------------------------- base models

@@ -206,7 +206,7 @@ def attach_series(table: AuditTable, *, column: str, time_s: ArrayLike, values: 
                          f'levels {level_t.min():.1f}..{level_t.max():.1f} s')
     numeric = dict(table.numeric)
     numeric[column] = np.interp(level_t, t, v)
-    return AuditTable(numeric, dict(table.text), table.source)
+    return AuditTable(numeric, dict(table.text), table.source, table.levels)
 
 
 def number_experiments(table: AuditTable, *, gap_s: float) -> AuditTable:
@@ -226,7 +226,7 @@ def number_experiments(table: AuditTable, *, gap_s: float) -> AuditTable:
     index[order] = np.concatenate([[0], np.cumsum(np.diff(t[order]) > gap_s)])
     numeric = dict(table.numeric)
     numeric['experiment'] = index
-    return AuditTable(numeric, dict(table.text), table.source)
+    return AuditTable(numeric, dict(table.text), table.source, table.levels)
 
 
 def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | None = None,
@@ -261,4 +261,4 @@ def prepare_levels(table: AuditTable, *, role: str, temperature_column: str | No
                 f'every friction level; segmented raw runs and bags carry none: add it as a '
                 f'column of a level CSV, name the column with {option}, or for a bag name '
                 f'its topic with --{target}-topic{hint}')
-    return AuditTable(numeric, dict(table.text), table.source)
+    return AuditTable(numeric, dict(table.text), table.source, table.levels)

@@ -2,7 +2,8 @@
 ``robot-wear-monitor audit``: what the friction model misses in measured friction levels.
 
 The audit itself is :func:`robot_wear_monitor.audit.run.run_audit`; this verb reads the data,
-prints the summary (or ``--json``), and writes ``--out-params``, ``--plots`` and ``--json-out``.
+prints the summary (or ``--json``), and writes ``--out-params``, ``--plots``, ``--levels-out``
+and ``--json-out``.
 """
 
 from __future__ import annotations
@@ -10,7 +11,8 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, add_params, emit_json,
-                                            FINITE, level_source_scales, params_from, PROG)
+                                            FINITE, level_source_scales, params_from, PROG,
+                                            write_levels_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'find and model what the friction model misses in measured friction levels'
@@ -63,6 +65,7 @@ def main(args: argparse.Namespace) -> int:
                             standstill_speed_rad_s=args.standstill_speed,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale)
+    levels_out = write_levels_out(args, [table])
     group = args.group
     if group is None and args.model == 'speed' and 'joint' in table.text:
         group = 'joint'
@@ -79,6 +82,8 @@ def main(args: argparse.Namespace) -> int:
         write_parameter_set(args.out_params, result.extended_params,
                             header=params_header(args, result))
         report['out_params'] = args.out_params
+    if levels_out:
+        report['levels_out'] = levels_out
     if args.plots:
         from robot_wear_monitor.audit.report import plot_audit
         report['figures'] = [str(p) for p in plot_audit(result=result, table=table,

@@ -3,8 +3,8 @@
 
 The inputs are read by :func:`robot_wear_monitor.audit.identify_inputs.load_identify_levels`
 and fitted by :func:`robot_wear_monitor.audit.identification.identify`; this verb checks the
-options, writes ``--out`` (loaded back), ``--plots`` and ``--json-out``, and prints the
-summary or ``--json``.
+options, writes ``--out`` (loaded back), ``--plots``, ``--levels-out`` and ``--json-out``, and
+prints the summary or ``--json``.
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ import math
 from typing import Any
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
-                                            level_source_scales, parse_float_list, PROG)
+                                            level_source_scales, parse_float_list, PROG,
+                                            write_levels_out)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.yaml_files import shorten
 
@@ -118,6 +119,9 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'{error} (levels that vary in speed only: --speed-only identifies '
                          'the speed model (4) at their conditions)') from None
     wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None
+    levels_out = write_levels_out(
+        args, [baseline] if wear_test is None else [baseline, wear_test],
+        roles=None if wear_test is None else ['baseline', 'wear_test'])
     result = identify(baseline=baseline, from_params=from_params,
                       name=args.name or default_set_name(args.baseline),
                       wear_test=wear_test, critical_experiment=args.critical_experiment,
@@ -127,6 +131,8 @@ def main(args: argparse.Namespace) -> int:
     report = result.to_dict()
     report['out'] = str(args.out)
     report['loaded_back'] = loaded.name == result.params.name
+    if levels_out:
+        report['levels_out'] = levels_out
     if args.plots:
         report['figures'] = [str(p) for p in plot_identification(
             result=result, baseline=baseline, wear_test=wear_test, out_dir=args.plots)]
@@ -171,6 +177,7 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
                             torque_scale=torque_scale, known_torque=args.known_torque,
                             standstill_speed_rad_s=args.standstill_speed)
     table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
+    levels_out = write_levels_out(args, [table])
     source = Path(args.baseline)
     raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
     unit = args.friction_unit or ('N.m' if raw and torque_scale == 1.0 else 'normalised')
@@ -191,6 +198,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     report = result.to_dict()
     report['out'] = str(args.out)
     report['loaded_back'] = loaded.name == result.params.name
+    if levels_out:
+        report['levels_out'] = levels_out
     if emit_json(args, report):
         return 0
     print(result.summary())

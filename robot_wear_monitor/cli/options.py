@@ -12,7 +12,9 @@ Each option that several verbs take is built here, so it has one spelling and on
 * ``--torque-scale S``: normalised torque = effort / S; defaults as ``--gear-ratio``;
 * ``--json``: print one JSON object on stdout instead of the text; ``--json-out PATH``: also
   write that object to PATH (atomically).  ``--json PATH`` (replay, audit, identify) is the
-  deprecated spelling of ``--json-out PATH``: it still writes the file, with a warning on stderr.
+  deprecated spelling of ``--json-out PATH``: it still writes the file, with a warning on stderr;
+* ``--levels-out PATH`` (audit, identify): the friction levels segmented from a bag or raw runs
+  and fitted, as a CSV in ``segment``'s columns (:func:`levels_out_text`).
 
 The argparse ``type`` functions (:func:`parse_float_list`, :func:`parse_range`,
 :func:`joint_names`) and the JSON output helpers live here too.
@@ -29,6 +31,7 @@ import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.segmentation_settings import RAW_RUN_SETTINGS
 from robot_wear_monitor.yaml_files import shorten
 
 if TYPE_CHECKING:  # loads numpy: imported where used, so that the command line starts light
@@ -373,8 +376,35 @@ def add_level_source(parser: argparse.ArgumentParser) -> None:
                              "torque's unit) subtracted to give the friction")
     parser.add_argument('--standstill-speed', type=STANDSTILL_SPEED, metavar='RAD_S',
                         help='raw runs: the speed below which a sample is standstill [rad/s] '
-                             '(default 0.03, or 5 x the speed noise of a run slower than that)')
+                             + RAW_STANDSTILL_DEFAULT)
     add_gear_ratio_and_torque_scale(parser, gear_default='1; bag input only')
+    parser.add_argument('--levels-out', metavar='PATH',
+                        help="write the friction levels fitted as a CSV in segment's columns "
+                             '(plus temperature and load where the levels have them); bag or '
+                             'raw-run input (atomically)')
+
+
+#: The help's default of ``--standstill-speed`` (the raw-run settings' threshold).
+RAW_STANDSTILL_DEFAULT = (f'(default {RAW_RUN_SETTINGS["standstill_speed_rad_s"]:g}, or 5 x the '
+                          'speed noise of a run slower than that)')
+
+
+def write_levels_out(args: argparse.Namespace, tables: Sequence[Any],
+                     roles: Sequence[str] | None = None) -> str | None:
+    """
+    Write ``--levels-out``: the tables' segmented levels as ``segment``'s CSV; return its path.
+
+    Called as soon as the levels are read, before the fit (so they are there to look at when
+    the fit refuses them); atomically, the path checked before any work
+    (:func:`robot_wear_monitor.cli.outputs.check_outputs`).  None without the option; a
+    level-table input (no segmented levels) is an InputError.
+    """
+    if not getattr(args, 'levels_out', None):
+        return None
+    from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.audit.data import levels_out_text
+    write_text_atomic(args.levels_out, levels_out_text(tables, roles=roles))
+    return str(args.levels_out)
 
 
 def level_source_scales(args: argparse.Namespace) -> tuple[float, float]:

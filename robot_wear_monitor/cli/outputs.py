@@ -2,7 +2,8 @@
 Check every output a command names before it does any work (``main`` calls it first).
 
 A full disk or a read-only folder must not cost an hour of replay and then a traceback: the
-files (``--json-out``, ``--plot``, ``--csv``, ``--out-params``, a file ``--out``), the folders
+files (``--json-out``, ``--plot``, ``--csv``, ``--out-params``, ``--levels-out``, a file
+``--out``), the folders
 (``--plots``, a folder ``--out``) and an SQLite ``--history`` are checked here with
 :func:`robot_wear_monitor.atomic_files.check_writable`; what still fails later is an
 :class:`~robot_wear_monitor.atomic_files.OutputError` (exit 2, the path and the reason), and
@@ -36,7 +37,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     """Raise :class:`OutputError` for the first named output that cannot be written."""
     command = getattr(args, 'command', '')
     for attribute, option in (('json_out', '--json-out'), ('plot', '--plot'),
-                              ('out_params', '--out-params')):
+                              ('out_params', '--out-params'), ('levels_out', '--levels-out')):
         value = getattr(args, attribute, None)
         if value:
             check_writable(value, what=option)

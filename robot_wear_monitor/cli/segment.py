@@ -12,7 +12,8 @@ import sys
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_joints, add_robot, joint_selection,
-                                            parse_float_list, STANDSTILL_SPEED)
+                                            parse_float_list, RAW_STANDSTILL_DEFAULT,
+                                            STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
 from robot_wear_monitor.errors import InputError
 
@@ -40,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', metavar='CSV', help='write the levels here (default stdout)')
     parser.add_argument('--standstill-speed', type=STANDSTILL_SPEED, metavar='RAD_S',
                         help='raw CSV: the speed below which a sample is standstill [rad/s] '
-                             '(default 0.03, or 5 x the speed noise of a run slower than that)')
+                             + RAW_STANDSTILL_DEFAULT)
     add_robot(parser, help_text='add a robot column with this name (levels of several robots '
                                 'in one table)')
 

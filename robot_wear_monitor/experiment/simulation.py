@@ -40,7 +40,9 @@ from numpy.typing import NDArray
 from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig
-from robot_wear_monitor.experiment.segmentation import SegmenterConfig
+from robot_wear_monitor.experiment.segmentation_settings import (SegmenterConfig,
+                                                                 stream_segmenter_config,
+                                                                 STREAM_SETTINGS)
 from robot_wear_monitor.model.friction import friction as friction_model
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
 
@@ -136,14 +138,18 @@ class JointSimConfig:
 
 
 def segmenter_config_for(config: JointSimConfig, **overrides) -> SegmenterConfig:
-    """Return segmenter settings matching a simulated joint (conversions and tolerances)."""
-    settings: dict[str, Any] = {'joint': config.joint, 'gear_ratio': config.gear_ratio,
-                                'torque_scale': config.torque_scale, 'standstill_speed_rad_s': 0.1,
-                                'speed_tolerance_fraction': 0.05, 'speed_tolerance_rad_s': 0.05,
-                                'min_duration_s': 0.2, 'trim_s': 0.02, 'min_samples': 20,
+    """
+    Return segmenter settings matching a simulated joint (conversions and tolerances).
+
+    The bag-and-stream set (:data:`~robot_wear_monitor.experiment.segmentation_settings.
+    STREAM_SETTINGS`) with the joint's gear ratio and torque scale; a gap of 5 samples at the
+    simulated rate splits the stream.  Keyword arguments override any field.
+    """
+    settings: dict[str, Any] = {'gear_ratio': config.gear_ratio,
+                                'torque_scale': config.torque_scale,
                                 'max_gap_s': 5.0 / config.sample_rate_hz}
     settings.update(overrides)
-    return SegmenterConfig(**settings)
+    return stream_segmenter_config(config.joint, **settings)
 
 
 @dataclass(frozen=True)
@@ -241,7 +247,8 @@ def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float] | Floa
                       max_acceleration_rad_s2=config.acceleration_rad_s2,
                       max_jerk_rad_s3=config.jerk_rad_s3, rate_hz=config.sample_rate_hz,
                       noise_std=config.effort_noise_std, target_std_error=None,
-                      min_plateau_s=0.2, trim_s=0.02, min_samples=20,
+                      min_plateau_s=STREAM_SETTINGS['min_duration_s'],
+                      trim_s=STREAM_SETTINGS['trim_s'], min_samples=STREAM_SETTINGS['min_samples'],
                       desired_plateau_s=config.cruise_s, dwell_s=config.dwell_s,
                       shorten_to_window=True)
 

@@ -20,6 +20,7 @@ from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVID
                                                  DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
                                                  WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
 from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE
+from robot_wear_monitor.experiment.segmentation_settings import STREAM_SETTINGS as _SEG
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
@@ -172,25 +173,25 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('idle_gap_s', 'double', IDLE_GAP_S,
                   'a pause longer than this between two friction levels ends an experiment '
                   '[s] (levels of one experiment come about 1 s apart)', _positive),
-    ParameterSpec('standstill_speed_rad_s', 'double', 0.1,
+    ParameterSpec('standstill_speed_rad_s', 'double', _SEG['standstill_speed_rad_s'],
                   'motor-side speed at or below which the joint stands still [rad/s]',
                   _non_negative),
-    ParameterSpec('speed_tolerance_fraction', 'double', 0.05,
+    ParameterSpec('speed_tolerance_fraction', 'double', _SEG['speed_tolerance_fraction'],
                   'a sample is at constant speed within this fraction of the level [-]',
                   _fraction),
-    ParameterSpec('speed_tolerance_rad_s', 'double', 0.05,
+    ParameterSpec('speed_tolerance_rad_s', 'double', _SEG['speed_tolerance_rad_s'],
                   'lower bound of the constant-speed band, motor side [rad/s]', _non_negative),
-    ParameterSpec('min_duration_s', 'double', 0.2,
+    ParameterSpec('min_duration_s', 'double', _SEG['min_duration_s'],
                   'shortest constant-speed plateau kept as a pass [s]', _non_negative),
-    ParameterSpec('trim_s', 'double', 0.02,
+    ParameterSpec('trim_s', 'double', _SEG['trim_s'],
                   'time dropped at each end of each constant-speed plateau [s]',
                   _non_negative),
-    ParameterSpec('min_samples', 'integer', 20,
+    ParameterSpec('min_samples', 'integer', _SEG['min_samples'],
                   'fewest samples per pass inside the common position window', _at_least_3),
-    ParameterSpec('min_window_rad', 'double', 0.0,
+    ParameterSpec('min_window_rad', 'double', _SEG['min_window_rad'],
                   'narrowest common position window of a forward/backward pair, joint side '
                   '[rad]', _non_negative),
-    ParameterSpec('max_gap_s', 'double', 0.1,
+    ParameterSpec('max_gap_s', 'double', _SEG['max_gap_s'],
                   'a time step longer than this splits the joint-state stream [s]', _positive),
     ParameterSpec('experiment_events_topic', 'string', 'friction_experiment/events',
                   "the friction_experiment_runner's events (start/end/aborted of each "
@@ -292,13 +293,13 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('target_std_error', 'double', 0.001,
                   'wanted standard error of each friction level, normalised [-]; 0: only the '
                   "segmentation's shortest plateau", _non_negative),
-    ParameterSpec('min_plateau_s', 'double', 0.2,
+    ParameterSpec('min_plateau_s', 'double', _SEG['min_duration_s'],
                   'shortest plateau the segmentation keeps after trimming [s] (the '
                   "friction_experiment_node's min_duration_s)", _positive),
-    ParameterSpec('trim_s', 'double', 0.02,
+    ParameterSpec('trim_s', 'double', _SEG['trim_s'],
                   'time the segmentation trims at each plateau end [s] (its trim_s)',
                   _non_negative),
-    ParameterSpec('min_samples', 'integer', 20,
+    ParameterSpec('min_samples', 'integer', _SEG['min_samples'],
                   'fewest samples per pass the segmentation keeps (its min_samples)', _positive),
     ParameterSpec('dwell_s', 'double', 0.1,
                   'standstill at every turn of the motion [s]', _non_negative),

@@ -172,21 +172,26 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
 
 
 def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]], *,
-                    robot: str | None = None) -> str:
+                    robot: str | None = None,
+                    extra: Mapping[str, Sequence[Any]] | None = None) -> str:
     """
     Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text.
 
-    ``robot``: a last column ``robot`` with this name (none when None).
+    ``robot``: a last column ``robot`` with this name (none when None); ``extra``: more
+    columns after it, name -> one value per row (a float written with 6 significant digits).
     """
     text = io.StringIO()
     writer = csv.writer(text)
-    writer.writerow(list(LEVEL_COLUMNS) + (['robot'] if robot is not None else []))
-    extra = [robot] if robot is not None else []
-    for level, k, joint in rows:
+    extra = dict(extra or {})
+    writer.writerow(list(LEVEL_COLUMNS) + (['robot'] if robot is not None else [])
+                    + list(extra))
+    robot_cell = [robot] if robot is not None else []
+    for i, (level, k, joint) in enumerate(rows):
+        more = [f'{v[i]:.6g}' if isinstance(v[i], float) else v[i] for v in extra.values()]
         writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
                          f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
                          f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
                          f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
                          f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k, joint,
-                         *extra])
+                         *robot_cell, *more])
     return text.getvalue()

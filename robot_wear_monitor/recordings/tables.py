@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.segmentation import SegmenterConfig
+from robot_wear_monitor.experiment.segmentation_settings import (raw_run_segmenter_config,
+                                                                 SegmenterConfig)
 
 FloatArray = NDArray[np.float64]
 
@@ -170,18 +171,12 @@ def kuka_segmenter_config(**overrides) -> SegmenterConfig:
     """
     Return the segmenter settings for the KUKA iiwa runs (link-side sensors, N m).
 
-    gear_ratio 1 and torque_scale 1 (levels in link-side rad/s and N m); the runs are logged at
-    200 Hz with a speed estimate that ripples by a few percent, so the constant-speed band is
-    5 % (at least 0.01 rad/s), the standstill threshold 0.03 rad/s and passes must last 0.3 s.
-    Keyword arguments override any field.
+    The raw-run set of the settings' owner,
+    :data:`~robot_wear_monitor.experiment.segmentation_settings.RAW_RUN_SETTINGS` (gear ratio
+    and torque scale 1, levels in link-side rad/s and N m; standstill 0.03 rad/s).  Keyword
+    arguments override any field.
     """
-    settings: dict[str, Any] = {
-        'joint': 'kuka_joint', 'gear_ratio': 1.0, 'torque_scale': 1.0,
-        'standstill_speed_rad_s': 0.03, 'speed_tolerance_fraction': 0.05,
-        'speed_tolerance_rad_s': 0.01, 'min_duration_s': 0.3, 'min_samples': 20,
-        'max_gap_s': 0.05}
-    settings.update(overrides)
-    return SegmenterConfig(**settings)
+    return raw_run_segmenter_config(**overrides)
 
 
 def with_standstill_speed(config: SegmenterConfig,
