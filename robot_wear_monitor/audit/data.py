@@ -18,7 +18,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.audit.fitting import AuditTable
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import InputError, no_such_path_text
 
 FloatArray = NDArray[np.float64]
 
@@ -403,7 +403,7 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
     """
     file = Path(path)
     if not file.exists():
-        raise InputError(f'{file}: no such file or folder')
+        raise InputError(no_such_path_text(file, what='file or folder'))
     if is_bag(file):
         if not joint:
             raise InputError(f'{file}: a bag needs --joint NAME (the joint to segment)')

@@ -28,7 +28,7 @@ from pathlib import Path
 import time
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 
-from robot_wear_monitor.errors import InputError, shorten
+from robot_wear_monitor.errors import InputError, no_such_path_text, shorten
 from robot_wear_monitor.input_files import check_robot_name, csv_rows, read_text_file
 from robot_wear_monitor.recordings import is_bag
 from robot_wear_monitor.yaml_files import load_yaml_text
@@ -207,7 +207,7 @@ def collect_bags(*, paths: Sequence[str | os.PathLike] = (),
     for given in paths:
         path = Path(given)
         if not path.exists():
-            raise BatchError(f'{_cut(str(path))}: no such bag or folder')
+            raise BatchError(no_such_path_text(_cut(str(path)), what='bag or folder'))
         if is_bag(path):
             pairs.append((robot or DEFAULT_ROBOT, path))
             continue

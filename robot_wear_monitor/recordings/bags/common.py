@@ -14,7 +14,7 @@ from typing import Any, Literal, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.recordings.bags.message_types import monitor_typestore
 from robot_wear_monitor.yaml_files import load_yaml_file
 from rosbags.rosbag2 import Reader, StoragePlugin
@@ -72,7 +72,7 @@ def open_reader(path: str | os.PathLike) -> Reader:
     """Open a bag for reading with rosbags; BagError (one line) when it is missing or bad."""
     bag = Path(path)
     if not bag.exists():
-        raise BagError(f'{bag}: no such bag')
+        raise BagError(no_such_path_text(bag, what='bag'))
     if (bag / 'metadata.yaml').is_file():  # bounded, no aliases, before rosbags reads it
         load_yaml_file(bag / 'metadata.yaml', what='bag metadata', error=BagError)
     try:
