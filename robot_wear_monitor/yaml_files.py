@@ -5,8 +5,8 @@ A parameter set, a node configuration or a bag's ``metadata.yaml`` is untrusted 
 aliases (``*name``) let a few hundred bytes expand to gigabytes ("billion laughs"), so they are
 refused while the document is composed, before anything is expanded; a file that is not a
 regular file, or holds more than :data:`MAX_YAML_BYTES`, is refused as it is read; and a
-value echoed in an error is cut to :data:`ECHO_LIMIT` characters (:func:`shorten`).  Only plain data is built (``SafeLoader``):
-no Python objects, no code.
+value echoed in an error is cut to :data:`ECHO_LIMIT` characters (:func:`shorten`).  Only
+plain data is built (``SafeLoader``): no Python objects, no code.
 
 The same text is not parsed twice: a replay reads the node configuration four times and the
 bag's ``metadata.yaml`` three times, and the pure-Python parser takes milliseconds for each.
