@@ -128,8 +128,8 @@ def position_binned_levels(*, time_s: ArrayLike, position_rad: ArrayLike,
     """
     if isinstance(n_bins, bool) or not isinstance(n_bins, int) or n_bins < 1:
         raise InputError(f'position bins: expected an integer >= 1, got {n_bins!r}')
-    t, q, v, e = (np.asarray(x, dtype=float) for x in (time_s, position_rad, velocity_rad_s,
-                                                        effort))
+    arrays = (time_s, position_rad, velocity_rad_s, effort)
+    t, q, v, e = (np.asarray(x, dtype=float) for x in arrays)
     if not t.shape == q.shape == v.shape == e.shape or t.ndim != 1:
         raise InputError('position bins: time, position, velocity and effort differ in shape')
     finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
@@ -137,7 +137,7 @@ def position_binned_levels(*, time_s: ArrayLike, position_rad: ArrayLike,
     speed = v[finite] * config.gear_ratio
     index = moves(speed, config.standstill_speed_rad_s)
     rejections: Counter = Counter()
-    levels = []
+    levels: list[FrictionLevel] = []
     points = _set_points(speed, index, config, speeds_rad_s)
     if not points.size:
         return levels, rejections

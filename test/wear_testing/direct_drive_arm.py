@@ -136,8 +136,8 @@ def raw_run(path, *, speeds, rate_hz: float, joint: str = '1', cycles: int = 3,
     friction = np.where(v != 0.0, magnitude(joint, 'positive', v), 0.0)
     tau = gravity_nm * np.cos(q) + np.sign(v) * friction + rng.normal(0, torque_noise_nm, t.size)
     dq = v + rng.normal(0.0, velocity_noise_rad_s, t.size)
+    rows = zip(t.tolist(), q.tolist(), dq.tolist(), tau.tolist())
     path.write_text('t_s,q_rad,dq_rad_s,tau_measured_Nm\n' + ''.join(
-        f'{a!r},{b!r},{c!r},{d!r}\n' for a, b, c, d in zip(t.tolist(), q.tolist(), dq.tolist(),
-                                                          tau.tolist())))
+        f'{a!r},{b!r},{c!r},{d!r}\n' for a, b, c, d in rows))
     return {'speeds': np.asarray(speeds, dtype=float),
             'friction': magnitude(joint, 'positive', np.asarray(speeds, dtype=float))}
