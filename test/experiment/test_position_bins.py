@@ -37,6 +37,11 @@ def test_a_2_hz_log_is_named_too_slow_with_its_numbers(tmp_path, capsys):
     low, high = (int(x) for x in counts.split('-'))
     assert 1 <= low <= high <= 8
     assert not out.exists()
+    # the audit of the same raw run says it too, and where the binned levels come from
+    assert main(['audit', str(path)]) == 2
+    error = capsys.readouterr().err
+    assert 'too slow for time-window levels: 2 Hz' in error
+    assert 'segment RUN --position-bins N' in error
 
 
 def test_a_2_hz_log_gives_one_level_per_set_point_over_position_bins(tmp_path, capsys):
