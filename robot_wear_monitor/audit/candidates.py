@@ -36,6 +36,11 @@ ORDER_COLUMN = 'experiment_order'
 CATEGORICAL_MAX_LEVELS = 8
 #: The model's own online variables: tested in shapes the model lacks.
 MODEL_VARIABLES = ('speed', 'temperature', 'load', 'wear')
+#: The window columns of a level table (``segment``'s) and the candidates derived from them.
+WINDOW_COLUMNS = ('position_min_rad', 'position_max_rad')
+POSITION_COLUMNS = ('position_centre', 'position_span')
+#: Derived group columns that are no candidates (the per-direction model's groups).
+DERIVED_GROUPS = ('group_direction',)
 
 
 def table_values(table: AuditTable) -> dict:
@@ -153,15 +158,35 @@ def with_experiment_order(table: AuditTable) -> AuditTable:
     return AuditTable(numeric, dict(table.text), table.source, table.levels)
 
 
+def with_position_window(table: AuditTable) -> AuditTable:
+    """
+    Add ``position_centre`` and ``position_span`` [rad] of a level table's window columns.
+
+    A level table with ``position_min_rad`` and ``position_max_rad`` (as ``segment`` writes it)
+    carries the positions its levels were averaged over: their centre and width are the
+    position candidates, as for raw runs (the two ends are then no candidates of their own).
+    Unchanged without both columns or when the table has a ``position_centre`` already.
+    """
+    if not all(c in table.numeric for c in WINDOW_COLUMNS) or 'position_centre' in table.columns:
+        return table
+    low, high = (table.numeric[c] for c in WINDOW_COLUMNS)
+    numeric = {**table.numeric, 'position_centre': 0.5 * (low + high),
+               'position_span': high - low}
+    return AuditTable(numeric, dict(table.text), table.source)
+
+
 def candidate_columns(table: AuditTable, *, model: str, group: str | None = None) -> list[str]:
     """
     Return the candidate columns: every column but friction, its error and the group.
 
     The model's own variables come first (``speed`` only when it varies); the experiment
     column is a candidate when its labels are numbers, else its order ``experiment_order``.
+    A window's ends are no candidates beside its centre and span (:func:`with_position_window`).
     """
     del model  # every variable is a suspect, the model's own included
-    skip = set(NOT_CANDIDATES) | ({group} if group else set())
+    skip = set(NOT_CANDIDATES) | set(DERIVED_GROUPS) | ({group} if group else set())
+    if all(c in table.numeric for c in POSITION_COLUMNS):
+        skip.update(WINDOW_COLUMNS)  # their centre and span are the candidates
     if 'experiment' in table.text:
         skip.add('experiment')
     names = [c for c in table.columns if c not in skip]

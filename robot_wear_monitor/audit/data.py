@@ -201,6 +201,7 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     times the speed noise of a run slower than it).  The table's ``levels`` are the segmented
     levels of its rows (friction with the table's sign), labelled by run and joint.
     """
+    from robot_wear_monitor.experiment.position_bins import low_rate_reason
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
                                                       slow_run_config, with_standstill_speed)
@@ -214,6 +215,7 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration',
         'direction')}
     rejected: list[str] = []
+    slow_logs: list[str] = []  # the first run too slow for pass pairs, and why
     one_way: list[tuple[str, Any, Any]] = []  # (run name, run, pass) of one-way runs
     one_way_files: dict[str, tuple[Any, Any]] = {}  # run name -> (path, settings)
     levels: list[tuple[Any, str, str]] = []  # (level, experiment, joint) of each row
@@ -260,6 +262,10 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                 one_way_files[name] = (path, slow or settings)
             else:
                 rejected.append(Path(path).name)
+                reason = low_rate_reason(run.t_s, run.dq_rad_s, settings)
+                if reason is not None and not slow_logs:
+                    slow_logs.append(f'{Path(path).name}: {reason} (segment RUN '
+                                     '--position-bins N writes such levels as a table)')
             continue
         duration = float(run.t_s[-1] - run.t_s[0])
         for i, level in enumerate(result.levels):
@@ -278,7 +284,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                   if unpaired else '')
         raise InputError(f'no friction level found in {len(paths)} raw run(s){detail}'
                          + ('' if not unpaired or known_torque else
-                            ' (give --known-torque COLUMN to subtract a known torque)'))
+                            ' (give --known-torque COLUMN to subtract a known torque)')
+                         + ''.join(f'; {text}' for text in slow_logs))
     if len(set(columns['pose'])) == 1:
         del columns['pose']
     if set(columns['direction']) == {'both'}:

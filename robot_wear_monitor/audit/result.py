@@ -109,8 +109,11 @@ class AuditResult:
         models; None for the speed model), what ``audit --out-params`` writes.
     :ivar offline: variable -> (default, how chosen) for the terms' variables that the service
         does not measure online (evaluated at the default there).
-    :ivar parameter_flags: fitted parameters at a bound of the fit or with a sign friction
-        cannot have, one sentence each (the speed model (4)).
+    :ivar parameter_flags: fitted parameters at a bound of the fit (the speed model (4)) or
+        with a sign friction cannot have (every model), one sentence each.
+    :ivar impossible_values: the fitted terms with a sign friction cannot have (negative
+        Coulomb level, Stribeck amplitude or viscous slope, at the data's load and temperature
+        for (5) and (8)), one dict each: group, parameter, value, meaning, where.
     :ivar lack_of_fit: the final model against the pure error of replicated conditions (repeated
         runs at the same speed and direction), None without replicates.
     :ivar rms_by_group: group -> (held-out RMS error before, after) when fitted per ``group``.
@@ -140,6 +143,7 @@ class AuditResult:
     extended_params: ParameterSet | None = None
     offline: Mapping[str, tuple] = field(default_factory=dict)
     parameter_flags: tuple[str, ...] = ()
+    impossible_values: tuple[Mapping[str, object], ...] = ()
     lack_of_fit: LackOfFit | None = None
     rms_by_group: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
@@ -158,6 +162,7 @@ class AuditResult:
             'estimate_changes': self.estimate_changes, 'excluded': list(self.excluded),
             'added_terms': self._added_terms(),
             'parameter_flags': list(self.parameter_flags),
+            'impossible_values': [dict(v) for v in self.impossible_values],
             'rms_by_group': {k: {'before': b, 'after': a}
                              for k, (b, a) in self.rms_by_group.items()},
             'lack_of_fit': None if self.lack_of_fit is None else self.lack_of_fit.to_dict(),

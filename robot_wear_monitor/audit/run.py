@@ -24,9 +24,11 @@ import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.audit.candidates import (candidate_columns, families, make_variable,
                                                  make_variables, periodic_frequencies, Variable,
-                                                 with_experiment_order)
+                                                 with_experiment_order, with_position_window)
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
+from robot_wear_monitor.audit.directions import (DIRECTION_GROUP, try_per_direction,
+                                                 with_direction_groups)
 from robot_wear_monitor.audit.estimates import estimate_changes
 from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
                                              offline_defaults)
@@ -34,6 +36,7 @@ from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, design_
                                               fit_model, group_codes, nominal_base, orthonormal,
                                               speed_base)
 from robot_wear_monitor.audit.noise import lack_of_fit, noise_floor
+from robot_wear_monitor.audit.physical import flag_text, impossible_values
 from robot_wear_monitor.audit.result import AuditResult, Effect
 from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
 from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, periodic_scan,
@@ -91,8 +94,11 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         params = load_parameter_set()
     if params is not None and params.model.extension is not None and model != 'speed':
         params = _without_extension(params)
-    table = with_experiment_order(table)
+    table = with_position_window(with_experiment_order(table))
     table, excluded = enough_speeds(table, group, model)
+    split = with_direction_groups(table, group) if model == 'speed' else None
+    if split is not None:
+        table = split
     if model == 'speed':
         base = speed_base(table, group)
     else:
@@ -107,12 +113,13 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     folds, fold_text = fold_indices(table, n_folds, seed)
 
     fit = fit_model(base, table, [], base.theta0)
-    fit_before = fit
+    fit_before, base_before = fit, base
     cv_before, held_before = cv_rms(base, table, [], fit.theta, folds)
     cv_now, held_now = cv_before, held_before
     terms: list[Term] = []
     effects: list[Effect] = []
     steps: list[dict] = []
+    split_done = split is None
     stop = 'maximum number of effects reached'
     # a replicate repeats the model's conditions (speed, its variables, the groups and the
     # categories); measurements made along the way (a time, a window centre) are no condition
@@ -130,6 +137,13 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
             stop = (f'the model explains the data to the replicate error (lack of fit '
                     f'p = {adequate.p_value:.2g} >= {fdr:g})')
             break
+        if not split_done:  # model (4) per direction: a candidate until it is taken
+            taken = _per_direction_step(table, base, fit, terms, cv_now, folds, group, fdr,
+                                        min_gain, effects, steps)
+            if taken is not None:
+                base, fit, cv_now, held_now = taken
+                split_done = True
+                continue
         rejected: list[str] = []
         accepted = None
         while len(rejected) < MAX_TRIES:
@@ -202,6 +216,7 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
             changes = estimate_changes(table, model, before, extended)
     elif estimate:
         changes = estimate_changes(table, model, None, None)
+    impossible = impossible_values(model, base.describe(fit.theta, fit.coef), table)
     return AuditResult(
         model=model, n_levels=n, group=group, candidates=tuple(v.name for v in variables),
         rms_before=cv_before, rms_after=cv_now,
@@ -210,13 +225,65 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         noise_floor=floor, noise_floor_method=floor_method, folds=fold_text,
         effects=tuple(effects), steps=tuple(steps), residual_before=fit_before.residual,
         residual_after=fit.residual,
-        parameters_before=json_clean(base.describe(fit_before.theta, fit_before.coef)),
+        parameters_before=json_clean(base_before.describe(fit_before.theta, fit_before.coef)),
         parameters_after=json_clean(base.describe(fit.theta, fit.coef)),
         estimate_changes=changes, stop_reason=stop, excluded=excluded,
         extended_params=extended, offline=offline,
         parameter_flags=speed_parameter_flags(base, fit.theta, fit.coef, table)
-        if model == 'speed' else (), lack_of_fit=replicates,
+        if model == 'speed' else tuple(flag_text(v, False) for v in impossible),
+        impossible_values=tuple(impossible), lack_of_fit=replicates,
         rms_by_group=_rms_by_group(table, group, held_before, held_now))
+
+
+def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
+                        cv_now: float, folds: np.ndarray, group: str | None, fdr: float,
+                        min_gain: float, effects: list[Effect], steps: list[dict]
+                        ) -> tuple[Base, Fit, float, FloatArray] | None:
+    """
+    Try model (4) per direction (``identify --speed-only``'s) as the step's first candidate.
+
+    Taken when its F-test against the common model (with the effects added so far) is
+    significant at ``fdr`` and the held-out error comes down by ``min_gain``; the step and,
+    when taken, the effect are appended.  Returns the base, fit, held-out error and residual
+    to go on with, or None when it is not taken.
+    """
+    key = 'model (4) per direction'
+    labels = table.text[DIRECTION_GROUP]
+    few = [f'{k}: {_distinct_speeds(table.numeric["speed"][labels == k])} distinct speeds'
+           for k in sorted(set(labels.tolist()))
+           if _distinct_speeds(table.numeric['speed'][labels == k]) < MIN_SPEEDS]
+    report: dict[str, Any] = {'n_candidates': 1, 'tried': key}
+    steps.append(report)
+    if few:
+        report['decision'] = (f'not tried: model (4) per direction needs {MIN_SPEEDS} distinct '
+                              f'speeds per direction ({"; ".join(few)})')
+        return None
+    n_common = len(set(as_text(table, group).tolist())) if group is not None else 1
+    trial = try_per_direction(table, fit, n_common, folds, terms)
+    report.update(best=[{'candidate': key, 'log10_p': trial.log10_p, 'q_value':
+                         10.0 ** trial.log10_p if math.isfinite(trial.log10_p) else None,
+                         'df': 5 * n_common}],
+                  rms_cv_with_term=trial.cv, f_statistic=trial.f_statistic)
+    if not trial.log10_p <= math.log10(fdr):
+        report['decision'] = (f'rejected: the directions do not differ (F = '
+                              f'{trial.f_statistic:.3g}, log10 p {trial.log10_p:.1f})')
+        return None
+    if not trial.cv <= cv_now * (1.0 - min_gain):
+        report['decision'] = (f'rejected: held-out error {cv_now:.4g} -> {trial.cv:.4g} '
+                              f'(needs {min_gain:.0%} gain)')
+        return None
+    report['decision'] = 'accepted'
+    report['chosen'] = {'candidate': key, 'term': key, 'variables': ['speed', 'direction'],
+                        'confounded_with': []}
+    change = trial.fit.prediction - fit.prediction
+    effects.append(Effect(
+        name='model (4) per direction (F_c, F_s, phi_s, alpha, F_v of each direction)',
+        shape='per direction', variables=('speed', 'direction'), df=5 * n_common,
+        log10_p=trial.log10_p, rms_cv_before=cv_now, rms_cv_after=trial.cv,
+        size_rms=float(np.sqrt(np.mean(change ** 2))),
+        size_range=float(change.max() - change.min()),
+        info={'f_statistic': trial.f_statistic}, candidate=key))
+    return trial.base, trial.fit, trial.cv, trial.held_out
 
 
 def _rms_by_group(table: AuditTable, group: str | None, before: np.ndarray,
@@ -248,6 +315,7 @@ def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
     lower, upper = base.bounds(table)
     flags = []
     described = base.describe(theta, coef)
+    impossible = impossible_values('speed', described, table)
     for i, (key, values) in enumerate(described.items()):
         where = '' if len(described) == 1 else f' ({key})'
         for k, name in ((2 * i, 'phi_s'), (2 * i + 1, 'alpha')):
@@ -256,12 +324,7 @@ def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
                     shown = math.exp(bound) if name == 'phi_s' else bound
                     flags.append(f'{name}{where} = {values[name]:.4g} sits on its {side} bound '
                                  f'{shown:.4g}: not identified by these speeds')
-        for name, meaning in (('F_c', 'Coulomb level'), ('F_s', 'Stribeck rise'),
-                              ('F_v', 'viscous slope')):
-            if values[name] < 0:
-                flags.append(f'{name}{where} = {values[name]:.4g} < 0: a negative {meaning} is '
-                             'no friction (check the sign convention, a direction effect or '
-                             'a torque offset)')
+        flags += [flag_text(v, len(described) > 1) for v in impossible if v['group'] == key]
     return tuple(flags)
 
 

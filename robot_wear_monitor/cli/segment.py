@@ -42,6 +42,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--standstill-speed', type=STANDSTILL_SPEED, metavar='RAD_S',
                         help='raw CSV: the speed below which a sample is standstill [rad/s] '
                              + RAW_STANDSTILL_DEFAULT)
+    parser.add_argument('--position-bins', type=int, metavar='N',
+                        help='raw CSV: one level per speed set-point by eq. (3) over N position '
+                             'bins (forward and backward samples in one bin, at least 2 each '
+                             'way), for logs too slow for pass pairs (e.g. 2 Hz); see '
+                             'docs/segmentation.md')
     add_robot(parser, help_text='add a robot column with this name (levels of several robots '
                                 'in one table)')
 
@@ -58,10 +63,14 @@ def main(args: argparse.Namespace) -> int:
     if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
         result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
                                  torque_scale=args.torque_scale, speeds_rad_s=args.speeds,
-                                 standstill_speed_rad_s=args.standstill_speed)
+                                 standstill_speed_rad_s=args.standstill_speed,
+                                 position_bins=args.position_bins)
         report = [f'{result.n_levels} friction levels; '
                   + (rejection_text(result.rejections) or 'nothing rejected')]
     else:
+        if args.position_bins is not None:
+            raise InputError('--position-bins is for a raw CSV; a bag is segmented by pass '
+                             'pairs (time windows)')
         if args.standstill_speed is not None:
             raise InputError('--standstill-speed is for a raw CSV; a bag takes the node '
                              'parameter standstill_speed_rad_s from --config')

@@ -51,15 +51,21 @@ class SegmentedLevels:
 def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = None,
                     torque_scale: Optional[float] = None,
                     speeds_rad_s: Optional[Sequence[float]] = None,
-                    standstill_speed_rad_s: Optional[float] = None) -> SegmentedLevels:
+                    standstill_speed_rad_s: Optional[float] = None,
+                    position_bins: Optional[int] = None) -> SegmentedLevels:
     """
     Segment one KUKA-style raw run with the raw-run settings (gear ratio and scale 1).
 
     ``gear_ratio`` / ``torque_scale`` / ``standstill_speed_rad_s``: override the raw-run
     settings when not None (a set standstill threshold is used also for a slow run);
     ``speeds_rad_s``: assemble the levels into experiments at these speeds (otherwise the
-    levels are in no experiment).
+    levels are in no experiment); ``position_bins``: one level per speed set-point by eq. (3)
+    over this many position bins (:mod:`~robot_wear_monitor.experiment.position_bins`, for
+    low-rate logs) instead of one per pass pair.  A log too slow for pass pairs is named so,
+    with its sample rate and samples per pass.
     """
+    from robot_wear_monitor.experiment.position_bins import (low_rate_reason,
+                                                             position_binned_levels)
     from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
     from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_raw_csv,
                                                       slow_run_config, with_standstill_speed)
@@ -69,7 +75,21 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     config = kuka_segmenter_config(**overrides)
     if standstill_speed_rad_s is not None:  # the user's threshold, also for a slow run
         config = with_standstill_speed(config, standstill_speed_rad_s)
+    if position_bins is not None:
+        levels, rejections = position_binned_levels(
+            time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config,
+            n_bins=position_bins, speeds_rad_s=speeds_rad_s)
+        if not levels:
+            raise InputError(f'{path}: no friction level over {position_bins} position bins: '
+                             f'no speed set-point has a bin with 2 samples each way '
+                             f'({sum(rejections.values())} set-points without one)')
+        return SegmentedLevels(rows=[(level, '', config.joint) for level in levels],
+                               rejections=dict(rejections), n_levels=len(levels))
     result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    if not result.levels:
+        slow_log = low_rate_reason(t, v, config)
+        if slow_log is not None:
+            raise InputError(f'{path}: no friction level: {slow_log}')
     slow = (slow_run_config(config, v)
             if not result.levels and standstill_speed_rad_s is None else None)
     if slow is not None:  # slower than the standstill threshold: the data's noise decides
