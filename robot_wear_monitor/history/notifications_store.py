@@ -60,7 +60,8 @@ def release_notification(backend: HistoryBackend, *, event_key: str) -> bool:
     return bool(rows)
 
 
-def list_notifications(backend: HistoryBackend, *, limit: Optional[int] = None) -> list[dict[str, Any]]:
+def list_notifications(backend: HistoryBackend, *,
+                       limit: Optional[int] = None) -> list[dict[str, Any]]:
     """Return the notifications sent, newest first, as dicts (``payload`` parsed)."""
     query = f'SELECT {_COLUMNS} FROM notifications ORDER BY id DESC'
     params: tuple = ()
