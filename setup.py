@@ -48,7 +48,7 @@ setup(
         # Python packages, argon2 password hashes, httpx for the notifications' webhooks.
         'dashboard': ['argon2-cffi>=21.3', 'httpx>=0.24', 'fastapi>=0.110', 'uvicorn>=0.29',
                       'Jinja2>=3.1', 'itsdangerous>=2.1', 'python-multipart>=0.0.9',
-                      'plotly>=5.0', 'fastapi-offline>=1.7'],
+                      'plotly>=5.0', 'fastapi-offline>=1.7', 'pydantic>=2.0'],
         'test': ['pytest>=7', 'argon2-cffi>=21.3', 'mcap-ros2-support>=0.5',
                  # notifications: the webhook client and the tests' SMTP server
                  'httpx>=0.24', 'aiosmtpd>=1.4',
@@ -64,7 +64,9 @@ setup(
                  # the dashboard and its server and browser tests (headless Chromium)
                  'fastapi>=0.110', 'uvicorn>=0.29', 'Jinja2>=3.1', 'itsdangerous>=2.1',
                  'python-multipart>=0.0.9', 'plotly>=5.0', 'fastapi-offline>=1.7',
-                 'selenium>=4.10'],
+                 'pydantic>=2.0', 'selenium>=4.10',
+                 # the API's answers checked against the schemas of its /openapi.json
+                 'jsonschema>=4.18'],
     },
     zip_safe=True,
     maintainer='robot_wear_monitor maintainers',

@@ -11,8 +11,6 @@ from __future__ import annotations
 import math
 from typing import Any, Optional
 
-import numpy as np
-
 
 def finite_or_none(value: Optional[float]) -> Optional[float]:
     """Return ``value`` as a float when it is finite; None (JSON null) for None, NaN or inf."""
@@ -29,12 +27,20 @@ def json_clean(value: Any) -> Any:
     Dict keys become strings; lists, tuples and numpy arrays become lists; numpy integers
     become ints; anything else is returned as it is.
     """
+    # numpy is imported here, not with the module: the wear history (which the command line's
+    # parser reaches for the dashboard's user roles) uses finite_or_none only, and the command
+    # line must not load numpy before it has set one OpenBLAS thread (blas_threads.py)
+    import numpy as np
+    return _clean(value, np)
+
+
+def _clean(value: Any, np: Any) -> Any:
     if isinstance(value, dict):
-        return {str(k): json_clean(v) for k, v in value.items()}
+        return {str(k): _clean(v, np) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [json_clean(v) for v in value]
+        return [_clean(v, np) for v in value]
     if isinstance(value, np.ndarray):
-        return json_clean(value.tolist())
+        return _clean(value.tolist(), np)
     if isinstance(value, (float, np.floating)):
         return finite_or_none(float(value))
     if isinstance(value, np.integer):

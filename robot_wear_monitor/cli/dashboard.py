@@ -17,10 +17,10 @@ import sys
 
 from robot_wear_monitor.cli.options import PROG, shown_location
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history.users import ROLES
 
 HELP = ("web dashboard of a wear history: the fleet worst first, each joint's wear story, "
         'accountable acknowledge and reset (and its users: dashboard user add|list|remove)')
-ROLES = ('viewer', 'maintainer')
 
 
 def _history_option(parser: argparse.ArgumentParser, *, top: bool) -> None:

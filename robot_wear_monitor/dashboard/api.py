@@ -1,10 +1,12 @@
 """
 The dashboard's JSON API under ``/api/`` (described at ``/openapi.json`` and ``/docs``).
 
-The same dicts as the pages (:mod:`robot_wear_monitor.dashboard.views`).  ``/api/fleet`` and
-the joint's route send an ``ETag`` (a hash of the content); a request with that value in
-``If-None-Match`` gets 304 while nothing changed, which is how the pages poll for news.
-Every route needs a session (401 without one).
+The same dicts as the pages (:mod:`robot_wear_monitor.dashboard.views`); each route declares
+its response model (:mod:`robot_wear_monitor.dashboard.schemas`), so ``/openapi.json`` gives
+the shapes.  ``/api/fleet`` and the joint's route send an ``ETag`` (a hash of the content); a
+request with that value in ``If-None-Match`` gets 304 while nothing changed, which is how the
+pages poll for news.  Every route needs a session (401 without one).  What a route needs
+comes by dependency (:mod:`robot_wear_monitor.dashboard.deps`).
 """
 
 from __future__ import annotations
@@ -15,11 +17,18 @@ import time
 from typing import Any, Optional
 
 from fastapi import APIRouter, HTTPException, Query, Request
-from robot_wear_monitor.dashboard.app import history_of
+from robot_wear_monitor.dashboard.auth import csrf_token
+from robot_wear_monitor.dashboard.deps import (CurrentUser, FleetCacheDep, HistoryDep,
+                                               ParameterSetsDep)
+from robot_wear_monitor.dashboard.schemas import (AlarmEventJson, FleetJson, JointJson,
+                                                  MeJson)
 from robot_wear_monitor.dashboard.views import alarm_log, fleet_json, joint_json, STATES
 from starlette.responses import Response
 
 router = APIRouter(prefix='/api', tags=['api'])
+#: The answer to a request whose If-None-Match is the current ETag.
+NOT_MODIFIED: dict[int | str, dict[str, Any]] = {
+    304: {'description': 'Not modified: the ETag in If-None-Match is the current one'}}
 
 
 def json_with_etag(request: Request, payload: dict[str, Any]) -> Response:
@@ -45,8 +54,11 @@ def _state(value: Optional[str]) -> Optional[str]:
     return value
 
 
-@router.get('/fleet', summary='Every robot joint, worst first (the order of `fleet`)')
-def api_fleet(request: Request, robot: Optional[str] = Query(None, description='one robot'),
+@router.get('/fleet', summary='Every robot joint, worst first (the order of `fleet`)',
+            response_model=FleetJson, responses=NOT_MODIFIED)
+def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSetsDep,
+              cache: FleetCacheDep,
+              robot: Optional[str] = Query(None, description='one robot'),
               state: Optional[str] = Query(None, description='one state: ' + ', '.join(STATES))
               ) -> Response:
     """
@@ -55,40 +67,38 @@ def api_fleet(request: Request, robot: Optional[str] = Query(None, description='
     Each row adds ``state``, ``arrow``, ``threshold``, the acknowledgement, the bar's
     positions and the texts the page shows.
     """
-    payload = fleet_json(history_of(request), now_s=time.time(),
-                         parameter_sets=request.app.state.parameter_sets,
-                         robot=robot or None, state=_state(state),
-                         cache=request.app.state.fleet_cache)
+    payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
+                         robot=robot or None, state=_state(state), cache=cache)
     return json_with_etag(request, payload)
 
 
-@router.get('/robots/{robot}/joints/{joint}', summary="One joint's wear story")
-def api_joint(request: Request, robot: str, joint: str) -> Response:
+@router.get('/robots/{robot}/joints/{joint}', summary="One joint's wear story",
+            response_model=JointJson, responses=NOT_MODIFIED)
+def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
+              parameter_sets: ParameterSetsDep) -> Response:
     """
     Return one joint's wear story.
 
     Every experiment (w-hat, 95 % interval, trend, T-hat, p-value), the forecast cone, the
     friction levels of the last experiments with the model, the alarm log.
     """
-    payload = joint_json(history_of(request), robot=robot, joint=joint, now_s=time.time(),
-                         parameter_sets=request.app.state.parameter_sets)
+    payload = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
+                         parameter_sets=parameter_sets)
     if payload is None:
         raise HTTPException(status_code=404, detail=f'no estimates of robot {robot[:80]!r} '
                                                     f'joint {joint[:80]!r}')
     return json_with_etag(request, payload)
 
 
-@router.get('/alarms', summary='The alarm log of the fleet, newest first')
-def api_alarms(request: Request, robot: Optional[str] = None, joint: Optional[str] = None,
+@router.get('/alarms', summary='The alarm log of the fleet, newest first',
+            response_model=list[AlarmEventJson])
+def api_alarms(history: HistoryDep, robot: Optional[str] = None, joint: Optional[str] = None,
                limit: Optional[int] = Query(None, ge=1, le=100000)) -> list[dict[str, Any]]:
     """Return the raised, acknowledged and reset events, newest first, with who and why."""
-    return alarm_log(history_of(request), robot=robot or None, joint=joint or None,
-                     limit=limit)
+    return alarm_log(history, robot=robot or None, joint=joint or None, limit=limit)
 
 
-@router.get('/me', summary='The logged-in user')
-def api_me(request: Request) -> dict[str, Any]:
+@router.get('/me', summary='The logged-in user', response_model=MeJson)
+def api_me(request: Request, user: CurrentUser) -> dict[str, Any]:
     """Return the session's user name, role and CSRF token (for scripted POSTs)."""
-    from robot_wear_monitor.dashboard.auth import csrf_token, current_user
-    user = current_user(request) or {}
     return {**user, 'csrf_token': csrf_token(request)}

@@ -18,9 +18,10 @@ import hmac
 import secrets
 import threading
 import time
-from typing import Any, Awaitable, Callable, Optional
+from typing import Any, Awaitable, Callable, Optional, TypedDict
 from urllib.parse import quote
 
+from robot_wear_monitor.history.users import ROLES
 from starlette.middleware.base import BaseHTTPMiddleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse, PlainTextResponse, RedirectResponse, Response
@@ -29,8 +30,6 @@ from starlette.responses import JSONResponse, PlainTextResponse, RedirectRespons
 MAX_FAILURES = 5
 #: The window of the login rate limit [s].
 WINDOW_S = 300.0
-#: The roles: a viewer reads, a maintainer also acknowledges and resets alarms.
-ROLES = ('viewer', 'maintainer')
 #: Paths answered without a session: the login page and its style.
 PUBLIC_PATHS = ('/login', '/static/dashboard.css', '/favicon.ico')
 #: Security headers of every answer (no script but the app's own files, no framing).
@@ -41,6 +40,13 @@ SECURITY_HEADERS = {
     'X-Content-Type-Options': 'nosniff', 'X-Frame-Options': 'DENY',
     'Referrer-Policy': 'no-referrer', 'Cache-Control': 'no-store',
 }
+
+
+class SessionUser(TypedDict):
+    """The session's user: name and role (one of :data:`ROLES`)."""
+
+    name: str
+    role: str
 
 
 class LoginLimiter:
@@ -112,7 +118,7 @@ def csrf_ok(request: Request, supplied: Optional[str]) -> bool:
     return bool(expected and supplied and hmac.compare_digest(str(expected), str(supplied)))
 
 
-def current_user(request: Request) -> Optional[dict[str, str]]:
+def current_user(request: Request) -> Optional[SessionUser]:
     """Return ``{'name', 'role'}`` of the session's user, or None."""
     name = request.session.get('user')
     role = request.session.get('role')

@@ -2,10 +2,11 @@
 The dashboard's HTML pages and forms: login, fleet, joint, alarm log, the OpenAPI page.
 
 Jinja2 with autoescape renders every name and note as text.  The forms (login, logout,
-acknowledge, reset) carry the session's CSRF token; a POST without it gets 403.  Acknowledge
-and reset are the maintainer's: a viewer gets 403.  Each is stored in the history with the
-user, the time and the text (:meth:`WearHistory.acknowledge_alarm`,
-:meth:`WearHistory.reset_alarm`).
+acknowledge, reset) carry the session's CSRF token; a POST without it gets 403
+(``deps.check_csrf``).  Acknowledge and reset are the maintainer's: a viewer gets 403
+(``deps.MaintainerUser``); each is stored in the history with the user, the time and the text
+(:meth:`WearHistory.acknowledge_alarm`, :meth:`WearHistory.reset_alarm`).  What a route needs
+comes by dependency (:mod:`robot_wear_monitor.dashboard.deps`).
 """
 
 from __future__ import annotations
@@ -15,10 +16,12 @@ import io
 import time
 from typing import Any, Optional
 
-from fastapi import APIRouter, Form, HTTPException, Query, Request
-from robot_wear_monitor.dashboard.app import history_of
-from robot_wear_monitor.dashboard.auth import (client_address, csrf_ok, csrf_token,
-                                               current_user, safe_next, start_session)
+from fastapi import APIRouter, Depends, Form, Query, Request
+from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, current_user,
+                                               safe_next, start_session)
+from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_settings,
+                                               get_templates, HistoryDep, LimiterDep,
+                                               MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
                                                 fleet_row_html, joint_json, joint_url, STATES)
 from robot_wear_monitor.history import HistoryError
@@ -30,29 +33,12 @@ router = APIRouter(include_in_schema=False)
 def render(request: Request, template: str, *, status_code: int = 200,
            **context: Any) -> HTMLResponse:
     """Return a page rendered with the user, the CSRF token and a one-time message."""
-    env = request.app.state.templates
     flash = request.session.pop('flash', None) if 'flash' in request.session else None
-    html = env.get_template(template).render(
+    html = get_templates(request).get_template(template).render(
         user=current_user(request), csrf_token=csrf_token(request), flash=flash,
-        joint_url=joint_url, poll_ms=request.app.state.settings.poll_interval_ms,
+        joint_url=joint_url, poll_ms=get_settings(request).poll_interval_ms,
         path=request.url.path, **context)
     return HTMLResponse(html, status_code=status_code)
-
-
-def _check_csrf(request: Request, token: Optional[str]) -> None:
-    if not csrf_ok(request, token or request.headers.get('x-csrf-token')):
-        raise HTTPException(status_code=403, detail='missing or wrong CSRF token: reload the '
-                                                    'page and send the form again')
-
-
-def _maintainer(request: Request) -> dict[str, str]:
-    """Return the session's user when a maintainer still (a removed user's session is void)."""
-    user = current_user(request)
-    stored = {u.name: u.role for u in history_of(request).users()} if user else {}
-    if user is None or stored.get(user['name']) != 'maintainer':
-        raise HTTPException(status_code=403, detail='only a maintainer may acknowledge or '
-                                                    'reset an alarm')
-    return user
 
 
 @router.get('/login')
@@ -61,12 +47,11 @@ def login_page(request: Request, next: str = '/') -> HTMLResponse:  # noqa: A002
     return render(request, 'login.html', next=safe_next(next), error=None)
 
 
-@router.post('/login')
-def login(request: Request, username: str = Form(''), password: str = Form(''),
-          csrf_token: str = Form(''), next: str = Form('/')) -> Response:  # noqa: A002
+@router.post('/login', dependencies=[Depends(check_csrf)])
+def login(request: Request, history: HistoryDep, limiter: LimiterDep,
+          username: str = Form(''), password: str = Form(''),
+          next: str = Form('/')) -> Response:  # noqa: A002
     """Log in: 303 to ``next``; 401 on a wrong name or password; 429 after too many."""
-    _check_csrf(request, csrf_token)
-    limiter = request.app.state.limiter
     address = client_address(request)
     name = username.strip()[:64]
     wait = limiter.retry_after_s(user=name, address=address)
@@ -77,7 +62,7 @@ def login(request: Request, username: str = Form(''), password: str = Form(''),
         return response
     user = None
     try:
-        user = history_of(request).verify_user(name=name, password=password[:1024])
+        user = history.verify_user(name=name, password=password[:1024])
     except HistoryError:
         user = None  # a malformed name is a failed login like any other
     if user is None:
@@ -89,30 +74,30 @@ def login(request: Request, username: str = Form(''), password: str = Form(''),
     return RedirectResponse(safe_next(next), status_code=303)
 
 
-@router.post('/logout')
-def logout(request: Request, csrf_token: str = Form('')) -> Response:
+@router.post('/logout', dependencies=[Depends(check_csrf)])
+def logout(request: Request) -> Response:
     """Log out (the session is emptied)."""
-    _check_csrf(request, csrf_token)
     request.session.clear()
     return RedirectResponse('/login', status_code=303)
 
 
 @router.get('/')
-def fleet_page(request: Request, robot: Optional[str] = None,
+def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterSetsDep,
+               cache: FleetCacheDep, robot: Optional[str] = None,
                state: Optional[str] = None) -> HTMLResponse:
     """Show the fleet, worst first, with counts per state and filters by robot and state."""
-    fleet = fleet_json(history_of(request), now_s=time.time(),
-                       parameter_sets=request.app.state.parameter_sets,
+    fleet = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                        robot=robot or None, state=state if state in STATES else None,
-                       cache=request.app.state.fleet_cache)
+                       cache=cache)
     return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html)
 
 
 @router.get('/robots/{robot}/joints/{joint}')
-def joint_page(request: Request, robot: str, joint: str) -> HTMLResponse:
+def joint_page(request: Request, robot: str, joint: str, history: HistoryDep,
+               parameter_sets: ParameterSetsDep) -> HTMLResponse:
     """One joint's wear story, its alarm log and (for a maintainer) the alarm forms."""
-    data = joint_json(history_of(request), robot=robot, joint=joint, now_s=time.time(),
-                      parameter_sets=request.app.state.parameter_sets)
+    data = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
+                      parameter_sets=parameter_sets)
     if data is None:
         return render(request, 'error.html', status_code=404,
                       message=f'no estimates of robot {robot!r} joint {joint!r}')
@@ -120,15 +105,13 @@ def joint_page(request: Request, robot: str, joint: str) -> HTMLResponse:
                   api_url='/api' + joint_url(robot, joint))
 
 
-@router.post('/robots/{robot}/joints/{joint}/acknowledge')
-def acknowledge(request: Request, robot: str, joint: str, csrf_token: str = Form(''),
-                owner: str = Form(''), comment: str = Form(''),
+@router.post('/robots/{robot}/joints/{joint}/acknowledge', dependencies=[Depends(check_csrf)])
+def acknowledge(request: Request, robot: str, joint: str, user: MaintainerUser,
+                history: HistoryDep, owner: str = Form(''), comment: str = Form(''),
                 planned_maintenance: str = Form('')) -> Response:
     """Acknowledge the latched alarm (maintainers): owner, comment, planned maintenance date."""
-    _check_csrf(request, csrf_token)
-    user = _maintainer(request)
     try:
-        history_of(request).acknowledge_alarm(
+        history.acknowledge_alarm(
             joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
             comment=comment.strip(), planned_maintenance=planned_maintenance.strip())
     except HistoryError as error:
@@ -138,15 +121,12 @@ def acknowledge(request: Request, robot: str, joint: str, csrf_token: str = Form
     return RedirectResponse(joint_url(robot, joint), status_code=303)
 
 
-@router.post('/robots/{robot}/joints/{joint}/reset')
-def reset(request: Request, robot: str, joint: str, csrf_token: str = Form(''),
+@router.post('/robots/{robot}/joints/{joint}/reset', dependencies=[Depends(check_csrf)])
+def reset(request: Request, robot: str, joint: str, user: MaintainerUser, history: HistoryDep,
           reason: str = Form('')) -> Response:
     """Reset the latched alarm after maintenance (maintainers), with a reason."""
-    _check_csrf(request, csrf_token)
-    user = _maintainer(request)
     try:
-        history_of(request).reset_alarm(joint=joint, robot=robot, user=user['name'],
-                                        reason=reason.strip())
+        history.reset_alarm(joint=joint, robot=robot, user=user['name'], reason=reason.strip())
     except HistoryError as error:
         request.session['flash'] = {'kind': 'error', 'text': _message(error)}
     else:
@@ -160,20 +140,20 @@ def _message(error: Exception) -> str:
 
 
 @router.get('/alarms')
-def alarms_page(request: Request, robot: Optional[str] = None, joint: Optional[str] = None,
+def alarms_page(request: Request, history: HistoryDep, robot: Optional[str] = None,
+                joint: Optional[str] = None,
                 limit: int = Query(500, ge=1, le=100000)) -> HTMLResponse:
     """Show the fleet's alarm log, newest first: raised, acknowledged and reset, who and why."""
-    events = alarm_log(history_of(request), robot=robot or None, joint=joint or None,
-                       limit=limit)
+    events = alarm_log(history, robot=robot or None, joint=joint or None, limit=limit)
     return render(request, 'alarms.html', events=events, robot=robot or '', joint=joint or '',
                   limit=limit)
 
 
 @router.get('/alarms.csv')
-def alarms_csv(request: Request, robot: Optional[str] = None,
+def alarms_csv(history: HistoryDep, robot: Optional[str] = None,
                joint: Optional[str] = None) -> Response:
     """Return the alarm log as CSV for audits (the columns of ``history --alarms --csv``)."""
-    events = alarm_log(history_of(request), robot=robot or None, joint=joint or None)
+    events = alarm_log(history, robot=robot or None, joint=joint or None)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator='\n')
     writer.writerow(ALARM_CSV_COLUMNS)

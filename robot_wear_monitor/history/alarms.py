@@ -21,7 +21,7 @@ import re
 import time
 from typing import Any, Optional, Sequence
 
-from robot_wear_monitor.history.backends import lock_key
+from robot_wear_monitor.history.backends import HistoryBackend, lock_key
 from robot_wear_monitor.history.records import (
     ALARM_EVENT_KINDS, AlarmEvent, HistoryError)
 from robot_wear_monitor.json_values import finite_or_none
@@ -48,7 +48,7 @@ def event_from_row(row: Sequence[Any]) -> AlarmEvent:
                       user=row[9] or '', owner=row[10] or '', planned_maintenance=row[11] or '')
 
 
-def insert_event(backend: Any, event: AlarmEvent, *, robot: str, joint: str,
+def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, joint: str,
                  estimate_id: Optional[int], wall_time_s: Optional[float] = None
                  ) -> AlarmEvent:
     """Store ``event`` of (robot, joint) in the open transaction; return it as stored."""
@@ -107,7 +107,7 @@ def _action_lock(robot: str, joint: str) -> int:
     return lock_key(f'alarm action\0{robot}', joint)
 
 
-def latch_events(backend: Any, *, robot: str, joint: str
+def latch_events(backend: HistoryBackend, *, robot: str, joint: str
                  ) -> tuple[Optional[AlarmEvent], Optional[AlarmEvent]]:
     """
     Return the latch of (robot, joint): its last raise/reset and the acknowledgement after.
@@ -126,7 +126,7 @@ def latch_events(backend: Any, *, robot: str, joint: str
     return latch, event_from_row(rows[0]) if rows else None
 
 
-def _latest_estimate(backend: Any, robot: str,
+def _latest_estimate(backend: HistoryBackend, robot: str,
                      joint: str) -> tuple[Optional[int], Optional[float]]:
     rows = backend.execute('SELECT id, wear FROM estimates WHERE robot = ? AND joint = ? '
                            'ORDER BY id DESC LIMIT 1', (robot, joint))
@@ -138,7 +138,7 @@ def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
                         f'alarm to {what}')
 
 
-def acknowledge_alarm(backend: Any, *, robot: str, joint: str, user: str, owner: str,
+def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, owner: str,
                       comment: str, planned_maintenance: str = '') -> AlarmEvent:
     """
     Store an acknowledgement of the latched alarm of (robot, joint); return the event.
@@ -167,7 +167,7 @@ def acknowledge_alarm(backend: Any, *, robot: str, joint: str, user: str, owner:
             estimate_id=estimate_id, wall_time_s=now)
 
 
-def reset_alarm(backend: Any, *, robot: str, joint: str, user: str, reason: str,
+def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, reason: str,
                 stamp_s: Optional[float] = None) -> AlarmEvent:
     """
     Store a reset of the latched alarm of (robot, joint) after maintenance; return it.
@@ -193,7 +193,7 @@ def reset_alarm(backend: Any, *, robot: str, joint: str, user: str, reason: str,
             robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
 
 
-def alarm_log(backend: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
+def alarm_log(backend: HistoryBackend, *, robot: Optional[str] = None, joint: Optional[str] = None,
               limit: Optional[int] = None, before_id: Optional[int] = None) -> list[AlarmEvent]:
     """
     Return the fleet's alarm events, newest first (id descending).

@@ -16,7 +16,7 @@ advisory locks of the server.
 
 from __future__ import annotations
 
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 import errno
 import hashlib
 import os
@@ -24,7 +24,7 @@ from pathlib import Path
 import sqlite3
 import tempfile
 import time
-from typing import Any, Iterator, Optional, Sequence
+from typing import Any, Iterator, Optional, Protocol, Sequence, Union
 
 from robot_wear_monitor.history.migrations import (
     POSTGRESQL_MIGRATIONS, SQLITE_MIGRATIONS)
@@ -41,6 +41,63 @@ CONNECT_TIMEOUT_S = 10
 _POSTGRESQL_SCHEMES = ('postgresql', 'postgres')
 #: Advisory lock key of the migration of a PostgreSQL history (any constant; 'wear' 'hist').
 _MIGRATION_LOCK_KEY = 0x7765617268697374
+
+
+#: The values of one statement: positional (``?``) or named (``:name``) parameters.
+SqlParams = Union[Sequence[Any], dict[str, Any]]
+
+
+class HistoryBackend(Protocol):
+    """
+    What the store needs of a backend: one connection, transactions, the layout, locks.
+
+    :class:`SqliteBackend` and :class:`PostgresqlBackend` are the two implementations; the
+    store (:class:`~robot_wear_monitor.history.store.WearHistory`) and its helper modules
+    (``alarms``, ``users``, ``notifications_store``) use nothing else of them.
+    """
+
+    @property
+    def kind(self) -> str:
+        """Return ``'sqlite'`` or ``'postgresql'``."""
+
+    @property
+    def name(self) -> str:
+        """Return the history's name in messages (a path, or the URL without its password)."""
+
+    @property
+    def migrations(self) -> dict[int, tuple[str, ...]]:
+        """Return the SQL steps per schema version of this backend."""
+
+    @property
+    def errors(self) -> tuple[type[BaseException], ...]:
+        """Return the driver's error classes (turned into HistoryError by the store)."""
+
+    def describe(self, error: BaseException) -> str:
+        """Return what went wrong, in one line."""
+
+    def execute(self, sql: str, params: SqlParams = ()) -> list[tuple[Any, ...]]:
+        """Run one statement (``?`` placeholders); return its rows (empty when none)."""
+
+    def transaction(self) -> AbstractContextManager[None]:
+        """Return a context that runs its block as one write transaction."""
+
+    def lock_migration(self) -> None:
+        """Wait for other processes changing the layout (within the transaction)."""
+
+    def lock_in_transaction(self, key: int) -> None:
+        """Hold the advisory lock ``key`` until the transaction ends."""
+
+    def tables(self) -> set[str]:
+        """Return the table names of the history's database."""
+
+    def columns(self, table: str) -> set[str]:
+        """Return the column names of ``table``."""
+
+    def writer_lock(self, key: int, *, wait: bool) -> AbstractContextManager[None]:
+        """Return a context holding the advisory writer lock ``key``."""
+
+    def close(self) -> None:
+        """Close the connection."""
 
 
 def is_postgresql_url(location: str | os.PathLike) -> bool:
@@ -197,7 +254,11 @@ class SqliteBackend:
         finally:
             Path(staging).unlink(missing_ok=True)
 
-    def execute(self, sql: str, params: Sequence[Any] | dict = ()) -> list[tuple]:
+    def describe(self, error: BaseException) -> str:
+        """Return what went wrong, in one line."""
+        return _first_line(error)
+
+    def execute(self, sql: str, params: SqlParams = ()) -> list[tuple[Any, ...]]:
         """Run one statement; return its rows (empty for statements without rows)."""
         return self.conn.execute(sql, params).fetchall()
 
@@ -280,7 +341,7 @@ class PostgresqlBackend:
                                '"robot_wear_monitor[postgresql]" (or apt-get install '
                                'python3-psycopg)') from None
         self._psycopg = psycopg
-        self.errors = (psycopg.Error,)
+        self.errors: tuple[type[BaseException], ...] = (psycopg.Error,)
         try:
             self.conn = psycopg.connect(url, autocommit=True, connect_timeout=CONNECT_TIMEOUT_S,
                                         application_name='robot_wear_monitor')
@@ -295,7 +356,7 @@ class PostgresqlBackend:
                     'what was committed before is kept')
         return _first_line(error)
 
-    def execute(self, sql: str, params: Sequence[Any] | dict | None = ()) -> list[tuple]:
+    def execute(self, sql: str, params: Optional[SqlParams] = ()) -> list[tuple[Any, ...]]:
         """Run one statement (``?`` placeholders); return its rows."""
         cursor = self.conn.execute(sql.replace('?', '%s'), params or None)
         return cursor.fetchall() if cursor.description is not None else []

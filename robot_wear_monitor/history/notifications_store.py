@@ -13,6 +13,7 @@ import json
 import time
 from typing import Any, Optional
 
+from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
 
 #: Longest event key [characters].
@@ -28,7 +29,7 @@ def _event_key(value: Any) -> str:
     return value
 
 
-def claim_notification(backend: Any, *, event_key: str, robot: Optional[str],
+def claim_notification(backend: HistoryBackend, *, event_key: str, robot: Optional[str],
                        joint: Optional[str], kind: str, channel: str,
                        payload: dict[str, Any]) -> bool:
     """
@@ -51,7 +52,7 @@ def claim_notification(backend: Any, *, event_key: str, robot: Optional[str],
     return bool(rows)
 
 
-def release_notification(backend: Any, *, event_key: str) -> bool:
+def release_notification(backend: HistoryBackend, *, event_key: str) -> bool:
     """Remove the claim of ``event_key`` (its sending failed); True when there was one."""
     with backend.transaction():
         rows = backend.execute('DELETE FROM notifications WHERE event_key = ? RETURNING id',
@@ -59,7 +60,8 @@ def release_notification(backend: Any, *, event_key: str) -> bool:
     return bool(rows)
 
 
-def list_notifications(backend: Any, *, limit: Optional[int] = None) -> list[dict[str, Any]]:
+def list_notifications(backend: HistoryBackend, *,
+                       limit: Optional[int] = None) -> list[dict[str, Any]]:
     """Return the notifications sent, newest first, as dicts (``payload`` parsed)."""
     query = f'SELECT {_COLUMNS} FROM notifications ORDER BY id DESC'
     params: tuple = ()

@@ -23,7 +23,8 @@ from robot_wear_monitor.history import alarms, notifications_store
 from robot_wear_monitor.history import users as user_accounts
 from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.history.backends import (
-    is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend, SqliteBackend)
+    HistoryBackend, is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend,
+    SqliteBackend)
 from robot_wear_monitor.history.migrations import (
     JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.history.records import (
@@ -85,7 +86,7 @@ class WearHistory:
         """Open (and create or migrate) the history at ``location``."""
         self.robot = _check_name('robot', robot if robot is not None else DEFAULT_ROBOT)
         if is_postgresql_url(location):
-            self._backend: Any = PostgresqlBackend(str(location))
+            self._backend: HistoryBackend = PostgresqlBackend(str(location))
         else:
             self._backend = SqliteBackend(location, init=init)
         #: The history's name in messages (a path, or the URL without its password).
@@ -112,9 +113,7 @@ class WearHistory:
         except HistoryError:
             raise
         except self._backend.errors as error:
-            describe = getattr(self._backend, 'describe', None)
-            reason = describe(error) if describe else str(error).strip().splitlines()[0]
-            raise HistoryError(f'{self.path}: {what}: {reason}') from None
+            raise HistoryError(f'{self.path}: {what}: {self._backend.describe(error)}') from None
 
     def _migrate(self, *, init: Optional[bool]) -> None:
         """Bring the layout to :data:`SCHEMA_VERSION` in one transaction (or refuse it)."""

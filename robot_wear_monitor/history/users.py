@@ -15,9 +15,11 @@ import re
 import time
 from typing import Any, Optional
 
+from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
 
-#: The roles of the dashboard's users.
+#: The roles of the dashboard's users: a viewer reads, a maintainer also acknowledges and
+#: resets alarms (the one definition: the dashboard and its command line import it).
 ROLES = ('viewer', 'maintainer')
 #: Shortest password [characters].
 MIN_PASSWORD_CHARS = 8
@@ -71,7 +73,7 @@ def check_role(role: Any) -> str:
     return str(role)
 
 
-def add_user(backend: Any, *, name: str, role: str, password: str) -> User:
+def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) -> User:
     """
     Add a user with the argon2 hash of ``password``; return it.
 
@@ -99,7 +101,7 @@ def add_user(backend: Any, *, name: str, role: str, password: str) -> User:
     return User(name=name, role=role, created_wall_time_s=now)
 
 
-def remove_user(backend: Any, *, name: str) -> None:
+def remove_user(backend: HistoryBackend, *, name: str) -> None:
     """Remove the user ``name``; :class:`HistoryError` when there is none."""
     name = check_user_name(name)
     with backend.transaction():
@@ -108,14 +110,14 @@ def remove_user(backend: Any, *, name: str) -> None:
         raise HistoryError(f'{backend.name}: no user {name!r}')
 
 
-def list_users(backend: Any) -> list[User]:
+def list_users(backend: HistoryBackend) -> list[User]:
     """Return the users, sorted by name."""
     return [User(name=row[0], role=row[1], created_wall_time_s=float(row[2]))
             for row in backend.execute(
                 'SELECT name, role, created_wall_time_s FROM users ORDER BY name')]
 
 
-def verify_user(backend: Any, *, name: str, password: str) -> Optional[User]:
+def verify_user(backend: HistoryBackend, *, name: str, password: str) -> Optional[User]:
     """
     Return the user when ``password`` is theirs; None otherwise (also for unknown names).
 

@@ -1,0 +1,101 @@
+"""
+What the dashboard's routes take by dependency (FastAPI ``Depends``), as FastAPI's template does.
+
+The routers (``pages``, ``api``) name what they need in their signatures, e.g.
+``history: HistoryDep`` or ``user: MaintainerUser``, and import nothing from ``app``, which
+builds the application and puts the shared objects on ``app.state``:
+
+* :data:`HistoryDep`: an open wear history lent to the request (:class:`HistoryPool`);
+* :data:`SettingsDep`, :data:`ParameterSetsDep`, :data:`FleetCacheDep`, :data:`LimiterDep`:
+  the settings, the parameter sets, the fleet cache and the login rate limit;
+* :data:`CurrentUser`: the session's user (``RequireSession`` has refused requests without);
+* :func:`check_csrf`: 403 unless the form field ``csrf_token`` (or the header
+  ``X-CSRF-Token``) is the session's CSRF token; routes add it as
+  ``dependencies=[Depends(check_csrf)]``, which runs before their other dependencies;
+* :data:`MaintainerUser`: the session's user when the history still names them a
+  maintainer, else 403 (a removed user's session is void).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Iterator
+
+from fastapi import Depends, Form, HTTPException, Request
+import jinja2
+from robot_wear_monitor.dashboard.auth import (csrf_ok, current_user, LoginLimiter,
+                                               SessionUser)
+from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool
+from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
+from robot_wear_monitor.history import WearHistory
+
+
+def get_settings(request: Request) -> DashboardSettings:
+    """Return the app's settings."""
+    settings: DashboardSettings = request.app.state.settings
+    return settings
+
+
+def get_history(request: Request) -> Iterator[WearHistory]:
+    """Lend the request an open wear history of its own (given back when it is answered)."""
+    pool: HistoryPool = request.app.state.pool
+    with pool.borrow() as history:
+        yield history
+
+
+def get_parameter_sets(request: Request) -> ParameterSets:
+    """Return the parameter sets the estimates may name."""
+    parameter_sets: ParameterSets = request.app.state.parameter_sets
+    return parameter_sets
+
+
+def get_fleet_cache(request: Request) -> FleetCache:
+    """Return the fleet rows cached while the history is unchanged."""
+    cache: FleetCache = request.app.state.fleet_cache
+    return cache
+
+
+def get_limiter(request: Request) -> LoginLimiter:
+    """Return the login rate limit of this process."""
+    limiter: LoginLimiter = request.app.state.limiter
+    return limiter
+
+
+def get_templates(request: Request) -> jinja2.Environment:
+    """Return the pages' Jinja2 environment."""
+    templates: jinja2.Environment = request.app.state.templates
+    return templates
+
+
+def get_current_user(request: Request) -> SessionUser:
+    """Return the session's user; 401 without one (``RequireSession`` answers that first)."""
+    user = current_user(request)
+    if user is None:
+        raise HTTPException(status_code=401, detail='log in first (POST /login)')
+    return user
+
+
+def check_csrf(request: Request, csrf_token: str = Form('')) -> None:
+    """Refuse (403) a POST without the session's CSRF token (form field or X-CSRF-Token)."""
+    if not csrf_ok(request, csrf_token or request.headers.get('x-csrf-token')):
+        raise HTTPException(status_code=403, detail='missing or wrong CSRF token: reload the '
+                                                    'page and send the form again')
+
+
+SettingsDep = Annotated[DashboardSettings, Depends(get_settings)]
+HistoryDep = Annotated[WearHistory, Depends(get_history)]
+ParameterSetsDep = Annotated[ParameterSets, Depends(get_parameter_sets)]
+FleetCacheDep = Annotated[FleetCache, Depends(get_fleet_cache)]
+LimiterDep = Annotated[LoginLimiter, Depends(get_limiter)]
+CurrentUser = Annotated[SessionUser, Depends(get_current_user)]
+
+
+def get_current_maintainer(user: CurrentUser, history: HistoryDep) -> SessionUser:
+    """Return the session's user when the history names them a maintainer still; else 403."""
+    stored = {u.name: u.role for u in history.users()}
+    if stored.get(user['name']) != 'maintainer':
+        raise HTTPException(status_code=403, detail='only a maintainer may acknowledge or '
+                                                    'reset an alarm')
+    return user
+
+
+MaintainerUser = Annotated[SessionUser, Depends(get_current_maintainer)]

@@ -1,0 +1,205 @@
+"""
+The shapes of the dashboard's JSON API (pydantic models, documented at ``/openapi.json``).
+
+The routes send what :mod:`robot_wear_monitor.dashboard.views` makes: ``/api/fleet`` and the
+joint's route send that JSON as it is (with its ETag), ``/api/alarms`` and ``/api/me`` are
+checked against their model.  Every model forbids keys it does not name, so a key added to a
+view without its model fails the API's tests.  Numbers that are not finite are null.  Wear w:
+0 new, 100 failure; temperatures degC; speeds motor side rad/s; frictions normalised; times
+s since the epoch (UTC).
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from pydantic import BaseModel, ConfigDict, Field
+from robot_wear_monitor.dashboard.views import FRICTION_EXPERIMENTS, STATES
+from robot_wear_monitor.fleet.ranking import STALE_FACTOR
+from robot_wear_monitor.history import ALARM_EVENT_KINDS
+
+
+class _Shape(BaseModel):
+    """
+    A JSON object of the API: exactly the keys named.
+
+    A field named like a Python builtin has another name and the key as its alias (``id``).
+    """
+
+    model_config = ConfigDict(extra='forbid', protected_namespaces=())
+
+
+class WearBar(_Shape):
+    """The fleet row's wear bar: positions in % of its width (-1: not drawn)."""
+
+    low: float = Field(description="the 95 % interval's lower end [% of the bar]")
+    high: float = Field(description="the 95 % interval's upper end [% of the bar]")
+    wear: float = Field(description='w-hat [% of the bar]; -1 when it cannot be judged')
+    threshold: float = Field(description="the parameter set's wear threshold [% of the bar]")
+    scale_max: float = Field(description='the wear at the right end of the bar [w]')
+
+
+class RowTexts(_Shape):
+    """The texts the fleet page shows in a row's cells."""
+
+    wear: str
+    trend: str
+    crossing: str
+    alarm: str
+    last: str
+    invalid: str
+
+
+class FleetRowJson(_Shape):
+    """One robot's joint in the fleet: the keys of ``fleet --json`` and what the page shows."""
+
+    robot: str
+    joint: str
+    wear: Optional[float] = Field(description='w-hat of the latest experiment')
+    wear_low: Optional[float] = Field(description='its 95 % interval, lower end')
+    wear_high: Optional[float] = Field(description='its 95 % interval, upper end')
+    trend_wear: Optional[float]
+    trend_low: Optional[float]
+    trend_high: Optional[float]
+    alarm: bool = Field(description='the alarm is latched (acknowledged or not)')
+    alarm_since_s: Optional[float] = Field(description="the latching experiment's stamp [s]")
+    experiments: int
+    last_stamp_s: Optional[float] = Field(description="the latest experiment's stamp [s]")
+    crossing_experiments: Optional[float] = Field(
+        description='experiments until the forecast crosses the threshold (median)')
+    crossing_time_s: Optional[float] = Field(description='when, at the usual spacing [s]')
+    usual_interval_s: Optional[float] = Field(description='the mean time between experiments '
+                                                          '[s]')
+    stale: bool = Field(description=f'no experiment for {STALE_FACTOR:g} usual intervals')
+    status_level: int
+    valid: bool
+    invalid_reason: Optional[str]
+    acknowledged: bool
+    acknowledged_by: Optional[str]
+    acknowledged_time_s: Optional[float]
+    planned_maintenance: Optional[str] = Field(description='YYYY-MM-DD')
+    state: str = Field(description='one of: ' + ', '.join(STATES),
+                       json_schema_extra={'enum': list(STATES)})
+    arrow: str = Field(description='the trend arrow: \u2191, \u2197, \u2192 or ?')
+    threshold: float = Field(description="the parameter set's wear threshold [w]")
+    acknowledged_s: Optional[float] = Field(description='when acknowledged [s, wall clock]')
+    parameter_set: str
+    alarm_since: Optional[str] = Field(description='alarm_since_s as ISO 8601 UTC')
+    last_experiment: str = Field(description='last_stamp_s as ISO 8601 UTC')
+    crossing_date: Optional[str] = Field(description='crossing_time_s as YYYY-MM-DD (UTC)')
+    bar: WearBar
+    url: str = Field(description="the joint's page")
+    text: RowTexts
+
+
+class FleetJson(_Shape):
+    """The fleet worst first (the order of ``fleet``), the counts per state, the robots."""
+
+    counts: dict[str, int] = Field(description='joints per state, of the whole fleet')
+    joints: int = Field(description='joints of the whole fleet')
+    robots: list[str]
+    robot: Optional[str] = Field(description='the robot filter (null: all)')
+    state: Optional[str] = Field(description='the state filter (null: all)')
+    rows: list[FleetRowJson] = Field(description='the rows that pass the filters')
+
+
+class AlarmEventJson(_Shape):
+    """One alarm event: raised (by an experiment), acknowledged or reset (by a person)."""
+
+    event_id: Optional[int] = Field(alias='id', description="the event's id in the history")
+    robot: str
+    joint: str
+    event: str = Field(description='one of: ' + ', '.join(ALARM_EVENT_KINDS),
+                       json_schema_extra={'enum': list(ALARM_EVENT_KINDS)})
+    stamp_s: Optional[float] = Field(description="a raise: its experiment's stamp [s]; "
+                                                 'else the moment [s]')
+    time: str = Field(description='stamp_s as ISO 8601 UTC')
+    wall_time_s: Optional[float] = Field(description='when it was stored [s, wall clock]')
+    wear: Optional[float]
+    note: str
+    user: str
+    owner: str
+    planned_maintenance: str = Field(description="YYYY-MM-DD or ''")
+
+
+class ExperimentJson(_Shape):
+    """One experiment of a joint: w-hat, T-hat, the trend, the model check."""
+
+    estimate_id: int = Field(alias='id', description="the estimate's id in the history")
+    stamp_s: float = Field(description="the experiment's end [s]")
+    time: str
+    wear: Optional[float]
+    wear_low: Optional[float]
+    wear_high: Optional[float]
+    trend_wear: Optional[float]
+    trend_low: Optional[float]
+    trend_high: Optional[float]
+    temperature_degc: Optional[float]
+    temperature_low_degc: Optional[float]
+    temperature_high_degc: Optional[float]
+    p_value: Optional[float] = Field(description="the model check's p-value")
+    model_check_failed: bool = Field(description='p_value below model_check_p_value')
+    alarm: bool
+    valid: bool
+    invalid_reason: Optional[str]
+    crossing_experiments: Optional[float]
+    crossing_time_s: Optional[float]
+
+
+class ForecastJson(_Shape):
+    """The forecast cone of the latest trend up to the threshold: its middle and 95 % band."""
+
+    time_s: list[float]
+    time: list[str]
+    wear: list[float]
+    high: list[float]
+    low: list[float]
+    crossing_experiments: float
+    crossing_low_experiments: float
+    crossing_high_experiments: float
+    crossing_time_s: float
+    crossing_low_time_s: float
+    crossing_high_time_s: float
+    crossing: str
+    crossing_low: str
+    crossing_high: str
+    rate_per_experiment: float = Field(description='wear per experiment [w]')
+    spacing_s: float = Field(description="the joint's usual experiment spacing [s]")
+
+
+class FrictionCurveJson(_Shape):
+    """The friction levels of one experiment and the model at its T-hat and w-hat."""
+
+    estimate_id: int = Field(alias='id', description="the estimate's id in the history")
+    time: str
+    speeds_rad_s: list[float] = Field(description='motor side [rad/s]')
+    frictions: list[float] = Field(description='normalised')
+    model_speeds_rad_s: list[float]
+    model_frictions: Optional[list[float]] = Field(description='null without T-hat or w-hat')
+    temperature_degc: Optional[float]
+    wear: Optional[float]
+
+
+class JointJson(_Shape):
+    """One joint's wear story."""
+
+    robot: str
+    joint: str
+    threshold: float = Field(description="the parameter set's wear threshold [w]")
+    parameter_set: str
+    model_note: Optional[str] = Field(description='why another set stands in (null: none)')
+    model_check_p_value: float
+    state: Optional[FleetRowJson] = Field(description="the joint's fleet row")
+    experiments: list[ExperimentJson]
+    forecast: Optional[ForecastJson]
+    friction: list[FrictionCurveJson] = Field(
+        description=f'the last {FRICTION_EXPERIMENTS} experiments')
+    events: list[AlarmEventJson] = Field(description='the alarm log, newest first')
+
+
+class MeJson(_Shape):
+    """The logged-in user and the session's CSRF token (for scripted POSTs)."""
+
+    name: str
+    role: str
+    csrf_token: str
