@@ -17,6 +17,7 @@ import time
 from typing import Any, Optional
 
 from fastapi import APIRouter, Depends, Form, Query, Request
+from robot_wear_monitor.csv_cells import spreadsheet_text
 from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, current_user,
                                                safe_next, start_session)
 from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_settings,
@@ -165,10 +166,10 @@ def alarms_csv(history: HistoryDep, robot: Optional[str] = None,
 
 
 def _csv_cell(value: Any) -> str:
-    """Return a CSV cell; a text a spreadsheet would run as a formula gets a leading quote."""
-    text = f'{value:.6g}' if isinstance(value, float) else str(value)
-    return "'" + text if text[:1] in ('=', '+', '-', '@') and not isinstance(value, float) \
-        else text
+    """Return a CSV cell: a number as a number, a text spreadsheet-safe (no live formula)."""
+    if isinstance(value, float):
+        return f'{value:.6g}'
+    return str(value) if isinstance(value, int) else spreadsheet_text(str(value))
 
 
 @router.get('/docs')
