@@ -155,23 +155,41 @@ def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPo
     POST ``payload`` as JSON to the webhook; retry connection errors, timeouts, 5xx, 429.
 
     Any 2xx answer is a delivery; another 4xx (or a redirect, never followed) fails at once.
+    Each try has a hard deadline, ``hook.timeout_s`` or what is left of ``retry.total_s``
+    whichever is sooner, that bounds the whole request (connect, send, headers and body):
+    httpx's own timeouts bound each network operation only, so a server that trickles a byte
+    every second would keep a try alive for ever.  The try runs in its own event loop
+    (anyio) and is cancelled at its deadline.
     """
+    import anyio
     import httpx
 
-    with httpx.Client(timeout=httpx.Timeout(hook.timeout_s), follow_redirects=False,
-                      headers={'User-Agent': _USER_AGENT}) as client:
-        def attempt_once() -> tuple[bool, bool, str]:
-            try:
-                response = client.post(hook.url, json=payload)
-            except httpx.TransportError as problem:
-                text = clean_text(str(problem), limit=200)
-                return False, True, f'{type(problem).__name__}: {text}'
-            if 200 <= response.status_code < 300:
-                return True, False, ''
-            retryable = response.status_code >= 500 or response.status_code == 429
-            return False, retryable, (f'HTTP {response.status_code} '
-                                      f'{clean_text(response.reason_phrase, limit=80)}')
-        return _retrying(attempt_once, retry, sleep=sleep, clock=clock)
+    start = clock()
+
+    async def post_once(limit_s: float) -> httpx.Response:
+        async with httpx.AsyncClient(timeout=httpx.Timeout(hook.timeout_s),
+                                     follow_redirects=False,
+                                     headers={'User-Agent': _USER_AGENT}) as client:
+            with anyio.fail_after(limit_s):
+                return await client.post(hook.url, json=payload)
+
+    def attempt_once() -> tuple[bool, bool, str]:
+        limit_s = min(hook.timeout_s, retry.total_s - (clock() - start))
+        if limit_s <= 0.0:
+            return False, False, f'no time left (gave up: {retry.total_s:g} s in all)'
+        try:
+            response = anyio.run(post_once, limit_s)
+        except TimeoutError:
+            return False, True, f'no whole answer within {limit_s:.3g} s'
+        except httpx.TransportError as problem:
+            text = clean_text(str(problem), limit=200)
+            return False, True, f'{type(problem).__name__}: {text}'
+        if 200 <= response.status_code < 300:
+            return True, False, ''
+        retryable = response.status_code >= 500 or response.status_code == 429
+        return False, retryable, (f'HTTP {response.status_code} '
+                                  f'{clean_text(response.reason_phrase, limit=80)}')
+    return _retrying(attempt_once, retry, sleep=sleep, clock=clock)
 
 
 def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,

@@ -20,6 +20,7 @@ import shutil
 import socket
 import subprocess
 import threading
+import time
 
 from aiosmtpd.controller import Controller
 from aiosmtpd.smtp import AuthResult
@@ -653,3 +654,66 @@ def test_the_loop_sends_and_stops(tmp_path, webhook):
     notify_forever(location=str(tmp_path / 'not-a-history.db'), config=config,
                    interval_s=0.01, stop=stop, on_error=on_error)
     assert len(errors) == 1 and 'not-a-history.db' in errors[0]
+
+
+class TricklingServer:
+    """A loopback HTTP server that answers one byte every ``interval_s`` seconds, for ever."""
+
+    def __init__(self, interval_s=2.0):
+        self.interval_s = interval_s
+        self.listener = socket.socket()
+        self.listener.bind(('127.0.0.1', 0))
+        self.listener.listen(8)
+        self.port = self.listener.getsockname()[1]
+        self.stop = threading.Event()
+        self.connections = 0
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self):
+        self.listener.settimeout(0.2)
+        while not self.stop.is_set():
+            try:
+                conn, _ = self.listener.accept()
+            except OSError:
+                continue
+            self.connections += 1
+            threading.Thread(target=self._trickle, args=(conn,), daemon=True).start()
+
+    def _trickle(self, conn):
+        answer = b'HTTP/1.1 200 OK\r\nContent-Length: 100000\r\n\r\n' + b'x' * 100000
+        with conn:
+            conn.settimeout(1.0)
+            try:
+                conn.recv(65536)
+                for byte in answer:
+                    if self.stop.wait(self.interval_s):
+                        return
+                    conn.sendall(bytes([byte]))
+            except OSError:
+                return
+
+    def close(self):
+        self.stop.set()
+        self.listener.close()
+
+
+def test_a_trickling_webhook_cannot_stall_a_send_past_its_deadline(tmp_path, capsys):
+    server = TricklingServer(interval_s=2.0)
+    try:
+        path = tmp_path / 'notify.yaml'
+        path.write_text(yaml.safe_dump({
+            'events': ['alarm_raised'],
+            'webhooks': [{'url': f'http://127.0.0.1:{server.port}/hook', 'timeout_s': 5}],
+            'retry': {'attempts': 4, 'backoff_initial_s': 0.5, 'total_s': 10, 'passes': 1}}))
+        _one_alarm(tmp_path / 'h.db').close()
+        started = time.monotonic()
+        code = cli_main(['notify', '--history', str(tmp_path / 'h.db'), '--config', str(path),
+                     '--once', '--now', str(NOW)])
+        elapsed_s = time.monotonic() - started
+    finally:
+        server.close()
+    assert code == 1  # not delivered
+    assert elapsed_s < 30.0, elapsed_s  # the issue's bound; the policy allows about 10 s
+    assert server.connections >= 2  # retried: a stalled try is a timeout, not a refusal
+    assert 'no whole answer within' in capsys.readouterr().err
