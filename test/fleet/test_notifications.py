@@ -709,7 +709,7 @@ def test_a_trickling_webhook_cannot_stall_a_send_past_its_deadline(tmp_path, cap
         _one_alarm(tmp_path / 'h.db').close()
         started = time.monotonic()
         code = cli_main(['notify', '--history', str(tmp_path / 'h.db'), '--config', str(path),
-                     '--once', '--now', str(NOW)])
+                         '--once', '--now', str(NOW)])
         elapsed_s = time.monotonic() - started
     finally:
         server.close()
