@@ -106,7 +106,7 @@ def main(args: argparse.Namespace) -> int:
     try:
         from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
                                                       environment_secret)
-        from robot_wear_monitor.dashboard.server import check_listen, serve
+        from robot_wear_monitor.dashboard.server import bind_listener, check_listen, serve
     except ImportError as error:
         raise InputError(f'the dashboard needs {error.name}: pip install '
                          '"robot_wear_monitor[dashboard]"') from None
@@ -131,7 +131,9 @@ def main(args: argparse.Namespace) -> int:
         https=bool(args.tls_cert), notify_config=args.notify,
         notify_interval_s=args.notify_interval_s, extra=extra))
     scheme = 'https' if args.tls_cert else 'http'
+    listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
           '(Ctrl-C stops)', file=sys.stderr)
-    serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key)
+    serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key,
+          listener=listener)
     return 0

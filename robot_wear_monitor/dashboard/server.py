@@ -9,6 +9,7 @@ line naming the options.
 
 from __future__ import annotations
 
+import errno
 import ipaddress
 import os
 import socket
@@ -48,9 +49,43 @@ def check_listen(*, host: str, tls_cert: Optional[str], tls_key: Optional[str],
                      'is in front')
 
 
+def bind_listener(*, host: str, port: int) -> socket.socket:
+    """
+    Return a listening socket on ``host``:``port``, bound before the start line is printed.
+
+    :raises InputError: one line naming ``--port`` (or ``--host``) when the address is taken or
+        cannot be bound, instead of a start line followed by uvicorn's errno 98.
+    """
+    try:
+        family = socket.getaddrinfo(host.strip('[]'), port, type=socket.SOCK_STREAM)[0][0]
+    except OSError as error:
+        raise InputError(f'--host {host[:80]}: cannot be resolved ({error.strerror or error})'
+                         ) from None
+    listener = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        listener.bind((host.strip('[]'), port))
+        listener.listen(2048)
+    except OSError as error:
+        listener.close()
+        if error.errno == errno.EADDRINUSE:
+            raise InputError(f'--port {port}: {host[:80]}:{port} is already in use (another '
+                             'dashboard or server?); choose another --port') from None
+        raise InputError(f'--port {port}: cannot listen on {host[:80]}:{port}: '
+                         f'{error.strerror or error}') from None
+    listener.set_inheritable(True)
+    return listener
+
+
 def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
-          tls_key: Optional[str] = None) -> None:
-    """Serve ``app`` with uvicorn until interrupted (HTTPS when a certificate is given)."""
+          tls_key: Optional[str] = None, listener: Optional[socket.socket] = None) -> None:
+    """
+    Serve ``app`` with uvicorn until interrupted (HTTPS when a certificate is given).
+
+    ``listener``: a socket from :func:`bind_listener` (else uvicorn binds ``host``:``port``).
+    """
     import uvicorn
-    uvicorn.run(app, host=host, port=port, ssl_certfile=tls_cert, ssl_keyfile=tls_key,
-                log_level='info', proxy_headers=False, server_header=False)
+    config = uvicorn.Config(app, host=host, port=port, ssl_certfile=tls_cert,
+                            ssl_keyfile=tls_key, log_level='info', proxy_headers=False,
+                            server_header=False)
+    uvicorn.Server(config).run(sockets=[listener] if listener is not None else None)

@@ -104,3 +104,19 @@ def test_the_command_serves_the_login_page(tmp_path):
         process.terminate()
         _, err = process.communicate(timeout=30)
     assert f'127.0.0.1:{port}' in err
+
+
+def test_a_taken_port_is_one_line_naming_the_port(tmp_path):
+    history = make_fleet(str(tmp_path / 'h.sqlite3'))
+    with socket.socket() as taken:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        result = _cli('dashboard', '--history', history, '--port', str(port))
+    assert result.returncode == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith('robot-wear-monitor dashboard: error: --port ')
+    assert f'127.0.0.1:{port} is already in use' in lines[0]
+    assert 'dashboard of' not in result.stderr + result.stdout  # no start line before it
+    assert 'errno' not in result.stderr.lower()
