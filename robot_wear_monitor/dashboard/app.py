@@ -21,7 +21,8 @@ from fastapi.staticfiles import StaticFiles
 import jinja2
 from robot_wear_monitor import __version__
 from robot_wear_monitor.dashboard import api, pages
-from robot_wear_monitor.dashboard.auth import LoginLimiter, new_secret_key, RequireSession
+from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, LoginLimiter, new_secret_key,
+                                               RequireSession, SESSION_MAX_AGE_S)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool, POLL_INTERVAL_MS
 from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
@@ -29,8 +30,6 @@ from starlette.middleware.sessions import SessionMiddleware
 from starlette.responses import FileResponse
 
 HERE = Path(__file__).resolve().parent
-#: How long a session lasts without a new login [s].
-SESSION_MAX_AGE_S = 12 * 3600
 
 __all__ = ['create_app', 'DashboardSettings', 'environment_secret', 'HistoryPool',
            'plotly_js_path', 'POLL_INTERVAL_MS', 'SESSION_MAX_AGE_S', 'swagger_ui_folder']
@@ -87,6 +86,7 @@ def create_app(settings: DashboardSettings) -> FastAPI:
     app.add_middleware(SessionMiddleware, secret_key=settings.secret_key or new_secret_key(),
                        session_cookie='rwm_session', max_age=SESSION_MAX_AGE_S,
                        same_site='strict', https_only=settings.https)
+    app.add_middleware(LoginBodyLimit)  # outermost: a login body is refused before it is read
     app.mount('/static/swagger', StaticFiles(directory=str(swagger_ui_folder())),
               name='swagger')
     app.mount('/static', StaticFiles(directory=str(HERE / 'static')), name='static')

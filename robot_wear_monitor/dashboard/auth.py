@@ -1,14 +1,19 @@
 """
 Who may see and do what: sessions, roles, the CSRF token and the login rate limit.
 
-The session is Starlette's signed cookie (itsdangerous; HttpOnly, SameSite=Strict, Secure
-under TLS) holding the user's name, role and CSRF token; the key is made at every server start,
-so a restart logs everybody out.  Every request but ``/login`` and the login page's style needs
-a session (:class:`RequireSession`): pages redirect to ``/login``, the API answers 401.  Every
-POST carries the session's CSRF token (form field ``csrf_token`` or header ``X-CSRF-Token``)
-or gets 403.  Failed logins are counted per user name and per client address in this process's
-memory (:class:`LoginLimiter`): after :data:`MAX_FAILURES` failures within
-:data:`WINDOW_S` the login answers 429 until the window has passed.
+Sessions are kept server-side, in the wear history (``history.sessions``): a login stores a
+session (user, CSRF token, expiry after :data:`SESSION_MAX_AGE_S`) and puts only its random id
+in Starlette's signed cookie (itsdangerous; HttpOnly, SameSite=Strict, Secure under TLS; the
+key is made at every server start, so a restart logs everybody out).  Every request looks the
+session up (:class:`RequireSession`): a logout or the removal of the user ends it at once, so a
+copied cookie is worth nothing after either.  Every request but ``/login`` and the login
+page's style needs a session: pages redirect to ``/login``, the API answers 401.  Every POST
+carries the session's CSRF token (form field ``csrf_token`` or header ``X-CSRF-Token``) or gets
+403.  Login attempts are counted per user name and per client address in this process's memory
+(:class:`LoginLimiter`) before the password is checked: after :data:`MAX_FAILURES` attempts
+that did not succeed within :data:`WINDOW_S` the login answers 429 until the window has
+passed, however many arrive at once.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
+multipart or over :data:`MAX_LOGIN_BODY_BYTES` before its body is read.
 """
 
 from __future__ import annotations
@@ -22,12 +27,17 @@ from typing import Any, Awaitable, Callable, Optional, TypedDict
 from urllib.parse import quote
 
 from robot_wear_monitor.history.users import ROLES
+from starlette.concurrency import run_in_threadpool
 from starlette.middleware.base import BaseHTTPMiddleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse, PlainTextResponse, RedirectResponse, Response
 
 #: Failed logins allowed per user name and per client address within :data:`WINDOW_S`.
 MAX_FAILURES = 5
+#: How long a session lasts without a new login [s].
+SESSION_MAX_AGE_S = 12 * 3600
+#: The largest body a ``/login`` POST may have [bytes] (a user name, a password, a token).
+MAX_LOGIN_BODY_BYTES = 64 * 1024
 #: The window of the login rate limit [s].
 WINDOW_S = 300.0
 #: Paths answered without a session: the login page and its style.
@@ -78,17 +88,41 @@ class LoginLimiter:
                     wait = max(wait, self.window_s - (now - times[0]))
         return wait
 
+    def begin_attempt(self, *, user: str, address: str) -> float:
+        """
+        Count a login attempt before its password is checked; return 0, or the wait [s].
+
+        The check and the count are one step under the lock: of many attempts at once, at
+        most :attr:`max_failures` pass per user name and per address.  A refused attempt
+        (wait > 0) is not counted.  :meth:`succeeded` takes a good attempt back.
+        """
+        now = self._clock()
+        with self._lock:
+            keys = (f'user:{user}', f'address:{address}')
+            recent = [self._recent(key, now) for key in keys]
+            wait = max((self.window_s - (now - times[0]) for times in recent
+                        if len(times) >= self.max_failures), default=0.0)
+            if wait > 0.0:
+                return max(wait, 1e-3)
+            for times in recent:
+                times.append(now)
+        return 0.0
+
     def failed(self, *, user: str, address: str) -> None:
-        """Count one failed login of ``user`` from ``address``."""
+        """Count one failed login of ``user`` from ``address`` (an attempt not begun here)."""
         now = self._clock()
         with self._lock:
             for key in (f'user:{user}', f'address:{address}'):
                 self._recent(key, now).append(now)
 
-    def succeeded(self, *, user: str) -> None:
-        """Forget the failures of ``user`` (those of the address stay)."""
+    def succeeded(self, *, user: str, address: Optional[str] = None) -> None:
+        """Forget the failures of ``user``; take the good attempt back from ``address``."""
         with self._lock:
             self._failures.pop(f'user:{user}', None)
+            if address is not None:
+                times = self._failures.get(f'address:{address}')
+                if times:
+                    times.pop()
 
 
 def new_secret_key() -> str:
@@ -96,16 +130,52 @@ def new_secret_key() -> str:
     return secrets.token_urlsafe(48)
 
 
-def start_session(request: Request, *, name: str, role: str) -> None:
-    """Log ``name`` in: a fresh session with its role and a new CSRF token."""
+def start_session(request: Request, *, history: Any, name: str) -> bool:
+    """
+    Log ``name`` in: a new server-side session (role, CSRF token, expiry); its id in the cookie.
+
+    Return False when the user is gone (removed between the password check and now).
+    """
+    session = history.start_session(user=name, lifetime_s=SESSION_MAX_AGE_S)
     request.session.clear()
-    request.session.update({'user': name, 'role': role, 'csrf': secrets.token_urlsafe(32),
-                            'since': time.time()})
+    if session is None:
+        return False
+    request.session['sid'] = session.token
+    _attach(request, session)
+    return True
+
+
+def end_session(request: Request, *, history: Any) -> None:
+    """Log out: the server-side session ends (a copied cookie is void too), the cookie empties."""
+    token = request.session.get('sid')
+    if isinstance(token, str):
+        history.end_session(token=token)
+    request.session.clear()
+    request.state.session_user = None
+    request.state.session_csrf = None
+
+
+def _attach(request: Request, session: Any) -> None:
+    if session is None or session.role not in ROLES:
+        request.state.session_user = None
+        request.state.session_csrf = None
+        return
+    request.state.session_user = {'name': str(session.user), 'role': str(session.role)}
+    request.state.session_csrf = str(session.csrf)
+
+
+def load_session(request: Request, history: Any) -> None:
+    """Look the cookie's session up in the history (ended, expired or unknown: none)."""
+    token = request.session.get('sid')
+    session = history.find_session(token=token) if isinstance(token, str) else None
+    if token is not None and session is None:
+        request.session.pop('sid', None)
+    _attach(request, session)
 
 
 def csrf_token(request: Request) -> str:
     """Return the session's CSRF token (made for an anonymous session on the login page)."""
-    token = request.session.get('csrf')
+    token = getattr(request.state, 'session_csrf', None) or request.session.get('csrf')
     if not token:
         token = secrets.token_urlsafe(32)
         request.session['csrf'] = token
@@ -114,17 +184,14 @@ def csrf_token(request: Request) -> str:
 
 def csrf_ok(request: Request, supplied: Optional[str]) -> bool:
     """Return whether ``supplied`` is the session's CSRF token (a constant-time compare)."""
-    expected = request.session.get('csrf')
+    expected = getattr(request.state, 'session_csrf', None) or request.session.get('csrf')
     return bool(expected and supplied and hmac.compare_digest(str(expected), str(supplied)))
 
 
 def current_user(request: Request) -> Optional[SessionUser]:
-    """Return ``{'name', 'role'}`` of the session's user, or None."""
-    name = request.session.get('user')
-    role = request.session.get('role')
-    if not name or role not in ROLES:
-        return None
-    return {'name': str(name), 'role': str(role)}
+    """Return ``{'name', 'role'}`` of the request's live session, or None."""
+    user: Optional[SessionUser] = getattr(request.state, 'session_user', None)
+    return user
 
 
 def client_address(request: Request) -> str:
@@ -150,6 +217,9 @@ class RequireSession(BaseHTTPMiddleware):
         """Pass the request on when it has a session (or is public); else refuse it."""
         path = request.url.path
         response: Response
+        if 'sid' in request.session:  # every request looks its session up in the history
+            pool = request.app.state.pool
+            await run_in_threadpool(_load_from_pool, request, pool)
         if path in PUBLIC_PATHS or current_user(request) is not None:
             response = await call_next(request)
         elif _wants_json(path):
@@ -165,6 +235,63 @@ class RequireSession(BaseHTTPMiddleware):
         for key, value in SECURITY_HEADERS.items():
             response.headers.setdefault(key, value)
         return response
+
+
+def _load_from_pool(request: Request, pool: Any) -> None:
+    with pool.borrow() as history:
+        load_session(request, history)
+
+
+class LoginBodyLimit:
+    """
+    Refuse a ``/login`` POST before its body is read: multipart (415), or over the limit (413).
+
+    The login form is URL-encoded and small; a multipart body would be spooled to a temporary
+    file by the form parser before any check.  A body without a Content-Length is counted as
+    it arrives and cut off past :data:`MAX_LOGIN_BODY_BYTES`.
+    """
+
+    def __init__(self, app: Any, *, max_bytes: int = MAX_LOGIN_BODY_BYTES) -> None:
+        """Wrap the ASGI ``app``."""
+        self.app = app
+        self.max_bytes = max_bytes
+
+    async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+        """Pass the request on, or answer 415/413 for a ``/login`` POST that may not be read."""
+        if scope['type'] != 'http' or scope['method'] != 'POST' or scope['path'] != '/login':
+            await self.app(scope, receive, send)
+            return
+        headers = {k.decode('latin-1').lower(): v.decode('latin-1')
+                   for k, v in scope.get('headers', [])}
+        kind = headers.get('content-type', '').split(';')[0].strip().lower()
+        if kind.startswith('multipart/'):
+            await PlainTextResponse('the login form is sent URL-encoded, not multipart',
+                                    status_code=415)(scope, receive, send)
+            return
+        length = headers.get('content-length', '')
+        if length and (not length.isdigit() or int(length) > self.max_bytes):
+            await PlainTextResponse(f'a login body is at most {self.max_bytes} bytes',
+                                    status_code=413)(scope, receive, send)
+            return
+        seen = 0
+
+        async def bounded_receive() -> Any:
+            nonlocal seen
+            message = await receive()
+            if message['type'] == 'http.request':
+                seen += len(message.get('body', b''))
+                if seen > self.max_bytes:
+                    raise _BodyTooLarge()
+            return message
+        try:
+            await self.app(scope, bounded_receive, send)
+        except _BodyTooLarge:
+            await PlainTextResponse(f'a login body is at most {self.max_bytes} bytes',
+                                    status_code=413)(scope, receive, send)
+
+
+class _BodyTooLarge(Exception):
+    """A chunked login body went past the limit."""
 
 
 def safe_next(target: Any) -> str:

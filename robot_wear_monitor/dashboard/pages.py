@@ -19,7 +19,7 @@ from typing import Any, Optional
 from fastapi import APIRouter, Depends, Form, Query, Request
 from robot_wear_monitor.csv_cells import spreadsheet_text
 from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, current_user,
-                                               safe_next, start_session)
+                                               end_session, safe_next, start_session)
 from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_settings,
                                                get_templates, HistoryDep, LimiterDep,
                                                MaintainerUser, ParameterSetsDep)
@@ -55,7 +55,7 @@ def login(request: Request, history: HistoryDep, limiter: LimiterDep,
     """Log in: 303 to ``next``; 401 on a wrong name or password; 429 after too many."""
     address = client_address(request)
     name = username.strip()[:64]
-    wait = limiter.retry_after_s(user=name, address=address)
+    wait = limiter.begin_attempt(user=name, address=address)  # counted before the check
     if wait > 0:
         response = render(request, 'login.html', status_code=429, next=safe_next(next),
                           error=f'too many failed logins: try again in {wait:.0f} s')
@@ -66,19 +66,17 @@ def login(request: Request, history: HistoryDep, limiter: LimiterDep,
         user = history.verify_user(name=name, password=password[:1024])
     except HistoryError:
         user = None  # a malformed name is a failed login like any other
-    if user is None:
-        limiter.failed(user=name, address=address)
+    if user is None or not start_session(request, history=history, name=user.name):
         return render(request, 'login.html', status_code=401, next=safe_next(next),
                       error='wrong user name or password')
-    limiter.succeeded(user=name)
-    start_session(request, name=user.name, role=user.role)
+    limiter.succeeded(user=name, address=address)
     return RedirectResponse(safe_next(next), status_code=303)
 
 
 @router.post('/logout', dependencies=[Depends(check_csrf)])
-def logout(request: Request) -> Response:
-    """Log out (the session is emptied)."""
-    request.session.clear()
+def logout(request: Request, history: HistoryDep) -> Response:
+    """Log out: the session ends in the history (a copied cookie is void), the cookie empties."""
+    end_session(request, history=history)
     return RedirectResponse('/login', status_code=303)
 
 

@@ -13,6 +13,7 @@ happened.
 
 from __future__ import annotations
 
+import contextvars
 from dataclasses import dataclass
 from email.message import EmailMessage
 import email.utils
@@ -159,7 +160,7 @@ def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPo
     whichever is sooner, that bounds the whole request (connect, send, headers and body):
     httpx's own timeouts bound each network operation only, so a server that trickles a byte
     every second would keep a try alive for ever.  The try runs in its own event loop
-    (anyio) and is cancelled at its deadline.
+    (anyio, in a fresh context) and is cancelled at its deadline.
     """
     import anyio
     import httpx
@@ -178,7 +179,9 @@ def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPo
         if limit_s <= 0.0:
             return False, False, f'no time left (gave up: {retry.total_s:g} s in all)'
         try:
-            response = anyio.run(post_once, limit_s)
+            # a context of its own: a caller's (asyncio.to_thread copies the event loop's
+            # context vars) would make anyio believe a loop runs in this thread
+            response = contextvars.Context().run(anyio.run, post_once, limit_s)
         except TimeoutError:
             return False, True, f'no whole answer within {limit_s:.3g} s'
         except httpx.TransportError as problem:

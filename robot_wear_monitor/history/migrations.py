@@ -28,12 +28,12 @@ from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
-          'notifications', 'joint_summary')
+          'notifications', 'joint_summary', 'sessions')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -162,9 +162,21 @@ _SQLITE_V5 = (
     JOINT_SUMMARY_REBUILD[1],
 )
 
+#: Version 6: the dashboard's sessions, kept server-side (a logout or a removed user ends them
+#: at once); the cookie holds a random id whose SHA-256 is ``id_hash``.
+_V6 = (
+    """CREATE TABLE sessions (
+    id_hash TEXT PRIMARY KEY,
+    user_name TEXT NOT NULL,
+    csrf TEXT NOT NULL,
+    created_wall_time_s DOUBLE PRECISION NOT NULL,
+    expires_wall_time_s DOUBLE PRECISION NOT NULL)""",
+    'CREATE INDEX sessions_user ON sessions (user_name)',
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4, 5: _SQLITE_V5}
+                                                 4: _V4, 5: _SQLITE_V5, 6: _V6}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -245,4 +257,4 @@ _POSTGRESQL_V5 = (
 
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
-                                                     5: _POSTGRESQL_V5}
+                                                     5: _POSTGRESQL_V5, 6: _V6}

@@ -20,6 +20,7 @@ import time
 from typing import Any, Iterator, Optional, Sequence
 
 from robot_wear_monitor.history import alarms, notifications_store
+from robot_wear_monitor.history import sessions as dashboard_sessions
 from robot_wear_monitor.history import users as user_accounts
 from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.history.backends import (
@@ -164,6 +165,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
+        if 'sessions' in tables:
+            return 6
         if 'users' in tables:
             return 5
         return (4 if 'invalid_reason' in columns else 3 if 'robot' in columns
@@ -315,6 +318,24 @@ class WearHistory:
         """Return the dashboard users, sorted by name (no hashes)."""
         with self._guard('cannot read the users'):
             return user_accounts.list_users(self._backend)
+
+    def start_session(self, *, user: str, lifetime_s: float,
+                      now_s: Optional[float] = None) -> Optional[dashboard_sessions.Session]:
+        """Start a dashboard session of ``user`` (None when there is no such user)."""
+        with self._guard('cannot start the session'):
+            return dashboard_sessions.start_session(self._backend, user=user,
+                                                    lifetime_s=lifetime_s, now_s=now_s)
+
+    def find_session(self, *, token: str,
+                     now_s: Optional[float] = None) -> Optional[dashboard_sessions.Session]:
+        """Return the live dashboard session of ``token`` (None: ended, expired or unknown)."""
+        with self._guard('cannot read the session'):
+            return dashboard_sessions.find_session(self._backend, token=token, now_s=now_s)
+
+    def end_session(self, *, token: str) -> bool:
+        """End the dashboard session of ``token`` (a logout); return whether there was one."""
+        with self._guard('cannot end the session'):
+            return dashboard_sessions.end_session(self._backend, token=token)
 
     def verify_user(self, *, name: str, password: str) -> Optional[user_accounts.User]:
         """Return the user when ``password`` is theirs, else None (about as slow either way)."""

@@ -102,10 +102,12 @@ def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) ->
 
 
 def remove_user(backend: HistoryBackend, *, name: str) -> None:
-    """Remove the user ``name``; :class:`HistoryError` when there is none."""
+    """Remove the user ``name`` and end their sessions; :class:`HistoryError` when none."""
     name = check_user_name(name)
     with backend.transaction():
         rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))
+        if rows:  # the user's sessions end with them (schema version 6)
+            backend.execute('DELETE FROM sessions WHERE user_name = ?', (name,))
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
 

@@ -101,7 +101,7 @@ def test_a_version_4_history_of_the_released_code_migrates_in_place(tmp_path):
         _check_migrated(history, events)
         assert history.has_recording(fingerprint=recordings[0][1], robot='cell_1')
     with sqlite3.connect(path) as conn:
-        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == 5
+        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == SCHEMA_VERSION
         assert conn.execute('PRAGMA integrity_check').fetchone()[0] == 'ok'
         assert conn.execute('PRAGMA foreign_key_check').fetchall() == []
         # the rebuilt table keeps counting ids after the old ones
@@ -132,7 +132,7 @@ def test_a_version_4_postgresql_history_migrates_in_place(postgresql_url):
         _check_migrated(history, events)
         assert history.alarm_log(limit=1)[0].id == 4
     with psycopg.connect(postgresql_url) as conn:
-        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == 5
+        assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == SCHEMA_VERSION
 
 
 def test_acknowledge_keeps_the_alarm_latched_and_reset_clears_it(history_location):
@@ -335,17 +335,17 @@ def test_each_notification_is_claimed_once_by_concurrent_notifiers(history_locat
                                        channel='webhook', payload={'v': float('nan')})
 
 
-def test_a_version_6_history_is_refused(history_location):
+def test_a_version_7_history_is_refused(history_location):
     WearHistory(history_location).close()
     if is_postgresql_url(history_location):
         import psycopg
         with psycopg.connect(history_location, autocommit=True) as conn:
-            conn.execute('UPDATE schema_version SET version = 6')
+            conn.execute('UPDATE schema_version SET version = 7')
     else:
         with sqlite3.connect(history_location) as conn:
-            conn.execute('UPDATE schema_version SET version = 6')
-    assert SCHEMA_VERSION == 5
-    with pytest.raises(HistoryError, match='schema version 6, this version reads 5'):
+            conn.execute('UPDATE schema_version SET version = 7')
+    assert SCHEMA_VERSION == 6
+    with pytest.raises(HistoryError, match='schema version 7, this version reads 6'):
         WearHistory(history_location)
 
 
