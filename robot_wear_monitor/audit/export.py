@@ -19,17 +19,16 @@ from __future__ import annotations
 
 from dataclasses import replace
 import json
-import math
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.audit.candidates import ORDER_COLUMN
 from robot_wear_monitor.audit.fitting import AuditTable, Base, Fit
 from robot_wear_monitor.audit.identification_result import (Identification, NOMINAL_PARAMETERS,
-                                                            Parameter, PARAMETER_MEANINGS,
-                                                            PARAMETER_UNITS, WEAR_PARAMETERS)
+                                                            PARAMETER_MEANINGS, parameter_unit,
+                                                            WEAR_PARAMETERS)
 from robot_wear_monitor.audit.shapes import Term
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.extensions import AddedTerm, ModelExtension, ONLINE_VARIABLES
@@ -114,76 +113,104 @@ def _yaml_number(value: float) -> str:
     return text if ('.' in text or 'n' in text) else text + '.0'
 
 
+def _file_name(source: str) -> str:
+    """Return the file or folder name of a data source (no folders: a set holds no path)."""
+    return Path(str(source).rstrip('/')).name or str(source)
+
+
 def parameter_set_yaml(result: Identification) -> str:
-    """Return the parameter-set YAML of an identification, commented with its provenance."""
+    """
+    Return the parameter-set YAML of an identification, commented with its provenance.
+
+    Every value's comment says where it comes from (``result.provenance``): identified with
+    its standard error, taken from the reference set (by name), scaled from it, held at a
+    bound, or taken from the data.  No path is written: the data by file name, the reference
+    set by its set name.
+    """
     params = result.params
     model = params.model
-    nominal = {p.name: p for p in result.nominal.parameters}
-    wear = {p.name: p for p in result.wear.parameters} if result.wear is not None else {}
-    source = result.from_params.source
+    reference = result.from_params.name
+    unit = params.friction_unit
+    unit_text = '-' if unit == 'normalised' else unit
+    provenance = result.provenance
 
     def line(key: str, value: float, comment: str) -> str:
         return f'  {key + ":":<24} {_yaml_number(value):<15} # {comment}'
 
-    def model_line(key: str, estimates: Mapping[str, Parameter]) -> str:
-        value = getattr(model, key)
-        text = f'{PARAMETER_MEANINGS[key]} [{PARAMETER_UNITS[key]}]'
-        if key in estimates and not math.isclose(value, estimates[key].value, rel_tol=1e-9):
-            text += f', from {source} (not determined by the data)'
-        elif key in estimates:
-            error = estimates[key].std_error
-            text += (f', +- {error:.2e}' if math.isfinite(error) else ', undetermined')
-        return line(key, value, text)
+    def model_line(key: str) -> str:
+        text = f'{PARAMETER_MEANINGS[key]} [{parameter_unit(key, unit)}]'
+        if provenance.get(key):
+            text += f', {provenance[key]}'
+        return line(key, getattr(model, key), text)
 
     n = result.nominal
+    units = ('Torques are normalised (dimensionless)' if unit == 'normalised' else
+             f'Friction (and its load) in {unit}')
     out = ['# Parameter set identified by robot-wear-monitor identify (Bittencourt & Axelsson, '
            'Sec. II-B, II-C).',
-           f'# Nominal model (5): {n.n_levels} friction levels of {result.baseline_source} '
-           f'({n.n_experiments} experiments, {n.n_speeds} speeds,',
+           f'# Nominal model (5): {n.n_levels} friction levels of '
+           f'{_file_name(result.baseline_source)} ({n.n_experiments} experiments, '
+           f'{n.n_speeds} speeds,',
            f'#   T {n.temperature_range_degc[0]:.4g}-{n.temperature_range_degc[1]:.4g} degC, '
            f'load {n.load_range[0]:.4g}-{n.load_range[1]:.4g}); +- are standard errors.',
            f'# Held-out error of (5) [mu, sigma] = [{n.held_out_mean:.3e}, '
-           f'{n.held_out_std:.3e}] ({n.folds}).',
-           '# Torques are normalised (dimensionless); speeds are motor side in rad/s; '
-           'temperatures in degC.',
+           f'{n.held_out_std:.3e}] {unit_text} ({n.folds}).',
+           f'# {units}; speeds are motor side in rad/s; temperatures in degC.',
            f'name: {json.dumps(params.name)}', '', '# Nominal friction, eq. (5), identified.',
            'nominal_model:']
-    if 'alpha' in wear:  # identified in (7): the baseline did not determine it
-        nominal = {**nominal, 'alpha': wear['alpha']}
-    out += [model_line(k, nominal) for k in NOMINAL_PARAMETERS]
+    out += [model_line(k) for k in NOMINAL_PARAMETERS]
     out.append('')
+    scaling = result.extra.get('wear_model_scaling')
     if result.wear is not None:
         w = result.wear
-        out.append(f'# Wear profile, eq. (7), identified from {result.wear_source} at '
-                   f'experiment {w.critical_experiment} with w = {w.critical_wear:g};')
+        wear_file = _file_name(result.wear_source or '')
+        out.append(f'# Wear profile, eq. (7), identified from {wear_file} at experiment '
+                   f'{w.critical_experiment} with w = {w.critical_wear:g};')
         out.append(f'# wear-model error [mu, sigma] = [{w.error_mean:.3e}, {w.error_std:.3e}] '
                    f'over {len(w.levels)} experiments; alpha is shared with (5).')
+    elif scaling:
+        out.append('# Wear profile, eq. (7): not identified: no wear test. Assumption: '
+                   f'{scaling["assumption"]}.')
+        out.append('# A wear test of this joint (identify --wear-test) replaces it.')
     else:
-        out.append(f'# Wear profile, eq. (7): from {source} (not identified: no wear test).')
+        out.append(f'# Wear profile, eq. (7): from {reference} as it stands (not identified: '
+                   'no wear test).')
     out.append('wear_model:')
-    out += [model_line(k, wear) for k in WEAR_PARAMETERS]
+    out += [model_line(k) for k in WEAR_PARAMETERS]
+    load_note = provenance.get('load', f'from {reference}')
     out += ['', f'# Measurement model, eqs. (9)-(14). sigma: {result.sigma_rule}.', 'noise:',
-            line('sigma', params.sigma, 'std of the friction-level error, eq. (9b) [-]'),
-            f'# The friction data cannot determine the load estimate: from {source}.',
-            'load:', line('mean', params.load_mean, 'mean of the load-torque estimate [-]'),
-            line('std', params.load_std, 'std of the load-torque estimate [-]'), '',
+            line('sigma', params.sigma,
+                 f'std of the friction-level error, eq. (9b) [{unit_text}]'),
+            f'# Load estimate of eq. (14): {load_note}.',
+            'load:', line('mean', params.load_mean, 'mean of the load-torque estimate'),
+            line('std', params.load_std, 'std of the load-torque estimate'), '',
             '# Estimation: temperature bounds = '
             + ('given by --temperature-bounds' if result.extra.get('temperature_bounds_given')
-               else "the baseline's temperature range") + f'; wear_max from {source}.',
+               else "the baseline's temperature range") + f'; wear_max from {reference}.',
             'estimation:',
             line('temperature_min_degc', params.temperature_min_degc, 'degC'),
             line('temperature_max_degc', params.temperature_max_degc, 'degC'),
             line('wear_max', params.wear_max, 'upper end of the starting grid for w'), '',
-            f'# Experiment design and alarm: from {source} (not determined by friction data).',
+            "# Experiment design: the speed range and separation of the baseline's levels "
+            f'(motor side); design wear from {reference}.',
             'design:',
-            line('speed_min_rad_s', params.speed_min_rad_s, 'rad/s'),
-            line('speed_max_rad_s', params.speed_max_rad_s, 'rad/s'),
-            line('speed_separation_rad_s', params.speed_separation_rad_s, 'rad/s'),
-            line('temperature_degc', params.design_temperature_degc, 'degC'),
-            line('wear', params.design_wear, 'design wear level'), '',
+            line('speed_min_rad_s', params.speed_min_rad_s, "rad/s, the levels' lowest"),
+            line('speed_max_rad_s', params.speed_max_rad_s, "rad/s, the levels' highest"),
+            line('speed_separation_rad_s', params.speed_separation_rad_s,
+                 "rad/s, the levels' smallest step between speeds"),
+            line('temperature_degc', params.design_temperature_degc,
+                 f'degC, {provenance.get("temperature_degc", f"from {reference}")}'),
+            line('wear', params.design_wear, f'design wear level, from {reference}'), '',
+            f'# Alarm: from {reference} (not determined by friction data).',
             'alarm:',
             line('wear_threshold', params.wear_threshold, 'alarm at w >= threshold'),
             line('wear_warning', params.wear_warning, 'diagnostics WARN at w >= warning')]
+    if unit != 'normalised' or params.not_identified:
+        out += ['', '# What the data identified, and the unit of the friction levels.',
+                'identification:',
+                f'  friction_unit: {json.dumps(unit)}']
+        if params.not_identified:
+            out.append('  not_identified: [' + ', '.join(params.not_identified) + ']')
     return '\n'.join(out) + '\n'
 
 

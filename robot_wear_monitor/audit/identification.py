@@ -45,6 +45,8 @@ from robot_wear_monitor.audit.identification_result import (CRITICAL_WEAR, Ident
                                                             WearIdentification, WearLevel)
 from robot_wear_monitor.audit.identify_inputs import (check_baseline, check_wear_test,
                                                       distinct_count, experiment_order)
+from robot_wear_monitor.audit.operating_range import (load_clusters, operating_range,
+                                                      pooled_load_prior, scaled_wear_model)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, parameter_set_from_mapping,
@@ -370,15 +372,17 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
              wear_test: AuditTable | None = None, critical_experiment: str | None = None,
              critical_wear: float = CRITICAL_WEAR,
              temperature_bounds_degc: tuple[float, float] | None = None,
-             n_folds: int = 5, seed: int = 0) -> Identification:
+             n_folds: int = 5, seed: int = 0, friction_unit: str = 'normalised',
+             load_prior: tuple[float, float] | None = None,
+             borrowed_wear: str = 'scaled') -> Identification:
     """
     Identify a complete parameter set: model (5), optionally (7), sigma of (9b).
 
-    :param baseline: healthy-joint levels (``speed``, ``friction``, ``temperature``, ``load``,
-        optionally ``experiment``).
+    :param baseline: healthy-joint levels (``speed`` [rad/s, motor side], ``friction``,
+        ``temperature``, ``load``, optionally ``experiment``).
     :param from_params: the reference set: the start of the fits and the source of every field the
-        data cannot determine (load estimate, design, alarm, wear_max; and the wear model
-        without a wear test).
+        data cannot determine (wear_max, design wear, alarm; the load estimate when the data
+        give none; the wear model without a wear test, scaled, see ``borrowed_wear``).
     :param name: the ``name`` of the new set.
     :param wear_test: levels of an accelerated wear test (same columns plus ``experiment``).
     :param critical_experiment: the experiment K of the wear test identified with w =
@@ -388,6 +392,13 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
         baseline's temperature range.
     :param n_folds: folds of the held-out error.
     :param seed: seed of the folds.
+    :param friction_unit: the unit of the levels' friction (and of the load column), stated in
+        the set.
+    :param load_prior: (mean, std) of the load estimate of eq. (14), given; None: the mean and
+        standard deviation of the baseline's load column.
+    :param borrowed_wear: without a wear test: ``'scaled'`` (the reference's wear model (7)
+        scaled to this joint, :func:`~robot_wear_monitor.audit.operating_range.scaled_wear_model`),
+        ``'reference'`` (taken as it stands; for a joint like the reference's, in its unit).
 
     :return: The :class:`Identification`; ``params`` is validated like a loaded file.
 
@@ -397,6 +408,9 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     if wear_test is not None and critical_experiment is None:
         raise InputError('--wear-test needs --critical-experiment K (the experiment with '
                          'w = --critical-wear)')
+    if borrowed_wear not in ('scaled', 'reference'):
+        raise InputError(f'borrowed wear model: scaled or reference, got {borrowed_wear[:40]!r}')
+    reference = from_params.name
     warnings = check_baseline(baseline)
     nominal = identify_nominal(table=baseline, start=from_params.model, n_folds=n_folds,
                                seed=seed)
@@ -413,15 +427,49 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     warnings += _precision_warnings([p for p in nominal.parameters
                                      if p.name not in dropped_names])
     values = nominal.values()
+    provenance = {p.name: _identified_text(p, dropped=p.name in dropped_names)
+                  for p in nominal.parameters}
     alpha_undetermined = 'alpha' in dropped_names or not (
         {p.name: p for p in nominal.parameters}['alpha'].std_error
         <= 0.5 * abs(values['alpha']))
-    if alpha_undetermined and wear_test is None:
+    if 'alpha' in dropped_names and wear_test is None:
+        # no Stribeck term left in (5): alpha shapes only the borrowed wear model (7)
         values['alpha'] = from_params.model.alpha
+        provenance['alpha'] = f'from {reference} (no Stribeck term in (5) to determine it)'
         warnings.append(f'alpha is not determined by the baseline: kept at {values["alpha"]:g} '
-                        f'from {from_params.source} (shared with its wear model (7))')
+                        f'from {reference} (shared with its wear model (7))')
+    elif alpha_undetermined and wear_test is None:
+        warnings.append(f'alpha is poorly determined by the baseline: the fitted '
+                        f'{values["alpha"]:.3g} is kept (the other parameters of (5) were '
+                        'fitted with it) and shared with the borrowed wear model (7)')
     model = _model_with(from_params.model, values)
+    speed_min, speed_max, separation = operating_range(baseline.numeric['speed'])
+    t_lo, t_hi = (nominal.temperature_range_degc if temperature_bounds_degc is None
+                  else temperature_bounds_degc)
+    if not t_lo < t_hi:
+        raise InputError(f'temperature bounds must satisfy low < high, got {t_lo}, {t_hi}')
+    design_t = from_params.design_temperature_degc
+    provenance['temperature_degc'] = f'from {reference}'
+    if not t_lo <= design_t <= t_hi:
+        warnings.append(f'design temperature {design_t:g} degC of {reference} is '
+                        f'outside the temperature bounds: set to their middle '
+                        f'{0.5 * (t_lo + t_hi):g} degC')
+        design_t = 0.5 * (t_lo + t_hi)
+        provenance['temperature_degc'] = 'the middle of the temperature bounds'
+    clusters = load_clusters(baseline.numeric['load'])
+    if load_prior is not None:
+        load_mean, load_std = load_prior
+        provenance['load'] = 'given (--load-mean, --load-std)'
+    else:
+        pooled = pooled_load_prior(baseline.numeric['load'])
+        load_mean, load_std = pooled.mean, pooled.std
+        provenance['load'] = "the baseline's load column: its mean and standard deviation"
+        if len(clusters) > 1:
+            provenance['load'] += (
+                ' over both configurations of the load (' + ' and '.join(
+                    f'{c.low:.3g}-{c.high:.3g}' for c in clusters) + ')')
     wear = None
+    scaling = None
     if wear_test is not None:
         free_alpha = alpha_undetermined
         if free_alpha:
@@ -433,43 +481,91 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
                              wear_max=from_params.wear_max, free_alpha=free_alpha)
         warnings += _precision_warnings(wear.parameters)
         model = _model_with(model, wear.values())
+        provenance.update({p.name: _identified_text(p) for p in wear.parameters})
         sigma = math.hypot(nominal.held_out_std, wear.error_std)
         rule = ('root sum of squares of the held-out error of (5) and the wear-model error '
                 'of (7)')
     else:
-        sigma = max(nominal.held_out_std, from_params.sigma)
+        if borrowed_wear == 'scaled':
+            scaled, scaling = scaled_wear_model(
+                reference=from_params, model=model, speed_min=speed_min, speed_max=speed_max,
+                temperature_degc=design_t, load_mean=load_mean, friction_unit=friction_unit)
+            model = _model_with(model, scaled)
+            provenance.update({k: f'scaled from {reference} (see the assumption above)'
+                               for k in WEAR_PARAMETERS})
+        else:
+            provenance.update({k: f'from {reference} as it stands (no wear test)'
+                               for k in WEAR_PARAMETERS})
+        sigma = max(nominal.held_out_std, from_params.sigma) if (
+            friction_unit == from_params.friction_unit) else nominal.held_out_std
         rule = (f'no wear test: the larger of the held-out error of (5) and the sigma of '
-                f'{from_params.source}')
-    t_lo, t_hi = (nominal.temperature_range_degc if temperature_bounds_degc is None
-                  else temperature_bounds_degc)
-    if not t_lo < t_hi:
-        raise InputError(f'temperature bounds must satisfy low < high, got {t_lo}, {t_hi}')
+                f'{reference}' if friction_unit == from_params.friction_unit else
+                f'no wear test: the held-out error of (5) (the sigma of {reference} is in '
+                f'{from_params.friction_unit}, not {friction_unit})')
     for bound in (t_lo, t_hi):
         if model.phi_s0 + model.phi_s_temp * bound <= 0:
             raise InputError(f'the identified Stribeck speed phi_s0 + phi_s_temp T is <= 0 at '
                              f'the temperature bound {bound:g} degC: keep the bounds within '
                              f'the baseline range')
-    design_t = from_params.design_temperature_degc
-    if not t_lo <= design_t <= t_hi:
-        warnings.append(f'design temperature {design_t:g} degC of {from_params.source} is '
-                        f'outside the temperature bounds: set to their middle '
-                        f'{0.5 * (t_lo + t_hi):g} degC')
-        design_t = 0.5 * (t_lo + t_hi)
     fields_of_set: dict[str, Any] = {f.name: getattr(from_params, f.name)
                                      for f in fields(ParameterSet)}
     fields_of_set.update(name=name.strip(), model=model, sigma=float(sigma),
                          temperature_min_degc=float(t_lo), temperature_max_degc=float(t_hi),
-                         design_temperature_degc=float(design_t), source='<identified>')
+                         design_temperature_degc=float(design_t), source='<identified>',
+                         load_mean=float(load_mean), load_std=float(load_std),
+                         speed_min_rad_s=speed_min, speed_max_rad_s=speed_max,
+                         speed_separation_rad_s=separation, friction_unit=friction_unit,
+                         not_identified=(), direction_model=None)
     params = ParameterSet(**fields_of_set)
+    extra: dict[str, Any] = {'temperature_bounds_given': temperature_bounds_degc is not None,
+                             'friction_unit': friction_unit,
+                             'load_configurations': [c.to_dict() for c in clusters],
+                             'wear_model_scaling': scaling.to_dict() if scaling else None}
     result = Identification(params=params, nominal=nominal, wear=wear, sigma=float(sigma),
                             sigma_rule=rule, from_params=from_params,
                             warnings=tuple(warnings), baseline_source=baseline.source,
                             wear_source=wear_test.source if wear_test is not None else None,
-                            extra={'temperature_bounds_given': temperature_bounds_degc
-                                   is not None})
+                            extra=extra, provenance=provenance)
     # validate exactly as a loaded file (raises ParameterError, an InputError, naming the field)
     import yaml
     checked = parameter_set_from_mapping(yaml.safe_load(parameter_set_yaml(result)),
                                          source=f'identified set {name!r}')
-    return Identification(**{**{f.name: getattr(result, f.name) for f in fields(result)},
-                             'params': checked})
+    return replace(result, params=checked)
+
+
+def _identified_text(p: Parameter, *, dropped: bool = False) -> str:
+    """Return the provenance comment of an identified parameter (its standard error)."""
+    if dropped:
+        return ('left out: the data do not support its Stribeck term (BIC)' if
+                p.value == 0 else 'undetermined: its Stribeck term is left out (BIC)')
+    text = ('identified, +- ' + f'{p.std_error:.2e}' if math.isfinite(p.std_error)
+            else 'identified, standard error undetermined (the data do not determine it)')
+    if p.at_bound:
+        text += ', held at a bound of its domain'
+    return text
+
+
+def for_configuration(result: Identification, index: int) -> Identification:
+    """
+    Return the identification's set for one load configuration (e.g. without the payload).
+
+    The model, sigma, bounds and the wear model (scaled once, at the pooled load) are the
+    same; the load estimate of eq. (14) is the configuration's mean and standard deviation
+    and the name gets ``_load<index + 1>``.  ``index`` counts the configurations of
+    ``result.extra['load_configurations']`` from the lightest.
+    """
+    configurations = result.extra.get('load_configurations') or []
+    cluster = configurations[index]
+    name = f'{result.params.name}_load{index + 1}'
+    provenance = {**result.provenance, 'load': (
+        f"the baseline's load column, configuration {index + 1} of {len(configurations)} "
+        f"(loads {cluster['low']:.4g}-{cluster['high']:.4g}, {cluster['n_levels']} levels): its "
+        'mean and standard deviation')}
+    params = replace(result.params, name=name, load_mean=float(cluster['mean']),
+                     load_std=float(cluster['std']))
+    candidate = replace(result, params=params, provenance=provenance,
+                        extra={**result.extra, 'configuration': index + 1})
+    import yaml
+    checked = parameter_set_from_mapping(yaml.safe_load(parameter_set_yaml(candidate)),
+                                         source=f'identified set {name!r}')
+    return replace(candidate, params=checked)

@@ -10,7 +10,6 @@ meanings of the parameter-set YAML.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +37,20 @@ PARAMETER_UNITS = {'f_c0': '-', 'f_c_load': '-/-', 'f_s0': '-', 'f_s_load': '-/-
                    'f_v0': '1/(rad/s)', 'f_v_temp': '1/(rad/s)', 'phi_s0': 'rad/s',
                    'phi_s_load': 'rad/s', 'phi_s_temp': 'rad/s/degC', 't_v0': 'degC', 'alpha': '-',
                    'f_s_wear': '-/w', 'f_v_wear': '1/(rad/s)/w', 'phi_s_wear': 'rad/s/w'}
+#: The parameters whose unit is the friction's (normalised: dimensionless), and the rest of
+#: their unit.
+_FRICTION_UNITS = {'f_c0': '', 'f_c_load': '/load', 'f_s0': '', 'f_s_load': '/load',
+                   'f_s_temp': '/degC', 'f_v0': '/(rad/s)', 'f_v_temp': '/(rad/s)',
+                   'f_s_wear': '/w', 'f_v_wear': '/(rad/s)/w'}
+
+
+def parameter_unit(name: str, friction_unit: str = 'normalised') -> str:
+    """Return the unit of a parameter when friction is in ``friction_unit`` (e.g. 'A/degC')."""
+    if friction_unit == 'normalised' or name not in _FRICTION_UNITS:
+        return PARAMETER_UNITS[name]
+    return friction_unit + _FRICTION_UNITS[name]
+
+
 #: What each parameter of the parameter set stands for.
 PARAMETER_MEANINGS = {'f_c0': 'Coulomb offset', 'f_c_load': 'Coulomb load slope',
                       'f_s0': 'Stribeck amplitude offset', 'f_s_load': 'Stribeck load amplitude',
@@ -215,6 +228,10 @@ class Identification:
     :ivar warnings: what the data do not determine well, each naming what to measure more of.
     :ivar baseline_source: where the baseline levels came from.
     :ivar wear_source: where the wear-test levels came from (None without a wear test).
+    :ivar extra: further report fields (friction unit, load configurations, wear scaling).
+    :ivar provenance: where each value of the set comes from, in words: the model's fields
+        (identified with its standard error, from the reference set by name, scaled, held at
+        a bound), ``load`` and the design ``temperature_degc``.
 
     """
 
@@ -228,6 +245,7 @@ class Identification:
     baseline_source: str
     wear_source: str | None = None
     extra: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
@@ -237,39 +255,66 @@ class Identification:
             'sigma': self.sigma, 'sigma_rule': self.sigma_rule,
             'temperature_bounds_degc': [self.params.temperature_min_degc,
                                         self.params.temperature_max_degc],
-            'from_params': self.from_params.source, 'baseline': self.baseline_source,
+            'from_params': self.from_params.source, 'from_params_name': self.from_params.name,
+            'baseline': self.baseline_source,
+            'set_values': {name: getattr(self.params.model, name)
+                           for name in NOMINAL_PARAMETERS + WEAR_PARAMETERS},
+            'provenance': dict(self.provenance),
+            'load_estimate': {'mean': self.params.load_mean, 'std': self.params.load_std},
+            'operating_range': {'speed_min_rad_s': self.params.speed_min_rad_s,
+                                'speed_max_rad_s': self.params.speed_max_rad_s,
+                                'speed_separation_rad_s': self.params.speed_separation_rad_s},
             'wear_test': self.wear_source, 'warnings': list(self.warnings), **self.extra})
 
     def summary(self) -> str:
-        """Return a plain-text report."""
+        """Return a plain-text report: the values the set holds, each with where it comes from."""
         nominal = self.nominal
+        params = self.params
+        unit = params.friction_unit
         lines = [f'identified nominal model (5) on {nominal.n_levels} friction levels '
                  f'({nominal.n_experiments} experiments, {nominal.n_speeds} speeds, '
                  f'T {nominal.temperature_range_degc[0]:.1f}-'
                  f'{nominal.temperature_range_degc[1]:.1f} degC, load '
-                 f'{nominal.load_range[0]:.3g}-{nominal.load_range[1]:.3g})']
-        lines += [_parameter_line(p) for p in nominal.parameters]
+                 f'{nominal.load_range[0]:.3g}-{nominal.load_range[1]:.3g}); friction in '
+                 f'{unit}; the values the set holds:']
+        lines += [self._value_line(p.name) for p in nominal.parameters]
         lines += [f'  {term}: not supported by the data (BIC), left out: amplitudes 0'
                   for term in nominal.dropped]
         lines.append(f'  held-out error [mu, sigma] = [{nominal.held_out_mean:.3e}, '
-                     f'{nominal.held_out_std:.3e}] ({nominal.folds})')
+                     f'{nominal.held_out_std:.3e}] {unit} ({nominal.folds})')
         if self.wear is not None:
             wear = self.wear
             lines.append(f'wear model (7) at experiment {wear.critical_experiment} with '
                          f'w = {wear.critical_wear:g} (alpha from (5)):')
-            lines += [_parameter_line(p) for p in wear.parameters]
+            lines += [self._value_line(p.name) for p in wear.parameters if p.name != 'alpha']
             lines.append(f'  wear-model error [mu, sigma] = [{wear.error_mean:.3e}, '
                          f'{wear.error_std:.3e}] over {len(wear.levels)} experiments')
             shown = ', '.join(f'{lv.experiment}: {lv.wear:.1f}' for lv in wear.levels[-8:])
             lines.append(f'  identified w (last {min(8, len(wear.levels))}): {shown}')
         else:
-            lines.append(f'wear model (7): from {self.from_params.source} (no --wear-test)')
-        lines.append(f'sigma of (9b) = {self.sigma:.3e} ({self.sigma_rule})')
+            scaling = self.extra.get('wear_model_scaling')
+            borrowed = (scaling['assumption'] if scaling else
+                        f'from {self.from_params.name} as it stands (no --wear-test)')
+            lines.append(f'wear model (7): {borrowed}')
+            lines += [self._value_line(name) for name in WEAR_PARAMETERS]
+        lines.append(f'sigma of (9b) = {self.sigma:.3e} {unit} ({self.sigma_rule})')
+        lines.append(f'load estimate of (14): mean {params.load_mean:.4g}, std '
+                     f'{params.load_std:.4g} ({self.provenance.get("load", "")})')
+        configurations = self.extra.get('load_configurations') or []
+        if len(configurations) > 1:
+            lines.append('  the load column has ' + str(len(configurations)) +
+                         ' configurations: ' + '; '.join(
+                             f"{c['low']:.3g}-{c['high']:.3g} (mean {c['mean']:.3g}, std "
+                             f"{c['std']:.3g}, {c['n_levels']} levels)" for c in configurations))
+        lines.append(f'operating range: speeds {params.speed_min_rad_s:.4g}-'
+                     f'{params.speed_max_rad_s:.4g} rad/s (motor side), separation '
+                     f'{params.speed_separation_rad_s:.4g} rad/s; temperature '
+                     f'{params.temperature_min_degc:.4g}-{params.temperature_max_degc:.4g} degC')
         lines += [f'warning: {text}' for text in self.warnings]
         return '\n'.join(lines)
 
-
-def _parameter_line(p: Parameter) -> str:
-    error = f'{p.std_error:.2e}' if math.isfinite(p.std_error) else 'undetermined'
-    flag = '  (at its bound)' if p.at_bound else ''
-    return f'  {p.name:<12}{p.value:>13.5g} +- {error:<12} [{p.unit}]{flag}'
+    def _value_line(self, name: str) -> str:
+        """Return one parameter's line: the set's value, its unit and its provenance."""
+        value = getattr(self.params.model, name)
+        unit = parameter_unit(name, self.params.friction_unit)
+        return f'  {name:<12}{value:>13.5g} [{unit}]  {self.provenance.get(name, "")}'

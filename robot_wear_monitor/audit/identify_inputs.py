@@ -43,7 +43,9 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
     :param role: 'BASELINE' or 'WEAR' (for messages).
     :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s:
         as for :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
-        gear_ratio x joint speed, normalised torque = effort / torque_scale).
+        gear_ratio x joint speed, normalised torque = effort / torque_scale); a level table or
+        raw runs (joint speeds) have their speeds multiplied by ``gear_ratio`` too (motor side,
+        as the nodes see them).
     :param temperature_topic: bag input: the joint temperature [degC] on this topic
         (sensor_msgs/Temperature or std_msgs/Float64), taken at each level's time.
     :param load_topic: bag input: the load torque (normalised) on this topic (std_msgs/Float64).
@@ -70,6 +72,10 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                                       source=f'topic {name}')
     if is_bag(path):
         table = number_experiments(table, gap_s=experiment_gap_s)
+    elif gear_ratio != 1.0:  # the bag reader applies it; levels and raw runs are joint side
+        numeric = dict(table.numeric)
+        numeric['speed'] = numeric['speed'] * float(gear_ratio)
+        table = AuditTable(numeric, dict(table.text), table.source)
     return prepare_levels(table, role=role, temperature_column=temperature_column,
                           load_column=load_column)
 

@@ -71,9 +71,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'fit them as one joint (default: refused; select one with '
                              '--joint NAME)')
     parser.add_argument('--friction-unit', metavar='UNIT',
-                        help='the unit of the levels, stated in the set (default: N.m for raw '
-                             'runs read with torque scale 1, else normalised)')
-    add_level_source(parser)
+                        help='the unit of the levels (and of their load), stated in the set '
+                             '(default: N.m for raw runs read with torque scale 1, else '
+                             'normalised)')
+    parser.add_argument('--load-mean', type=FINITE, metavar='MU',
+                        help="mean of the load estimate of eq. (14) in the load's unit "
+                             "(default: the baseline's load column)")
+    parser.add_argument('--load-std', type=FINITE, metavar='SIGMA',
+                        help='std of the load estimate of eq. (14) (with --load-mean)')
+    parser.add_argument('--borrowed-wear', choices=('scaled', 'reference'), default='scaled',
+                        help='without --wear-test: the wear model (7) of --from-params scaled '
+                             "to this joint's friction and speed range (default; the assumption "
+                             'is written in the set), or taken as it stands (a joint like the '
+                             'reference, in its unit)')
+    add_level_source(parser, gear_default='1; level tables and raw runs in joint speeds: '
+                                          'their speeds are multiplied by R too')
 
 
 def main(args: argparse.Namespace) -> int:
@@ -97,6 +109,11 @@ def main(args: argparse.Namespace) -> int:
                 args.temperature_bounds[0] < args.temperature_bounds[1]):
             raise InputError('--temperature-bounds: expected LOW,HIGH with LOW < HIGH')
         bounds = (args.temperature_bounds[0], args.temperature_bounds[1])
+    if (args.load_mean is None) != (args.load_std is None):
+        raise InputError('--load-mean and --load-std go together (the load estimate '
+                         'N(mu, sigma^2) of eq. (14))')
+    if args.load_std is not None and not args.load_std >= 0:
+        raise InputError(f'--load-std must be >= 0, got {args.load_std}')
     from_params = load_parameter_set(args.from_params)
     gear_ratio, torque_scale = level_source_scales(args)
 
@@ -122,24 +139,53 @@ def main(args: argparse.Namespace) -> int:
     levels_out = write_levels_out(
         args, [baseline] if wear_test is None else [baseline, wear_test],
         roles=None if wear_test is None else ['baseline', 'wear_test'])
+    unit = _friction_unit(args, torque_scale, note=False)
     result = identify(baseline=baseline, from_params=from_params,
                       name=args.name or default_set_name(args.baseline),
                       wear_test=wear_test, critical_experiment=args.critical_experiment,
                       critical_wear=args.critical_wear, temperature_bounds_degc=bounds,
-                      n_folds=args.folds)
+                      n_folds=args.folds, friction_unit=unit,
+                      load_prior=(None if args.load_mean is None else
+                                  (args.load_mean, args.load_std)),
+                      borrowed_wear=args.borrowed_wear)
     loaded = write_identified_parameter_set(args.out, result)
     report = result.to_dict()
     report['out'] = str(args.out)
     report['loaded_back'] = loaded.name == result.params.name
     if levels_out:
         report['levels_out'] = levels_out
+    configurations = result.extra.get('load_configurations') or []
+    per_configuration: list[dict] = []
+    if len(configurations) > 1 and args.load_mean is None:
+        from pathlib import Path
+
+        from robot_wear_monitor.audit.identification import for_configuration
+        out = Path(args.out)
+        for index in range(len(configurations)):
+            path = out.with_name(f'{out.stem}_load{index + 1}{out.suffix or ".yaml"}')
+            written = write_identified_parameter_set(path, for_configuration(result, index))
+            per_configuration.append({'out': str(path), 'name': written.name,
+                                      **configurations[index]})
+    report['configuration_sets'] = per_configuration
     if args.plots:
         report['figures'] = [str(p) for p in plot_identification(
             result=result, baseline=baseline, wear_test=wear_test, out_dir=args.plots)]
     if emit_json(args, report):
         return 0
     print(result.summary())
+    if not args.friction_unit and unit == 'normalised':
+        print(f'note: the friction unit of {shorten(str(args.baseline))} is not stated; the set '
+              "says 'normalised' (give --friction-unit UNIT, e.g. A or N.m)")
     print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
+    for entry in per_configuration:
+        print(f"parameter set {entry['name']!r} for loads {entry['low']:.4g}-"
+              f"{entry['high']:.4g} (load estimate {entry['mean']:.4g} +- {entry['std']:.4g}) "
+              f"written to {entry['out']}")
+    if per_configuration:
+        print(f'the load column has {len(per_configuration)} configurations: {args.out} holds '
+              'the load estimate over both (for a monitor that does not know its payload); '
+              'monitor each configuration with its own set (a tighter load estimate: '
+              'docs/identify.md)')
     return 0
 
 
@@ -161,10 +207,8 @@ def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float,
 def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
                 torque_scale: float) -> int:
     """Identify model (4) from levels that vary in speed only; write the speed-only set."""
-    from pathlib import Path
-
     from robot_wear_monitor.atomic_files import write_text_atomic
-    from robot_wear_monitor.audit.data import is_bag, load_audit_data
+    from robot_wear_monitor.audit.data import load_audit_data
     from robot_wear_monitor.audit.identify_inputs import default_set_name
     from robot_wear_monitor.audit.speed_model import speed_only_parameter_set
     from robot_wear_monitor.model.params import load_parameter_set, parameter_set_yaml_text
@@ -178,14 +222,7 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
                             standstill_speed_rad_s=args.standstill_speed)
     table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
     levels_out = write_levels_out(args, [table])
-    source = Path(args.baseline)
-    raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
-    unit = args.friction_unit or ('N.m' if raw and torque_scale == 1.0 else 'normalised')
-    if not args.friction_unit and not raw:  # a level table does not say its unit
-        import sys
-        print(f'{PROG} identify: note: the friction unit of {shorten(str(args.baseline))} is '
-              f'not stated; the set says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
-              file=sys.stderr)
+    unit = _friction_unit(args, torque_scale)
     result = speed_only_parameter_set(table=table, from_params=from_params,
                                       name=args.name or default_set_name(args.baseline),
                                       friction_unit=unit, n_folds=args.folds)
@@ -205,6 +242,33 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     print(result.summary())
     print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
     return 0
+
+
+def _friction_unit(args: argparse.Namespace, torque_scale: float, *, note: bool = True) -> str:
+    """
+    Return the friction unit of the levels: ``--friction-unit``, else what the input says.
+
+    ``note``: print on stderr that a level table's unit was not stated (else the summary says
+    it).
+    """
+    from pathlib import Path
+
+    from robot_wear_monitor.audit.data import is_bag
+    if args.friction_unit:
+        unit = args.friction_unit.strip()
+        if not unit or len(unit) > 40 or not unit.isprintable():
+            raise InputError(f'--friction-unit: a short unit such as A or N.m, got '
+                             f'{shorten(repr(args.friction_unit))}')
+        return unit
+    source = Path(args.baseline)
+    raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
+    unit = 'N.m' if raw and torque_scale == 1.0 else 'normalised'
+    if not raw and note:  # a level table does not say its unit
+        import sys
+        print(f'{PROG} identify: note: the friction unit of {shorten(str(args.baseline))} is '
+              f'not stated; the set says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
+              file=sys.stderr)
+    return unit
 
 
 def _one_joint(table: Any, *, joint: str | None, pool: bool) -> Any:

@@ -358,7 +358,8 @@ def rclpy_missing(error: ImportError) -> InputError:
                       f'"robot_wear_monitor[ros]" or source a ROS 2 Jazzy setup')
 
 
-def add_level_source(parser: argparse.ArgumentParser) -> None:
+def add_level_source(parser: argparse.ArgumentParser, *,
+                     gear_default: str = '1; bag input only') -> None:
     """
     Add the options of raw-run and bag inputs that are segmented into levels (audit, identify).
 
@@ -377,7 +378,8 @@ def add_level_source(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--standstill-speed', type=STANDSTILL_SPEED, metavar='RAD_S',
                         help='raw runs: the speed below which a sample is standstill [rad/s] '
                              + RAW_STANDSTILL_DEFAULT)
-    add_gear_ratio_and_torque_scale(parser, gear_default='1; bag input only')
+    add_gear_ratio_and_torque_scale(parser, gear_default=gear_default,
+                                    scale_default='1; bag input only')
     parser.add_argument('--levels-out', metavar='PATH',
                         help="write the friction levels fitted as a CSV in segment's columns "
                              '(plus temperature and load where the levels have them); bag or '

@@ -21,6 +21,7 @@ from robot_wear_monitor.audit.identification_result import NOMINAL_PARAMETERS
 from robot_wear_monitor.audit.speed_model import identify_speed_model
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
+from robot_wear_monitor.model.friction import nominal_friction
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
 from wear_testing import independent_robot as robot
 
@@ -229,23 +230,50 @@ def test_written_set_loads_back_and_says_where_fields_come_from(identified, tmp_
     for name in NOMINAL_PARAMETERS:
         assert getattr(loaded.model, name) == pytest.approx(getattr(result.params.model, name),
                                                             rel=1e-5)
-    assert loaded.load_mean == PACKAGED.load_mean and loaded.load_std == PACKAGED.load_std
+    # the load estimate of eq. (14) is the baseline's load column (mean, std), not the
+    # reference's; the operating range is the levels'
+    load = result.nominal.load_range
+    assert load[0] < loaded.load_mean < load[1] and loaded.load_std > 0
+    assert loaded.load_mean != PACKAGED.load_mean
     assert loaded.wear_threshold == PACKAGED.wear_threshold
     assert loaded.sigma == pytest.approx(result.sigma, rel=1e-5)
+    assert (loaded.speed_min_rad_s, loaded.speed_max_rad_s) == pytest.approx((2.1, 287.1),
+                                                                             rel=1e-3)
+    assert loaded.speed_separation_rad_s == pytest.approx(6.6, rel=1e-3)  # 2.1 -> 8.7
     text = (tmp_path / 'heavy.yaml').read_text()
-    assert 'cannot determine the load estimate' in text
-    assert 'Experiment design and alarm: from' in text
+    assert "Load estimate of eq. (14): the baseline's load column" in text
+    assert 'Alarm: from abb_irb6620_joint2' in text
     assert '+-' in text
+    assert str(tmp_path) not in text and '/config/' not in text  # no path in a set
 
 
-def test_without_a_wear_test_the_wear_model_comes_from_the_reference_set():
+def test_without_a_wear_test_the_wear_model_is_the_reference_scaled_or_as_it_stands():
     p = ROBOTS['heavy_load']
-    result = identify(baseline=baseline_table(p, seed=1), from_params=PACKAGED, name='b')
+    table = baseline_table(p, seed=1)
+    result = identify(baseline=table, from_params=PACKAGED, name='b')
     assert result.wear is None
-    for name in ('f_s_wear', 'f_v_wear', 'phi_s_wear'):
-        assert getattr(result.params.model, name) == getattr(PACKAGED.model, name)
+    # scaled: the reference's profile times k (same motor speeds), k = the ratio of the mean
+    # nominal frictions over the levels' speed range
+    k = result.extra['wear_model_scaling']['amplitude']
+    model = result.params.model
+    assert model.phi_s_wear == PACKAGED.model.phi_s_wear
+    assert model.f_s_wear == pytest.approx(k * PACKAGED.model.f_s_wear, rel=1e-5)
+    assert model.f_v_wear == pytest.approx(k * PACKAGED.model.f_v_wear, rel=1e-5)
+    speeds = np.linspace(2.1, 287.1, 50)
+    here = nominal_friction(speeds, result.params.load_mean,
+                            result.params.design_temperature_degc, model)
+    there = nominal_friction(speeds, PACKAGED.load_mean, PACKAGED.design_temperature_degc,
+                             PACKAGED.model)
+    assert k == pytest.approx(here.mean() / there.mean(), rel=1e-4)
     assert result.sigma == max(result.nominal.held_out_std, PACKAGED.sigma)
-    assert 'not identified: no wear test' in parameter_set_yaml(result)
+    text = parameter_set_yaml(result)
+    assert 'not identified: no wear test. Assumption:' in text
+    assert 'scaled from abb_irb6620_joint2' in text
+    as_is = identify(baseline=table, from_params=PACKAGED, name='b', borrowed_wear='reference')
+    for name in ('f_s_wear', 'f_v_wear', 'phi_s_wear'):
+        assert getattr(as_is.params.model, name) == getattr(PACKAGED.model, name)
+    assert 'from abb_irb6620_joint2 as it stands (not identified: no wear test)' in \
+        parameter_set_yaml(as_is)
 
 
 def test_temperature_bounds_default_to_the_baseline_range_or_are_given():
