@@ -104,17 +104,19 @@ def test_versions_agree_with_the_changelog():
     assert changelog.startswith('^^^') and 'Changelog for package robot_wear_monitor' in changelog
 
 
-#: The modules over 600 lines, each one algorithm that reads best whole (README, Layout).
-LONG_MODULES = {'estimation/estimator.py', 'estimation/intervals.py',
-                'experiment/segmentation.py', 'estimation/trend.py'}
+#: Longest module of the package [lines] (issue 34: split a longer one along its seams).
+MAX_MODULE_LINES = 800
+PACKAGE_DIR = REPO_ROOT / 'robot_wear_monitor'
+#: A module still over the limit in this tree, split on another branch (h/seg).
+_SPLIT_ELSEWHERE = {'experiment/segmentation.py': pytest.mark.xfail(
+    strict=True, reason='experiment/segmentation.py is split on branch h/seg')}
 
 
-def test_no_module_is_over_600_lines_but_the_named_algorithms():
-    package = REPO_ROOT / 'robot_wear_monitor'
-    sizes = {str(p.relative_to(package)): len(p.read_text().splitlines())
-             for p in package.rglob('*.py')}
-    over = {name for name, size in sizes.items() if size > 600}
-    assert over <= LONG_MODULES, sorted(over - LONG_MODULES)
-    readme = (REPO_ROOT / 'README.md').read_text()
-    for name in over:
-        assert f'`{name}` (' in readme, f'README does not name {name} and say why it is long'
+@pytest.mark.parametrize('module', [
+    pytest.param(name, marks=_SPLIT_ELSEWHERE.get(name, ()), id=name)
+    for name in sorted(str(p.relative_to(PACKAGE_DIR)) for p in PACKAGE_DIR.rglob('*.py'))])
+def test_no_package_module_is_over_800_lines(module):
+    lines = len((PACKAGE_DIR / module).read_text().splitlines())
+    assert lines <= MAX_MODULE_LINES, (
+        f'robot_wear_monitor/{module} has {lines} lines, over {MAX_MODULE_LINES}: split it '
+        'along its seams')
