@@ -11,7 +11,7 @@ setup(
     name=PACKAGE_NAME,
     version='0.4.0',
     packages=find_packages(exclude=['test', 'test.*', 'bench']),
-    # the interval calibrations that ship (estimation/intervals.py, SHIPPED_CALIBRATIONS)
+    # the interval calibrations that ship (estimation/calibration_store.py, SHIPPED_CALIBRATIONS)
     package_data={PACKAGE_NAME + '.estimation': ['calibrations.json'],
                   # the dashboard's pages, style and scripts (served by the app itself)
                   PACKAGE_NAME + '.dashboard': ['templates/*.html', 'static/*']},

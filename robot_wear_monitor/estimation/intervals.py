@@ -34,10 +34,8 @@ same profile evaluated at arbitrary w or T, so they do not depend on the grid st
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import lru_cache
-import hashlib
-import json
 import os
 from pathlib import Path
 from typing import Iterator
@@ -45,11 +43,26 @@ from typing import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.estimation.calibration_store import (
+    CACHE_ENV, calibration_cache_dir, calibration_key, CALIBRATION_RUNS, CALIBRATION_SEED,
+    calibration_to_json, CALIBRATION_VERSION, CALIBRATION_WEAR, CutoffCalibration,
+    rounded_speeds as _rounded_speeds, SHIPPED_CALIBRATIONS, SHIPPED_DESIGNS,
+    store_calibration as _store_calibration, stored_calibration as _stored_calibration,
+    write_calibration_table)
 from robot_wear_monitor.estimation.estimator import (estimate_wear, MarginalModel,
                                                      validate_speeds, WearEstimates)
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
+
+# The calibration store (keys, the shipped table, the cache) is calibration_store's; its names
+# stay importable from here, as before the store had a module of its own.
+__all__ = ['CACHE_ENV', 'calibrate_cutoffs', 'calibration_cache_dir', 'calibration_key',
+           'CALIBRATION_RUNS', 'CALIBRATION_SEED', 'calibration_to_json', 'CALIBRATION_VERSION',
+           'CALIBRATION_WEAR', 'CutoffCalibration', 'profile_log_likelihood',
+           'SHIPPED_CALIBRATIONS', 'SHIPPED_DESIGNS', 'simulate_cutoffs', 'wear_grid',
+           'WEAR_GRID_MAX', 'wear_intervals', 'WearInterval', 'WearIntervals',
+           'write_shipped_calibrations']
 
 FloatArray = NDArray[np.float64]
 
@@ -392,45 +405,8 @@ class _WearLikelihood:
 
 # --------------------------------------------------------------------------- calibration
 
-#: Wear values [-] at which the cutoff of the likelihood-ratio statistic is calibrated.
-CALIBRATION_WEAR = (0.0, 3.0, 7.0, 11.0, 15.0, 20.0, 27.0, 35.0, 50.0, 75.0, 110.0, 150.0)
-#: Simulated experiments per calibrated wear value.
-CALIBRATION_RUNS = 1500
-#: Seed of the calibration (fixed: the same speeds and parameters give the same intervals).
-CALIBRATION_SEED = 20211
-#: Speeds are rounded to this step [rad/s] for the calibration (measured speeds vary by a few
-#: mrad/s between experiments; the cutoffs vary slowly with the speeds, so one calibration per
-#: design serves them all).
-_CALIBRATION_SPEED_STEP = 0.1
 #: Smallest cutoff [-] (a set of measure zero would not contain w-hat).
 _MIN_CUTOFF = 0.05
-
-
-@dataclass(frozen=True)
-class CutoffCalibration:
-    """
-    Cutoffs c(w) of the likelihood-ratio statistic 2 (l_max - l_p(w)) for one design.
-
-    The interval is {w >= 0 : 2 (l_max - l_p(w)) <= c(w)}, c interpolated linearly in w between
-    the calibrated values and held constant beyond the last one.
-
-    :ivar wear: calibrated wear values [-], shape (C,), increasing.
-    :ivar cutoff: the ``level`` quantile of the statistic at the true wear, shape (C,).
-    :ivar chi2_cutoff: chi2_1^-1(level), the asymptotic value, for comparison.
-    :ivar level: confidence level.
-    :ivar runs: simulated experiments per wear value.
-
-    """
-
-    wear: FloatArray
-    cutoff: FloatArray
-    chi2_cutoff: float
-    level: float
-    runs: int
-
-    def at(self, wear: ArrayLike) -> FloatArray:
-        """Return c(w) at ``wear`` [-] (any shape)."""
-        return np.interp(np.asarray(wear, dtype=float), self.wear, self.cutoff)
 
 
 def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: float = 0.95,
@@ -476,122 +452,6 @@ def calibrate_cutoffs(speeds_rad_s: ArrayLike, *, params: ParameterSet, level: f
     return _calibrate(_rounded_speeds(speeds), params, float(level), int(runs), int(seed))
 
 
-def _rounded_speeds(speeds: FloatArray) -> tuple:
-    """Return the speeds rounded to the calibration step (at least one step), a tuple."""
-    key = tuple(round(float(v) / _CALIBRATION_SPEED_STEP) * _CALIBRATION_SPEED_STEP
-                for v in speeds)
-    return tuple(max(v, _CALIBRATION_SPEED_STEP) for v in key)
-
-
-#: Version of the calibration's computation; part of every stored calibration's key.
-CALIBRATION_VERSION = 1
-#: Calibrations shipped with the package (the packaged parameter set at the default design).
-SHIPPED_CALIBRATIONS = Path(__file__).with_name('calibrations.json')
-#: Designs whose calibration ships for the packaged parameter set: Table V, N = 4 (the default
-#: experiment of the node configuration and the simulator).
-SHIPPED_DESIGNS = ((2.1, 28.5, 35.1, 41.7),)
-#: Environment variable naming the calibration cache folder ('' disables the cache).
-CACHE_ENV = 'ROBOT_WEAR_MONITOR_CACHE'
-
-
-def calibration_key(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
-                    seed: int) -> str:
-    """
-    Return the key of a calibration: a hash of everything its numbers depend on.
-
-    The parameter set enters by its values (model, sigma, load, temperature range, wear
-    range), not its name, file or identification notes, so a copy of a set elsewhere shares
-    the calibration; nor by its per-direction terms, which eq. (3) levels do not see.
-    """
-    values = [(f.name, repr(getattr(params, f.name))) for f in fields(params)
-              if f.name not in ('name', 'source', 'not_identified', 'friction_unit',
-                                'direction_model')]
-    text = json.dumps([CALIBRATION_VERSION, [repr(float(v)) for v in speeds_t], values,
-                       repr(float(level)), int(runs), int(seed), list(CALIBRATION_WEAR)])
-    return hashlib.sha256(text.encode()).hexdigest()[:32]
-
-
-def calibration_cache_dir() -> Path | None:
-    """
-    Return the folder of stored calibrations, or None when the cache is disabled.
-
-    ``$ROBOT_WEAR_MONITOR_CACHE`` if set ('' disables), else
-    ``$XDG_CACHE_HOME/robot_wear_monitor`` (default ``~/.cache/robot_wear_monitor``).  A file
-    is named by the calibration's key and a hash of the code it comes from.
-    """
-    folder = os.environ.get(CACHE_ENV)
-    if folder is not None:
-        return Path(folder) if folder else None
-    base = os.environ.get('XDG_CACHE_HOME') or os.path.join(os.path.expanduser('~'), '.cache')
-    return Path(base) / 'robot_wear_monitor'
-
-
-def _calibration_from_json(item: dict) -> CutoffCalibration:
-    return CutoffCalibration(wear=np.asarray(item['wear'], dtype=float),
-                             cutoff=np.asarray(item['cutoff'], dtype=float),
-                             chi2_cutoff=float(item['chi2_cutoff']), level=float(item['level']),
-                             runs=int(item['runs']))
-
-
-def calibration_to_json(calibration: CutoffCalibration) -> dict:
-    """Return the calibration as a JSON object (exact floats)."""
-    return {'wear': calibration.wear.tolist(), 'cutoff': calibration.cutoff.tolist(),
-            'chi2_cutoff': calibration.chi2_cutoff, 'level': calibration.level,
-            'runs': calibration.runs}
-
-
-@lru_cache(maxsize=1)
-def _code_fingerprint() -> str:
-    """
-    Return a hash of the code a calibration's numbers come from (the cache's key part).
-
-    A stored calibration is used only by the same estimator, likelihood and model code, so a
-    change of that code never reads a calibration an older version stored (the shipped table
-    is checked against a fresh calibration by a test instead).
-    """
-    package = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    sources = [package / 'estimation' / 'estimator.py', package / 'estimation' / 'intervals.py',
-               *sorted((package / 'model').glob('*.py'))]
-    for source in sources:
-        try:
-            digest.update(source.read_bytes())
-        except OSError:
-            digest.update(source.name.encode())
-    return digest.hexdigest()[:12]
-
-
-def _stored_calibration(key: str) -> CutoffCalibration | None:
-    """Return the calibration of ``key`` from the shipped table or the cache, if there."""
-    sources = [SHIPPED_CALIBRATIONS]
-    folder = calibration_cache_dir()
-    if folder is not None:
-        sources.append(folder / f'cutoffs-{key}-{_code_fingerprint()}.json')
-    for source in sources:
-        try:
-            table = json.loads(source.read_text())
-            item = table.get(key) if source == SHIPPED_CALIBRATIONS else table
-            if item is not None:
-                return _calibration_from_json(item)
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):
-            continue  # absent, unreadable or damaged: calibrate anew
-    return None
-
-
-def _store_calibration(key: str, calibration: CutoffCalibration) -> None:
-    """Write the calibration to the cache (atomically); skip a cache that cannot be written."""
-    folder = calibration_cache_dir()
-    if folder is None:
-        return
-    from robot_wear_monitor.atomic_files import write_json_atomic
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(folder / f'cutoffs-{key}-{_code_fingerprint()}.json',
-                          calibration_to_json(calibration))
-    except OSError:
-        pass
-
-
 @lru_cache(maxsize=32)
 def _calibrate(speeds_t: tuple, params: ParameterSet, level: float, runs: int,
                seed: int) -> CutoffCalibration:
@@ -612,18 +472,14 @@ def write_shipped_calibrations(path: str | os.PathLike = SHIPPED_CALIBRATIONS) -
     ``python3 -c "from robot_wear_monitor.estimation.intervals import
     write_shipped_calibrations as w; w()"`` (a test checks that the table is current).
     """
-    from robot_wear_monitor.atomic_files import write_json_atomic
     from robot_wear_monitor.model.params import load_parameter_set
     params = load_parameter_set(None)
-    table = {}
+    entries = []
     for speeds in SHIPPED_DESIGNS:
         rounded = _rounded_speeds(validate_speeds(speeds))
-        key = calibration_key(rounded, params, 0.95, CALIBRATION_RUNS, CALIBRATION_SEED)
-        table[key] = {'speeds_rad_s': list(rounded), 'parameter_set': params.name,
-                      **calibration_to_json(simulate_cutoffs(
-                          rounded, params=params, level=0.95, runs=CALIBRATION_RUNS,
-                          seed=CALIBRATION_SEED))}
-    return write_json_atomic(path, table)
+        entries.append((rounded, params, simulate_cutoffs(
+            rounded, params=params, level=0.95, runs=CALIBRATION_RUNS, seed=CALIBRATION_SEED)))
+    return write_calibration_table(path, entries)
 
 
 def simulate_cutoffs(speeds_t: tuple, *, params: ParameterSet, level: float, runs: int,

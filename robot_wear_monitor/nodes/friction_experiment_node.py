@@ -26,10 +26,12 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
                                                        validate_parameters)
 from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC
-from robot_wear_monitor.nodes import (declare_joint_parameters, declare_parameters,
-                                      log_rejection_report, message_kit, node_time_s, spin_node)
+from robot_wear_monitor.nodes.messages import message_kit
+from robot_wear_monitor.nodes.node_helpers import log_rejection_report, node_time_s
+from robot_wear_monitor.nodes.parameters import declare_joint_parameters, declare_parameters
 from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
                                           FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
+from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import stamp_to_seconds
 from sensor_msgs.msg import JointState
 

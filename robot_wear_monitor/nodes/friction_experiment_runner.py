@@ -22,8 +22,11 @@ from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_RUNNE
 from robot_wear_monitor.monitoring.runner import (ABORT_SERVICE, ExperimentRunner, runner_config,
                                                   RUNNER_STATUS_NAME, START_SERVICE)
 from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC
-from robot_wear_monitor.nodes import declare_parameters, message_kit, node_time_s, spin_node
+from robot_wear_monitor.nodes.messages import message_kit
+from robot_wear_monitor.nodes.node_helpers import node_time_s
+from robot_wear_monitor.nodes.parameters import declare_parameters
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS, TRAJECTORY_QOS
+from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import (diagnostics_to_msg, experiment_event_to_msg,
                                                     EXPERIMENT_EVENTS_TOPIC, trajectory_to_msg)
 from std_srvs.srv import Trigger

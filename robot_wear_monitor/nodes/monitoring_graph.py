@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from typing import Callable, Sequence
 
-from robot_wear_monitor.nodes import spin_nodes
+from robot_wear_monitor.nodes.spinning import spin_nodes
 
 GRAPH_LOGGER = 'robot_wear_monitor'
 

@@ -28,10 +28,12 @@ from robot_wear_monitor.monitoring.node_config import (expand_history_path, per_
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   FRICTION_LEVELS_TOPIC, TEMPERATURE_TOPIC,
                                                   TREND_TOPIC, WEAR_TOPIC)
-from robot_wear_monitor.nodes import (declare_joint_parameters, declare_parameters,
-                                      log_rejection_report, message_kit, node_time_s, spin_node)
+from robot_wear_monitor.nodes.messages import message_kit
+from robot_wear_monitor.nodes.node_helpers import log_rejection_report, node_time_s
+from robot_wear_monitor.nodes.parameters import declare_joint_parameters, declare_parameters
 from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_QOS,
                                           FRICTION_LEVELS_QOS)
+from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import alarm_to_msg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64, Float64MultiArray
