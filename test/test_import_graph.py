@@ -29,7 +29,6 @@ from pathlib import Path
 from wear_testing.paths import REPO_ROOT
 
 PACKAGE = 'robot_wear_monitor'
-#: The circle removed on another branch (the dashboard's app.py <-> api.py / pages.py).
 
 
 def module_names(root: Path, package: str) -> dict[str, Path]:
