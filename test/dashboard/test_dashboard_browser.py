@@ -255,7 +255,7 @@ def test_every_bar_has_its_threshold_tick_at_the_same_place(server, browser, his
     _log_in(browser, server, 'vic')
     bars = browser.execute_script(
         "return Array.from(document.querySelectorAll('#fleet-rows tr')).map((tr) => {"
-        "  const box = (s) => tr.querySelector(s).getBoundingClientRect();"
+        '  const box = (s) => tr.querySelector(s).getBoundingClientRect();'
         "  return {joint: tr.dataset.robot + '/' + tr.dataset.joint, bar: box('svg.bar').x,"
         "    width: box('svg.bar').width, tick: box('.threshold').x + box('.threshold').width / 2,"
         "    mark: box('.estimate').x + box('.estimate').width / 2,"
