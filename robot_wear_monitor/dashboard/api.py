@@ -22,7 +22,8 @@ from robot_wear_monitor.dashboard.deps import (CurrentUser, FleetCacheDep, Histo
                                                ParameterSetsDep)
 from robot_wear_monitor.dashboard.schemas import (AlarmEventJson, FleetJson, JointJson,
                                                   MeJson)
-from robot_wear_monitor.dashboard.views import alarm_log, fleet_json, joint_json, STATES
+from robot_wear_monitor.dashboard.views import (alarm_log, fleet_json, joint_json, PAGE_ROWS,
+                                                STATES)
 from starlette.responses import Response
 
 router = APIRouter(prefix='/api', tags=['api'])
@@ -59,16 +60,22 @@ def _state(value: Optional[str]) -> Optional[str]:
 def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSetsDep,
               cache: FleetCacheDep,
               robot: Optional[str] = Query(None, description='one robot'),
-              state: Optional[str] = Query(None, description='one state: ' + ', '.join(STATES))
+              state: Optional[str] = Query(None, description='one state: ' + ', '.join(STATES)),
+              page: Optional[int] = Query(None, ge=1, description='one page of the rows, from '
+                                          '1 (past the last: the last); with limit'),
+              limit: Optional[int] = Query(None, ge=1, le=100000, description='rows per page '
+                                           f'(default {PAGE_ROWS} with page; none: every row)')
               ) -> Response:
     """
     Return the fleet: counts per state, robots, rows worst first (``fleet --json`` keys).
 
     Each row adds ``state``, ``arrow``, ``threshold``, the acknowledgement, the bar's
-    positions and the texts the page shows.
+    positions and the texts the page shows.  Every row unless ``page`` or ``limit`` asks for
+    one page; ``total`` and ``pages`` say how many there are.
     """
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
-                         robot=robot or None, state=_state(state), cache=cache)
+                         robot=robot or None, state=_state(state), cache=cache, page=page,
+                         limit=limit)
     return json_with_etag(request, payload)
 
 

@@ -25,7 +25,7 @@ from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, LoginLimiter, new
                                                RequireSession, SESSION_MAX_AGE_S)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool, POLL_INTERVAL_MS
-from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
+from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets, time_spans
 from starlette.middleware.sessions import SessionMiddleware
 from starlette.responses import FileResponse
 
@@ -56,6 +56,7 @@ def _templates() -> jinja2.Environment:
                              autoescape=True, undefined=jinja2.StrictUndefined,
                              trim_blocks=True, lstrip_blocks=True)
     env.globals['version'] = __version__
+    env.filters['times'] = time_spans  # dates and times kept on one line
     return env
 
 

@@ -24,7 +24,8 @@ from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_se
                                                get_templates, HistoryDep, LimiterDep,
                                                MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
-                                                fleet_row_html, joint_json, joint_url, STATES)
+                                                fleet_row_html, joint_json, joint_url,
+                                                MAX_PAGE_ROWS, page_links, PAGE_ROWS, STATES)
 from robot_wear_monitor.history import HistoryError
 from starlette.responses import HTMLResponse, RedirectResponse, Response
 
@@ -83,12 +84,18 @@ def logout(request: Request, history: HistoryDep) -> Response:
 @router.get('/')
 def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterSetsDep,
                cache: FleetCacheDep, robot: Optional[str] = None,
-               state: Optional[str] = None) -> HTMLResponse:
-    """Show the fleet, worst first, with counts per state and filters by robot and state."""
+               state: Optional[str] = None, page: int = Query(1, ge=1),
+               limit: int = Query(PAGE_ROWS, ge=1, le=MAX_PAGE_ROWS)) -> HTMLResponse:
+    """
+    Show the fleet, worst first, with counts per state and filters by robot and state.
+
+    One page of ``limit`` rows (``page`` from 1), with links to the others.
+    """
     fleet = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                        robot=robot or None, state=state if state in STATES else None,
-                       cache=cache)
-    return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html)
+                       cache=cache, page=page, limit=limit)
+    return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html,
+                  page_links=page_links(fleet))
 
 
 @router.get('/robots/{robot}/joints/{joint}')

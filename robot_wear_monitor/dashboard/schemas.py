@@ -36,7 +36,10 @@ class WearBar(_Shape):
     high: float = Field(description="the 95 % interval's upper end [% of the bar]")
     wear: float = Field(description='w-hat [% of the bar]; -1 when it cannot be judged')
     threshold: float = Field(description="the parameter set's wear threshold [% of the bar]")
-    scale_max: float = Field(description='the wear at the right end of the bar [w]')
+    scale_max: float = Field(description='the wear at the right end of the bar [w]: 1.5 x '
+                                         'the threshold in every row')
+    clipped: bool = Field(description='w-hat or the upper end is past the scale (drawn at '
+                                      'the right end; the text gives the number)')
 
 
 class RowTexts(_Shape):
@@ -87,6 +90,9 @@ class FleetRowJson(_Shape):
     alarm_since: Optional[str] = Field(description='alarm_since_s as ISO 8601 UTC')
     last_experiment: str = Field(description='last_stamp_s as ISO 8601 UTC')
     crossing_date: Optional[str] = Field(description='crossing_time_s as YYYY-MM-DD (UTC)')
+    crossing_days: Optional[float] = Field(
+        description='the crossing in days after the latest experiment (crossing_experiments '
+                    'x usual_interval_s); null without a crossing ahead or an interval')
     bar: WearBar
     url: str = Field(description="the joint's page")
     text: RowTexts
@@ -100,7 +106,14 @@ class FleetJson(_Shape):
     robots: list[str]
     robot: Optional[str] = Field(description='the robot filter (null: all)')
     state: Optional[str] = Field(description='the state filter (null: all)')
-    rows: list[FleetRowJson] = Field(description='the rows that pass the filters')
+    rows: list[FleetRowJson] = Field(description='the rows that pass the filters (one page '
+                                                 'of them when paged)')
+    total: int = Field(description='rows that pass the filters (on every page)')
+    page: int = Field(description='the page sent, from 1 (1 when not paged)')
+    pages: int = Field(description='pages of the filtered rows (1 when not paged)')
+    limit: Optional[int] = Field(description='rows per page (null: not paged, every row)')
+    first: int = Field(description='the position of the first row sent among the filtered '
+                                   'rows, from 1 (0: none sent)')
 
 
 class AlarmEventJson(_Shape):

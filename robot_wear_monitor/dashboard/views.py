@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+import re
 import threading
 import time
 from typing import Any, Iterable, Optional, Sequence
-from urllib.parse import quote
+from urllib.parse import quote, urlencode
 
-from markupsafe import Markup
+from markupsafe import escape, Markup
 import numpy as np
 from robot_wear_monitor.fleet.ranking import crossing_text, fleet_view, FleetView, iso_time
 from robot_wear_monitor.json_values import finite_or_none
@@ -32,6 +33,13 @@ MODEL_CHECK_P_VALUE = 0.01
 FRICTION_EXPERIMENTS = 5
 #: A crossing this many experiments ahead or sooner gets the steep arrow.
 SOON_EXPERIMENTS = 10.0
+#: Every fleet bar spans 0 to this many times the joint's wear threshold.
+BAR_SCALE = 1.5
+#: Seconds per day (the forecast crossing in days).
+DAY_S = 86400.0
+#: The fleet page's rows per page unless ``?limit=`` says otherwise, and the most it shows.
+PAGE_ROWS = 100
+MAX_PAGE_ROWS = 1000
 
 
 class ParameterSets:
@@ -132,7 +140,8 @@ def fleet_row_html(row: dict[str, Any]) -> Markup:
     Return the fleet table's ``<tr>`` of a row, every text escaped (kept on a RowJson).
 
     The same cells as the page's script writes (static/fleet.js): one string per row instead
-    of a template loop, so that the page of a thousand joints is made fast.
+    of a template loop, so that the page of a thousand joints is made fast.  The bar comes
+    first in its cell (its threshold tick at the same x in every row), then the numbers.
     """
     made = getattr(row, 'html', None)
     if made is not None:
@@ -146,12 +155,14 @@ def fleet_row_html(row: dict[str, Any]) -> Markup:
         '<td class="c-robot">{robot}</td>'
         '<td class="c-joint"><a href="{url}">{joint}</a></td>'
         '<td class="c-state"><span class="badge">{state_text}</span></td>'
-        '<td class="c-wear"><span class="num">{wear}</span><svg class="bar" '
+        '<td class="c-wear"><svg class="bar" '
         'viewBox="0 0 100 14" preserveAspectRatio="none"><rect class="track" x="0" y="4" '
         'width="100" height="6"></rect><rect class="interval" x="{low}" y="3" width="{width}" '
         'height="8"></rect><line class="estimate" x1="{mark}" x2="{mark}" y1="1" y2="13" '
         'visibility="{visible}"></line><line class="threshold" x1="{threshold}" '
-        'x2="{threshold}" y1="0" y2="14"></line></svg></td>'
+        'x2="{threshold}" y1="0" y2="14"></line><polygon class="clip" '
+        'points="94,1 100,7 94,13" visibility="{clipped}"></polygon></svg>'
+        '<span class="num">{wear}</span></td>'
         '<td class="c-trend">{trend}</td><td class="c-crossing">{crossing}</td>'
         '<td class="c-alarm">{alarm}</td><td class="c-last">{last}</td>'
         '<td class="c-experiments">{experiments}</td></tr>\n').format(
@@ -159,11 +170,28 @@ def fleet_row_html(row: dict[str, Any]) -> Markup:
             robot=row['robot'], joint=row['joint'], url=row['url'], state_text=row['state'],
             wear=text['wear'], low=low, width=width, mark=bar['wear'],
             visible='hidden' if bar['wear'] < 0 else 'visible', threshold=bar['threshold'],
-            trend=text['trend'], crossing=text['crossing'], alarm=text['alarm'],
-            last=text['last'], experiments=row['experiments'])
+            clipped='visible' if bar['clipped'] else 'hidden',
+            trend=text['trend'], crossing=time_spans(text['crossing']),
+            alarm=time_spans(text['alarm']), last=time_spans(text['last']),
+            experiments=row['experiments'])
     if isinstance(row, RowJson):
         row.html = html
     return html
+
+
+#: A date or an ISO 8601 UTC time in a text (kept on one line by :func:`time_spans`).
+TIME_TOKEN = re.compile(r'\d{4}-\d{2}-\d{2}(?:T\d{2}:\d{2}(?::\d{2})?Z?)?')
+
+
+def time_spans(text: str) -> Markup:
+    """
+    Return ``text`` escaped, each date or time in a ``<span class="t">`` (never broken).
+
+    The style sheet keeps a ``.t`` on one line (``white-space: nowrap``); the text itself is
+    unchanged (static/common.js ``setTimes`` does the same in the browser).
+    """
+    escaped = str(escape(text))
+    return Markup(TIME_TOKEN.sub(lambda m: f'<span class="t">{m.group(0)}</span>', escaped))
 
 
 def joint_url(robot: str, joint: str) -> str:
@@ -224,10 +252,15 @@ def _interval_text(wear: float, low: float, high: float) -> str:
     return f'{wear:.1f} [interval unknown]'
 
 
-def _bar(state: Any, threshold: float) -> dict[str, float]:
-    """Return the wear bar's positions [% of its width]: interval, estimate, threshold."""
-    values = [v for v in (state.wear, state.wear_high) if math.isfinite(v)]
-    top = max([1.5 * threshold, *values]) * 1.05
+def _bar(state: Any, threshold: float) -> dict[str, Any]:
+    """
+    Return the wear bar's positions [% of its width]: interval, estimate, threshold.
+
+    One scale for every row: 0 to :data:`BAR_SCALE` x the threshold, so the threshold's tick
+    is at the same place in every row; a w-hat or an upper end past the scale is drawn at the
+    right end and ``clipped`` says so (the row's text gives the number).
+    """
+    top = BAR_SCALE * threshold
 
     def pct(value: float) -> float:
         return round(100.0 * min(max(value, 0.0), top) / top, 2) if math.isfinite(value) \
@@ -235,8 +268,41 @@ def _bar(state: Any, threshold: float) -> dict[str, float]:
     wear = state.wear if not state.invalid_reason else math.nan
     low = state.wear_low if math.isfinite(state.wear_low) else wear
     high = state.wear_high if math.isfinite(state.wear_high) else wear
+    clipped = any(math.isfinite(v) and v > top for v in (wear, high))
     return {'low': pct(low), 'high': pct(high), 'wear': pct(wear),
-            'threshold': pct(threshold), 'scale_max': top}
+            'threshold': pct(threshold), 'scale_max': top, 'clipped': clipped}
+
+
+def crossing_days(view: FleetView) -> Optional[float]:
+    """
+    Return the forecast crossing in days after the latest experiment, or None.
+
+    The crossing in experiments times the joint's usual experiment interval (the time of
+    ``crossing_time_s``); None without a crossing ahead or an interval.
+    """
+    crossing = view.state.crossing_experiments
+    if view.crossing_time_s is None or not (math.isfinite(crossing) and crossing > 0):
+        return None
+    return (view.crossing_time_s - view.state.last_stamp_s) / DAY_S
+
+
+def crossing_words(view: FleetView) -> str:
+    """
+    Return the forecast crossing as the page shows it: days, the date, and experiments.
+
+    "in 12 experiments \u2248 3.5 days (~2025-06-01)": both counted from the latest
+    experiment, at the joint's usual experiment interval; the date is UTC.
+    """
+    days = crossing_days(view)
+    if days is None or view.crossing_time_s is None:
+        text = crossing_text(view)
+        if math.isfinite(view.state.crossing_experiments) and \
+                view.state.crossing_experiments > 0:
+            text += ' (no date: the experiment interval is not known yet)'
+        return text
+    amount = f'{days:.1f}' if days < 10 else f'{days:,.0f}'
+    return (f'in {view.state.crossing_experiments:.0f} experiments \u2248 {amount} days '
+            f'(~{utc_text(view.crossing_time_s)[:10]})')
 
 
 def _alarm_text(state: Any) -> str:
@@ -265,12 +331,13 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
         'last_experiment': utc_text(state.last_stamp_s),
         'crossing_date': (utc_text(view.crossing_time_s)[:10]
                           if view.crossing_time_s is not None else None),
+        'crossing_days': _number(crossing_days(view)),
         'bar': _bar(state, threshold), 'url': joint_url(state.robot, state.joint),
         'text': {'wear': _interval_text(state.wear if not state.invalid_reason else math.nan,
                                         state.wear_low, state.wear_high),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
-                 'crossing': crossing_text(view), 'alarm': _alarm_text(state),
+                 'crossing': crossing_words(view), 'alarm': _alarm_text(state),
                  'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })
@@ -279,26 +346,70 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
 
 def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
                robot: Optional[str] = None, state: Optional[str] = None,
-               cache: Optional[FleetCache] = None) -> dict[str, Any]:
+               cache: Optional[FleetCache] = None, page: Optional[int] = None,
+               limit: Optional[int] = None) -> dict[str, Any]:
     """
     Return the fleet worst first, the counts per state and the robots, as one dict.
 
     ``robot`` and ``state`` filter the rows (the counts are those of the whole fleet);
-    ``cache``: the fleet rows of an unchanged history are not read again.
+    ``cache``: the fleet rows of an unchanged history are not read again.  ``page`` (from 1)
+    and ``limit`` (rows per page) give one page of the filtered rows (a page past the last is
+    the last); without both, every row.  ``total`` counts the filtered rows, ``pages`` their
+    pages.  Only the rows sent are made into JSON.
     """
     views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
                        now_s=now_s)
     make = cache.row_json if cache is not None else fleet_row_json
-    rows = [make(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0].wear_threshold)
-            for v in views]
+    states = [row_state(v) for v in views]
     counts = dict.fromkeys(STATES, 0)
-    for row in rows:
-        counts[row['state']] += 1
-    robots = sorted({row['robot'] for row in rows})
-    shown = [row for row in rows if (robot is None or row['robot'] == robot)
-             and (state is None or row['state'] == state)]
-    return {'counts': counts, 'joints': len(rows), 'robots': robots,
-            'robot': robot, 'state': state, 'rows': shown}
+    for name in states:
+        counts[name] += 1
+    robots = sorted({v.state.robot for v in views})
+    chosen = [v for v, name in zip(views, states) if (robot is None or v.state.robot == robot)
+              and (state is None or name == state)]
+    total = len(chosen)
+    pages, first = 1, 0
+    if page is not None or limit is not None:
+        limit = max(1, limit if limit is not None else PAGE_ROWS)
+        pages = max(1, -(-total // limit))
+        page = min(max(1, page if page is not None else 1), pages)
+        first = (page - 1) * limit
+        chosen = chosen[first:first + limit]
+    rows = [make(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0].wear_threshold)
+            for v in chosen]
+    return {'counts': counts, 'joints': len(views), 'robots': robots,
+            'robot': robot, 'state': state, 'rows': rows, 'total': total,
+            'page': page if limit is not None else 1, 'pages': pages, 'limit': limit,
+            'first': first + 1 if rows else 0}
+
+
+def fleet_page_url(fleet: dict[str, Any], page: int) -> str:
+    """Return the fleet page's address of ``page``, with the fleet's filters and page size."""
+    query = {'robot': fleet['robot'], 'state': fleet['state'], 'page': page,
+             'limit': fleet['limit'] if fleet['limit'] != PAGE_ROWS else None}
+    return '/?' + urlencode({k: v for k, v in query.items() if v is not None})
+
+
+def page_links(fleet: dict[str, Any]) -> list[dict[str, Any]]:
+    """
+    Return the links of the fleet page's pager: previous, the pages near, first, last, next.
+
+    Each: ``text``, ``url`` (None: not a link, the page shown or a gap), ``rel``.
+    """
+    page, pages = fleet['page'], fleet['pages']
+    if pages <= 1:
+        return []
+    near = sorted({1, pages, *range(max(1, page - 2), min(pages, page + 2) + 1)})
+    links = [{'text': '\u2039 previous', 'url': fleet_page_url(fleet, page - 1)
+              if page > 1 else None, 'rel': 'prev'}]
+    for index, number in enumerate(near):
+        if index and number > near[index - 1] + 1:
+            links.append({'text': '\u2026', 'url': None, 'rel': 'gap'})
+        links.append({'text': str(number), 'rel': 'current' if number == page else 'page',
+                      'url': None if number == page else fleet_page_url(fleet, number)})
+    links.append({'text': 'next \u203a', 'url': fleet_page_url(fleet, page + 1)
+                  if page < pages else None, 'rel': 'next'})
+    return links
 
 
 def event_json(event: Any) -> dict[str, Any]:

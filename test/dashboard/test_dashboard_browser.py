@@ -237,3 +237,106 @@ def test_new_experiments_appear_without_a_reload(server, browser, history):
     _wait(browser, lambda d: len(_wear_trace(d)['x']) == EXPERIMENTS + 2,
           'the new experiment in the chart')
     assert browser.execute_script('return window.notReloaded === true;')
+
+
+def _clipped_joint(history: str) -> None:
+    """Add press_line/joint_9: w-hat 58 [50, 66], past the bar's scale (0 to 52.5)."""
+    now_s = time.time()
+    with open_history(history) as stored:
+        for k in range(EXPERIMENTS):
+            rec = replace(record('press_line', 'joint_1', k, now_s=now_s), joint='joint_9')
+            if k == EXPERIMENTS - 1:
+                rec = replace(rec, wear=58.0, wear_low=50.0, wear_high=66.0)
+            stored.append(rec)
+
+
+def test_every_bar_has_its_threshold_tick_at_the_same_place(server, browser, history):
+    _clipped_joint(history)
+    _log_in(browser, server, 'vic')
+    bars = browser.execute_script(
+        "return Array.from(document.querySelectorAll('#fleet-rows tr')).map((tr) => {"
+        '  const box = (s) => tr.querySelector(s).getBoundingClientRect();'
+        "  return {joint: tr.dataset.robot + '/' + tr.dataset.joint, bar: box('svg.bar').x,"
+        "    width: box('svg.bar').width, tick: box('.threshold').x + box('.threshold').width / 2,"
+        "    mark: box('.estimate').x + box('.estimate').width / 2,"
+        "    clip: tr.querySelector('.clip').getAttribute('visibility'),"
+        "    text: tr.querySelector('.c-wear .num').textContent};});")
+    assert len(bars) == len(ORDER) + 1
+    ticks = [b['tick'] for b in bars]
+    assert max(ticks) - min(ticks) < 0.5, bars  # the same x in every row
+    for b in bars:  # two thirds along the bar: 35 of 0 to 52.5
+        assert (b['tick'] - b['bar']) / b['width'] == pytest.approx(2 / 3, abs=0.01)
+    clipped = next(b for b in bars if b['joint'] == 'press_line/joint_9')
+    assert clipped['clip'] == 'visible' and clipped['text'].startswith('58.0 [50.0, 66.0]')
+    assert (clipped['mark'] - clipped['bar']) / clipped['width'] == pytest.approx(1.0, abs=0.01)
+    rest = [b for b in bars if b is not clipped]
+    assert all(b['clip'] == 'hidden' for b in rest)
+    joint_5 = next(b for b in bars if b['joint'] == 'welder_7/joint_5')  # w-hat 18
+    assert (joint_5['mark'] - joint_5['bar']) / joint_5['width'] == pytest.approx(18 / 52.5,
+                                                                                  abs=0.01)
+    legend = browser.find_element(_by('ID'), 'arrow-legend').text
+    for arrow in ('\u2191', '\u2197', '\u2192', '?'):
+        assert arrow in legend
+
+
+def test_the_wear_chart_marks_raised_acknowledged_reset_and_now(server, browser, history):
+    with open_history(history) as stored:
+        stored.acknowledge_alarm(joint='joint_2', robot='press_line', user='mia',
+                                 owner='Team B', comment='gearbox ordered')
+        stored.reset_alarm(joint='joint_2', robot='press_line', user='mia',
+                           reason='gearbox replaced')
+        events = {e.event: e.stamp_s for e in stored.events(joint='joint_2', robot='press_line')}
+        raised_at = [r.stamp_s for r in stored.records(joint='joint_2', robot='press_line')
+                     if r.alarm_active][0]
+    assert events['raised'] == raised_at
+    _log_in(browser, server, 'vic')
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    _wear_trace(browser)
+    marks = browser.execute_script(
+        "const gd = document.getElementById('wear-chart');"
+        'return {shapes: gd.layout.shapes.map((s) => [s.name, s.x0, s.x1]),'
+        '  notes: gd.layout.annotations.map((a) => [a.text, a.x]), now: Date.now()};')
+    notes = dict(marks['notes'])
+    assert set(notes) == {'raised', 'acknowledged', 'reset', 'now'}
+    for kind in ('raised', 'acknowledged', 'reset'):
+        assert notes[kind] == pytest.approx(events[kind] * 1000.0, abs=1.0), kind
+    assert abs(notes['now'] - marks['now']) < 120e3  # drawn when the page was
+    assert sorted(name for name, _, _ in marks['shapes']) == [
+        'marker acknowledged', 'marker now', 'marker raised', 'marker reset']
+    assert all(x0 == x1 for _, x0, x1 in marks['shapes'])  # vertical lines
+
+
+def test_the_forecast_says_days_and_a_date(server, browser, history):
+    with open_history(history, init=False) as stored:
+        last = stored.records(joint='joint_3', robot='welder_7')[-1].stamp_s
+    # 4 experiments ahead, an hour apart: 0.2 days after the last, on that date (UTC)
+    date = time.strftime('%Y-%m-%d', time.gmtime(last + 4 * 3600.0))
+    _log_in(browser, server, 'vic')
+    cell = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-robot="welder_7"]'
+                                '[data-joint="joint_3"] .c-crossing').text
+    assert cell == f'in 4 experiments \u2248 0.2 days (~{date})'
+    browser.get(server + joint_url('welder_7', 'joint_3'))
+    crossing = browser.find_element(_by('ID'), 'f-crossing')
+    assert crossing.text == cell
+    # the date is one token on one line
+    assert crossing.find_element(_by('CSS_SELECTOR'), '.t').value_of_css_property(
+        'white-space') == 'nowrap'
+
+
+def test_a_phone_wide_fleet_page_has_no_sideways_scroll(server, browser):
+    _log_in(browser, server, 'mia')
+    browser.set_window_size(390, 844)
+    _wait(browser, lambda d: d.execute_script('return window.innerWidth;') <= 390,
+          'the narrow window')
+    for url in ('/', joint_url('press_line', 'joint_2'), '/alarms'):
+        browser.get(server + url)
+        assert browser.execute_script('return document.documentElement.scrollWidth;') <= 390, url
+        logout = browser.find_element(_by('CSS_SELECTOR'), 'form.logout button')
+        box = browser.execute_script('return arguments[0].getBoundingClientRect().toJSON();',
+                                     logout)
+        assert logout.is_displayed() and 0 <= box['left'] and box['right'] <= 390, (url, box)
+    browser.get(server + '/')
+    cards = browser.execute_script(
+        "return Array.from(document.querySelectorAll('#fleet-rows tr')).map((tr) =>"
+        ' getComputedStyle(tr).display);')
+    assert cards == ['block'] * len(ORDER)  # a card per joint

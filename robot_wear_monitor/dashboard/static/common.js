@@ -10,6 +10,23 @@ function setText(node, text) {
   if (node && node.textContent !== text) { node.textContent = text; }
 }
 
+// Set a text whose dates and times each go in a <span class="t"> (kept on one line by the
+// style sheet); the text itself is unchanged.  The pattern of views.TIME_TOKEN.
+const TIME_TOKEN = /(\d{4}-\d{2}-\d{2}(?:T\d{2}:\d{2}(?::\d{2})?Z?)?)/;
+
+function setTimes(node, text) {
+  if (!node || node.textContent === text) { return; }
+  const parts = text.split(TIME_TOKEN);
+  const nodes = parts.map((part, index) => {
+    if (index % 2 === 0) { return document.createTextNode(part); }
+    const span = document.createElement('span');
+    span.className = 't';
+    span.textContent = part;
+    return span;
+  });
+  node.replaceChildren(...nodes);
+}
+
 function jointUrl(robot, joint) {
   return '/robots/' + encodeURIComponent(robot) + '/joints/' + encodeURIComponent(joint);
 }

@@ -18,23 +18,23 @@ function newRow() {
   badge.className = 'badge';
   tr.querySelector('.c-state').appendChild(badge);
   const wear = tr.querySelector('.c-wear');
-  const num = document.createElement('span');
-  num.className = 'num';
-  wear.appendChild(num);
   const svg = document.createElementNS('http://www.w3.org/2000/svg', 'svg');
   svg.setAttribute('class', 'bar');
   svg.setAttribute('viewBox', '0 0 100 14');
   svg.setAttribute('preserveAspectRatio', 'none');
   const parts = [['rect', 'track', {x: 0, y: 4, width: 100, height: 6}],
     ['rect', 'interval', {y: 3, height: 8}], ['line', 'estimate', {y1: 1, y2: 13}],
-    ['line', 'threshold', {y1: 0, y2: 14}]];
+    ['line', 'threshold', {y1: 0, y2: 14}], ['polygon', 'clip', {points: '94,1 100,7 94,13'}]];
   for (const [tag, cls, attrs] of parts) {
     const node = document.createElementNS('http://www.w3.org/2000/svg', tag);
     node.setAttribute('class', cls);
     for (const key in attrs) { node.setAttribute(key, attrs[key]); }
     svg.appendChild(node);
   }
-  wear.appendChild(svg);
+  wear.appendChild(svg);  // first: the threshold tick at the same x in every row
+  const num = document.createElement('span');
+  num.className = 'num';
+  wear.appendChild(num);
   return tr;
 }
 
@@ -64,10 +64,11 @@ function updateRow(tr, row) {
   const threshold = tr.querySelector('.threshold');
   setAttr(threshold, 'x1', bar.threshold);
   setAttr(threshold, 'x2', bar.threshold);
+  setAttr(tr.querySelector('.clip'), 'visibility', bar.clipped ? 'visible' : 'hidden');
   setText(tr.querySelector('.c-trend'), row.text.trend);
-  setText(tr.querySelector('.c-crossing'), row.text.crossing);
-  setText(tr.querySelector('.c-alarm'), row.text.alarm);
-  setText(tr.querySelector('.c-last'), row.text.last);
+  setTimes(tr.querySelector('.c-crossing'), row.text.crossing);
+  setTimes(tr.querySelector('.c-alarm'), row.text.alarm);
+  setTimes(tr.querySelector('.c-last'), row.text.last);
   setText(tr.querySelector('.c-experiments'), String(row.experiments));
 }
 
@@ -92,6 +93,12 @@ function showFleet(fleet) {
     index += 1;
   }
   for (const tr of old.values()) { tr.remove(); }
+  const shown = fleet.total ? 'rows ' + fleet.first.toLocaleString('en') + '\u2013' +
+    (fleet.first + fleet.rows.length - 1).toLocaleString('en') + ' of ' +
+    fleet.total.toLocaleString('en') : 'no rows';
+  for (const node of document.querySelectorAll('.pager [data-role=shown]')) {
+    setText(node, shown);
+  }
   const none = document.getElementById('no-rows');
   if (none) { none.hidden = fleet.rows.length > 0; }
 }
@@ -101,6 +108,10 @@ function showFleet(fleet) {
   const query = new URLSearchParams();
   if (config.robot) { query.set('robot', config.robot); }
   if (config.state) { query.set('state', config.state); }
+  if (config.limit) {  // the same page as the server's (the API pages only when asked)
+    query.set('page', String(config.page));
+    query.set('limit', String(config.limit));
+  }
   const url = config.api + (query.toString() ? '?' + query.toString() : '');
   poll(url, config.poll_ms, showFleet);
 })();

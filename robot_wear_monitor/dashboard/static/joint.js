@@ -51,6 +51,30 @@ function wearTraces(data) {
   return traces;
 }
 
+// The alarm's events and now as vertical lines with a label at the top: raised at its
+// experiment, acknowledged and reset at the moment they were done (the alarm log's times).
+const MARKERS = {raised: '#d62728', acknowledged: '#f0a202', reset: '#2ca02c', now: '#5b6b7c'};
+
+function markers(data, nowMs) {
+  const shapes = [];
+  const annotations = [];
+  const items = data.events.filter((e) => e.stamp_s !== null && MARKERS[e.event])
+    .map((e) => ({x: ms(e.stamp_s), kind: e.event, hover: e.time + ' ' + e.event +
+      (e.user ? ' by ' + e.user : '') + (e.note ? ': ' + e.note : '')}));
+  items.push({x: nowMs, kind: 'now', hover: 'now'});
+  items.sort((a, b) => a.x - b.x);
+  items.forEach((item, index) => {
+    shapes.push({type: 'line', xref: 'x', yref: 'paper', x0: item.x, x1: item.x, y0: 0, y1: 1,
+      line: {color: MARKERS[item.kind], width: 1.5, dash: item.kind === 'now' ? 'dot' : 'dash'},
+      name: 'marker ' + item.kind});
+    annotations.push({x: item.x, xref: 'x', yref: 'paper', y: 1 - 0.07 * (index % 3),
+      yanchor: 'top', text: item.kind, hovertext: item.hover, showarrow: false,
+      font: {size: 11, color: MARKERS[item.kind]}, bgcolor: 'rgba(255,255,255,0.85)',
+      xanchor: item.kind === 'now' ? 'right' : 'left', name: 'marker ' + item.kind});
+  });
+  return {shapes: shapes, annotations: annotations};
+}
+
 function layout(title, ytitle) {
   return {title: {text: title, font: {size: 15}}, margin: {l: 60, r: 20, t: 40, b: 45},
     xaxis: {type: 'date', title: {text: 'experiment end (UTC)'}},
@@ -92,11 +116,12 @@ function showEvents(events) {
     tr.dataset.id = String(e.id);
     const cells = [e.time, e.event, e.wear === null ? '-' : e.wear.toFixed(1), e.user,
       e.owner, e.planned_maintenance, e.note];
-    for (const text of cells) {
+    cells.forEach((text, index) => {
       const td = document.createElement('td');
+      if (index === 0 || index === 5) { td.className = 'c-time'; }
       td.textContent = text;
       tr.appendChild(td);
-    }
+    });
     return tr;
   });
   const ids = Array.from(body.children).map((tr) => tr.dataset.id).join(',');
@@ -111,23 +136,27 @@ function showJoint(data) {
     state.className = 'badge state-' + s.state.replace(/ /g, '-');
     setText(document.getElementById('f-wear'), s.text.wear);
     setText(document.getElementById('f-trend'), s.text.trend);
-    setText(document.getElementById('f-crossing'), s.text.crossing);
-    setText(document.getElementById('f-alarm'), s.text.alarm);
+    setTimes(document.getElementById('f-crossing'), s.text.crossing);
+    setTimes(document.getElementById('f-alarm'), s.text.alarm);
     setText(document.getElementById('f-experiments'), String(s.experiments));
-    setText(document.getElementById('f-last'), s.text.last);
+    setTimes(document.getElementById('f-last'), s.text.last);
   }
   const threshold = data.threshold;
   const wearLayout = layout('w per experiment, 95 % intervals, trend and forecast', 'wear w');
   wearLayout.yaxis.range = [0, Math.max(threshold * 1.3,
     ...data.experiments.map((e) => (e.wear_high === null ? e.wear : e.wear_high)))];
-  Plotly.react('wear-chart', wearTraces(data), wearLayout, {displaylogo: false});
+  const marks = markers(data, Date.now());
+  wearLayout.shapes = marks.shapes;
+  wearLayout.annotations = marks.annotations;
+  const config = {displaylogo: false, responsive: true};
+  Plotly.react('wear-chart', wearTraces(data), wearLayout, config);
   Plotly.react('temperature-chart', temperatureTraces(data),
-    layout('T-hat per experiment (95 %)', 'T [degC]'), {displaylogo: false});
+    layout('T-hat per experiment (95 %)', 'T [degC]'), config);
   const friction = layout('Friction levels of the last experiments and the model at their T-hat, w-hat',
     'friction [normalised]');
   friction.xaxis = {title: {text: 'motor-side speed [rad/s]'}};
   friction.legend = {orientation: 'v', title: {text: 'experiment (UTC)'}};
-  Plotly.react('friction-chart', frictionTraces(data), friction, {displaylogo: false});
+  Plotly.react('friction-chart', frictionTraces(data), friction, config);
   showEvents(data.events);
 }
 
