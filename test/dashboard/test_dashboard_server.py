@@ -352,12 +352,13 @@ def test_alarm_log_csv_holds_the_log(client, history):
     assert response.headers['content-type'].startswith('text/csv')
     rows = list(csv.reader(io.StringIO(response.text)))
     assert rows[0] == ['id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                       'planned_maintenance', 'note']
+                       'planned_maintenance', 'note', 'note_text']
     with open_history(history, init=False) as stored:
         log = stored.alarm_log()
     assert [int(r[0]) for r in rows[1:]] == [e.id for e in log]
     assert (rows[1][4], rows[1][6]) == ('reset', 'mia')
     assert rows[1][9] == "'=cmd|calc, \"quoted\""  # no formula for a spreadsheet
+    assert rows[1][10] == 'reset by mia: =cmd|calc, "quoted"'  # the note in words
     assert rows[2][4] == 'raised' and float(rows[2][5]) == pytest.approx(41.0)
 
 
