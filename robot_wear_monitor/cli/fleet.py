@@ -92,7 +92,6 @@ def main(args: argparse.Namespace) -> int:
     stale = sum(1 for row in rows if row.stale)
     robots = len({row.state.robot for row in rows})
     print(f'{robots} robots, {len(rows)} joints: {alarms} alarm(s) latched, {stale} stale '
-          '(worst first: unacknowledged alarms, acknowledged ones, cannot judge, soonest '
-          'crossing, highest upper bound)')
+          '(worst first)')
     print(fleet_table(rows, local=args.local))
     return 0

@@ -385,8 +385,9 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
         events=tuple(e for e in EVENTS if e in events),
         forecast_horizon_days=reader.number('forecast_horizon_days', 30.0, low=0.0,
                                             high=3650.0, unit='days'),
-        reescalation_margin=reader.number('reescalation_margin', DEFAULT_REESCALATION_MARGIN, low=0.0, high=100.0,
-                                          unit='wear units', low_open=True),
+        reescalation_margin=reader.number('reescalation_margin', DEFAULT_REESCALATION_MARGIN,
+                                          low=0.0, high=100.0, unit='wear units',
+                                          low_open=True),
         dashboard_url=dashboard_url, retry=_retry(source, values.get('retry')),
         webhooks=webhooks, email=mail, source=source)
 

@@ -35,6 +35,7 @@ from robot_wear_monitor.history.users import (
 
 __all__ = ['ALARM_EVENT_KINDS', 'AlarmEvent', 'DEFAULT_ROBOT', 'FleetRow', 'HistoryError',
            'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url', 'LatchMoved',
-           'LEVEL_CSV_COLUMNS', 'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS', 'redact_url',
+           'LEVEL_CSV_COLUMNS', 'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS',
+           'redact_url',
            'RestoredState', 'ROLES', 'SCHEMA_VERSION', 'SQLITE_MIGRATIONS', 'User',
            'WearHistory', 'write_levels_csv']

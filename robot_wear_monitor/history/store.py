@@ -571,7 +571,7 @@ class WearHistory:
                 'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
             lives = self._backend.execute(
                 'SELECT a.robot, a.joint, COUNT(e.id) FROM alarm_events a JOIN ' + last_latch
-                + " JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND "
+                + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
                 "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
                 'GROUP BY a.robot, a.joint', params)
         last_event = {(r[0], r[1]): r[2:] for r in latches}
@@ -606,15 +606,16 @@ def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[S
     if event != 'reset' or latch is None:
         return row
     # a reset: the joint's new life, from the estimate after the one the reset is tied to
-    life = dict(life_started_s=float(latch[1]), reset_by=latch[4] or '',
-                reset_reason=latch[5] or '', total_experiments=int(r[2]),
-                experiments=life_experiments)
+    row = replace(row, life_started_s=float(latch[1]), reset_by=latch[4] or '',
+                  reset_reason=latch[5] or '', total_experiments=int(r[2]),
+                  experiments=life_experiments)
     if latch[3] is not None and int(r[19]) <= int(latch[3]):  # no experiment since the reset
-        life.update(wear=math.nan, wear_std=math.nan, wear_low=math.nan, wear_high=math.nan,
-                    trend_wear=math.nan, trend_low=math.nan, trend_high=math.nan,
-                    crossing_experiments=math.nan, crossing_time_s=math.nan,
-                    alarm_evidence=0.0, status_level=0, invalid_reason='', experiments=0)
-    return replace(row, **life)
+        row = replace(row, wear=math.nan, wear_std=math.nan, wear_low=math.nan,
+                      wear_high=math.nan, trend_wear=math.nan, trend_low=math.nan,
+                      trend_high=math.nan, crossing_experiments=math.nan,
+                      crossing_time_s=math.nan, alarm_evidence=0.0, status_level=0,
+                      invalid_reason='', experiments=0)
+    return row
 
 
 def open_history(location: str | os.PathLike, *, robot: Optional[str] = None,

@@ -420,8 +420,8 @@ def test_same_story_on_sqlite_and_postgresql(history_location):
         assert not stored.restore(joint='joint_2', robot='press_line').alarm_active
 
 
-def test_the_alarm_log_is_newest_first_by_event_time_whatever_the_replay_order(client,
-                                                                                history):
+def test_the_alarm_log_is_newest_first_by_event_time_whatever_the_replay_order(
+        client, history):
     # two recordings replayed in the other order: the later experiments stored first
     with open_history(history) as stored:
         base = stored.records(robot='welder_7', joint='joint_3')[-1]

@@ -1,6 +1,8 @@
 """
-The maintenance decision at its moments: a reset starts a new life, the triage order with
-re-escalation, and the notifications of both (``fleet --json``, ``notify --once``).
+The maintenance decision at its moments: a reset, the triage order, re-escalation.
+
+A reset starts a new life; the triage order with re-escalation; the notifications of both
+(``fleet --json``, ``notify --once``).
 
 The fleet of :mod:`wear_testing.fleet_history` (known values) in a real history, read back
 through the command line and sent to a real HTTP receiver.
@@ -12,7 +14,6 @@ import threading
 
 import pytest
 from robot_wear_monitor.cli import main
-from robot_wear_monitor.fleet.notifications import load_notification_config, notify_once
 from robot_wear_monitor.fleet.ranking import DEFAULT_REESCALATION_MARGIN
 from robot_wear_monitor.history import AlarmEvent, open_history
 from wear_testing.fleet_history import EXPERIMENTS, HOUR_S, make_fleet, record
