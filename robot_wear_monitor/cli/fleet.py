@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+import math
 import time
 
 from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
@@ -29,6 +30,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='judge staleness at this time: ISO 8601 (e.g. '
                              '2026-11-24T12:00:00Z) or seconds since the epoch '
                              '(default: the clock)')
+    parser.add_argument('--reescalation-margin', type=float, default=None, metavar='W',
+                        help='an acknowledged alarm goes back to the top when its wear rises '
+                             'W wear units past its value at the acknowledgement (default: '
+                             '5; its planned maintenance date passing does too)')
     add_local(parser)
     add_json(parser, what='the rows (a list of objects)')
 
@@ -57,11 +62,17 @@ def parse_time(text: str, *, option: str = '--now') -> float:
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     from robot_wear_monitor.cli.outputs import write_text_output
-    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view
+    from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
+                                                  fleet_table, fleet_view)
     from robot_wear_monitor.history import open_history
     now_s = parse_time(args.now) if args.now else time.time()
+    margin = (DEFAULT_REESCALATION_MARGIN if args.reescalation_margin is None
+              else args.reescalation_margin)
+    if not (math.isfinite(margin) and margin > 0):
+        raise InputError(f'--reescalation-margin must be > 0 wear units, got {margin:.6g}')
     with open_history(args.history, init=False) as history:
-        rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s)
+        rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s,
+                          reescalation_margin=margin)
     if args.robot and not rows:
         raise InputError(f'{shown_location(args.history)}: no estimates of robot '
                          f'{args.robot!r}')

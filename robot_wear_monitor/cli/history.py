@@ -20,7 +20,7 @@ HELP = 'show the stored wear history and export its friction levels for audit'
 
 #: The columns of ``history --alarms --csv`` (and the keys of its ``--json`` rows).
 ALARM_LOG_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note')
+                     'planned_maintenance', 'note', 'note_text')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -161,13 +161,20 @@ def audit_hint(csv: str, records: Any) -> str:
 
 
 def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
-    """Return the alarm events as rows of :data:`ALARM_LOG_COLUMNS` (plus raw times, ids)."""
+    """
+    Return the alarm events as rows of :data:`ALARM_LOG_COLUMNS` (plus raw times, ids).
+
+    ``time``/``event_time_s``: the event's time in the log (a raise's experiment stamp, an
+    acknowledgement's or a reset's wall time); ``note_text``: the note in words.
+    """
     from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.history.alarms import event_time_s, note_text
     from robot_wear_monitor.monitoring.diagnostics import json_number
-    return [{'id': e.id, 'time': iso_time(e.stamp_s, local=local), 'robot': e.robot,
+    return [{'id': e.id, 'time': iso_time(event_time_s(e), local=local), 'robot': e.robot,
              'joint': e.joint, 'event': e.event,
              'wear': None if e.wear is None else json_number(e.wear), 'user': e.user,
              'owner': e.owner, 'planned_maintenance': e.planned_maintenance, 'note': e.note,
+             'note_text': note_text(e), 'event_time_s': json_number(event_time_s(e)),
              'stamp_s': json_number(e.stamp_s), 'wall_time_s': json_number(e.wall_time_s),
              'estimate_id': e.estimate_id} for e in events]
 
@@ -206,7 +213,7 @@ def alarm_log_main(args: argparse.Namespace) -> int:
               clean_text(r['joint'], limit=40), r['event'],
               '-' if r['wear'] is None else f'{r["wear"]:.1f}', clean_text(r['user'], limit=40),
               clean_text(r['owner'], limit=40), r['planned_maintenance'] or '-',
-              clean_text(r['note'], limit=120)) for r in rows]
+              clean_text(r['note_text'], limit=160)) for r in rows]
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]
     print('  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip())

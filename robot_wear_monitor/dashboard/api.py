@@ -23,7 +23,7 @@ from robot_wear_monitor.dashboard.deps import (CurrentUser, FleetCacheDep, Histo
 from robot_wear_monitor.dashboard.schemas import (AlarmEventJson, FleetJson, JointJson,
                                                   MeJson)
 from robot_wear_monitor.dashboard.views import (alarm_log, fleet_json, joint_json, PAGE_ROWS,
-                                                STATES)
+                                                reescalation_margin, STATES)
 from starlette.responses import Response
 
 router = APIRouter(prefix='/api', tags=['api'])
@@ -75,7 +75,7 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     """
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                          robot=robot or None, state=_state(state), cache=cache, page=page,
-                         limit=limit)
+                         limit=limit, reescalation_margin=reescalation_margin(request))
     return json_with_etag(request, payload)
 
 
@@ -90,7 +90,8 @@ def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
     friction levels of the last experiments with the model, the alarm log.
     """
     payload = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
-                         parameter_sets=parameter_sets)
+                         parameter_sets=parameter_sets,
+                         reescalation_margin=reescalation_margin(request))
     if payload is None:
         raise HTTPException(status_code=404, detail=f'no estimates of robot {robot[:80]!r} '
                                                     f'joint {joint[:80]!r}')

@@ -51,6 +51,9 @@ class RowTexts(_Shape):
     alarm: str
     last: str
     invalid: str
+    life: str = Field(description="a reset joint's new life: 'reset <time> by <user> "
+                                  "(<reason>): awaiting the first experiment' ('' when "
+                                  'never reset)')
 
 
 class FleetRowJson(_Shape):
@@ -81,6 +84,15 @@ class FleetRowJson(_Shape):
     acknowledged_by: Optional[str]
     acknowledged_time_s: Optional[float]
     planned_maintenance: Optional[str] = Field(description='YYYY-MM-DD')
+    reescalated: bool = Field(description='an acknowledged alarm back on top: its wear rose '
+                                          'the margin past its value at the acknowledgement, '
+                                          'or its planned maintenance date passed')
+    reescalated_reason: Optional[str] = Field(description='why it is re-escalated')
+    life_started_s: Optional[float] = Field(
+        description="the last reset's moment [s] (null: never reset, or latched again); the "
+                    'wear, trend, crossing and alarm fields are those of the new life')
+    reset_by: Optional[str] = Field(description='who reset it (null: the ROS service)')
+    reset_reason: Optional[str] = Field(description='why it was reset')
     state: str = Field(description='one of: ' + ', '.join(STATES),
                        json_schema_extra={'enum': list(STATES)})
     arrow: str = Field(description='the trend arrow: \u2191, \u2197, \u2192 or ?')
@@ -126,10 +138,16 @@ class AlarmEventJson(_Shape):
                        json_schema_extra={'enum': list(ALARM_EVENT_KINDS)})
     stamp_s: Optional[float] = Field(description="a raise: its experiment's stamp [s]; "
                                                  'else the moment [s]')
-    time: str = Field(description='stamp_s as ISO 8601 UTC')
+    time: str = Field(description='event_time_s as ISO 8601 UTC')
+    event_time_s: Optional[float] = Field(
+        description="the event's time in the log (newest first): a raise's experiment "
+                    "stamp, an acknowledgement's or a reset's wall time [s]")
     wall_time_s: Optional[float] = Field(description='when it was stored [s, wall clock]')
     wear: Optional[float]
-    note: str
+    note: str = Field(description='as stored')
+    note_text: str = Field(description='the note in words')
+    estimate_id: Optional[int] = Field(description='the estimate it is tied to (a reset: '
+                                                   "the old life's last)")
     user: str
     owner: str
     planned_maintenance: str = Field(description="YYYY-MM-DD or ''")
@@ -157,6 +175,7 @@ class ExperimentJson(_Shape):
     invalid_reason: Optional[str]
     crossing_experiments: Optional[float]
     crossing_time_s: Optional[float]
+    current_life: bool = Field(description='after the last reset (false: an old life)')
 
 
 class ForecastJson(_Shape):

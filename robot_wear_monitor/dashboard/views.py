@@ -20,10 +20,13 @@ from urllib.parse import quote, urlencode
 
 from markupsafe import escape, Markup
 import numpy as np
-from robot_wear_monitor.fleet.ranking import crossing_text, fleet_view, FleetView, iso_time
+from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
+                                              fleet_view, FleetView, iso_time)
+from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
                                              ParameterSet)
+from robot_wear_monitor.monitoring.diagnostics import clean_text
 
 #: The fleet states, worst first, as the filter and the counts name them.
 STATES = ('alarm', 'acknowledged', 'cannot judge', 'stale', 'ok')
@@ -78,6 +81,19 @@ class ParameterSets:
                               f'{self.default.name!r} ({Path(self.default.source).name})')
 
 
+def reescalation_margin(request: Any) -> float:
+    """
+    Return the re-escalation margin of the dashboard [wear units].
+
+    That of its notification configuration (``dashboard --notify``, ``reescalation_margin``),
+    else :data:`~robot_wear_monitor.fleet.ranking.DEFAULT_REESCALATION_MARGIN`: the page
+    orders as the notifier notifies.
+    """
+    settings = getattr(request.app.state, 'settings', None)
+    config = getattr(settings, 'extra', {}).get('notify') if settings is not None else None
+    return float(getattr(config, 'reescalation_margin', DEFAULT_REESCALATION_MARGIN))
+
+
 def history_version(history: Any) -> tuple:
     """
     Return what changes whenever the history gets a row: the last estimate and event ids.
@@ -106,7 +122,7 @@ class FleetCache:
 
     def row_json(self, view: FleetView, *, threshold: float) -> dict[str, Any]:
         """Return :func:`fleet_row_json` of ``view``, made once per row state."""
-        key = (repr(view.state), view.stale, view.crossing_time_s, threshold)
+        key = (repr(view.state), view.stale, view.crossing_time_s, view.reescalated, threshold)
         with self._lock:
             found = self._json.get(key)
         if found is None:
@@ -216,11 +232,17 @@ def _number(value: Optional[float]) -> Optional[float]:
 
 
 def row_state(view: FleetView) -> str:
-    """Return the state of a fleet row: one of :data:`STATES`."""
+    """
+    Return the state of a fleet row: one of :data:`STATES`.
+
+    A re-escalated acknowledged alarm stays ``acknowledged`` (its row says why it is back on
+    top); a joint reset and awaiting its first experiment is ``ok`` (or ``stale``).
+    """
     state = view.state
     if state.alarm:
         return 'acknowledged' if getattr(state, 'acknowledged', False) else 'alarm'
-    if state.invalid_reason or not math.isfinite(state.wear):
+    if state.invalid_reason or not (math.isfinite(state.wear)
+                                    or state.awaiting_first_experiment):
         return 'cannot judge'
     if view.stale:
         return 'stale'
@@ -305,7 +327,24 @@ def crossing_words(view: FleetView) -> str:
             f'(~{utc_text(view.crossing_time_s)[:10]})')
 
 
-def _alarm_text(state: Any) -> str:
+def life_text(state: Any) -> str:
+    """
+    Return the line of a joint reset after maintenance ('' when never reset or latched again).
+
+    "reset <time> by <user> (<reason>): awaiting the first experiment" until an experiment
+    follows the reset, then "new life since the reset <time> by <user> (<reason>)".
+    """
+    if not math.isfinite(state.life_started_s):
+        return ''
+    who = f' by {clean_text(state.reset_by, limit=60)}' if state.reset_by else ''
+    why = f' ({clean_text(state.reset_reason, limit=120)})' if state.reset_reason else ''
+    if state.awaiting_first_experiment:
+        return f'reset {utc_text(state.life_started_s)}{who}{why}: awaiting the first experiment'
+    return f'new life since the reset {utc_text(state.life_started_s)}{who}{why}'
+
+
+def _alarm_text(view: FleetView) -> str:
+    state = view.state
     if not state.alarm:
         return 'clear'
     text = f'LATCHED since {utc_text(state.alarm_since_stamp_s)}'
@@ -313,6 +352,8 @@ def _alarm_text(state: Any) -> str:
         text += f'; acknowledged by {getattr(state, "acknowledged_by", "")}'
         if getattr(state, 'planned_maintenance', ''):
             text += f', maintenance planned {state.planned_maintenance}'
+        if view.reescalated:
+            text += f'; RE-ESCALATED: {view.reescalated}'
     return text
 
 
@@ -333,11 +374,13 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
                           if view.crossing_time_s is not None else None),
         'crossing_days': _number(crossing_days(view)),
         'bar': _bar(state, threshold), 'url': joint_url(state.robot, state.joint),
-        'text': {'wear': _interval_text(state.wear if not state.invalid_reason else math.nan,
-                                        state.wear_low, state.wear_high),
+        'text': {'wear': (life_text(state) if state.awaiting_first_experiment else
+                          _interval_text(state.wear if not state.invalid_reason else math.nan,
+                                         state.wear_low, state.wear_high)),
+                 'life': life_text(state),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
-                 'crossing': crossing_words(view), 'alarm': _alarm_text(state),
+                 'crossing': crossing_words(view), 'alarm': _alarm_text(view),
                  'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })
@@ -347,7 +390,8 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
 def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
                robot: Optional[str] = None, state: Optional[str] = None,
                cache: Optional[FleetCache] = None, page: Optional[int] = None,
-               limit: Optional[int] = None) -> dict[str, Any]:
+               limit: Optional[int] = None,
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN) -> dict[str, Any]:
     """
     Return the fleet worst first, the counts per state and the robots, as one dict.
 
@@ -355,10 +399,11 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     ``cache``: the fleet rows of an unchanged history are not read again.  ``page`` (from 1)
     and ``limit`` (rows per page) give one page of the filtered rows (a page past the last is
     the last); without both, every row.  ``total`` counts the filtered rows, ``pages`` their
-    pages.  Only the rows sent are made into JSON.
+    pages.  Only the rows sent are made into JSON.  ``reescalation_margin``: see
+    :func:`~robot_wear_monitor.fleet.ranking.fleet_view`.
     """
     views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
-                       now_s=now_s)
+                       now_s=now_s, reescalation_margin=reescalation_margin)
     make = cache.row_json if cache is not None else fleet_row_json
     states = [row_state(v) for v in views]
     counts = dict.fromkeys(STATES, 0)
@@ -413,21 +458,29 @@ def page_links(fleet: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def event_json(event: Any) -> dict[str, Any]:
-    """Return one alarm event (raised, acknowledged or reset) for the logs."""
+    """
+    Return one alarm event (raised, acknowledged or reset) for the logs.
+
+    ``time``/``event_time_s``: the event's time in the log (a raise's experiment stamp, an
+    acknowledgement's or a reset's wall time); ``note_text``: its note in words.
+    """
     wall = _number(getattr(event, 'wall_time_s', math.nan))
+    when = _number(event_time_s(event))
     return {
         'id': getattr(event, 'id', None), 'robot': event.robot, 'joint': event.joint,
         'event': event.event, 'stamp_s': _number(event.stamp_s),
-        'time': utc_text(event.stamp_s),  # a raise: its experiment; else the moment
+        'time': utc_text(when), 'event_time_s': when,
         'wall_time_s': wall, 'wear': _number(event.wear), 'note': event.note,
+        'note_text': note_text(event),
         'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
+        'estimate_id': getattr(event, 'estimate_id', None),
     }
 
 
 #: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``).
 ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note')
+                     'planned_maintenance', 'note', 'note_text')
 
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
@@ -439,7 +492,8 @@ def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str]
         pairs = ([(robot, joint)] if joint is not None and robot is not None else
                  [(r, j) for r in ([robot] if robot else history.robots())
                   for j in history.joints(robot=r)])
-        events = [e for r, j in pairs for e in reversed(history.events(joint=j, robot=r))]
+        events = sorted((e for r, j in pairs for e in history.events(joint=j, robot=r)),
+                        key=lambda e: (event_time_s(e), e.id or 0), reverse=True)
         events = events[:limit] if limit is not None else events
     return [event_json(e) for e in events]
 
@@ -535,22 +589,34 @@ def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dic
 
 
 def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
-               parameter_sets: ParameterSets) -> Optional[dict[str, Any]]:
+               parameter_sets: ParameterSets,
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN
+               ) -> Optional[dict[str, Any]]:
     """Return one joint's story (None when the history holds no estimate of it)."""
     records = history.records(joint=joint, robot=robot)
     if not records:
         return None
     params, note = parameter_sets.resolve(records[-1].parameter_set)
     threshold = params.wear_threshold
-    state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s)
+    state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s,
+                                        reescalation_margin=reescalation_margin)
                   if v.state.joint == joint), None)
+    events = alarm_log(history, robot=robot, joint=joint)
+    # the joint's current life: the experiments after the estimate its last reset is tied to
+    last_reset = max((e for e in events if e['event'] == 'reset'), key=lambda e: e['id'] or 0,
+                     default=None)
+    life_after = (last_reset or {}).get('estimate_id')
+    if last_reset is not None and life_after is None:
+        life_after = 0
+    life = [r for r in records if life_after is None or (r.id or 0) > life_after]
     return {
         'robot': robot, 'joint': joint, 'threshold': threshold,
         'parameter_set': records[-1].parameter_set, 'model_note': note or None,
         'model_check_p_value': MODEL_CHECK_P_VALUE,
         'state': fleet_row_json(state, threshold=threshold) if state is not None else None,
-        'experiments': [_experiment_json(r) for r in records],
-        'forecast': forecast_cone(records, threshold=threshold),
+        'experiments': [{**_experiment_json(r), 'current_life': life_after is None
+                         or (r.id or 0) > life_after} for r in records],
+        'forecast': forecast_cone(life, threshold=threshold),
         'friction': friction_curves(records, params=params),
-        'events': alarm_log(history, robot=robot, joint=joint),
+        'events': events,
     }

@@ -14,8 +14,20 @@ same on every pass and in every process:
 * ``joint_stale``: no experiment for longer than the fleet view's stale limit, once per stale
   episode (key ``joint_stale/ROBOT/JOINT/last-STAMP``, the stamp of the last experiment).
 
-An acknowledged alarm (the dashboard's acknowledge) stops every notification of that joint until
-it is reset.  Robot and joint names are percent-encoded in the keys (replaced by their SHA-256
+* ``alarm_reescalated`` (sent when ``alarm_raised`` is configured): an acknowledged alarm back
+  on top (:func:`~robot_wear_monitor.fleet.ranking.reescalation`: its wear rose
+  ``reescalation_margin`` past its value at the acknowledgement, or its planned maintenance
+  date passed), once per acknowledgement and reason (key
+  ``alarm_reescalated/ROBOT/JOINT/ack-WALLTIME/margin`` or ``.../date``);
+* ``alarm_resolved`` (sent when ``alarm_raised`` is configured): the reset of a latched alarm
+  after maintenance, as Alertmanager ``status: resolved`` with the fingerprint of the raise's
+  alert, once per reset (key ``alarm_resolved/ROBOT/JOINT/reset-ID``), on the channels that
+  were sent the raise (a reset of an alarm never notified sends nothing).
+
+Otherwise an acknowledged alarm (the dashboard's acknowledge) stops every notification of that
+joint until it is reset.  After a reset the fleet row is the joint's new life (no wear, trend,
+crossing or alarm of the old life; stale counted from the reset), so nothing of the old life is
+notified.  Robot and joint names are percent-encoded in the keys (replaced by their SHA-256
 when very long).
 
 Each event goes to every channel (``webhook:NAME``, ``email``) of the configuration.  Before a
@@ -137,8 +149,19 @@ def _facts(view: FleetView) -> str:
         lines.append(f'Forecast crossing of the wear threshold:{when}')
     if s.alarm:
         lines.append(f'Alarm latched since {iso_time(s.alarm_since_stamp_s)}')
-    lines.append(f'Last experiment: {iso_time(s.last_stamp_s)} ({s.experiments} in all)')
+    if math.isfinite(s.life_started_s):
+        lines.append(f'New life since the reset {iso_time(s.life_started_s)} '
+                     f'({s.experiments} experiments since)')
+    lines.append(f'Last experiment: {iso_time(s.last_stamp_s)} '
+                 f'({max(s.total_experiments, s.experiments)} in all)')
     return '\n'.join(lines)
+
+
+def _where(robot: str, joint: str) -> str:
+    where = f'{_name(robot)}/{_name(joint)}'
+    if len(where) > _MAX_WHERE_CHARS:  # the history keeps keys of up to 512 characters
+        where = 'sha256-' + hashlib.sha256(f'{robot}\x00{joint}'.encode()).hexdigest()
+    return where
 
 
 def due_events(*, history: WearHistory, config: NotificationConfig,
@@ -151,20 +174,37 @@ def due_events(*, history: WearHistory, config: NotificationConfig,
     from being sent twice.
     """
     events: list[DueEvent] = []
-    for view in fleet_view(history.fleet(), now_s=now_s):
+    views = fleet_view(history.fleet(), now_s=now_s,
+                       reescalation_margin=config.reescalation_margin)
+    resolved = ({(r[0], r[1]): r[2:] for r in history.resolved_raises()}
+                if 'alarm_raised' in config.events else {})
+    for view in views:
         s = view.state
-        if s.acknowledged:
-            continue
-        where = f'{_name(s.robot)}/{_name(s.joint)}'
-        if len(where) > _MAX_WHERE_CHARS:  # the history keeps keys of up to 512 characters
-            where = 'sha256-' + hashlib.sha256(f'{s.robot}\x00{s.joint}'.encode()).hexdigest()
+        where = _where(s.robot, s.joint)
         facts = _facts(view)
 
-        def add(kind: str, key: str, starts_s: float, summary: str) -> None:
+        def add(kind: str, key: str, starts_s: float, summary: str, **more: Any) -> None:
             events.append(DueEvent(kind=kind, key=f'{kind}/{where}/{key}', robot=s.robot,
                                    joint=s.joint, starts_s=starts_s,
                                    summary=f'{s.robot} {s.joint}: {summary}',
-                                   description=facts, view=view))
+                                   description=facts, view=view, **more))
+        ended = resolved.get((s.robot, s.joint))
+        if ended is not None:
+            raised_s, reset_wall_s, reset_id = ended
+            by = f' by {s.reset_by}' if s.reset_by else ''
+            why = f' ({s.reset_reason[:200]})' if s.reset_reason else ''
+            add('alarm_resolved', f'reset-{reset_id}', raised_s,
+                f'wear alarm resolved: reset{by}{why}, a new life',
+                firing_key=f'alarm_raised/{where}/{_stamp(raised_s)}', ends_s=reset_wall_s)
+        if s.acknowledged:
+            if view.reescalated and 'alarm_raised' in config.events:
+                reasons = [why for why, word in (('margin', 'rose'), ('date', 'passed'))
+                           if word in view.reescalated]
+                for reason in reasons:
+                    add('alarm_reescalated',
+                        f'ack-{_stamp(s.acknowledged_wall_time_s)}/{reason}', now_s,
+                        f'acknowledged wear alarm re-escalated: {view.reescalated}')
+            continue
         if 'alarm_raised' in config.events and s.alarm:
             add('alarm_raised', _stamp(s.alarm_since_stamp_s), s.alarm_since_stamp_s,
                 f'wear alarm raised ({describe_wear(view)})')
@@ -177,9 +217,12 @@ def due_events(*, history: WearHistory, config: NotificationConfig,
             add('forecast_crossing', _cycle(history, robot=s.robot, joint=s.joint),
                 s.last_stamp_s, when)
         if 'joint_stale' in config.events and view.stale:
-            since = s.last_stamp_s + STALE_FACTOR * s.usual_interval_s
-            add('joint_stale', f'last-{_stamp(s.last_stamp_s)}', since,
-                f'no experiment since {iso_time(s.last_stamp_s)} (usual interval '
+            last = s.last_stamp_s
+            if math.isfinite(s.life_started_s):
+                last = max(last, s.life_started_s)  # a new life: counted from its reset
+            since = last + STALE_FACTOR * s.usual_interval_s
+            add('joint_stale', f'last-{_stamp(last)}', since,
+                f'no experiment since {iso_time(last)} (usual interval '
                 f'{s.usual_interval_s / 3600.0:.1f} h)')
     return events
 
@@ -230,6 +273,8 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     for event in events:
         for channel in config.channels:
             base = f'{event.key}@{channel}'
+            if event.resolved and f'{event.firing_key}@{channel}' not in log:
+                continue  # the raise was never sent on this channel: nothing to resolve
             number = _next_pass(base, log, config.retry.passes)
             if number is None or channel in failed_channels:
                 continue

@@ -39,7 +39,13 @@ KINDS = {
     'forecast_crossing': ('WearForecastCrossing', 'warning',
                           'wear threshold crossing forecast within the horizon'),
     'joint_stale': ('WearJointStale', 'warning', 'no experiment for too long (stale)'),
+    'alarm_reescalated': ('WearAlarmRaised', 'critical',
+                          'acknowledged wear alarm re-escalated'),
+    'alarm_resolved': ('WearAlarmRaised', 'critical',
+                       'wear alarm resolved (reset after maintenance)'),
 }
+#: The kinds sent as Alertmanager ``status: resolved`` (the end of the alert of ``firing_key``).
+RESOLVED_KINDS = ('alarm_resolved',)
 _USER_AGENT = f'robot-wear-monitor/{__version__}'
 
 
@@ -50,7 +56,9 @@ class DueEvent:
 
     ``key``: the event's identity (the same on every pass and in every process, see
     :mod:`robot_wear_monitor.fleet.notifications`); ``starts_s``: when it happened [s since the
-    epoch]; ``view``: the joint's fleet row at the pass.
+    epoch]; ``view``: the joint's fleet row at the pass.  A ``resolved`` event (the reset of
+    an alarm) names the key of the alert it ends (``firing_key``, whose fingerprint it
+    carries) and when it ended (``ends_s``).
     """
 
     kind: str
@@ -61,11 +69,19 @@ class DueEvent:
     summary: str
     description: str
     view: FleetView
+    firing_key: str = ''
+    ends_s: float = math.nan
+
+    @property
+    def resolved(self) -> bool:
+        """Return True for the end of an alert (Alertmanager ``status: resolved``)."""
+        return self.kind in RESOLVED_KINDS
 
     @property
     def fingerprint(self) -> str:
-        """Return a stable 16-hex-digit identity of the event (the alert's fingerprint)."""
-        return hashlib.sha256(self.key.encode('utf-8')).hexdigest()[:16]
+        """Return a stable 16-hex-digit identity of the alert (a resolved one: the firing's)."""
+        key = self.firing_key or self.key
+        return hashlib.sha256(key.encode('utf-8')).hexdigest()[:16]
 
 
 @dataclass(frozen=True)
@@ -92,11 +108,14 @@ def webhook_payload(event: DueEvent, *, config: NotificationConfig,
     labels = {'alertname': name, 'robot': event.robot, 'joint': event.joint,
               'severity': severity}
     annotations = {'summary': event.summary, 'description': event.description}
-    alert = {'status': 'firing', 'labels': labels, 'annotations': annotations,
-             'startsAt': iso_time(event.starts_s), 'endsAt': NO_END,
+    status = 'resolved' if event.resolved else 'firing'
+    alert = {'status': status, 'labels': labels, 'annotations': annotations,
+             'startsAt': iso_time(event.starts_s),
+             'endsAt': iso_time(event.ends_s) if event.resolved else NO_END,
              'generatorURL': joint_url(config, robot=event.robot, joint=event.joint),
              'fingerprint': event.fingerprint}
-    return {'version': '4', 'groupKey': event.key, 'truncatedAlerts': 0, 'status': 'firing',
+    return {'version': '4', 'groupKey': event.firing_key or event.key, 'truncatedAlerts': 0,
+            'status': status,
             'receiver': receiver, 'groupLabels': {'alertname': name},
             'commonLabels': dict(labels), 'commonAnnotations': dict(annotations),
             'externalURL': config.dashboard_url, 'alerts': [alert]}
@@ -236,6 +255,8 @@ def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,
 def describe_wear(view: FleetView) -> str:
     """Return the joint's latest wear with its 95 % interval as text (w 0..100)."""
     s = view.state
+    if s.awaiting_first_experiment:
+        return 'no experiment since the reset (a new life)'
     if not math.isfinite(s.wear) or s.invalid_reason:
         return 'cannot judge the wear of the latest experiment'
     if math.isfinite(s.wear_low) and math.isfinite(s.wear_high):

@@ -2,7 +2,9 @@
 The notification configuration: one YAML file, every field checked, unknown keys refused.
 
 The file (``config/notifications.example.yaml`` shows every field) says which events are sent
-(``events``), how far ahead a forecast crossing counts (``forecast_horizon_days``), where the
+(``events``), how far ahead a forecast crossing counts (``forecast_horizon_days``), how far the
+wear of an acknowledged alarm may rise before it is notified again (``reescalation_margin``,
+wear units, default 5), where the
 links in the messages point (``dashboard_url``), how hard a send is tried (``retry``), and the
 channels: ``webhooks`` (JSON POSTs) and ``email`` (one SMTP server).  Secrets never live in the
 file: the SMTP password is read from ``email.password_file`` (relative paths are relative to
@@ -23,6 +25,7 @@ from typing import Any, Mapping, Optional
 from urllib.parse import urlsplit
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.fleet.ranking import DEFAULT_REESCALATION_MARGIN
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
 #: The events a configuration may name: an alarm latched, a forecast crossing of the wear
@@ -105,6 +108,9 @@ class NotificationConfig:
 
     events: tuple[str, ...] = EVENTS
     forecast_horizon_days: float = 30.0
+    #: an acknowledged alarm is notified again when its wear rises this much past its value
+    #: at the acknowledgement [wear units] (or its planned maintenance date passes)
+    reescalation_margin: float = DEFAULT_REESCALATION_MARGIN
     dashboard_url: str = ''
     retry: RetryPolicy = RetryPolicy()
     webhooks: tuple[WebhookConfig, ...] = ()
@@ -360,7 +366,8 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
     ``base``: the folder relative password files are read from (default: the current one).
     """
     reader = _Reader(source, values, '', ('events', 'forecast_horizon_days', 'dashboard_url',
-                                          'retry', 'webhooks', 'email'))
+                                          'reescalation_margin', 'retry', 'webhooks',
+                                          'email'))
     events = values.get('events', list(EVENTS))
     if not isinstance(events, list) or not events:
         raise reader.error('events', f'must be a non-empty list of {", ".join(EVENTS)}, got '
@@ -378,6 +385,9 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
         events=tuple(e for e in EVENTS if e in events),
         forecast_horizon_days=reader.number('forecast_horizon_days', 30.0, low=0.0,
                                             high=3650.0, unit='days'),
+        reescalation_margin=reader.number('reescalation_margin', DEFAULT_REESCALATION_MARGIN,
+                                          low=0.0, high=100.0, unit='wear units',
+                                          low_open=True),
         dashboard_url=dashboard_url, retry=_retry(source, values.get('retry')),
         webhooks=webhooks, email=mail, source=source)
 

@@ -1,13 +1,18 @@
 """
 The fleet at a glance: one row per robot and joint from the history, worst first.
 
-Order (the maintenance team's): a latched alarm first; then the forecast crossing of the wear
-threshold soonest (in experiments); then the highest upper bound of the 95 % interval of w.
-A latched alarm may be acknowledged (someone took it on; it stays latched and first): the
-views name who and the planned maintenance date.  A joint is ``stale`` when it has had no
-experiment for longer than :data:`STALE_FACTOR` times its usual interval (the median time
-between its experiments), counted up to ``now``.  The crossing gets a date when the joint's
-experiment rate is known (two experiments or more).
+Order (the maintenance team's triage): the unacknowledged latched alarms first; then the
+acknowledged ones (someone took the alarm on: the views name who and the planned maintenance
+date); then the joints that cannot be judged (an invalid latest estimate); then the forecast
+crossing of the wear threshold soonest (in experiments); then the highest upper bound of the
+95 % interval of w.  An acknowledged alarm is *re-escalated* (ordered as unacknowledged again,
+and notified again) when its wear rises :data:`DEFAULT_REESCALATION_MARGIN` wear units (or the
+margin given) past its value at the acknowledgement (the trend when both are known, else w-hat),
+or when its planned maintenance date has passed (UTC).  A joint is ``stale`` when it has had no
+experiment for longer than :data:`STALE_FACTOR` times its usual interval (the mean time between
+its experiments), counted up to ``now`` from its latest experiment or its last reset,
+whichever is later.  The crossing gets a date when the joint's experiment rate is known (two
+experiments or more).  After a reset the row is the joint's new life (``life_started_s``).
 """
 
 from __future__ import annotations
@@ -24,6 +29,9 @@ from robot_wear_monitor.monitoring.diagnostics import clean_text
 
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
 STALE_FACTOR = 3.0
+#: An acknowledged alarm is re-escalated when its wear rises this much past its value at the
+#: acknowledgement [wear units, w 0..100].
+DEFAULT_REESCALATION_MARGIN = 5.0
 
 
 @dataclass(frozen=True)
@@ -40,6 +48,12 @@ class FleetView:
     state: FleetRow
     stale: bool
     crossing_time_s: Optional[float]
+    #: why an acknowledged alarm is back on top ('' when it is not): see the module's text
+    reescalated: str = ''
+
+    def rank_key(self) -> tuple[int, float, float, str, str]:
+        """Return the sort key, worst first (:meth:`FleetRow.rank_key`, re-escalation too)."""
+        return self.state.rank_key(reescalated=bool(self.reescalated))
 
     def as_json(self) -> dict[str, Any]:
         """Return the row as a JSON-ready dict (non-finite numbers as null)."""
@@ -60,25 +74,65 @@ class FleetView:
             'acknowledged': bool(s.acknowledged), 'acknowledged_by': s.acknowledged_by or None,
             'acknowledged_time_s': finite_or_none(s.acknowledged_wall_time_s),
             'planned_maintenance': s.planned_maintenance or None,
+            'reescalated': bool(self.reescalated), 'reescalated_reason': self.reescalated or None,
+            'life_started_s': finite_or_none(s.life_started_s),
+            'reset_by': s.reset_by or None if math.isfinite(s.life_started_s) else None,
+            'reset_reason': s.reset_reason or None if math.isfinite(s.life_started_s) else None,
         }
 
 
-def fleet_view(states: Iterable[FleetRow], *, now_s: float) -> list[FleetView]:
+def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
     """
-    Return the fleet rows in the history's order (worst first), judged at ``now_s``.
+    Return why the acknowledged alarm of ``state`` is back on top ('' when it is not).
 
-    ``now_s``: the time [s since the epoch] staleness is judged at.
+    The wear rose ``margin`` wear units past its value at the acknowledgement (the trend when
+    it is known then and now, else w-hat), or the planned maintenance date (UTC) has passed.
+    """
+    if not (state.alarm and state.acknowledged):
+        return ''
+    reasons = []
+    trend_known = math.isfinite(state.acknowledged_trend_wear) and math.isfinite(
+        state.trend_wear)
+    then, now, what = ((state.acknowledged_trend_wear, state.trend_wear, 'trend w')
+                       if trend_known else (state.acknowledged_wear, state.wear, 'w-hat'))
+    if math.isfinite(then) and math.isfinite(now) and now >= then + margin:
+        reasons.append(f'{what} rose to {now:.1f}, {now - then:.1f} past the {then:.1f} at the '
+                       f'acknowledgement (margin {margin:g})')
+    if state.planned_maintenance:
+        today = datetime.datetime.fromtimestamp(now_s, tz=datetime.timezone.utc).date()
+        try:
+            planned = datetime.date.fromisoformat(state.planned_maintenance)
+        except ValueError:
+            planned = None
+        if planned is not None and planned < today:
+            reasons.append(f'the planned maintenance date {planned.isoformat()} has passed')
+    return '; '.join(reasons)
+
+
+def fleet_view(states: Iterable[FleetRow], *, now_s: float,
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN) -> list[FleetView]:
+    """
+    Return the fleet rows worst first (the triage order of the module's text), at ``now_s``.
+
+    ``now_s``: the time [s since the epoch] staleness and planned dates are judged at;
+    ``reescalation_margin``: the rise of the wear past its value at the acknowledgement that
+    re-escalates an acknowledged alarm [wear units].
     """
     rows = []
     for state in states:
         interval = state.usual_interval_s
         known = math.isfinite(interval) and interval > 0
-        stale = bool(known and now_s - state.last_stamp_s > STALE_FACTOR * interval)
+        since = state.last_stamp_s
+        if math.isfinite(state.life_started_s):
+            since = max(since, state.life_started_s)  # a new life: counted from the reset
+        stale = bool(known and now_s - since > STALE_FACTOR * interval)
         crossing_time = None
         if known and math.isfinite(state.crossing_experiments):
             crossing_time = state.last_stamp_s + state.crossing_experiments * interval
-        rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time))
-    return sorted(rows, key=lambda row: row.state.rank_key())
+        rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time,
+                              reescalated=reescalation(state, now_s=now_s,
+                                                       margin=reescalation_margin)))
+    return sorted(rows, key=FleetView.rank_key)
 
 
 def iso_time(stamp_s: Optional[float], *, local: bool = False) -> str:
@@ -105,6 +159,8 @@ def crossing_text(row: FleetView, *, local: bool = False) -> str:
 
 
 def _wear_text(state: FleetRow) -> str:
+    if state.awaiting_first_experiment:
+        return 'new life: awaiting the first experiment'
     if not math.isfinite(state.wear) or state.invalid_reason:
         return 'CANNOT JUDGE'
     if math.isfinite(state.wear_low) and math.isfinite(state.wear_high):
@@ -120,17 +176,23 @@ def _trend_text(state: FleetRow) -> str:
 
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
-                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_service_date')
+                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_service_date',
+                 'reescalated', 'life_started')
 
 
-def _alarm_text(state: FleetRow, local: bool) -> str:
+def _alarm_text(row: FleetView, local: bool) -> str:
+    state = row.state
     if not state.alarm:
+        if math.isfinite(state.life_started_s):
+            return f'no (reset {iso_time(state.life_started_s, local=local)})'
         return 'no'
     text = f'LATCHED since {iso_time(state.alarm_since_stamp_s, local=local)}'
     if state.acknowledged:
         text += f', acknowledged by {clean_text(state.acknowledged_by, limit=40)}'
         if state.planned_maintenance:
             text += f', service planned {state.planned_maintenance}'
+        if row.reescalated:
+            text += ', RE-ESCALATED'
     return text
 
 
@@ -141,7 +203,7 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     lines = []
     for row in rows:
         s = row.state
-        alarm = _alarm_text(s, local)
+        alarm = _alarm_text(row, local)
         lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
                       _wear_text(s), _trend_text(s), alarm, crossing_text(row, local=local),
                       str(s.experiments),
@@ -175,5 +237,8 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[li
                     if row.crossing_time_s is not None else '',
                     'yes' if row.stale else 'no', 'no' if s.invalid_reason else 'yes',
                     spreadsheet_text(s.acknowledged_by or '') if s.acknowledged else '',
-                    spreadsheet_text(s.planned_maintenance or '') if s.acknowledged else ''])
+                    spreadsheet_text(s.planned_maintenance or '') if s.acknowledged else '',
+                    spreadsheet_text(row.reescalated),
+                    iso_time(s.life_started_s, local=local)
+                    if math.isfinite(s.life_started_s) else ''])
     return out

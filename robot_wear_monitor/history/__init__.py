@@ -28,13 +28,14 @@ from robot_wear_monitor.history.migrations import (
     POSTGRESQL_MIGRATIONS, SCHEMA_VERSION, SQLITE_MIGRATIONS)
 from robot_wear_monitor.history.records import (
     ALARM_EVENT_KINDS, AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord,
-    INTERVAL_COLUMNS, RestoredState)
+    INTERVAL_COLUMNS, LatchMoved, RestoredState)
 from robot_wear_monitor.history.store import open_history, WearHistory
 from robot_wear_monitor.history.users import (
     MIN_PASSWORD_CHARS, ROLES, User)
 
 __all__ = ['ALARM_EVENT_KINDS', 'AlarmEvent', 'DEFAULT_ROBOT', 'FleetRow', 'HistoryError',
-           'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url', 'LEVEL_CSV_COLUMNS',
-           'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS', 'redact_url',
+           'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url', 'LatchMoved',
+           'LEVEL_CSV_COLUMNS', 'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS',
+           'redact_url',
            'RestoredState', 'ROLES', 'SCHEMA_VERSION', 'SQLITE_MIGRATIONS', 'User',
            'WearHistory', 'write_levels_csv']

@@ -102,7 +102,8 @@ def _note(what: str, value: Any, *, required: bool) -> str:
     return text
 
 
-def _action_lock(robot: str, joint: str) -> int:
+def action_lock(robot: str, joint: str) -> int:
+    """Return the key of the transaction lock of (robot, joint) around its latch."""
     # not the writer lock's key: an estimator holds that one for its whole run
     return lock_key(f'alarm action\0{robot}', joint)
 
@@ -151,7 +152,7 @@ def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: 
     comment = _note('comment', comment, required=False)
     planned = check_planned_maintenance(planned_maintenance)
     with backend.transaction():
-        backend.lock_in_transaction(_action_lock(robot, joint))
+        backend.lock_in_transaction(action_lock(robot, joint))
         latch, acknowledged = latch_events(backend, robot=robot, joint=joint)
         if latch is None or latch.event != 'raised':
             raise _no_latch(backend.name, robot, joint, 'acknowledge')
@@ -183,7 +184,7 @@ def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, r
     if not math.isfinite(stamp):
         raise HistoryError(f'the reset stamp must be a finite time [s], got {stamp_s!r}')
     with backend.transaction():
-        backend.lock_in_transaction(_action_lock(robot, joint))
+        backend.lock_in_transaction(action_lock(robot, joint))
         latch, _ = latch_events(backend, robot=robot, joint=joint)
         if latch is None or latch.event != 'raised':
             raise _no_latch(backend.name, robot, joint, 'reset')
@@ -193,14 +194,26 @@ def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, r
             robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
 
 
+#: An event's time in the alarm log: a raise's experiment stamp, else the wall clock when a
+#: person (or the ROS service) acknowledged or reset [s since the epoch].
+EVENT_TIME = "CASE WHEN event = 'raised' THEN stamp_s ELSE wall_time_s END"
+
+
+def event_time_s(event: AlarmEvent) -> float:
+    """Return the time of ``event`` in the alarm log (:data:`EVENT_TIME`) [s since the epoch]."""
+    return float(event.stamp_s if event.event == 'raised' else event.wall_time_s)
+
+
 def alarm_log(backend: HistoryBackend, *, robot: Optional[str] = None, joint: Optional[str] = None,
               limit: Optional[int] = None, before_id: Optional[int] = None) -> list[AlarmEvent]:
     """
-    Return the fleet's alarm events, newest first (id descending).
+    Return the fleet's alarm events, newest first by event time (:data:`EVENT_TIME`).
 
+    Whatever order the recordings were replayed in: a raise counts at its experiment's time,
+    an acknowledgement or a reset at the moment it was made; the id breaks ties.
     ``robot``/``joint`` keep one robot's or one joint's events (a joint name of every robot
-    when ``robot`` is None); ``before_id`` keeps the events older than that id (the next page);
-    ``limit`` at most that many.
+    when ``robot`` is None); ``before_id`` keeps the events after that event in this order
+    (the next page); ``limit`` at most that many.
     """
     conditions: list[str] = []
     params: list[Any] = []
@@ -209,16 +222,87 @@ def alarm_log(backend: HistoryBackend, *, robot: Optional[str] = None, joint: Op
             conditions.append(f'{column} = ?')
             params.append(str(value))
     if before_id is not None:
-        conditions.append('id < ?')
-        params.append(_positive('before_id', before_id))
+        conditions.append(f'(({EVENT_TIME}) < (SELECT {EVENT_TIME} FROM alarm_events WHERE '
+                          f'id = ?) OR (({EVENT_TIME}) = (SELECT {EVENT_TIME} FROM alarm_events '
+                          'WHERE id = ?) AND id < ?))')
+        before = _positive('before_id', before_id)
+        params += [before, before, before]
     query = f'SELECT {EVENT_COLUMNS} FROM alarm_events'
     if conditions:
         query += ' WHERE ' + ' AND '.join(conditions)
-    query += ' ORDER BY id DESC'
+    query += f' ORDER BY {EVENT_TIME} DESC, id DESC'
     if limit is not None:
         query += ' LIMIT ?'
         params.append(_positive('limit', limit))
     return [event_from_row(row) for row in backend.execute(query, params)]
+
+
+def resolved_raises(backend: HistoryBackend) -> list[tuple[str, str, float, float, int]]:
+    """
+    Return the alarms a reset resolved: per joint whose latch is a reset, the raise before it.
+
+    Rows (robot, joint, the raise's stamp [s], the reset's wall time [s], the reset's id), one
+    query for the fleet (the joints reset before any raise are left out).
+    """
+    rows = backend.execute(
+        'SELECT a.robot, a.joint, r.stamp_s, a.wall_time_s, a.id FROM alarm_events a JOIN '
+        f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {LATCH_EVENTS} '
+        'GROUP BY robot, joint) l ON a.id = l.last_id JOIN alarm_events r ON r.id = '
+        '(SELECT MAX(p.id) FROM alarm_events p WHERE p.robot = a.robot AND p.joint = a.joint '
+        "AND p.event = 'raised' AND p.id < a.id) WHERE a.event = 'reset'")
+    return [(r[0], r[1], float(r[2]), float(r[3]), int(r[4])) for r in rows]
+
+
+_NUMBER = r'(-?[0-9.]+(?:e[-+]?[0-9]+)?|unknown|nan)'
+#: The note of a raise by the ``trend`` rule (the estimator's ``_raise_note``).
+_TREND_NOTE = re.compile(rf'trend P\(w >= {_NUMBER}\) = {_NUMBER} >= {_NUMBER}; trend w '
+                         rf'{_NUMBER} \[{_NUMBER}, {_NUMBER}\], w-hat {_NUMBER}')
+#: The note of a raise by the ``estimate`` rule.
+_ESTIMATE_NOTE = re.compile(rf'w-hat {_NUMBER} >= {_NUMBER}, evidence {_NUMBER}')
+
+
+def _percent(text: str) -> str:
+    try:
+        value = float(text)
+    except ValueError:
+        return text
+    return f'{100.0 * value:.0f} %' if math.isfinite(value) else 'unknown'
+
+
+def note_text(event: AlarmEvent) -> str:
+    """
+    Return the note of ``event`` in words.
+
+    A raise: the rule and the numbers that raised it ("the trend's chance of w >= 35 reached
+    21 % (rule: 15 %)", or "w-hat 36.2 reached the wear threshold 35 (alarm evidence 4.5)");
+    an acknowledgement: who, for whom, the planned date and the comment; a reset: who and why.
+    A note in another form is given as it is.
+    """
+    note = (event.note or '').strip()
+    if event.event == 'raised':
+        found = _TREND_NOTE.fullmatch(note)
+        if found:
+            threshold, chance, rule, trend, low, high, wear = found.groups()
+            return (f"the trend's chance of w >= {threshold} reached {_percent(chance)} "
+                    f'(rule: {_percent(rule)}); trend w {trend} [95 %: {low}, {high}], '
+                    f'latest w-hat {wear}')
+        found = _ESTIMATE_NOTE.fullmatch(note)
+        if found:
+            wear, threshold, evidence = found.groups()
+            return (f'w-hat {wear} reached the wear threshold {threshold} (alarm evidence '
+                    f'{evidence})')
+        return note
+    if event.event == 'acknowledged':
+        text = f'acknowledged by {event.user or "someone"}'
+        if event.owner and event.owner != event.user:
+            text += f', taken on by {event.owner}'
+        if event.planned_maintenance:
+            text += f', maintenance planned {event.planned_maintenance}'
+        return text + (f': {note}' if note else '')
+    if event.event == 'reset':
+        who = f'reset by {event.user}' if event.user else 'reset'
+        return f'{who}: {note}' if note else who
+    return note
 
 
 def _positive(what: str, value: Any) -> int:

@@ -21,6 +21,15 @@ class HistoryError(InputError):
     """The wear history cannot be opened, read or written; the message names the history."""
 
 
+class LatchMoved(HistoryError):
+    """
+    An estimate was not stored: the joint's latch changed since its writer read it.
+
+    Someone (the dashboard) reset the alarm while the estimator worked on the experiment: its
+    estimate belongs to the old life.  The writer takes the reset over and estimates again.
+    """
+
+
 @dataclass(frozen=True)
 class HistoryRecord:
     """
@@ -120,9 +129,14 @@ class FleetRow:
     stored); ``alarm`` is the latched alarm (the last alarm event is a raise) and
     ``alarm_since_stamp_s`` the stamp of that raise [s] (NaN when clear), acknowledgements
     aside (they do not unlatch);
-    ``experiments`` counts the stored estimates, ``first_stamp_s``/``last_stamp_s`` are the
-    stamps of the first and the latest [s] and ``usual_interval_s`` their mean spacing [s]
-    (NaN with one experiment).
+    ``experiments`` counts the stored estimates of the joint's current life (since its last
+    reset), ``first_stamp_s``/``last_stamp_s`` are the stamps of the joint's first and latest
+    [s] and ``usual_interval_s`` their mean spacing [s] (NaN with one experiment).
+
+    After a reset (the latch is a ``reset``: maintenance started a new life) the row holds the
+    new life only: ``life_started_s`` is the reset's moment [s], and while no experiment
+    followed it every field of the old life's state (wear, trend, crossing, evidence, status,
+    invalid reason) is NaN / clear; the old life stays in the joint's records.
     """
 
     robot: str
@@ -153,25 +167,48 @@ class FleetRow:
     acknowledged_by: str = ''
     acknowledged_wall_time_s: float = math.nan
     planned_maintenance: str = ''
+    #: the value at the acknowledgement: w-hat and the trend of the joint's latest estimate
+    #: then (NaN when unknown); the fleet view re-escalates the alarm when the wear rises a
+    #: set margin past it
+    acknowledged_wear: float = math.nan
+    acknowledged_trend_wear: float = math.nan
+    #: the last reset (a new life): its moment [s], who and why ('' from the ROS service);
+    #: NaN / '' when the joint was never reset or its alarm is latched again
+    life_started_s: float = math.nan
+    reset_by: str = ''
+    reset_reason: str = ''
+    #: every stored estimate of the joint, old lives too (0: the same as ``experiments``)
+    total_experiments: int = 0
 
     @property
     def usual_interval_s(self) -> float:
-        """Return the mean time between the joint's experiments [s] (NaN with one)."""
-        if self.experiments < 2:
+        """Return the mean time between the joint's experiments, all lives [s] (NaN with one)."""
+        count = max(self.total_experiments, self.experiments)
+        if count < 2:
             return math.nan
-        return (self.last_stamp_s - self.first_stamp_s) / (self.experiments - 1)
+        return (self.last_stamp_s - self.first_stamp_s) / (count - 1)
 
-    def rank_key(self) -> tuple[int, float, float, str, str]:
+    @property
+    def awaiting_first_experiment(self) -> bool:
+        """Return True after a reset that no experiment followed yet."""
+        return math.isfinite(self.life_started_s) and self.experiments == 0
+
+    def rank_key(self, *, reescalated: bool = False) -> tuple[int, float, float, str, str]:
         """
-        Return the sort key of the fleet view, worst first.
+        Return the sort key of the fleet view, worst first (the maintenance team's triage).
 
-        A latched alarm first, then the joints whose latest estimate cannot be judged (an
-        invalid estimate: a monitor that does not know is no healthy joint), then the soonest
-        forecast crossing [experiments], then the highest upper bound of w (the estimate itself
-        when the interval is unknown).
+        An unacknowledged latched alarm first (an acknowledged one that is ``reescalated``
+        counts as unacknowledged), then the acknowledged alarms, then the joints whose latest
+        estimate cannot be judged (an invalid estimate: a monitor that does not know is no
+        healthy joint), then the soonest forecast crossing [experiments], then the highest
+        upper bound of w (the estimate itself when the interval is unknown).
         """
         crossing = (self.crossing_experiments if math.isfinite(self.crossing_experiments)
                     else math.inf)
         high = self.wear_high if math.isfinite(self.wear_high) else self.wear
-        return (0 if self.alarm else 1 if self.invalid_reason else 2, crossing,
-                -high if math.isfinite(high) else math.inf, self.robot, self.joint)
+        if self.alarm:
+            tier = 1 if self.acknowledged and not reescalated else 0
+        else:
+            tier = 2 if self.invalid_reason else 3
+        return (tier, crossing, -high if math.isfinite(high) else math.inf, self.robot,
+                self.joint)

@@ -13,6 +13,7 @@ history, leaving it untouched.
 from __future__ import annotations
 
 from contextlib import contextmanager
+from dataclasses import replace
 import json
 import math
 import os
@@ -30,7 +31,7 @@ from robot_wear_monitor.history.migrations import (
     JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.history.records import (
     AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
-    RestoredState)
+    LatchMoved, RestoredState)
 from robot_wear_monitor.json_values import finite_or_none
 
 _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions',
@@ -189,14 +190,18 @@ class WearHistory:
 
     # ------------------------------------------------------------------ writing
 
-    def append(self, record: HistoryRecord, *,
-               events: Sequence[AlarmEvent] = ()) -> Optional[int]:
+    def append(self, record: HistoryRecord, *, events: Sequence[AlarmEvent] = (),
+               latch_id: Any = ...) -> Optional[int]:
         """
         Store one estimate and its alarm events in one transaction; return the estimate id.
 
         Returns None, storing nothing, when the history already holds that experiment (same
         robot, joint and end stamp, see :meth:`find_estimate`): the unique key makes the check
         and the insert one step, so writers at once never store an experiment twice.
+        ``latch_id``: the id of the joint's last raise or reset the estimate was made after
+        (None: none); when given and the history's is another one (a reset stored meanwhile),
+        nothing is stored and :class:`LatchMoved` is raised, in the same transaction as a
+        reset's (so the rows after a reset are the new life's).
         """
         robot = self._robot(record.robot)
         joint = _check_name('joint', record.joint)
@@ -213,6 +218,14 @@ class WearHistory:
                   str(record.invalid_reason)[:2000])
         columns = ('robot', 'joint', 'stamp_s', 'wall_time_s', *_RECORD_COLUMNS[4:])
         with self._guard('cannot store the estimate'), self._backend.transaction():
+            if latch_id is not ...:
+                self._backend.lock_in_transaction(alarms.action_lock(robot, joint))
+                stored = self._backend.execute(
+                    'SELECT MAX(id) FROM alarm_events WHERE robot = ? AND joint = ? AND '
+                    f'{alarms.LATCH_EVENTS}', (robot, joint))
+                if (stored[0][0] if stored else None) != latch_id:
+                    raise LatchMoved(f'{self.path}: the latch of robot {robot[:80]!r} joint '
+                                     f'{joint[:80]!r} changed (a reset stored meanwhile)')
             if self.find_estimate(joint=joint, stamp_s=record.stamp_s, robot=robot) is not None:
                 return None
             rows = self._backend.execute(
@@ -282,15 +295,27 @@ class WearHistory:
                   limit: Optional[int] = None, before_id: Optional[int] = None
                   ) -> list[AlarmEvent]:
         """
-        Return the alarm events of the fleet, newest first (each with robot, id, times).
+        Return the alarm events of the fleet, newest first by event time (robot, id, times).
 
-        ``robot`` None: every robot (not the history's robot); ``joint``: that joint only;
-        ``before_id``: the events older than that id (the next page); ``limit``: at most so
-        many.
+        The event time: a raise's experiment stamp, an acknowledgement's or a reset's wall
+        time (:func:`~robot_wear_monitor.history.alarms.alarm_log`), whatever the order the
+        recordings were replayed in.  ``robot`` None: every robot (not the history's robot);
+        ``joint``: that joint only; ``before_id``: the events after that one in this order
+        (the next page); ``limit``: at most so many.
         """
         with self._guard('cannot read the alarm log'):
             return alarms.alarm_log(self._backend, robot=robot, joint=joint, limit=limit,
                                     before_id=before_id)
+
+    def resolved_raises(self) -> list[tuple[str, str, float, float, int]]:
+        """
+        Return the raises a reset resolved (the latch of their joint is that reset).
+
+        (robot, joint, the raise's stamp [s], the reset's wall time [s], the reset's id) per
+        joint: what the notifier sends as ``resolved``.
+        """
+        with self._guard('cannot read the alarm log'):
+            return alarms.resolved_raises(self._backend)
 
     def estimate_rows(self, *, joint: str, robot: Optional[str] = None,
                       limit: Optional[int] = None) -> tuple[HistoryRecord, ...]:
@@ -513,52 +538,84 @@ class WearHistory:
         """
         Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
 
-        ``robot`` keeps one robot's joints (all robots when None).  Three queries whatever the
+        ``robot`` keeps one robot's joints (all robots when None).  Four queries whatever the
         fleet's size: the latest estimate and the count per (robot, joint) (``joint_summary``:
         one row per joint, not a scan of the estimates), the last raise or reset per (robot,
-        joint) (the latch) and the last acknowledgement per (robot, joint).
+        joint) (the latch), the last acknowledgement per (robot, joint) and, for the joints
+        whose latch is a reset, the estimates of the new life (those after the estimate the
+        reset is tied to, :func:`~robot_wear_monitor.history.alarms.reset_alarm`): a joint reset
+        after maintenance shows its new life only (see :class:`FleetRow`).
         """
         where, params = ('WHERE robot = ? ', (_check_name('robot', robot),)) \
             if robot is not None else ('', ())
         event_where = 'AND robot = ? ' if robot is not None else ''
+        last_latch = (f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {alarms.LATCH_EVENTS} '
+                      + event_where + 'GROUP BY robot, joint) l ON a.id = l.last_id')
         with self._guard('cannot read the wear history'):
             latest = self._backend.execute(
                 'SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
                 'e.wall_time_s, e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, '
                 'e.trend_low, e.trend_high, e.crossing_experiments, e.crossing_time_s, '
-                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason FROM '
-                'joint_summary s JOIN estimates e ON e.id = s.last_id '
+                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason, e.id '
+                'FROM joint_summary s JOIN estimates e ON e.id = s.last_id '
                 + where.replace('robot', 's.robot'), params)
             latches = self._backend.execute(
-                'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id FROM alarm_events a JOIN '
-                f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {alarms.LATCH_EVENTS} '
-                + event_where + 'GROUP BY robot, joint) l ON a.id = l.last_id', params)
+                'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id, a.estimate_id, '
+                'a.user_name, a.note FROM alarm_events a JOIN ' + last_latch, params)
             acknowledgements = self._backend.execute(
                 'SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
-                'a.planned_maintenance FROM alarm_events a JOIN (SELECT MAX(id) AS last_id '
+                'a.planned_maintenance, a.wear, t.trend_wear FROM alarm_events a JOIN '
+                '(SELECT MAX(id) AS last_id '
                 "FROM alarm_events WHERE event = 'acknowledged' " + event_where
-                + 'GROUP BY robot, joint) l ON a.id = l.last_id', params)
-        last_event = {(r[0], r[1]): (r[2], float(r[3]), int(r[4])) for r in latches}
+                + 'GROUP BY robot, joint) l ON a.id = l.last_id '
+                'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
+            lives = self._backend.execute(
+                'SELECT a.robot, a.joint, COUNT(e.id) FROM alarm_events a JOIN ' + last_latch
+                + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
+                "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
+                'GROUP BY a.robot, a.joint', params)
+        last_event = {(r[0], r[1]): r[2:] for r in latches}
         last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
-        rows = []
-        for r in latest:
-            event, since, raise_id = last_event.get((r[0], r[1]), ('', math.nan, 0))
-            ack = last_ack.get((r[0], r[1]))
-            acknowledged = event == 'raised' and ack is not None and int(ack[0]) > raise_id
-            rows.append(FleetRow(
-                robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
-                last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),
-                wear_std=_nan_if_none(r[7]), wear_low=_nan_if_none(r[8]),
-                wear_high=_nan_if_none(r[9]), trend_wear=_nan_if_none(r[10]),
-                trend_low=_nan_if_none(r[11]), trend_high=_nan_if_none(r[12]),
-                crossing_experiments=_nan_if_none(r[13]), crossing_time_s=_nan_if_none(r[14]),
-                alarm=event == 'raised', alarm_since_stamp_s=since if event == 'raised'
-                else math.nan, alarm_evidence=float(r[15]), status_level=int(r[16]),
-                parameter_set=r[17], invalid_reason=r[18] or '', acknowledged=acknowledged,
-                acknowledged_by=ack[1] if acknowledged and ack else '',
-                acknowledged_wall_time_s=float(ack[2]) if acknowledged and ack else math.nan,
-                planned_maintenance=ack[3] if acknowledged and ack else ''))
+        life_experiments = {(r[0], r[1]): int(r[2]) for r in lives}
+        rows = [_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
+                           life_experiments.get((r[0], r[1]), 0)) for r in latest]
         return sorted(rows, key=FleetRow.rank_key)
+
+
+def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[Sequence[Any]],
+               life_experiments: int) -> FleetRow:
+    """Return the :class:`FleetRow` of a joint's latest estimate, latch and acknowledgement."""
+    event = latch[0] if latch is not None else ''
+    raised = event == 'raised'
+    acknowledged = raised and latch is not None and ack is not None and int(ack[0]) > latch[2]
+    row = FleetRow(
+        robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
+        last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),
+        wear_std=_nan_if_none(r[7]), wear_low=_nan_if_none(r[8]),
+        wear_high=_nan_if_none(r[9]), trend_wear=_nan_if_none(r[10]),
+        trend_low=_nan_if_none(r[11]), trend_high=_nan_if_none(r[12]),
+        crossing_experiments=_nan_if_none(r[13]), crossing_time_s=_nan_if_none(r[14]),
+        alarm=raised, alarm_since_stamp_s=float(latch[1]) if raised and latch else math.nan,
+        alarm_evidence=float(r[15]), status_level=int(r[16]), parameter_set=r[17],
+        invalid_reason=r[18] or '', acknowledged=acknowledged,
+        acknowledged_by=ack[1] if acknowledged and ack else '',
+        acknowledged_wall_time_s=float(ack[2]) if acknowledged and ack else math.nan,
+        planned_maintenance=ack[3] if acknowledged and ack else '',
+        acknowledged_wear=_nan_if_none(ack[4]) if acknowledged and ack else math.nan,
+        acknowledged_trend_wear=_nan_if_none(ack[5]) if acknowledged and ack else math.nan)
+    if event != 'reset' or latch is None:
+        return row
+    # a reset: the joint's new life, from the estimate after the one the reset is tied to
+    row = replace(row, life_started_s=float(latch[1]), reset_by=latch[4] or '',
+                  reset_reason=latch[5] or '', total_experiments=int(r[2]),
+                  experiments=life_experiments)
+    if latch[3] is not None and int(r[19]) <= int(latch[3]):  # no experiment since the reset
+        row = replace(row, wear=math.nan, wear_std=math.nan, wear_low=math.nan,
+                      wear_high=math.nan, trend_wear=math.nan, trend_low=math.nan,
+                      trend_high=math.nan, crossing_experiments=math.nan,
+                      crossing_time_s=math.nan, alarm_evidence=0.0, status_level=0,
+                      invalid_reason='', experiments=0)
+    return row
 
 
 def open_history(location: str | os.PathLike, *, robot: Optional[str] = None,

@@ -26,7 +26,7 @@ from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import AlarmLatch
 from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
 from robot_wear_monitor.experiment.levels import FrictionExperiment
-from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.history import AlarmEvent, HistoryRecord, LatchMoved, WearHistory
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,
                                                        forecast_text, interval_text,
@@ -219,7 +219,22 @@ class WearEstimatorService:
             frictions=tuple(float(f) for f in experiment.frictions)))
 
     def process_levels(self, levels: FrictionLevelsMessage) -> Optional[WearUpdate]:
-        """Estimate, update the alarm, store the history; None if the estimate fails."""
+        """
+        Estimate, update the alarm, store the history; None if the estimate fails.
+
+        A reset stored in the history by someone else (the dashboard) is taken over before the
+        experiment (:meth:`follow_history_reset`); one stored while the experiment is estimated
+        makes the store refuse the old life's row (:class:`LatchMoved`), and the experiment is
+        estimated again in the new life: the rows stored after a reset are the new life's.
+        """
+        counts = (self.experiments, self.invalid_estimates)
+        try:
+            return self._process_levels(levels)
+        except LatchMoved:
+            self.experiments, self.invalid_estimates = counts
+            return self._process_levels(levels)  # follows the reset first
+
+    def _process_levels(self, levels: FrictionLevelsMessage) -> Optional[WearUpdate]:
         if levels.joint and levels.joint != self.config.joint:
             self.reject('other_joint', f'levels of joint {levels.joint!r}, this estimator '
                                        f'monitors {self.config.joint!r}')
@@ -293,7 +308,8 @@ class WearEstimatorService:
             invalid_reason='' if plausibility.valid else plausibility.text())
         events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
                              wear=wear, note=self._raise_note(wear, trend))] if raised else []
-        record_id = self.history.append(record, events=events)
+        record_id = self.history.append(record, events=events,
+                                        latch_id=self._latch_event_id)
         if record_id is None:  # another writer stored this experiment meanwhile
             self.reject('already_in_history', f'the experiment ending at {levels.stamp_s:.6f} '
                                               f's was stored by another writer; skipped')

@@ -10,7 +10,9 @@ from robot_wear_monitor.cli.history import ALARM_LOG_COLUMNS
 from robot_wear_monitor.fleet.ranking import iso_time
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
 
-T0_S = 1.8e9
+#: the experiments' stamps, in the past: the alarm log orders a raise by its experiment's time
+#: and an acknowledgement or a reset by its wall time (now)
+T0_S = 1.7e9
 #: a joint name from a hostile recording: an escape sequence and a forged line
 HOSTILE_JOINT = 'j\x1b[31m\nFORGED LINE'
 
@@ -56,10 +58,12 @@ def test_the_alarm_log_as_json_is_newest_first_with_who_and_why(history_path, ca
         ('r1', 'joint_2', 'reset', 'cy'), ('r2', HOSTILE_JOINT, 'acknowledged', 'ana'),
         ('r2', HOSTILE_JOINT, 'raised', ''), ('r1', 'joint_2', 'raised', '')]
     assert all(set(ALARM_LOG_COLUMNS) <= set(r) for r in rows)
-    assert rows[0]['time'] == iso_time(T0_S + 7200.0) and rows[0]['time'].endswith('Z')
+    assert rows[0]['time'] == iso_time(rows[0]['wall_time_s']) and rows[0]['time'].endswith('Z')
+    assert rows[0]['event_time_s'] == rows[0]['wall_time_s'] and rows[0]['stamp_s'] == \
+        T0_S + 7200.0
     assert rows[0]['note'] == 'gear replaced' and rows[0]['wear'] is None
     assert (rows[1]['owner'], rows[1]['planned_maintenance']) == ('ben', '2026-12-01')
-    assert rows[3]['wear'] == 40.0 and rows[3]['time'] == '2027-01-15T08:00:00Z'
+    assert rows[3]['wear'] == 40.0 and rows[3]['time'] == '2023-11-14T22:13:20Z'
     code, out, _ = _run(capsys, history_path, '--alarms', '--json', '--robot', 'r2')
     assert [r['event'] for r in json.loads(out)['alarms']] == ['acknowledged', 'raised']
     code, out, _ = _run(capsys, history_path, '--alarms', '--json', '--joint', 'joint_2',

@@ -8,6 +8,7 @@ where they are missing these tests skip, except in CI (``CI`` set), where they f
 
 from dataclasses import replace
 import os
+import re
 import socket
 import threading
 import time
@@ -15,7 +16,7 @@ import time
 import pytest
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.pages import joint_url
-from robot_wear_monitor.history import open_history
+from robot_wear_monitor.history import AlarmEvent, open_history
 from wear_testing.fleet_history import (EXPERIMENTS, make_fleet, ORDER, PASSWORDS, record,
                                         wear_of, XSS_ROBOT)
 
@@ -171,10 +172,54 @@ def test_maintainer_acknowledges_then_resets_with_a_reason(server, browser, hist
                    'the alarm log')[0]
     cells = [td.text for td in newest.find_elements(_by('TAG_NAME'), 'td')]
     assert cells[1:4] == ['press_line', 'joint_2', 'reset']
-    assert cells[5] == 'mia' and cells[-1] == 'gearbox replaced, SN 4711'
+    assert cells[5] == 'mia' and cells[-1] == 'reset by mia: gearbox replaced, SN 4711'
     with open_history(history, init=False) as stored:
         assert not stored.restore(joint='joint_2', robot='press_line').alarm_active
         assert (stored.alarm_log()[0].event, stored.alarm_log()[0].user) == ('reset', 'mia')
+
+
+def test_triage_order_then_a_reset_reads_as_a_new_life(server, browser, history):
+    with open_history(history) as stored:
+        stored.acknowledge_alarm(robot='press_line', joint='joint_2', user='mia', owner='ben',
+                                 comment='gear box ordered')
+        last = stored.records(robot='welder_7', joint='joint_5')[-1]
+        newer = replace(last, id=None, stamp_s=last.stamp_s + 60.0, wear=36.0, wear_low=31.0,
+                        wear_high=41.0, alarm_active=True)
+        stored.append(newer, events=[AlarmEvent(joint='joint_5', robot='welder_7',
+                                                stamp_s=newer.stamp_s, event='raised',
+                                                wear=36.0, note='w-hat 36 >= 35, evidence 2')])
+    _log_in(browser, server, 'mia')
+    # the new unacknowledged alarm above the older acknowledged one (of the higher wear)
+    assert _rows(browser)[:2] == [('welder_7', 'joint_5'), ('press_line', 'joint_2')]
+    states = [td.text for td in browser.find_elements(_by('CSS_SELECTOR'),
+                                                      '#fleet-rows tr .c-state')]
+    assert states[:2] == ['alarm', 'acknowledged']
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    browser.find_element(_by('ID'), 'reset-reason').send_keys('gearbox replaced')
+    browser.find_element(_by('ID'), 'reset-button').click()
+    _wait(browser, lambda d: 'alarm reset' in d.find_element(_by('ID'), 'flash').text,
+          'the reset')
+    line = re.compile(r'reset \d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ by mia \(gearbox replaced\): '
+                      r'awaiting the first experiment')
+    assert line.fullmatch(browser.find_element(_by('ID'), 'f-wear').text)
+    assert browser.find_element(_by('ID'), 'f-state').text == 'ok'
+    assert browser.find_element(_by('ID'), 'f-trend').text == '?'
+    assert browser.find_element(_by('ID'), 'f-alarm').text == 'clear'
+    assert browser.find_element(_by('ID'), 'f-experiments').text == '0'
+    browser.get(server + '/')
+    _wait(browser, lambda d: d.find_elements(_by('ID'), 'fleet-rows'), 'the fleet page')
+    row = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-joint="joint_2"]'
+                                                    '[data-robot="press_line"]')
+    assert line.fullmatch(row.find_element(_by('CSS_SELECTOR'), '.c-wear').text)
+    assert row.find_element(_by('CSS_SELECTOR'), '.c-state').text == 'ok'
+    assert _rows(browser)[-1] == ('press_line', 'joint_2')  # nothing to judge yet: last
+    browser.get(server + '/alarms')
+    newest = _wait(browser, lambda d: d.find_elements(_by('CSS_SELECTOR'), '#alarm-log tbody tr'),
+                   'the alarm log')
+    notes = [tr.find_elements(_by('TAG_NAME'), 'td')[-1].text for tr in newest[:3]]
+    assert notes == ['reset by mia: gearbox replaced',
+                     'acknowledged by mia, taken on by ben: gear box ordered',
+                     'w-hat 36 reached the wear threshold 35 (alarm evidence 2)']
 
 
 def test_viewer_cannot_reset(server, browser, history):

@@ -352,12 +352,13 @@ def test_alarm_log_csv_holds_the_log(client, history):
     assert response.headers['content-type'].startswith('text/csv')
     rows = list(csv.reader(io.StringIO(response.text)))
     assert rows[0] == ['id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                       'planned_maintenance', 'note']
+                       'planned_maintenance', 'note', 'note_text']
     with open_history(history, init=False) as stored:
         log = stored.alarm_log()
     assert [int(r[0]) for r in rows[1:]] == [e.id for e in log]
     assert (rows[1][4], rows[1][6]) == ('reset', 'mia')
     assert rows[1][9] == "'=cmd|calc, \"quoted\""  # no formula for a spreadsheet
+    assert rows[1][10] == 'reset by mia: =cmd|calc, "quoted"'  # the note in words
     assert rows[2][4] == 'raised' and float(rows[2][5]) == pytest.approx(41.0)
 
 
@@ -417,3 +418,33 @@ def test_same_story_on_sqlite_and_postgresql(history_location):
             'reset', 'acknowledged', 'raised']
     with open_history(history_location, init=False) as stored:
         assert not stored.restore(joint='joint_2', robot='press_line').alarm_active
+
+
+def test_the_alarm_log_is_newest_first_by_event_time_whatever_the_replay_order(
+        client, history):
+    # two recordings replayed in the other order: the later experiments stored first
+    with open_history(history) as stored:
+        base = stored.records(robot='welder_7', joint='joint_3')[-1]
+        for robot, days in (('cell_late', 2.0), ('cell_early', 0.0)):
+            rec = replace(base, id=None, robot=robot, stamp_s=base.stamp_s - 10 * 86400.0
+                          + days * 86400.0, wear=40.0)
+            note = ('trend P(w >= 35) = 0.214 >= 0.15; trend w 33.1 [30.2, 36.1], w-hat 40'
+                    if robot == 'cell_late' else 'w-hat 40 >= 35, evidence 12.5')
+            stored.append(rec, events=[AlarmEvent(joint='joint_3', robot=robot, event='raised',
+                                                  stamp_s=rec.stamp_s, wear=40.0, note=note)])
+        ids = {e.robot: e.id for e in stored.alarm_log() if e.robot.startswith('cell_')}
+    assert ids['cell_late'] < ids['cell_early']  # row order: the late one first
+    _as(client, 'vic')
+    log = client.get('/api/alarms').json()
+    picked = [e for e in log if e['robot'].startswith('cell_')]
+    assert [e['robot'] for e in picked] == ['cell_late', 'cell_early']
+    times = [e['event_time_s'] for e in log]
+    assert times == sorted(times, reverse=True)
+    assert picked[0]['time'] == time.strftime('%Y-%m-%dT%H:%M:%SZ',
+                                              time.gmtime(picked[0]['stamp_s']))
+    assert picked[0]['note_text'] == ("the trend's chance of w >= 35 reached 21 % (rule: 15 %); "
+                                      'trend w 33.1 [95 %: 30.2, 36.1], latest w-hat 40')
+    assert picked[1]['note_text'] == 'w-hat 40 reached the wear threshold 35 (alarm evidence 12.5)'
+    page = client.get('/alarms').text
+    assert page.index('cell_late') < page.index('cell_early')
+    assert 'chance of w &gt;= 35 reached 21 % (rule: 15 %)' in page

@@ -67,19 +67,29 @@ def _check_migrated(history, events):
     joint_3 = history.restore(joint='joint_3', robot='cell_1')
     assert not joint_3.alarm_active and joint_3.last_event.event == 'reset'
     logged = history.alarm_log()
+    # newest first by event time: a raise at its experiment's stamp, a reset at its wall time
+    by_time = sorted(events, key=lambda e: (e[6] if e[2] == 'raised' else e[7], e[5]),
+                     reverse=True)
     assert [(e.robot, e.joint, e.event, e.estimate_id, e.note) for e in logged] == \
-        V4_EVENTS[::-1]
+        [tuple(e[:5]) for e in by_time]
+    assert [e[:3] for e in by_time] == [('cell_1', 'joint_3', 'reset'),
+                                        ('cell_1', 'joint_2', 'raised'),
+                                        ('cell_1', 'joint_3', 'raised')]
     assert [(e.id, e.stamp_s, e.wall_time_s, e.wear) for e in logged] == \
-        [tuple(e[5:]) for e in events[::-1]]
+        [tuple(e[5:]) for e in by_time]
     assert all((e.user, e.owner, e.planned_maintenance) == ('', '', '') for e in logged)
     fleet = history.fleet()
     assert [(r.robot, r.joint, r.alarm, r.acknowledged) for r in fleet] == [
         ('cell_1', 'joint_2', True, False), ('cell_2', 'joint_1', False, False),
         ('cell_1', 'joint_3', False, False)]
     # the per-joint summary of the fleet view was filled from the old rows
-    assert [(r.experiments, r.first_stamp_s, r.last_stamp_s) for r in fleet] == [
-        (6, 1.7e9, 1.7e9 + 5 * 3600.0), (2, 1.7e9, 1.7e9 + 3600.0),
-        (4, 1.7e9, 1.7e9 + 3 * 3600.0)]
+    assert [(max(r.total_experiments, r.experiments), r.first_stamp_s, r.last_stamp_s)
+            for r in fleet] == [(6, 1.7e9, 1.7e9 + 5 * 3600.0), (2, 1.7e9, 1.7e9 + 3600.0),
+                                (4, 1.7e9, 1.7e9 + 3 * 3600.0)]
+    # joint_3 was reset after its estimate 9: its new life is the one experiment after it
+    reset = [e for e in events if e[2] == 'reset'][0]
+    assert (fleet[2].experiments, fleet[2].life_started_s) == (1, reset[6])
+    assert [r.experiments for r in fleet[:2]] == [6, 2]
     # the new features work on the migrated history
     history.acknowledge_alarm(joint='joint_2', robot='cell_1', user='ana', owner='ben',
                               comment='gear box ordered', planned_maintenance='2026-12-01')
@@ -358,9 +368,13 @@ def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_p
         history.acknowledge_alarm(joint='joint_2', user='ana', owner='ben', comment='',
                                   planned_maintenance='2026-12-01')
         rows = fleet_view(history.fleet(), now_s=200.0)
-    # acknowledged or not, a latched alarm ranks by its wear (joint_3's is the higher)
+        history.acknowledge_alarm(joint='joint_3', user='ana', owner='ben', comment='')
+        acknowledged_both = fleet_view(history.fleet(), now_s=200.0)
+    # the unacknowledged alarm first, then the acknowledged one (whatever their wear)
     assert [(r.state.joint, r.state.alarm, r.state.acknowledged) for r in rows] == [
         ('joint_3', True, False), ('joint_2', True, True), ('joint_4', False, False)]
+    # both acknowledged: they rank by their wear (joint_3's is the higher)
+    assert [r.state.joint for r in acknowledged_both] == ['joint_3', 'joint_2', 'joint_4']
     rows = [rows[1], rows[0], rows[2]]
     payload = [r.as_json() for r in rows]
     assert (payload[0]['acknowledged'], payload[0]['acknowledged_by'],
@@ -372,8 +386,9 @@ def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_p
     assert 'acknowledged by ana, service planned 2026-12-01' in table[1]
     assert 'acknowledged' not in table[2] and 'LATCHED' in table[2]
     csv_rows = fleet_csv_rows(rows)
-    assert csv_rows[0][-2:] == ['acknowledged_by', 'planned_service_date']
-    assert [r[-2:] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''], ['', '']]
+    assert csv_rows[0][-4:] == ['acknowledged_by', 'planned_service_date', 'reescalated',
+                                'life_started']
+    assert [r[-4:-2] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''], ['', '']]
 
 
 def test_the_joint_summary_follows_every_append_and_skips_reruns(history_location):

@@ -268,3 +268,46 @@ def test_a_reset_stored_through_the_history_is_the_ros_reset_to_a_restarted_esti
         'raised', 'reset', 'raised']  # the reset taken over was not stored twice
     for service in (dashboard, ros, running):
         service.history.close()
+
+
+def test_a_reset_stored_while_an_experiment_is_estimated_makes_that_row_the_new_lifes(
+        history_location):
+    """
+    The dashboard resets while the estimator works on an experiment (a replay under way).
+
+    The store refuses the old life's row (the latch moved under it), the estimator takes the
+    reset over and estimates the experiment again: the row stored after the reset has the
+    alarm clear and the trend of the new life, and the fleet shows the new life.
+    """
+    from robot_wear_monitor.monitoring import estimator_service
+    rng = np.random.default_rng(9)
+    truth = [*np.linspace(10.0, 60.0, 12), 5.0]  # worn out, then a new gear box
+    levels = [_levels_of(k, w, rng) for k, w in enumerate(truth)]
+    policy = AlarmPolicy(rule='estimate', evidence_to_raise=12.0)
+    svc = _real_service(WearHistory(history_location), alarm=policy)
+    for lv in levels[:12]:
+        svc.process_levels(lv)
+    assert svc.latch.active
+    calls = []
+
+    def estimate_while_the_dashboard_resets(speeds, frictions, *, params):
+        calls.append(len(calls))
+        if len(calls) == 1:  # the reset lands in the middle of this experiment
+            with WearHistory(history_location) as dashboard:
+                dashboard.reset_alarm(joint='joint_2', user='ana', reason='gear box replaced')
+        return estimator_service._default_estimate(speeds, frictions, params=params)
+
+    svc._estimate = estimate_while_the_dashboard_resets
+    update = svc.process_levels(levels[12])
+    assert len(calls) == 2  # estimated again in the new life
+    assert not update.alarm_active and not svc.latch.active
+    assert update.trend.segment == 1 and update.trend.wear < 20.0
+    assert svc.experiments == 13  # the retry counts once
+    with WearHistory(history_location) as history:
+        stored = history.records(joint='joint_2')
+        [reset] = [e for e in history.events(joint='joint_2') if e.event == 'reset']
+        [row] = history.fleet()
+    assert len(stored) == 13 and reset.estimate_id == stored[11].id  # tied to the old life
+    assert not stored[-1].alarm_active and stored[-1].trend_wear < 20.0
+    assert (row.experiments, row.alarm, row.life_started_s) == (1, False, reset.stamp_s)
+    assert row.trend_wear == stored[-1].trend_wear
