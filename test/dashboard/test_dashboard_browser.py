@@ -206,6 +206,16 @@ def test_triage_order_then_a_reset_reads_as_a_new_life(server, browser, history)
     assert browser.find_element(_by('ID'), 'f-trend').text == '?'
     assert browser.find_element(_by('ID'), 'f-alarm').text == 'clear'
     assert browser.find_element(_by('ID'), 'f-experiments').text == '0'
+    # the old life stays on the wear chart, greyed, under its own name; the new life is empty
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    lives = _wait(browser, lambda d: d.execute_script(
+        "const gd = document.getElementById('wear-chart');"
+        'if (!gd || !gd.data) { return null; }'
+        "const old = gd.data.find((t) => t.name === 'w-hat (before the reset)');"
+        "const now = gd.data.find((t) => t.name === 'w-hat');"
+        'return old && now ? [old.x.length, now.x.length, old.marker.color] : null;'),
+        'the old life on the wear chart')
+    assert lives == [EXPERIMENTS, 0, '#9aa5b1']
     browser.get(server + '/')
     _wait(browser, lambda d: d.find_elements(_by('ID'), 'fleet-rows'), 'the fleet page')
     row = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-joint="joint_2"]'

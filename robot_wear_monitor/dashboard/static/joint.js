@@ -6,23 +6,38 @@ const COLORS = ['#1f77b4', '#ff7f0e', '#2ca02c', '#9467bd', '#8c564b'];
 
 function ms(seconds) { return seconds === null ? null : seconds * 1000; }
 
-function wearTraces(data) {
-  const ex = data.experiments;
+// w-hat with its interval and the trend of some experiments; the old life before a reset is
+// drawn grey (its points stay on the chart, the current life is in colour).
+function lifeTraces(ex, old) {
   const x = ex.map((e) => ms(e.stamp_s));
-  const traces = [
-    {x: x, y: ex.map((e) => e.trend_high), name: 'trend 95 % band', mode: 'lines',
+  const tag = old ? ' (before the reset)' : '';
+  const wearColor = old ? '#9aa5b1' : '#1f77b4';
+  return [
+    {x: x, y: ex.map((e) => e.trend_high), name: 'trend 95 % band' + tag, mode: 'lines',
       line: {width: 0}, showlegend: false, hoverinfo: 'skip'},
-    {x: x, y: ex.map((e) => e.trend_low), name: 'trend 95 % band', mode: 'lines',
-      fill: 'tonexty', fillcolor: 'rgba(44,160,44,0.18)', line: {width: 0}},
-    {x: x, y: ex.map((e) => e.trend_wear), name: 'trend', mode: 'lines',
-      line: {color: '#2ca02c', width: 2}},
-    {x: x, y: ex.map((e) => e.wear), name: 'w-hat', mode: 'markers',
-      marker: {color: '#1f77b4', size: 6},
-      error_y: {type: 'data', symmetric: false, color: 'rgba(31,119,180,0.5)',
+    {x: x, y: ex.map((e) => e.trend_low), name: 'trend 95 % band' + tag, mode: 'lines',
+      fill: 'tonexty', fillcolor: old ? 'rgba(154,165,177,0.15)' : 'rgba(44,160,44,0.18)',
+      line: {width: 0}},
+    {x: x, y: ex.map((e) => e.trend_wear), name: 'trend' + tag, mode: 'lines',
+      line: {color: old ? '#9aa5b1' : '#2ca02c', width: 2}},
+    {x: x, y: ex.map((e) => e.wear), name: 'w-hat' + tag, mode: 'markers',
+      marker: {color: wearColor, size: 6},
+      error_y: {type: 'data', symmetric: false,
+        color: old ? 'rgba(154,165,177,0.5)' : 'rgba(31,119,180,0.5)',
         array: ex.map((e) => (e.wear_high === null ? null : e.wear_high - e.wear)),
         arrayminus: ex.map((e) => (e.wear_low === null ? null : e.wear - e.wear_low))},
       text: ex.map((e) => e.time + (e.valid ? '' : ' INVALID: ' + e.invalid_reason)),
-      hovertemplate: '%{text}<br>w-hat %{y:.1f}<extra></extra>'},
+      hovertemplate: '%{text}<br>w-hat %{y:.1f}' + tag + '<extra></extra>'},
+  ];
+}
+
+function wearTraces(data) {
+  const ex = data.experiments;
+  const x = ex.map((e) => ms(e.stamp_s));
+  const oldLife = ex.filter((e) => e.current_life === false);
+  const traces = [
+    ...(oldLife.length ? lifeTraces(oldLife, true) : []),
+    ...lifeTraces(ex.filter((e) => e.current_life !== false), false),
   ];
   const failed = ex.filter((e) => e.model_check_failed);
   traces.push({x: failed.map((e) => ms(e.stamp_s)), y: failed.map((e) => e.wear),
