@@ -302,7 +302,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
 
 
 def event_json(event: Any) -> dict[str, Any]:
-    """Return one alarm event (raised, acknowledged or reset) for the logs."""
+    """Return one alarm event (raised, reset, an acknowledgement, its edit or withdrawal)."""
     wall = _number(getattr(event, 'wall_time_s', math.nan))
     return {
         'id': getattr(event, 'id', None), 'robot': event.robot, 'joint': event.joint,
@@ -311,12 +311,14 @@ def event_json(event: Any) -> dict[str, Any]:
         'wall_time_s': wall, 'wear': _number(event.wear), 'note': event.note,
         'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
+        'work_order': getattr(event, 'work_order', '') or '',
     }
 
 
-#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``).
+#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``; ``work_order`` is
+#: last, so that the columns before it keep their places).
 ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note')
+                     'planned_maintenance', 'note', 'work_order')
 
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,

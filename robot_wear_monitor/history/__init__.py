@@ -20,8 +20,8 @@ tokens.
 Modules: ``records`` (the row types), ``migrations`` (the layout per version and backend),
 ``backends`` (SQLite and PostgreSQL connections), ``store`` (:class:`WearHistory`),
 ``alarms`` (acknowledge, reset, the fleet's alarm log), ``users`` (dashboard users, argon2
-hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens), ``notifications_store`` (each notification event once), ``levels_csv`` (export for
-``audit``).
+hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens),
+``notifications_store`` (each notification event once), ``levels_csv`` (export for ``audit``).
 """
 
 from robot_wear_monitor.history.backends import is_postgresql_url, redact_url
@@ -36,7 +36,7 @@ from robot_wear_monitor.history.users import (
     MIN_PASSWORD_CHARS, ROLES, User)
 
 __all__ = ['ACKNOWLEDGEMENT_EVENTS', 'ALARM_EVENT_KINDS', 'AlarmEvent', 'DEFAULT_ROBOT',
-           'FleetRow', 'HistoryError', 'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url', 'LEVEL_CSV_COLUMNS',
-           'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS', 'redact_url',
-           'RestoredState', 'ROLES', 'SCHEMA_VERSION', 'SQLITE_MIGRATIONS', 'User',
+           'FleetRow', 'HistoryError', 'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url',
+           'LEVEL_CSV_COLUMNS', 'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS',
+           'redact_url', 'RestoredState', 'ROLES', 'SCHEMA_VERSION', 'SQLITE_MIGRATIONS', 'User',
            'WearHistory', 'write_levels_csv']

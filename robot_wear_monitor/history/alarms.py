@@ -46,6 +46,10 @@ MAX_WORK_ORDER_CHARS = 128
 _ISO_DATE = re.compile(r'\d{4}-\d{2}-\d{2}')
 
 
+class AlarmStateError(HistoryError):
+    """The joint's alarm is not in the state the action needs (no latch, acknowledged...)."""
+
+
 def event_from_row(row: Sequence[Any]) -> AlarmEvent:
     """Return the :class:`AlarmEvent` of a row of :data:`EVENT_COLUMNS`."""
     return AlarmEvent(id=int(row[0]), robot=row[1], joint=row[2], stamp_s=float(row[3]),
@@ -156,8 +160,8 @@ def _latest_estimate(backend: HistoryBackend, robot: str,
 
 
 def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
-    return HistoryError(f'{name}: robot {robot[:80]!r} joint {joint[:80]!r} has no latched '
-                        f'alarm to {what}')
+    return AlarmStateError(f'{name}: robot {robot[:80]!r} joint {joint[:80]!r} has no '
+                           f'latched alarm to {what}')
 
 
 def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, owner: str,
@@ -180,9 +184,9 @@ def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: 
         if latch is None or latch.event != 'raised':
             raise _no_latch(backend.name, robot, joint, 'acknowledge')
         if acknowledged is not None:
-            raise HistoryError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
-                               f'{joint[:80]!r} is already acknowledged by '
-                               f'{acknowledged.user[:80]!r}')
+            raise AlarmStateError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
+                                  f'{joint[:80]!r} is already acknowledged by '
+                                  f'{acknowledged.user[:80]!r}')
         estimate_id, wear = _latest_estimate(backend, robot, joint)
         now = time.time()
         return insert_event(backend, AlarmEvent(
@@ -212,8 +216,8 @@ def edit_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str, use
         current = _current_acknowledgement(backend, robot, joint, 'edit')
         if (current.owner, current.note, current.planned_maintenance, current.work_order) == \
                 (owner, comment, planned, order):
-            raise HistoryError(f'{backend.name}: the edit of the acknowledgement of robot '
-                               f'{robot[:80]!r} joint {joint[:80]!r} changes nothing')
+            raise AlarmStateError(f'{backend.name}: the edit of the acknowledgement of robot '
+                                  f'{robot[:80]!r} joint {joint[:80]!r} changes nothing')
         estimate_id, _ = _latest_estimate(backend, robot, joint)
         now = time.time()
         return insert_event(backend, AlarmEvent(
@@ -251,8 +255,8 @@ def _current_acknowledgement(backend: HistoryBackend, robot: str, joint: str,
     if latch is None or latch.event != 'raised':
         raise _no_latch(backend.name, robot, joint, what + ' the acknowledgement of')
     if current is None:
-        raise HistoryError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
-                           f'{joint[:80]!r} is not acknowledged: nothing to {what}')
+        raise AlarmStateError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
+                              f'{joint[:80]!r} is not acknowledged: nothing to {what}')
     return current
 
 

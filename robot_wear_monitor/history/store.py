@@ -363,7 +363,7 @@ class WearHistory:
             return api_tokens.add_token(self._backend, user=user, label=label)
 
     def tokens(self, *, user: Optional[str] = None) -> list[api_tokens.ApiToken]:
-        """Return the API tokens (of ``user``) as listed: ids and times, never the tokens."""
+        """Return the API tokens as listed (of ``user``): ids and times, never the tokens."""
         with self._guard('cannot read the tokens'):
             return api_tokens.list_tokens(self._backend, user=user)
 
@@ -560,6 +560,13 @@ class WearHistory:
             rows = self._backend.execute('SELECT (SELECT MAX(id) FROM estimates), '
                                          '(SELECT MAX(id) FROM alarm_events)')
         return int(rows[0][0] or 0), int(rows[0][1] or 0)
+
+    def acknowledgement(self, *, joint: str, robot: Optional[str] = None
+                        ) -> Optional[AlarmEvent]:
+        """Return the current acknowledgement of the latched alarm (its last edit), or None."""
+        with self._guard('cannot read the wear history'):
+            return alarms.latch_events(self._backend, robot=self._robot(robot),
+                                       joint=_check_name('joint', joint))[1]
 
     def latch_event(self, *, joint: str, robot: Optional[str] = None) -> Optional[AlarmEvent]:
         """

@@ -122,9 +122,7 @@ def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) ->
 
 
 def remove_user(backend: HistoryBackend, *, name: str) -> None:
-    """
-    Remove the user ``name``, their sessions and API tokens; :class:`HistoryError` when none.
-    """
+    """Remove the user ``name``, their sessions and tokens; :class:`HistoryError` when none."""
     name = check_user_name(name)
     with backend.transaction():
         rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))

@@ -57,8 +57,11 @@ def test_no_password_on_the_command_line(tmp_path, capsys):
     assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'viewer', '--history',
                      history, '--password', 'a long password']) == 2
     assert 'unrecognized arguments' in capsys.readouterr().err
-    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'admin', '--history',
+    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'root', '--history',
                      history]) == 2
+    assert cli_main(['dashboard', 'user', 'passwd', 'ana', '--password', 'a long password',
+                     '--history', history]) == 2
+    assert 'unrecognized arguments' in capsys.readouterr().err
 
 
 def test_a_host_reachable_from_other_machines_needs_tls(tmp_path, capsys):

@@ -88,8 +88,8 @@ def _check_v6_kept(location):
         assert history.verify_user(name='vic', password='viewer-pass-22').role == 'viewer'
         # what version 7 adds works on the migrated history
         history.set_role(name='vic', role='admin')
-        assert [(u.name, u.role) for u in history.users()] == [('mia', 'maintainer'),
-                                                              ('vic', 'admin')]
+        assert [(u.name, u.role) for u in history.users()] == [
+            ('mia', 'maintainer'), ('vic', 'admin')]
         edited = history.edit_acknowledgement(joint='joint_2', robot='cell_1', user='vic',
                                               owner='Team C', comment='gearbox ordered',
                                               planned_maintenance='2026-12-03',
@@ -110,8 +110,8 @@ def test_a_version_6_history_of_the_released_code_migrates_in_place(tmp_path):
         assert conn.execute('SELECT version FROM schema_version').fetchone()[0] == SCHEMA_VERSION
         assert conn.execute('PRAGMA integrity_check').fetchone()[0] == 'ok'
         assert conn.execute('PRAGMA foreign_key_check').fetchall() == []
-        indexes = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = "
-                                              "'index' AND tbl_name = 'alarm_events'")}
+        indexes = {r[0] for r in conn.execute(
+            "SELECT name FROM sqlite_master WHERE type = 'index' AND tbl_name = 'alarm_events'")}
         assert {'alarm_events_robot_joint', 'alarm_events_robot'} <= indexes
 
 

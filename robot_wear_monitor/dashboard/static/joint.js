@@ -91,7 +91,7 @@ function showEvents(events) {
     tr.className = 'event-' + e.event;
     tr.dataset.id = String(e.id);
     const cells = [e.time, e.event, e.wear === null ? '-' : e.wear.toFixed(1), e.user,
-      e.owner, e.planned_maintenance, e.note];
+      e.owner, e.planned_maintenance, e.work_order, e.note];
     for (const text of cells) {
       const td = document.createElement('td');
       td.textContent = text;
