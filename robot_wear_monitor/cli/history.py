@@ -203,7 +203,7 @@ def alarm_log_main(args: argparse.Namespace) -> int:
     print(f'{len(rows)} alarm event(s), newest first; times '
           f'{"local" if args.local else "UTC"}')
     header = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner', 'planned',
-              'work order', 'note')
+              'work_order', 'note')
     lines = [(str(r['id']), r['time'], clean_text(r['robot'], limit=40),
               clean_text(r['joint'], limit=40), r['event'],
               '-' if r['wear'] is None else f'{r["wear"]:.1f}', clean_text(r['user'], limit=40),

@@ -144,8 +144,8 @@ def _reason(history: Any, error: Exception) -> str:
     return text[len(prefix):] if text.startswith(prefix) else text
 
 
-_WRITE = {'response_model': AlarmEventJson, 'responses': WRITE_ERRORS,
-          'dependencies': [Depends(check_api_csrf)]}
+_WRITE: dict[str, Any] = {'response_model': AlarmEventJson, 'responses': WRITE_ERRORS,
+                          'dependencies': [Depends(check_api_csrf)]}
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledge', summary='Acknowledge the alarm',

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import hashlib
 import secrets
 import time
-from typing import Optional
+from typing import Any, Optional
 
 from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
@@ -111,7 +111,8 @@ def remove_tokens(backend: HistoryBackend, *, user: str,
     Raises :class:`HistoryError` when there was none to remove.
     """
     user = check_user_name(user)
-    query, params = 'DELETE FROM api_tokens WHERE user_name = ?', [user]
+    query = 'DELETE FROM api_tokens WHERE user_name = ?'
+    params: list[Any] = [user]
     if token_id is not None:
         if isinstance(token_id, bool) or not isinstance(token_id, int) or token_id < 1:
             raise HistoryError(f'a token id is an integer >= 1, got {str(token_id)[:40]!r}')

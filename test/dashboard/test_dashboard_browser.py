@@ -261,8 +261,8 @@ def _latched(history: str) -> bool:
         return stored.restore(joint='joint_2', robot='press_line').alarm_active
 
 
-def test_a_reset_waits_for_its_confirmation_without_javascript(server, browser_without_javascript,
-                                                                history):
+def test_a_reset_waits_for_its_confirmation_without_javascript(
+        server, browser_without_javascript, history):
     browser = browser_without_javascript
     _log_in(browser, server, 'mia')
     browser.get(server + joint_url('press_line', 'joint_2'))

@@ -148,7 +148,7 @@ def test_the_layout_admits_exactly_the_roles_of_users_py(history_location):
             history.add_user(name=f'u_{role}', role=role, password='12345678')
         assert sorted(u.role for u in history.users()) == sorted(ROLES)
     # the CHECK of the layout refuses another role written past the code
-    sql = ("INSERT INTO users (name, role, password_hash, created_wall_time_s) "
+    sql = ('INSERT INTO users (name, role, password_hash, created_wall_time_s) '
            "VALUES ('x', 'root', 'h', 0)")
     if is_postgresql_url(history_location):
         import psycopg
