@@ -35,14 +35,15 @@ def users_page(request: Request, admin: AdminUser, history: HistoryDep) -> HTMLR
     return render(request, 'users.html', users=users, roles=ROLES, role_texts=ROLE_TEXTS)
 
 
-def _done(request: Request, action: Callable[[], Any], text: str) -> Response:
+def _done(request: Request, history: Any, action: Callable[[], Any], text: str) -> Response:
     """Run ``action``; flash ``text`` or the history's refusal; back to the users page."""
     try:
         action()
     except HistoryError as error:
         message = str(error).splitlines()[0]
-        request.session['flash'] = {'kind': 'error', 'text': message.split(': ', 1)[-1]
-                                    if message.startswith(('/', 'postgres')) else message}
+        prefix = f'{history.path}: '  # the history's location is not the page's business
+        request.session['flash'] = {'kind': 'error', 'text': message[len(prefix):]
+                                    if message.startswith(prefix) else message}
     else:
         request.session['flash'] = {'kind': 'ok', 'text': text}
     return RedirectResponse('/users', status_code=303)
@@ -60,8 +61,8 @@ def _not_self(request: Request, admin: AdminUser, name: str, what: str) -> Respo
 def add_user(request: Request, admin: AdminUser, history: HistoryDep, name: str = Form(''),
              role: str = Form(''), password: str = Form('')) -> Response:
     """Add a user with a role and a first password."""
-    return _done(request, lambda: history.add_user(name=name.strip(), role=role,
-                                                   password=password),
+    return _done(request, history,
+                 lambda: history.add_user(name=name.strip(), role=role, password=password),
                  f'user {name.strip()[:64]} added ({role[:20]})')
 
 
@@ -70,7 +71,7 @@ def change_role(request: Request, name: str, admin: AdminUser, history: HistoryD
                 role: str = Form('')) -> Response:
     """Give a user another role (it counts at once, for their sessions and tokens too)."""
     return _not_self(request, admin, name, 'change the role of') or _done(
-        request, lambda: history.set_role(name=name, role=role),
+        request, history, lambda: history.set_role(name=name, role=role),
         f'user {name[:64]} is now {role[:20]}')
 
 
@@ -78,7 +79,7 @@ def change_role(request: Request, name: str, admin: AdminUser, history: HistoryD
 def reset_password(request: Request, name: str, admin: AdminUser, history: HistoryDep,
                    password: str = Form('')) -> Response:
     """Give a user a new password; their sessions end."""
-    return _done(request, lambda: history.set_password(name=name, password=password),
+    return _done(request, history, lambda: history.set_password(name=name, password=password),
                  f'new password of {name[:64]} stored; their sessions ended')
 
 
@@ -91,5 +92,5 @@ def remove_user(request: Request, name: str, admin: AdminUser, history: HistoryD
                                                              'the box to confirm'}
         return RedirectResponse('/users', status_code=303)
     return _not_self(request, admin, name, 'remove') or _done(
-        request, lambda: history.remove_user(name=name),
+        request, history, lambda: history.remove_user(name=name),
         f'user {name[:64]} removed; their sessions and API tokens ended')
