@@ -3,10 +3,14 @@
 
 ``dashboard --history URL [--host 127.0.0.1] [--port 8080] [--tls-cert F --tls-key F]
 [--insecure-http] [--params FILE ...] [--notify CONFIG]`` serves the dashboard
-(:mod:`robot_wear_monitor.dashboard`); ``dashboard user add NAME --role viewer|maintainer
---history URL`` (the password from stdin when it is not a terminal, else asked twice; never
-from argv), ``dashboard user list --history URL`` and ``dashboard user remove NAME --history
-URL`` keep its users in the history.
+(:mod:`robot_wear_monitor.dashboard`); ``dashboard user add NAME --role
+viewer|maintainer|admin --history URL`` (the password from stdin when it is not a terminal,
+else asked twice; never from argv), ``dashboard user passwd NAME`` (a new password, the same
+way; the user's sessions end), ``dashboard user role NAME --role ROLE``, ``dashboard user
+list`` and ``dashboard user remove NAME`` (their sessions and API tokens end) keep its users in
+the history; ``dashboard token add USER [--label TEXT]`` makes an API token of a user (shown
+once, only its hash stored), ``dashboard token list [USER]`` lists ids, labels, creation and
+last use (never a token) and ``dashboard token remove USER --id N|--all`` removes them.
 """
 
 from __future__ import annotations
@@ -17,10 +21,13 @@ import sys
 
 from robot_wear_monitor.cli.options import PROG, shown_location
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.history.users import ROLES
+from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
+
+_ROLE_HELP = '; '.join(f'{role} {text}' for role, text in ROLE_TEXTS.items())
 
 HELP = ("web dashboard of a wear history: the fleet worst first, each joint's wear story, "
-        'accountable acknowledge and reset (and its users: dashboard user add|list|remove)')
+        'accountable acknowledge and reset (its users: dashboard user '
+        'add|passwd|role|list|remove; API tokens: dashboard token add|list|remove)')
 
 
 def _history_option(parser: argparse.ArgumentParser, *, top: bool) -> None:
@@ -49,19 +56,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              '`notify`), one pass every --notify-interval-s')
     parser.add_argument('--notify-interval-s', type=float, default=60.0, metavar='S',
                         help='seconds between notification passes (default 60)')
-    users = parser.add_subparsers(dest='dashboard_command', metavar='user')
-    user = users.add_parser('user', help='add, list or remove dashboard users')
+    users = parser.add_subparsers(dest='dashboard_command', metavar='user|token')
+    user = users.add_parser('user', help='add, list or remove dashboard users; a new password '
+                                         'or role')
     actions = user.add_subparsers(dest='user_action', metavar='ACTION', required=True)
     add = actions.add_parser('add', help='add a user (password from stdin or asked twice)')
     add.add_argument('name', metavar='NAME', help='user name: 1-64 of A-Z a-z 0-9 _ . @ -')
-    add.add_argument('--role', choices=ROLES, required=True,
-                     help='viewer reads; maintainer also acknowledges and resets alarms')
+    add.add_argument('--role', choices=ROLES, required=True, help=_ROLE_HELP)
     _history_option(add, top=False)
+    passwd = actions.add_parser('passwd', help="a user's new password (from stdin or asked "
+                                               'twice); their sessions end')
+    passwd.add_argument('name', metavar='NAME')
+    _history_option(passwd, top=False)
+    role = actions.add_parser('role', help="change a user's role (counts at once)")
+    role.add_argument('name', metavar='NAME')
+    role.add_argument('--role', choices=ROLES, required=True, help=_ROLE_HELP)
+    _history_option(role, top=False)
     listing = actions.add_parser('list', help='list the users and their roles')
     _history_option(listing, top=False)
-    remove = actions.add_parser('remove', help='remove a user')
+    remove = actions.add_parser('remove', help='remove a user (their sessions and API tokens '
+                                               'end)')
     remove.add_argument('name', metavar='NAME')
     _history_option(remove, top=False)
+    token = users.add_parser('token', help="API tokens of users (the write API's "
+                                           '`Authorization: Bearer TOKEN`)')
+    token_actions = token.add_subparsers(dest='token_action', metavar='ACTION', required=True)
+    token_add = token_actions.add_parser('add', help='make a token of USER; it is printed '
+                                                     'once, only its hash is stored')
+    token_add.add_argument('user', metavar='USER')
+    token_add.add_argument('--label', default='', help='what the token is for (e.g. CMMS)')
+    _history_option(token_add, top=False)
+    token_list = token_actions.add_parser('list', help='the tokens (of USER): id, label, '
+                                                       'created, last used; never the token')
+    token_list.add_argument('user', metavar='USER', nargs='?')
+    _history_option(token_list, top=False)
+    token_remove = token_actions.add_parser('remove', help='remove a token of USER (or all '
+                                                           'of theirs)')
+    token_remove.add_argument('user', metavar='USER')
+    which = token_remove.add_mutually_exclusive_group(required=True)
+    which.add_argument('--id', type=int, dest='token_id', help='the id `token list` shows')
+    which.add_argument('--all', action='store_true', help="all of the user's tokens")
+    _history_option(token_remove, top=False)
 
 
 def read_password(*, name: str) -> str:
@@ -83,9 +118,17 @@ def _users(args: argparse.Namespace) -> int:
             password = read_password(name=args.name)
             user = history.add_user(name=args.name, role=args.role, password=password)
             print(f'user {user.name} added ({user.role})')
+        elif args.user_action == 'passwd':
+            if args.name not in {u.name for u in history.users()}:
+                raise InputError(f'{shown_location(args.history)}: no user {args.name[:64]!r}')
+            ended = history.set_password(name=args.name, password=read_password(name=args.name))
+            print(f'new password of {args.name} stored; {ended} session(s) ended')
+        elif args.user_action == 'role':
+            user = history.set_role(name=args.name, role=args.role)
+            print(f'user {user.name} is now {user.role}')
         elif args.user_action == 'remove':
             history.remove_user(name=args.name)
-            print(f'user {args.name} removed')
+            print(f'user {args.name} removed; their sessions and API tokens ended')
         else:
             from robot_wear_monitor.fleet.ranking import iso_time
             found = history.users()
@@ -97,12 +140,41 @@ def _users(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tokens(args: argparse.Namespace) -> int:
+    from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.history import open_history
+    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    with open_history(args.history, init=False) as history:
+        if args.token_action == 'add':
+            listed, token = history.add_token(user=args.user, label=args.label)
+            print(token)
+            print(f'API token {listed.id} of {listed.user} made: it is shown this once (only '
+                  f'its hash is stored); send it as `Authorization: Bearer TOKEN`',
+                  file=sys.stderr)
+        elif args.token_action == 'remove':
+            removed = history.remove_tokens(user=args.user,
+                                            token_id=None if args.all else args.token_id)
+            print(f'{removed} API token(s) of {args.user} removed')
+        else:
+            found = history.tokens(user=args.user)
+            for item in found:
+                used = iso_time(item.last_used_wall_time_s) \
+                    if item.last_used_wall_time_s is not None else 'never'
+                print(f'{item.id}  {item.user}  created {iso_time(item.created_wall_time_s)}  '
+                      f'last used {used}  {clean_text(item.label, limit=60)}'.rstrip())
+            if not found:
+                print('no API tokens' + (f' of {args.user}' if args.user else ''))
+    return 0
+
+
 def main(args: argparse.Namespace) -> int:
-    """Run ``dashboard`` (serve) or ``dashboard user ...``."""
+    """Run ``dashboard`` (serve), ``dashboard user ...`` or ``dashboard token ...``."""
     if not args.history:
         raise InputError('--history PATH|URL is required (the wear history to show)')
     if args.dashboard_command == 'user':
         return _users(args)
+    if args.dashboard_command == 'token':
+        return _tokens(args)
     try:
         from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
                                                       environment_secret)

@@ -20,7 +20,7 @@ HELP = 'show the stored wear history and export its friction levels for audit'
 
 #: The columns of ``history --alarms --csv`` (and the keys of its ``--json`` rows).
 ALARM_LOG_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note', 'note_text')
+                     'planned_maintenance', 'note', 'note_text', 'work_order')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,9 +36,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         '`robot-wear-monitor audit`; with --alarms: print the alarm log as CSV '
                         '(or write it to the file LEVELS)')
     parser.add_argument('--alarms', action='store_true',
-                        help="show the fleet's alarm log: raised, acknowledged and reset "
-                        'events of every robot (or --robot, --joint), newest first, with user, '
-                        'owner, planned maintenance and note')
+                        help="show the fleet's alarm log: raised, acknowledged (edited, "
+                        'withdrawn) and reset events of every robot (or --robot, --joint), '
+                        'newest first, with user, owner, planned maintenance, note and work '
+                        'order')
     add_local(parser)
     add_json(parser)
 
@@ -175,6 +176,7 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
              'wear': None if e.wear is None else json_number(e.wear), 'user': e.user,
              'owner': e.owner, 'planned_maintenance': e.planned_maintenance, 'note': e.note,
              'note_text': note_text(e), 'event_time_s': json_number(event_time_s(e)),
+             'work_order': e.work_order,
              'stamp_s': json_number(e.stamp_s), 'wall_time_s': json_number(e.wall_time_s),
              'estimate_id': e.estimate_id} for e in events]
 
@@ -208,11 +210,12 @@ def alarm_log_main(args: argparse.Namespace) -> int:
     print(f'{len(rows)} alarm event(s), newest first; times '
           f'{"local" if args.local else "UTC"}')
     header = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner', 'planned',
-              'note')
+              'work_order', 'note')
     lines = [(str(r['id']), r['time'], clean_text(r['robot'], limit=40),
               clean_text(r['joint'], limit=40), r['event'],
               '-' if r['wear'] is None else f'{r["wear"]:.1f}', clean_text(r['user'], limit=40),
               clean_text(r['owner'], limit=40), r['planned_maintenance'] or '-',
+              clean_text(r['work_order'], limit=40) or '-',
               clean_text(r['note_text'], limit=160)) for r in rows]
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]

@@ -5,8 +5,17 @@ The same dicts as the pages (:mod:`robot_wear_monitor.dashboard.views`); each ro
 its response model (:mod:`robot_wear_monitor.dashboard.schemas`), so ``/openapi.json`` gives
 the shapes.  ``/api/fleet`` and the joint's route send an ``ETag`` (a hash of the content); a
 request with that value in ``If-None-Match`` gets 304 while nothing changed, which is how the
-pages poll for news.  Every route needs a session (401 without one).  What a route needs
-comes by dependency (:mod:`robot_wear_monitor.dashboard.deps`).
+pages poll for news.  Every route needs a session or an API token (401 without one).  What a
+route needs comes by dependency (:mod:`robot_wear_monitor.dashboard.deps`).
+
+The write API (for a maintenance-management system): ``POST
+/api/robots/{robot}/joints/{joint}/acknowledge`` and ``.../reset``, and
+``.../acknowledgement/edit`` and ``.../acknowledgement/withdraw``, each with a JSON body.
+They store what the page's forms store, with the same role check (a maintainer or an admin;
+403 otherwise) and the user in the alarm log; they answer the stored event, 409 when the
+alarm is not in the state the action needs, 422 on bad values.  With an API token
+(``Authorization: Bearer``) no CSRF token is needed; a cookie session sends its CSRF token in
+the ``X-CSRF-Token`` header.
 """
 
 from __future__ import annotations
@@ -14,16 +23,19 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
-from fastapi import APIRouter, HTTPException, Query, Request
-from robot_wear_monitor.dashboard.auth import csrf_token
-from robot_wear_monitor.dashboard.deps import (CurrentUser, FleetCacheDep, HistoryDep,
-                                               ParameterSetsDep)
-from robot_wear_monitor.dashboard.schemas import (AlarmEventJson, FleetJson, JointJson,
-                                                  MeJson)
-from robot_wear_monitor.dashboard.views import (alarm_log, fleet_json, joint_json, PAGE_ROWS,
-                                                reescalation_margin, STATES)
+from fastapi import APIRouter, Depends, HTTPException, Query, Request
+from robot_wear_monitor.dashboard.auth import csrf_token, is_token_request
+from robot_wear_monitor.dashboard.deps import (check_api_csrf, CurrentUser, FleetCacheDep,
+                                               HistoryDep, MaintainerUser, ParameterSetsDep)
+from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
+                                                  FleetJson, JointJson, MeJson, ResetRequest,
+                                                  WithdrawRequest)
+from robot_wear_monitor.dashboard.views import (alarm_log, event_json, fleet_json, joint_json,
+                                                PAGE_ROWS, reescalation_margin, STATES)
+from robot_wear_monitor.history import HistoryError
+from robot_wear_monitor.history.alarms import AlarmStateError
 from starlette.responses import Response
 
 router = APIRouter(prefix='/api', tags=['api'])
@@ -108,5 +120,75 @@ def api_alarms(history: HistoryDep, robot: Optional[str] = None, joint: Optional
 
 @router.get('/me', summary='The logged-in user', response_model=MeJson)
 def api_me(request: Request, user: CurrentUser) -> dict[str, Any]:
-    """Return the session's user name, role and CSRF token (for scripted POSTs)."""
-    return {**user, 'csrf_token': csrf_token(request)}
+    """Return the user's name, role and the session's CSRF token ('' with an API token)."""
+    return {**user, 'csrf_token': '' if is_token_request(request) else csrf_token(request)}
+
+
+#: The answers of the write API besides 200.
+WRITE_ERRORS: dict[int | str, dict[str, Any]] = {
+    401: {'description': 'no session and no (valid) API token'},
+    403: {'description': 'not a maintainer or admin, or a cookie session without its '
+                         'X-CSRF-Token header'},
+    409: {'description': 'the alarm is not in the state the action needs (e.g. no latched '
+                         'alarm, already acknowledged)'},
+    422: {'description': 'a bad value (named in detail)'}}
+
+
+def _act(history: Any, action: Callable[[], Any]) -> dict[str, Any]:
+    """Run a write on the history; return the stored event (409/422 with its reason)."""
+    try:
+        return event_json(action())
+    except AlarmStateError as error:
+        raise HTTPException(status_code=409, detail=_reason(history, error)) from None
+    except HistoryError as error:
+        raise HTTPException(status_code=422, detail=_reason(history, error)) from None
+
+
+def _reason(history: Any, error: Exception) -> str:
+    """Return the error's first line without the history's name (the server's business)."""
+    text = str(error).splitlines()[0] if str(error) else type(error).__name__
+    prefix = f'{history.path}: '
+    return text[len(prefix):] if text.startswith(prefix) else text
+
+
+_WRITE: dict[str, Any] = {'response_model': AlarmEventJson, 'responses': WRITE_ERRORS,
+                          'dependencies': [Depends(check_api_csrf)]}
+
+
+@router.post('/robots/{robot}/joints/{joint}/acknowledge', summary='Acknowledge the alarm',
+             **_WRITE)
+def api_acknowledge(robot: str, joint: str, body: AcknowledgeRequest, user: MaintainerUser,
+                    history: HistoryDep) -> dict[str, Any]:
+    """Acknowledge the latched alarm: owner, comment, planned maintenance date, work order."""
+    return _act(history, lambda: history.acknowledge_alarm(
+        joint=joint, robot=robot, user=user['name'], owner=body.owner, comment=body.comment,
+        planned_maintenance=body.planned_maintenance, work_order=body.work_order))
+
+
+@router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
+             summary='Edit the acknowledgement', **_WRITE)
+def api_edit_acknowledgement(robot: str, joint: str, body: AcknowledgeRequest,
+                             user: MaintainerUser, history: HistoryDep) -> dict[str, Any]:
+    """Edit the current acknowledgement (the values after the edit; recorded as an event)."""
+    return _act(history, lambda: history.edit_acknowledgement(
+        joint=joint, robot=robot, user=user['name'], owner=body.owner, comment=body.comment,
+        planned_maintenance=body.planned_maintenance, work_order=body.work_order))
+
+
+@router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',
+             summary='Withdraw the acknowledgement', **_WRITE)
+def api_withdraw_acknowledgement(robot: str, joint: str, body: WithdrawRequest,
+                                 user: MaintainerUser, history: HistoryDep) -> dict[str, Any]:
+    """Withdraw the current acknowledgement, with a reason (the alarm stays latched)."""
+    return _act(history, lambda: history.withdraw_acknowledgement(
+        joint=joint, robot=robot, user=user['name'], reason=body.reason))
+
+
+@router.post('/robots/{robot}/joints/{joint}/reset', summary='Reset the alarm after maintenance',
+             **_WRITE)
+def api_reset(robot: str, joint: str, body: ResetRequest, user: MaintainerUser,
+              history: HistoryDep) -> dict[str, Any]:
+    """Reset the latched alarm after maintenance: the reason and the work order."""
+    return _act(history, lambda: history.reset_alarm(
+        joint=joint, robot=robot, user=user['name'], reason=body.reason,
+        work_order=body.work_order))

@@ -2,12 +2,12 @@
 The dashboard's ASGI application: FastAPI with Jinja2 pages, its own static files, sessions.
 
 :func:`create_app` builds the app for one wear history: the settings, the history pool and the
-other shared objects on ``app.state``, the middleware, the routers ``pages`` and ``api`` (which
-take what they need by dependency, :mod:`robot_wear_monitor.dashboard.deps`, and import
-nothing from here).  Everything the browser loads comes from here (no CDN): the app's style
-and scripts (``static/``), Plotly.js from the installed ``plotly`` Python package and Swagger
-UI from ``fastapi-offline`` (the OpenAPI page ``/docs``).  FastAPI's own ``/docs`` (which
-loads Swagger UI from a CDN) is off.
+other shared objects on ``app.state``, the middleware, the routers ``pages``, ``accounts`` and
+``api`` (which take what they need by dependency, :mod:`robot_wear_monitor.dashboard.deps`,
+and import nothing from here).  Everything the browser loads comes from here (no CDN): the
+app's style and scripts (``static/``), Plotly.js from the installed ``plotly`` Python package
+and Swagger UI from ``fastapi-offline`` (the OpenAPI page ``/docs``).  FastAPI's own
+``/docs`` (which loads Swagger UI from a CDN) is off.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 import jinja2
 from robot_wear_monitor import __version__
-from robot_wear_monitor.dashboard import api, pages
+from robot_wear_monitor.dashboard import accounts, api, pages
 from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, LoginLimiter, new_secret_key,
                                                RequireSession, SESSION_MAX_AGE_S)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
@@ -99,6 +99,7 @@ def create_app(settings: DashboardSettings) -> FastAPI:
         return FileResponse(plotly_js, media_type='text/javascript')
 
     app.include_router(pages.router)
+    app.include_router(accounts.router)
     app.include_router(api.router)
     return app
 

@@ -14,6 +14,12 @@ carries the session's CSRF token (form field ``csrf_token`` or header ``X-CSRF-T
 that did not succeed within :data:`WINDOW_S` the login answers 429 until the window has
 passed, however many arrive at once.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
 multipart or over :data:`MAX_LOGIN_BODY_BYTES` before its body is read.
+
+The JSON API (``/api/``) also takes a per-user API token (``Authorization: Bearer TOKEN``,
+``history.tokens``): the request acts as the token's user with their role read now; a token
+that is unknown, removed or whose user is gone gets 401 (a cookie does not stand in for it).
+CSRF does not apply to such a request (a browser never sends that header by itself); it does
+to every request of a cookie session.
 """
 
 from __future__ import annotations
@@ -217,7 +223,18 @@ class RequireSession(BaseHTTPMiddleware):
         """Pass the request on when it has a session (or is public); else refuse it."""
         path = request.url.path
         response: Response
-        if 'sid' in request.session:  # every request looks its session up in the history
+        bearer = bearer_token(request)
+        request.state.token_auth = False
+        if bearer is not None and path.startswith('/api/'):
+            pool = request.app.state.pool
+            if not await run_in_threadpool(_token_from_pool, request, pool, bearer):
+                response = JSONResponse({'detail': 'unknown or removed API token'},
+                                        status_code=401,
+                                        headers={'WWW-Authenticate': 'Bearer'})
+                for key, value in SECURITY_HEADERS.items():
+                    response.headers.setdefault(key, value)
+                return response
+        elif 'sid' in request.session:  # every request looks its session up in the history
             pool = request.app.state.pool
             await run_in_threadpool(_load_from_pool, request, pool)
         if path in PUBLIC_PATHS or current_user(request) is not None:
@@ -240,6 +257,29 @@ class RequireSession(BaseHTTPMiddleware):
 def _load_from_pool(request: Request, pool: Any) -> None:
     with pool.borrow() as history:
         load_session(request, history)
+
+
+def bearer_token(request: Request) -> Optional[str]:
+    """Return the token of an ``Authorization: Bearer TOKEN`` header, or None."""
+    scheme, _, token = request.headers.get('authorization', '').partition(' ')
+    return token.strip() if scheme.lower() == 'bearer' else None
+
+
+def is_token_request(request: Request) -> bool:
+    """Return whether the request acts through an API token (not a cookie session)."""
+    return bool(getattr(request.state, 'token_auth', False))
+
+
+def _token_from_pool(request: Request, pool: Any, token: str) -> bool:
+    """Act as the user of API ``token`` (their role now); return False when it is none."""
+    with pool.borrow() as history:
+        found = history.find_token(token=token)
+    if found is None or found.role not in ROLES:
+        return False
+    request.state.session_user = {'name': found.user, 'role': found.role}
+    request.state.session_csrf = None
+    request.state.token_auth = True
+    return True
 
 
 class LoginBodyLimit:

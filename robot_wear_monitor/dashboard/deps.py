@@ -12,8 +12,12 @@ builds the application and puts the shared objects on ``app.state``:
 * :func:`check_csrf`: 403 unless the form field ``csrf_token`` (or the header
   ``X-CSRF-Token``) is the session's CSRF token; routes add it as
   ``dependencies=[Depends(check_csrf)]``, which runs before their other dependencies;
-* :data:`MaintainerUser`: the session's user when the history still names them a
-  maintainer, else 403 (a removed user's session is void).
+* :func:`check_api_csrf`: the same for the JSON API's writes (the header ``X-CSRF-Token``)
+  of a cookie session; a request with an API token (``Authorization: Bearer``) needs none;
+* :data:`MaintainerUser`: the user when the history still names them a maintainer or an
+  admin (:data:`~robot_wear_monitor.history.users.ACTING_ROLES`), else 403 (a removed user's
+  session or token is void);
+* :data:`AdminUser`: the user when the history still names them an admin, else 403.
 """
 
 from __future__ import annotations
@@ -22,11 +26,12 @@ from typing import Annotated, Iterator
 
 from fastapi import Depends, Form, HTTPException, Request
 import jinja2
-from robot_wear_monitor.dashboard.auth import (csrf_ok, current_user, LoginLimiter,
-                                               SessionUser)
+from robot_wear_monitor.dashboard.auth import (csrf_ok, current_user, is_token_request,
+                                               LoginLimiter, SessionUser)
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool
 from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
 from robot_wear_monitor.history import WearHistory
+from robot_wear_monitor.history.users import ACTING_ROLES, ADMIN_ROLE
 
 
 def get_settings(request: Request) -> DashboardSettings:
@@ -81,6 +86,16 @@ def check_csrf(request: Request, csrf_token: str = Form('')) -> None:
                                                     'page and send the form again')
 
 
+def check_api_csrf(request: Request) -> None:
+    """Refuse (403) an API write of a cookie session without its X-CSRF-Token header."""
+    if is_token_request(request):
+        return  # an API token is no ambient credential: no cross-site request carries it
+    if not csrf_ok(request, request.headers.get('x-csrf-token')):
+        raise HTTPException(status_code=403, detail='missing or wrong X-CSRF-Token header '
+                                                    '(GET /api/me gives it), or use an API '
+                                                    'token')
+
+
 SettingsDep = Annotated[DashboardSettings, Depends(get_settings)]
 HistoryDep = Annotated[WearHistory, Depends(get_history)]
 ParameterSetsDep = Annotated[ParameterSets, Depends(get_parameter_sets)]
@@ -89,13 +104,24 @@ LimiterDep = Annotated[LoginLimiter, Depends(get_limiter)]
 CurrentUser = Annotated[SessionUser, Depends(get_current_user)]
 
 
+def _stored_role(user: SessionUser, history: WearHistory) -> str:
+    return {u.name: u.role for u in history.users()}.get(user['name'], '')
+
+
 def get_current_maintainer(user: CurrentUser, history: HistoryDep) -> SessionUser:
-    """Return the session's user when the history names them a maintainer still; else 403."""
-    stored = {u.name: u.role for u in history.users()}
-    if stored.get(user['name']) != 'maintainer':
-        raise HTTPException(status_code=403, detail='only a maintainer may acknowledge or '
-                                                    'reset an alarm')
+    """Return the user when the history names them a maintainer or admin still; else 403."""
+    if _stored_role(user, history) not in ACTING_ROLES:
+        raise HTTPException(status_code=403, detail='only a maintainer or an admin may '
+                                                    'acknowledge or reset an alarm')
+    return user
+
+
+def get_current_admin(user: CurrentUser, history: HistoryDep) -> SessionUser:
+    """Return the user when the history names them an admin still; else 403."""
+    if _stored_role(user, history) != ADMIN_ROLE:
+        raise HTTPException(status_code=403, detail='only an admin may manage the users')
     return user
 
 
 MaintainerUser = Annotated[SessionUser, Depends(get_current_maintainer)]
+AdminUser = Annotated[SessionUser, Depends(get_current_admin)]

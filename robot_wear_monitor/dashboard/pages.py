@@ -2,11 +2,15 @@
 The dashboard's HTML pages and forms: login, fleet, joint, alarm log, the OpenAPI page.
 
 Jinja2 with autoescape renders every name and note as text.  The forms (login, logout,
-acknowledge, reset) carry the session's CSRF token; a POST without it gets 403
-(``deps.check_csrf``).  Acknowledge and reset are the maintainer's: a viewer gets 403
-(``deps.MaintainerUser``); each is stored in the history with the user, the time and the text
-(:meth:`WearHistory.acknowledge_alarm`, :meth:`WearHistory.reset_alarm`).  What a route needs
-comes by dependency (:mod:`robot_wear_monitor.dashboard.deps`).
+acknowledge, edit or withdraw the acknowledgement, reset) carry the session's CSRF token; a
+POST without it gets 403 (``deps.check_csrf``).  Acknowledge, edit, withdraw and reset are a
+maintainer's or an admin's: a viewer gets 403 (``deps.MaintainerUser``); each is stored in the
+history with the user, the time and the text (:meth:`WearHistory.acknowledge_alarm`,
+:meth:`WearHistory.edit_acknowledgement`, :meth:`WearHistory.withdraw_acknowledgement`,
+:meth:`WearHistory.reset_alarm`).  A reset needs its confirmation box ticked (``confirm``):
+the browser will not send the form without it, and the server refuses it too, so the step
+holds without JavaScript.  What a route needs comes by dependency
+(:mod:`robot_wear_monitor.dashboard.deps`).
 """
 
 from __future__ import annotations
@@ -23,11 +27,12 @@ from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, curre
 from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_settings,
                                                get_templates, HistoryDep, LimiterDep,
                                                MaintainerUser, ParameterSetsDep)
-from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, fleet_json,
-                                                fleet_row_html, joint_json, joint_url,
-                                                MAX_PAGE_ROWS, page_links, PAGE_ROWS,
+from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
+                                                fleet_json, fleet_row_html, joint_json,
+                                                joint_url, MAX_PAGE_ROWS, page_links, PAGE_ROWS,
                                                 reescalation_margin, STATES)
 from robot_wear_monitor.history import HistoryError
+from robot_wear_monitor.history.users import ACTING_ROLES
 from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 router = APIRouter(include_in_schema=False)
@@ -40,6 +45,7 @@ def render(request: Request, template: str, *, status_code: int = 200,
     html = get_templates(request).get_template(template).render(
         user=current_user(request), csrf_token=csrf_token(request), flash=flash,
         joint_url=joint_url, poll_ms=get_settings(request).poll_interval_ms,
+        acting_roles=ACTING_ROLES,
         path=request.url.path, **context)
     return HTMLResponse(html, status_code=status_code)
 
@@ -110,37 +116,71 @@ def joint_page(request: Request, robot: str, joint: str, history: HistoryDep,
     if data is None:
         return render(request, 'error.html', status_code=404,
                       message=f'no estimates of robot {robot!r} joint {joint!r}')
+    acknowledgement = history.acknowledgement(joint=joint, robot=robot)
     return render(request, 'joint.html', data=data,
-                  api_url='/api' + joint_url(robot, joint))
+                  api_url='/api' + joint_url(robot, joint),
+                  acknowledgement=None if acknowledgement is None
+                  else event_json(acknowledgement))
+
+
+def _flash_outcome(request: Request, robot: str, joint: str, action: Any,
+                   done: str) -> Response:
+    """Run ``action``; flash ``done`` or the history's refusal; go back to the joint's page."""
+    try:
+        action()
+    except HistoryError as error:
+        request.session['flash'] = {'kind': 'error', 'text': _message(error)}
+    else:
+        request.session['flash'] = {'kind': 'ok', 'text': done}
+    return RedirectResponse(joint_url(robot, joint), status_code=303)
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledge', dependencies=[Depends(check_csrf)])
 def acknowledge(request: Request, robot: str, joint: str, user: MaintainerUser,
                 history: HistoryDep, owner: str = Form(''), comment: str = Form(''),
-                planned_maintenance: str = Form('')) -> Response:
-    """Acknowledge the latched alarm (maintainers): owner, comment, planned maintenance date."""
-    try:
-        history.acknowledge_alarm(
-            joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
-            comment=comment.strip(), planned_maintenance=planned_maintenance.strip())
-    except HistoryError as error:
-        request.session['flash'] = {'kind': 'error', 'text': _message(error)}
-    else:
-        request.session['flash'] = {'kind': 'ok', 'text': 'alarm acknowledged'}
-    return RedirectResponse(joint_url(robot, joint), status_code=303)
+                planned_maintenance: str = Form(''), work_order: str = Form('')) -> Response:
+    """Acknowledge the latched alarm: owner, comment, planned maintenance date, work order."""
+    return _flash_outcome(request, robot, joint, lambda: history.acknowledge_alarm(
+        joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
+        comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
+        work_order=work_order.strip()), 'alarm acknowledged')
+
+
+@router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
+             dependencies=[Depends(check_csrf)])
+def edit_acknowledgement(request: Request, robot: str, joint: str, user: MaintainerUser,
+                         history: HistoryDep, owner: str = Form(''), comment: str = Form(''),
+                         planned_maintenance: str = Form(''),
+                         work_order: str = Form('')) -> Response:
+    """Edit the acknowledgement (the values after the edit); recorded with who and when."""
+    return _flash_outcome(request, robot, joint, lambda: history.edit_acknowledgement(
+        joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
+        comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
+        work_order=work_order.strip()), 'acknowledgement edited')
+
+
+@router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',
+             dependencies=[Depends(check_csrf)])
+def withdraw_acknowledgement(request: Request, robot: str, joint: str, user: MaintainerUser,
+                             history: HistoryDep, reason: str = Form('')) -> Response:
+    """Withdraw the acknowledgement, with a reason; the alarm stays latched."""
+    return _flash_outcome(request, robot, joint, lambda: history.withdraw_acknowledgement(
+        joint=joint, robot=robot, user=user['name'], reason=reason.strip()),
+        'acknowledgement withdrawn: the alarm is unacknowledged')
 
 
 @router.post('/robots/{robot}/joints/{joint}/reset', dependencies=[Depends(check_csrf)])
 def reset(request: Request, robot: str, joint: str, user: MaintainerUser, history: HistoryDep,
-          reason: str = Form('')) -> Response:
-    """Reset the latched alarm after maintenance (maintainers), with a reason."""
-    try:
-        history.reset_alarm(joint=joint, robot=robot, user=user['name'], reason=reason.strip())
-    except HistoryError as error:
-        request.session['flash'] = {'kind': 'error', 'text': _message(error)}
-    else:
-        request.session['flash'] = {'kind': 'ok', 'text': 'alarm reset: the trend restarts'}
-    return RedirectResponse(joint_url(robot, joint), status_code=303)
+          reason: str = Form(''), work_order: str = Form(''),
+          confirm: str = Form('')) -> Response:
+    """Reset the latched alarm after maintenance, with a reason, once confirmed."""
+    if confirm != 'yes':
+        request.session['flash'] = {'kind': 'error', 'text': 'not reset: tick "the maintenance '
+                                                             'is done" to confirm the reset'}
+        return RedirectResponse(joint_url(robot, joint), status_code=303)
+    return _flash_outcome(request, robot, joint, lambda: history.reset_alarm(
+        joint=joint, robot=robot, user=user['name'], reason=reason.strip(),
+        work_order=work_order.strip()), 'alarm reset: the trend restarts')
 
 
 def _message(error: Exception) -> str:

@@ -151,6 +151,30 @@ class AlarmEventJson(_Shape):
     user: str
     owner: str
     planned_maintenance: str = Field(description="YYYY-MM-DD or ''")
+    work_order: str = Field(description="the maintenance system's work order ('' for none)")
+
+
+class AcknowledgeRequest(_Shape):
+    """An acknowledgement (or its edit: the values after it), sent by a person or a system."""
+
+    owner: str = Field(description='who takes the maintenance on (1-128 printable characters)')
+    comment: str = Field('', description='free text (at most 2000 characters)')
+    planned_maintenance: str = Field('', description="YYYY-MM-DD or ''")
+    work_order: str = Field('', description="the maintenance system's work order (at most "
+                                            "128 printable characters, '' for none)")
+
+
+class ResetRequest(_Shape):
+    """A reset after maintenance: why, and the work order that did it."""
+
+    reason: str = Field(description='why (non-empty, at most 2000 characters)')
+    work_order: str = Field('', description="the work order ('' for none)")
+
+
+class WithdrawRequest(_Shape):
+    """The withdrawal of an acknowledgement: why."""
+
+    reason: str = Field(description='why (non-empty, at most 2000 characters)')
 
 
 class ExperimentJson(_Shape):
@@ -230,7 +254,7 @@ class JointJson(_Shape):
 
 
 class MeJson(_Shape):
-    """The logged-in user and the session's CSRF token (for scripted POSTs)."""
+    """The user and the session's CSRF token (for scripted POSTs; '' with an API token)."""
 
     name: str
     role: str

@@ -459,10 +459,11 @@ def page_links(fleet: dict[str, Any]) -> list[dict[str, Any]]:
 
 def event_json(event: Any) -> dict[str, Any]:
     """
-    Return one alarm event (raised, acknowledged or reset) for the logs.
+    Return one alarm event (raised, reset, an acknowledgement, its edit or withdrawal).
 
     ``time``/``event_time_s``: the event's time in the log (a raise's experiment stamp, an
-    acknowledgement's or a reset's wall time); ``note_text``: its note in words.
+    acknowledgement's, an edit's, a withdrawal's or a reset's wall time); ``note_text``: its
+    note in words.
     """
     wall = _number(getattr(event, 'wall_time_s', math.nan))
     when = _number(event_time_s(event))
@@ -475,12 +476,14 @@ def event_json(event: Any) -> dict[str, Any]:
         'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
         'estimate_id': getattr(event, 'estimate_id', None),
+        'work_order': getattr(event, 'work_order', '') or '',
     }
 
 
-#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``).
+#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``; ``work_order`` is
+#: last, so that the columns before it keep their places).
 ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note', 'note_text')
+                     'planned_maintenance', 'note', 'note_text', 'work_order')
 
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,

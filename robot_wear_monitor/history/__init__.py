@@ -7,19 +7,21 @@ psycopg 3).  One transaction per experiment (the estimate row and its alarm even
 so a killed process loses nothing that was reported; the experiment's identity (robot, joint,
 end stamp) is a unique key, so a re-run of a recording or a concurrent writer adds nothing.  On
 start the estimator restores its trend, its latched alarm and the evidence of the alarm test per
-robot and joint from here.  A ``schema_version`` table guards the layout (version 5); an older
+robot and joint from here.  A ``schema_version`` table guards the layout (version 7); an older
 history is migrated in place when opened (``migrations.py``: version 2 -> 3 gives the old rows
 the robot the history is opened for, else ``default``), so a file that loads today loads
 tomorrow; a database that is not a wear history is refused and left untouched.  Version 5
 adds what the maintenance team's dashboard stores: acknowledgements and resets by people
 (user, owner, reason, planned maintenance date), the dashboard's users and the notifications
-sent.
+sent; version 6 its server-side sessions; version 7 the edit and withdrawal of an
+acknowledgement, a work order on acknowledgements and resets, the admin role and per-user API
+tokens.
 
 Modules: ``records`` (the row types), ``migrations`` (the layout per version and backend),
 ``backends`` (SQLite and PostgreSQL connections), ``store`` (:class:`WearHistory`),
 ``alarms`` (acknowledge, reset, the fleet's alarm log), ``users`` (dashboard users, argon2
-hashes), ``notifications_store`` (each notification event once), ``levels_csv`` (export for
-``audit``).
+hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens),
+``notifications_store`` (each notification event once), ``levels_csv`` (export for ``audit``).
 """
 
 from robot_wear_monitor.history.backends import is_postgresql_url, redact_url
@@ -27,15 +29,15 @@ from robot_wear_monitor.history.levels_csv import LEVEL_CSV_COLUMNS, write_level
 from robot_wear_monitor.history.migrations import (
     POSTGRESQL_MIGRATIONS, SCHEMA_VERSION, SQLITE_MIGRATIONS)
 from robot_wear_monitor.history.records import (
-    ALARM_EVENT_KINDS, AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord,
-    INTERVAL_COLUMNS, LatchMoved, RestoredState)
+    ACKNOWLEDGEMENT_EVENTS, ALARM_EVENT_KINDS, AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError,
+    HistoryRecord, INTERVAL_COLUMNS, LatchMoved, RestoredState)
 from robot_wear_monitor.history.store import open_history, WearHistory
 from robot_wear_monitor.history.users import (
     MIN_PASSWORD_CHARS, ROLES, User)
 
-__all__ = ['ALARM_EVENT_KINDS', 'AlarmEvent', 'DEFAULT_ROBOT', 'FleetRow', 'HistoryError',
-           'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url', 'LatchMoved',
-           'LEVEL_CSV_COLUMNS', 'MIN_PASSWORD_CHARS', 'open_history', 'POSTGRESQL_MIGRATIONS',
-           'redact_url',
-           'RestoredState', 'ROLES', 'SCHEMA_VERSION', 'SQLITE_MIGRATIONS', 'User',
+__all__ = ['ACKNOWLEDGEMENT_EVENTS', 'ALARM_EVENT_KINDS', 'AlarmEvent', 'DEFAULT_ROBOT',
+           'FleetRow', 'HistoryError', 'HistoryRecord', 'INTERVAL_COLUMNS', 'is_postgresql_url',
+           'LatchMoved', 'LEVEL_CSV_COLUMNS', 'MIN_PASSWORD_CHARS', 'open_history',
+           'POSTGRESQL_MIGRATIONS', 'redact_url', 'RestoredState', 'ROLES', 'SCHEMA_VERSION',
+           'SQLITE_MIGRATIONS', 'User',
            'WearHistory', 'write_levels_csv']

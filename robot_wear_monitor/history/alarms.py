@@ -3,8 +3,11 @@ Alarm events of the wear history: acknowledge and reset by people, the fleet's a
 
 The latch of a robot's joint is its last ``raised`` or ``reset`` event: latched when that is a
 raise.  An ``acknowledged`` event (schema version 5) is a remark on a latched alarm (who takes
-it on, the planned maintenance date, a comment): it never unlatches it, and the alarm is
-acknowledged while an acknowledgement follows its last raise.  A reset stored here looks to a
+it on, the planned maintenance date, the work order (version 7), a comment): it never unlatches
+it.  Since version 7 an acknowledgement can be edited (``acknowledgement_edited``: who, when
+and the values after the edit) or withdrawn (``acknowledgement_withdrawn``: who, when, why);
+the alarm is acknowledged while the last of these events after its last raise is not a
+withdrawal, and the current acknowledgement is that event.  A reset stored here looks to a
 restarted estimator exactly like the ROS ``~/reset_alarm``: a ``reset`` event tied to the
 joint's latest estimate, so that the evidence restores as 0 and the trend restarts there.
 
@@ -23,20 +26,28 @@ from typing import Any, Optional, Sequence
 
 from robot_wear_monitor.history.backends import HistoryBackend, lock_key
 from robot_wear_monitor.history.records import (
-    ALARM_EVENT_KINDS, AlarmEvent, HistoryError)
+    ACKNOWLEDGEMENT_EVENTS, ALARM_EVENT_KINDS, AlarmEvent, HistoryError)
 from robot_wear_monitor.json_values import finite_or_none
 
 #: The columns of an alarm event, in the order of :func:`event_from_row`.
 EVENT_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, note, estimate_id, '
-                 'user_name, owner, planned_maintenance')
+                 'user_name, owner, planned_maintenance, work_order')
+#: The events of a person on an acknowledgement, as SQL.
+ACKNOWLEDGEMENT_SQL = 'event IN (' + ', '.join(f"'{e}'" for e in ACKNOWLEDGEMENT_EVENTS) + ')'
 #: The events that set the latch (acknowledgements do not).
 LATCH_EVENTS = "event IN ('raised', 'reset')"
 #: Longest note (a reason, a comment) [characters].
 MAX_NOTE_CHARS = 2000
 #: Longest user or owner name [characters].
 MAX_PERSON_CHARS = 128
+#: Longest work order [characters].
+MAX_WORK_ORDER_CHARS = 128
 
 _ISO_DATE = re.compile(r'\d{4}-\d{2}-\d{2}')
+
+
+class AlarmStateError(HistoryError):
+    """The joint's alarm is not in the state the action needs (no latch, acknowledged...)."""
 
 
 def event_from_row(row: Sequence[Any]) -> AlarmEvent:
@@ -45,7 +56,8 @@ def event_from_row(row: Sequence[Any]) -> AlarmEvent:
                       wall_time_s=float(row[4]), event=row[5],
                       wear=None if row[6] is None else float(row[6]), note=row[7],
                       estimate_id=None if row[8] is None else int(row[8]),
-                      user=row[9] or '', owner=row[10] or '', planned_maintenance=row[11] or '')
+                      user=row[9] or '', owner=row[10] or '', planned_maintenance=row[11] or '',
+                      work_order=row[12] or '')
 
 
 def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, joint: str,
@@ -53,21 +65,31 @@ def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, join
                  ) -> AlarmEvent:
     """Store ``event`` of (robot, joint) in the open transaction; return it as stored."""
     if event.event not in ALARM_EVENT_KINDS:
-        raise HistoryError(f'{backend.name}: alarm event must be raised, reset or '
-                           f'acknowledged, got {str(event.event)[:80]!r}')
+        raise HistoryError(f'{backend.name}: alarm event must be one of '
+                           f'{", ".join(ALARM_EVENT_KINDS)}, got {str(event.event)[:80]!r}')
     now = time.time() if wall_time_s is None else float(wall_time_s)
     values = (robot, joint, float(event.stamp_s), now, event.event, finite_or_none(event.wear),
               estimate_id, str(event.note)[:MAX_NOTE_CHARS], str(event.user)[:MAX_PERSON_CHARS],
               str(event.owner)[:MAX_PERSON_CHARS],
-              check_planned_maintenance(event.planned_maintenance))
+              check_planned_maintenance(event.planned_maintenance),
+              check_work_order(event.work_order))
     rows = backend.execute(
         'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
-        'estimate_id, note, user_name, owner, planned_maintenance) '
-        'VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id', values)
+        'estimate_id, note, user_name, owner, planned_maintenance, work_order) '
+        'VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id', values)
     return AlarmEvent(id=int(rows[0][0]), robot=robot, joint=joint, stamp_s=values[2],
                       wall_time_s=now, event=event.event, wear=values[5], note=values[7],
                       estimate_id=estimate_id, user=values[8], owner=values[9],
-                      planned_maintenance=values[10])
+                      planned_maintenance=values[10], work_order=values[11])
+
+
+def check_work_order(value: Any) -> str:
+    """Return a work order (1-128 printable characters, '' for none); else HistoryError."""
+    text = '' if value is None else str(value).strip()
+    if len(text) > MAX_WORK_ORDER_CHARS or not text.isprintable():
+        raise HistoryError(f'the work order must be at most {MAX_WORK_ORDER_CHARS} printable '
+                           f'characters, got {text[:40]!r}')
+    return text
 
 
 def check_planned_maintenance(value: Any) -> str:
@@ -113,7 +135,8 @@ def latch_events(backend: HistoryBackend, *, robot: str, joint: str
     """
     Return the latch of (robot, joint): its last raise/reset and the acknowledgement after.
 
-    The acknowledgement is the last one that follows a latched raise (None otherwise).
+    The acknowledgement is the last acknowledgement or edit that follows a latched raise
+    (None otherwise, and None when the last such event is a withdrawal).
     """
     rows = backend.execute(
         f'SELECT {EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? AND '
@@ -123,8 +146,11 @@ def latch_events(backend: HistoryBackend, *, robot: str, joint: str
         return latch, None
     rows = backend.execute(
         f'SELECT {EVENT_COLUMNS} FROM alarm_events WHERE robot = ? AND joint = ? AND '
-        "event = 'acknowledged' AND id > ? ORDER BY id DESC LIMIT 1", (robot, joint, latch.id))
-    return latch, event_from_row(rows[0]) if rows else None
+        f'{ACKNOWLEDGEMENT_SQL} AND id > ? ORDER BY id DESC LIMIT 1', (robot, joint, latch.id))
+    current = event_from_row(rows[0]) if rows else None
+    if current is not None and current.event == 'acknowledgement_withdrawn':
+        current = None
+    return latch, current
 
 
 def _latest_estimate(backend: HistoryBackend, robot: str,
@@ -135,12 +161,13 @@ def _latest_estimate(backend: HistoryBackend, robot: str,
 
 
 def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
-    return HistoryError(f'{name}: robot {robot[:80]!r} joint {joint[:80]!r} has no latched '
-                        f'alarm to {what}')
+    return AlarmStateError(f'{name}: robot {robot[:80]!r} joint {joint[:80]!r} has no '
+                           f'latched alarm to {what}')
 
 
 def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, owner: str,
-                      comment: str, planned_maintenance: str = '') -> AlarmEvent:
+                      comment: str, planned_maintenance: str = '', work_order: str = ''
+                      ) -> AlarmEvent:
     """
     Store an acknowledgement of the latched alarm of (robot, joint); return the event.
 
@@ -151,25 +178,91 @@ def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: 
     owner = _person('owner', owner)
     comment = _note('comment', comment, required=False)
     planned = check_planned_maintenance(planned_maintenance)
+    order = check_work_order(work_order)
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
         latch, acknowledged = latch_events(backend, robot=robot, joint=joint)
         if latch is None or latch.event != 'raised':
             raise _no_latch(backend.name, robot, joint, 'acknowledge')
         if acknowledged is not None:
-            raise HistoryError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
-                               f'{joint[:80]!r} is already acknowledged by '
-                               f'{acknowledged.user[:80]!r}')
+            raise AlarmStateError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
+                                  f'{joint[:80]!r} is already acknowledged by '
+                                  f'{acknowledged.user[:80]!r}')
         estimate_id, wear = _latest_estimate(backend, robot, joint)
         now = time.time()
         return insert_event(backend, AlarmEvent(
             joint=joint, stamp_s=now, event='acknowledged', wear=wear, note=comment,
-            user=user, owner=owner, planned_maintenance=planned), robot=robot, joint=joint,
-            estimate_id=estimate_id, wall_time_s=now)
+            user=user, owner=owner, planned_maintenance=planned, work_order=order),
+            robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
+
+
+def edit_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str, user: str,
+                         owner: str, comment: str, planned_maintenance: str = '',
+                         work_order: str = '') -> AlarmEvent:
+    """
+    Store an edit of the current acknowledgement of (robot, joint); return the event.
+
+    The event carries the values after the edit, ``user`` (who edited) and the wear the
+    acknowledgement was made at (an edit acknowledges no new wear).  Raises
+    :class:`HistoryError` when the alarm is not acknowledged, when the edit changes nothing,
+    or on bad text.
+    """
+    user = _person('user', user)
+    owner = _person('owner', owner)
+    comment = _note('comment', comment, required=False)
+    planned = check_planned_maintenance(planned_maintenance)
+    order = check_work_order(work_order)
+    with backend.transaction():
+        backend.lock_in_transaction(action_lock(robot, joint))
+        current = _current_acknowledgement(backend, robot, joint, 'edit')
+        if (current.owner, current.note, current.planned_maintenance, current.work_order) == \
+                (owner, comment, planned, order):
+            raise AlarmStateError(f'{backend.name}: the edit of the acknowledgement of robot '
+                                  f'{robot[:80]!r} joint {joint[:80]!r} changes nothing')
+        estimate_id, _ = _latest_estimate(backend, robot, joint)
+        now = time.time()
+        return insert_event(backend, AlarmEvent(
+            joint=joint, stamp_s=now, event='acknowledgement_edited', wear=current.wear,
+            note=comment,
+            user=user, owner=owner, planned_maintenance=planned, work_order=order),
+            robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
+
+
+def withdraw_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str, user: str,
+                             reason: str) -> AlarmEvent:
+    """
+    Withdraw the current acknowledgement of (robot, joint), with a reason; return the event.
+
+    The alarm stays latched and is unacknowledged again (it may be acknowledged anew).
+    Raises :class:`HistoryError` when the alarm is not acknowledged or on bad text.
+    """
+    user = _person('user', user)
+    reason = _note('withdrawal reason', reason, required=True)
+    with backend.transaction():
+        backend.lock_in_transaction(action_lock(robot, joint))
+        current = _current_acknowledgement(backend, robot, joint, 'withdraw')
+        estimate_id, wear = _latest_estimate(backend, robot, joint)
+        now = time.time()
+        return insert_event(backend, AlarmEvent(
+            joint=joint, stamp_s=now, event='acknowledgement_withdrawn', wear=wear, note=reason,
+            user=user, owner=current.owner, planned_maintenance=current.planned_maintenance,
+            work_order=current.work_order), robot=robot, joint=joint, estimate_id=estimate_id,
+            wall_time_s=now)
+
+
+def _current_acknowledgement(backend: HistoryBackend, robot: str, joint: str,
+                             what: str) -> AlarmEvent:
+    latch, current = latch_events(backend, robot=robot, joint=joint)
+    if latch is None or latch.event != 'raised':
+        raise _no_latch(backend.name, robot, joint, what + ' the acknowledgement of')
+    if current is None:
+        raise AlarmStateError(f'{backend.name}: the alarm of robot {robot[:80]!r} joint '
+                              f'{joint[:80]!r} is not acknowledged: nothing to {what}')
+    return current
 
 
 def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, reason: str,
-                stamp_s: Optional[float] = None) -> AlarmEvent:
+                stamp_s: Optional[float] = None, work_order: str = '') -> AlarmEvent:
     """
     Store a reset of the latched alarm of (robot, joint) after maintenance; return it.
 
@@ -179,6 +272,7 @@ def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, r
     """
     user = _person('user', user)
     reason = _note('reset reason', reason, required=True)
+    order = check_work_order(work_order)
     now = time.time()
     stamp = now if stamp_s is None else float(stamp_s)
     if not math.isfinite(stamp):
@@ -190,7 +284,8 @@ def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, r
             raise _no_latch(backend.name, robot, joint, 'reset')
         estimate_id, _ = _latest_estimate(backend, robot, joint)
         return insert_event(backend, AlarmEvent(
-            joint=joint, stamp_s=stamp, event='reset', wear=None, note=reason, user=user),
+            joint=joint, stamp_s=stamp, event='reset', wear=None, note=reason, user=user,
+            work_order=order),
             robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
 
 
@@ -297,6 +392,12 @@ def note_text(event: AlarmEvent) -> str:
         if event.owner and event.owner != event.user:
             text += f', taken on by {event.owner}'
         if event.planned_maintenance:
+            text += f', maintenance planned {event.planned_maintenance}'
+        return text + (f': {note}' if note else '')
+    if event.event in ('acknowledgement_edited', 'acknowledgement_withdrawn'):
+        what = 'edited' if event.event == 'acknowledgement_edited' else 'withdrawn'
+        text = f'acknowledgement {what} by {event.user or "someone"}'
+        if what == 'edited' and event.planned_maintenance:
             text += f', maintenance planned {event.planned_maintenance}'
         return text + (f': {note}' if note else '')
     if event.event == 'reset':

@@ -21,19 +21,24 @@ argon2 hashes), ``notifications`` (one row per notification event sent, unique k
 ``joint_summary`` (per robot and joint: the latest estimate's id, the count and the first
 stamp, kept by every append in the same transaction, filled from the rows on migration, so
 that the fleet view reads one row per joint whatever the number of estimates) and the index
-of the fleet's alarm log per robot, newest first.
+of the fleet's alarm log per robot, newest first.  Version 6: ``sessions`` (the dashboard's
+server-side sessions).  Version 7 (accounts and the write API): alarm events may also be
+'acknowledgement_edited' and 'acknowledgement_withdrawn' and carry a ``work_order`` (''
+in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`` and
+``users`` for their new CHECKs, keeping ids and rows; PostgreSQL replaces the constraints);
+``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
-          'notifications', 'joint_summary', 'sessions')
+          'notifications', 'joint_summary', 'sessions', 'api_tokens')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -174,9 +179,62 @@ _V6 = (
     'CREATE INDEX sessions_user ON sessions (user_name)',
 )
 
+#: The event kinds and roles of version 7 (a layout's CHECKs never change: a new kind or role
+#: is a new version; ``users.ROLES`` and ``records.ALARM_EVENT_KINDS`` are these).
+_EVENT_KINDS_V7_CHECK = ("CHECK (event IN ('raised', 'reset', 'acknowledged', "
+                         "'acknowledgement_edited', 'acknowledgement_withdrawn'))")
+_ROLES_V7_CHECK = "CHECK (role IN ('viewer', 'maintainer', 'admin'))"
+_EVENT_V7_COLUMNS = _EVENT_V5_COLUMNS + ', user_name, owner, planned_maintenance'
+_USER_COLUMNS = 'name, role, password_hash, created_wall_time_s'
+
+#: Version 7: per-user API tokens (the write API); the token itself is never stored.
+_API_TOKENS = (
+    """CREATE TABLE api_tokens (
+    id {id_column},
+    user_name TEXT NOT NULL,
+    token_hash TEXT NOT NULL UNIQUE,
+    label TEXT NOT NULL DEFAULT '',
+    created_wall_time_s DOUBLE PRECISION NOT NULL,
+    last_used_wall_time_s DOUBLE PRECISION)""",
+    'CREATE INDEX api_tokens_user ON api_tokens (user_name)',
+)
+
+_SQLITE_V7 = (
+    f"""CREATE TABLE alarm_events_v7 (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    robot TEXT NOT NULL DEFAULT 'default',
+    joint TEXT NOT NULL,
+    stamp_s REAL NOT NULL,
+    wall_time_s REAL NOT NULL,
+    event TEXT NOT NULL {_EVENT_KINDS_V7_CHECK},
+    wear REAL,
+    estimate_id INTEGER REFERENCES estimates (id),
+    note TEXT NOT NULL DEFAULT '',
+    user_name TEXT NOT NULL DEFAULT '',
+    owner TEXT NOT NULL DEFAULT '',
+    planned_maintenance TEXT NOT NULL DEFAULT '',
+    work_order TEXT NOT NULL DEFAULT '')""",
+    f'INSERT INTO alarm_events_v7 ({_EVENT_V7_COLUMNS}) SELECT {_EVENT_V7_COLUMNS} '
+    'FROM alarm_events ORDER BY id',
+    'DROP TABLE alarm_events',
+    'ALTER TABLE alarm_events_v7 RENAME TO alarm_events',
+    'CREATE INDEX alarm_events_robot_joint ON alarm_events (robot, joint, id)',
+    'CREATE INDEX alarm_events_robot ON alarm_events (robot, id)',
+    f"""CREATE TABLE users_v7 (
+    name TEXT PRIMARY KEY,
+    role TEXT NOT NULL {_ROLES_V7_CHECK},
+    password_hash TEXT NOT NULL,
+    created_wall_time_s REAL NOT NULL)""",
+    f'INSERT INTO users_v7 ({_USER_COLUMNS}) SELECT {_USER_COLUMNS} FROM users',
+    'DROP TABLE users',
+    'ALTER TABLE users_v7 RENAME TO users',
+    _API_TOKENS[0].format(id_column='INTEGER PRIMARY KEY AUTOINCREMENT'),
+    _API_TOKENS[1],
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4, 5: _SQLITE_V5, 6: _V6}
+                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -255,6 +313,17 @@ _POSTGRESQL_V5 = (
     JOINT_SUMMARY_REBUILD[1],
 )
 
+_POSTGRESQL_V7 = (
+    'ALTER TABLE alarm_events DROP CONSTRAINT IF EXISTS alarm_events_event_check',
+    f'ALTER TABLE alarm_events ADD CONSTRAINT alarm_events_event_check {_EVENT_KINDS_V7_CHECK}',
+    "ALTER TABLE alarm_events ADD COLUMN work_order TEXT NOT NULL DEFAULT ''",
+    'ALTER TABLE users DROP CONSTRAINT IF EXISTS users_role_check',
+    f'ALTER TABLE users ADD CONSTRAINT users_role_check {_ROLES_V7_CHECK}',
+    _API_TOKENS[0].format(id_column='BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY'),
+    _API_TOKENS[1],
+)
+
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
-                                                     5: _POSTGRESQL_V5, 6: _V6}
+                                                     5: _POSTGRESQL_V5, 6: _V6,
+                                                     7: _POSTGRESQL_V7}

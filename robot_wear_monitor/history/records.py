@@ -78,22 +78,28 @@ class HistoryRecord:
         return not self.invalid_reason
 
 
-#: The kinds of alarm events: the latch is the last 'raised' or 'reset' ('acknowledged' is a
-#: remark on a raised alarm: it never unlatches it).
-ALARM_EVENT_KINDS = ('raised', 'reset', 'acknowledged')
+#: The events of a person on an acknowledgement (schema version 7 adds the edit and the
+#: withdrawal): the alarm is acknowledged while the last of them after its raise is not a
+#: withdrawal.
+ACKNOWLEDGEMENT_EVENTS = ('acknowledged', 'acknowledgement_edited', 'acknowledgement_withdrawn')
+#: The kinds of alarm events: the latch is the last 'raised' or 'reset' (the
+#: :data:`ACKNOWLEDGEMENT_EVENTS` are remarks on a raised alarm: they never unlatch it).
+ALARM_EVENT_KINDS = ('raised', 'reset', *ACKNOWLEDGEMENT_EVENTS)
 
 
 @dataclass(frozen=True)
 class AlarmEvent:
     """
-    An alarm raise, reset or acknowledgement of one robot's joint.
+    An alarm raise, reset, acknowledgement (or its edit or withdrawal) of one robot's joint.
 
     ``robot`` None means the history's robot; events read back carry their robot, their ``id``
     and ``wall_time_s`` (when stored [s since the epoch]).  ``stamp_s``: the experiment's stamp
     of a raise, the moment of a reset or acknowledgement [s].  ``note``: why it was raised, the
     reason of a reset or the comment of an acknowledgement; ``user``: who reset or acknowledged
     it ('' for the monitor's own events and the ROS service); ``owner``: who takes the
-    maintenance on; ``planned_maintenance``: its planned date ('YYYY-MM-DD' or '').
+    maintenance on; ``planned_maintenance``: its planned date ('YYYY-MM-DD' or '');
+    ``work_order``: the maintenance system's work order (schema version 7; '' for none).  An
+    edit carries the acknowledgement's values after it; a withdrawal its reason as ``note``.
     """
 
     joint: str
@@ -108,6 +114,7 @@ class AlarmEvent:
     user: str = ''
     owner: str = ''
     planned_maintenance: str = ''
+    work_order: str = ''
 
 
 @dataclass(frozen=True)

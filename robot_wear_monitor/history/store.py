@@ -22,6 +22,7 @@ from typing import Any, Iterator, Optional, Sequence
 
 from robot_wear_monitor.history import alarms, notifications_store
 from robot_wear_monitor.history import sessions as dashboard_sessions
+from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
 from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.history.backends import (
@@ -166,6 +167,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
+        if 'api_tokens' in tables:
+            return 7
         if 'sessions' in tables:
             return 6
         if 'users' in tables:
@@ -257,39 +260,69 @@ class WearHistory:
                                    estimate_id=estimate_id)
 
     def acknowledge_alarm(self, *, joint: str, robot: Optional[str] = None, user: str,
-                          owner: str, comment: str, planned_maintenance: str = ''
-                          ) -> AlarmEvent:
+                          owner: str, comment: str, planned_maintenance: str = '',
+                          work_order: str = '') -> AlarmEvent:
         """
         Acknowledge the latched alarm of the robot's ``joint``; return the stored event.
 
         The alarm stays latched and shows as acknowledged (``FleetRow.acknowledged``) until a
         reset or a new raise.  ``user``: who acknowledges; ``owner``: who takes the
         maintenance on (both 1-128 printable characters); ``comment``: free text (at most
-        2000 characters); ``planned_maintenance``: 'YYYY-MM-DD' or ''.  Raises
-        :class:`HistoryError` when the joint has no latched alarm, when it is acknowledged
-        already, or on bad values.
+        2000 characters); ``planned_maintenance``: 'YYYY-MM-DD' or ''; ``work_order``: the
+        maintenance system's work order (at most 128 printable characters, '' for none).
+        Raises :class:`HistoryError` when the joint has no latched alarm, when it is
+        acknowledged already, or on bad values.
         """
         with self._guard('cannot acknowledge the alarm'):
             return alarms.acknowledge_alarm(
                 self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
                 user=user, owner=owner, comment=comment,
-                planned_maintenance=planned_maintenance)
+                planned_maintenance=planned_maintenance, work_order=work_order)
+
+    def edit_acknowledgement(self, *, joint: str, robot: Optional[str] = None, user: str,
+                             owner: str, comment: str, planned_maintenance: str = '',
+                             work_order: str = '') -> AlarmEvent:
+        """
+        Edit the current acknowledgement of the robot's ``joint``; return the stored event.
+
+        The values are those after the edit (as :meth:`acknowledge_alarm` takes them);
+        ``user``: who edits.  Raises :class:`HistoryError` when the alarm is not acknowledged,
+        the edit changes nothing, or on bad values.
+        """
+        with self._guard('cannot edit the acknowledgement'):
+            return alarms.edit_acknowledgement(
+                self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
+                user=user, owner=owner, comment=comment,
+                planned_maintenance=planned_maintenance, work_order=work_order)
+
+    def withdraw_acknowledgement(self, *, joint: str, robot: Optional[str] = None, user: str,
+                                 reason: str) -> AlarmEvent:
+        """
+        Withdraw the acknowledgement of the robot's ``joint`` (non-empty ``reason``).
+
+        The alarm stays latched, unacknowledged.  Return the stored event; raise
+        :class:`HistoryError` when the alarm is not acknowledged or on bad values.
+        """
+        with self._guard('cannot withdraw the acknowledgement'):
+            return alarms.withdraw_acknowledgement(
+                self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
+                user=user, reason=reason)
 
     def reset_alarm(self, *, joint: str, robot: Optional[str] = None, user: str, reason: str,
-                    stamp_s: Optional[float] = None) -> AlarmEvent:
+                    stamp_s: Optional[float] = None, work_order: str = '') -> AlarmEvent:
         """
         Reset the latched alarm of the robot's ``joint`` after maintenance; return the event.
 
         Exactly what the ROS ``~/reset_alarm`` stores (a ``reset`` tied to the joint's latest
         estimate), with ``user`` and ``reason`` (non-empty): a restarted estimator restores
         the alarm clear with evidence 0 and restarts its trend (the component's new life).
-        ``stamp_s``: the moment [s] (default now).  Raises :class:`HistoryError` when the
-        joint has no latched alarm or on bad values.
+        ``stamp_s``: the moment [s] (default now); ``work_order``: as for an acknowledgement.
+        Raises :class:`HistoryError` when the joint has no latched alarm or on bad values.
         """
         with self._guard('cannot reset the alarm'):
             return alarms.reset_alarm(self._backend, robot=self._robot(robot),
                                       joint=_check_name('joint', joint), user=user,
-                                      reason=reason, stamp_s=stamp_s)
+                                      reason=reason, stamp_s=stamp_s, work_order=work_order)
 
     def alarm_log(self, *, robot: Optional[str] = None, joint: Optional[str] = None,
                   limit: Optional[int] = None, before_id: Optional[int] = None
@@ -326,7 +359,7 @@ class WearHistory:
 
     def add_user(self, *, name: str, role: str, password: str) -> user_accounts.User:
         """
-        Add a dashboard user (role 'viewer' or 'maintainer'; argon2 hash of ``password``).
+        Add a dashboard user (a role of ``users.ROLES``; argon2 hash of ``password``).
 
         Raises :class:`HistoryError` when the name exists or is not 1-64 of
         ``A-Za-z0-9_.@-``, the role is unknown, or the password has fewer than 8 characters.
@@ -338,6 +371,36 @@ class WearHistory:
         """Remove the dashboard user ``name`` (:class:`HistoryError` when there is none)."""
         with self._guard('cannot remove the user'):
             user_accounts.remove_user(self._backend, name=name)
+
+    def set_password(self, *, name: str, password: str) -> int:
+        """Give user ``name`` a new password, ending their sessions; return how many ended."""
+        with self._guard('cannot change the password'):
+            return user_accounts.set_password(self._backend, name=name, password=password)
+
+    def set_role(self, *, name: str, role: str) -> user_accounts.User:
+        """Give user ``name`` the role ``role`` (it counts at once); return the user."""
+        with self._guard('cannot change the role'):
+            return user_accounts.set_role(self._backend, name=name, role=role)
+
+    def add_token(self, *, user: str, label: str = '') -> tuple[api_tokens.ApiToken, str]:
+        """Make an API token of ``user``; return it as listed and the token (shown once)."""
+        with self._guard('cannot add the token'):
+            return api_tokens.add_token(self._backend, user=user, label=label)
+
+    def tokens(self, *, user: Optional[str] = None) -> list[api_tokens.ApiToken]:
+        """Return the API tokens as listed (of ``user``): ids and times, never the tokens."""
+        with self._guard('cannot read the tokens'):
+            return api_tokens.list_tokens(self._backend, user=user)
+
+    def remove_tokens(self, *, user: str, token_id: Optional[int] = None) -> int:
+        """Remove the token ``token_id`` of ``user`` (None: all of theirs); return how many."""
+        with self._guard('cannot remove the token'):
+            return api_tokens.remove_tokens(self._backend, user=user, token_id=token_id)
+
+    def find_token(self, *, token: str) -> Optional[api_tokens.TokenUser]:
+        """Return who an API token acts as, with their role now (None: no such token)."""
+        with self._guard('cannot check the token'):
+            return api_tokens.find_token(self._backend, token=token)
 
     def users(self) -> list[user_accounts.User]:
         """Return the dashboard users, sorted by name (no hashes)."""
@@ -523,6 +586,13 @@ class WearHistory:
                                          '(SELECT MAX(id) FROM alarm_events)')
         return int(rows[0][0] or 0), int(rows[0][1] or 0)
 
+    def acknowledgement(self, *, joint: str, robot: Optional[str] = None
+                        ) -> Optional[AlarmEvent]:
+        """Return the current acknowledgement of the latched alarm (its last edit), or None."""
+        with self._guard('cannot read the wear history'):
+            return alarms.latch_events(self._backend, robot=self._robot(robot),
+                                       joint=_check_name('joint', joint))[1]
+
     def latch_event(self, *, joint: str, robot: Optional[str] = None) -> Optional[AlarmEvent]:
         """
         Return the last raise or reset of the robot's ``joint`` (None: never raised).
@@ -564,9 +634,9 @@ class WearHistory:
                 'a.user_name, a.note FROM alarm_events a JOIN ' + last_latch, params)
             acknowledgements = self._backend.execute(
                 'SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
-                'a.planned_maintenance, a.wear, t.trend_wear FROM alarm_events a JOIN '
+                'a.planned_maintenance, a.wear, t.trend_wear, a.event FROM alarm_events a JOIN '
                 '(SELECT MAX(id) AS last_id '
-                "FROM alarm_events WHERE event = 'acknowledged' " + event_where
+                f'FROM alarm_events WHERE {alarms.ACKNOWLEDGEMENT_SQL} ' + event_where
                 + 'GROUP BY robot, joint) l ON a.id = l.last_id '
                 'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
             lives = self._backend.execute(
@@ -587,7 +657,9 @@ def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[S
     """Return the :class:`FleetRow` of a joint's latest estimate, latch and acknowledgement."""
     event = latch[0] if latch is not None else ''
     raised = event == 'raised'
-    acknowledged = raised and latch is not None and ack is not None and int(ack[0]) > latch[2]
+    # the last acknowledgement (or its edit) after the raise, unless it was withdrawn
+    acknowledged = raised and latch is not None and ack is not None and \
+        int(ack[0]) > latch[2] and ack[6] != 'acknowledgement_withdrawn'
     row = FleetRow(
         robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
         last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),

@@ -1,7 +1,9 @@
 """
 The dashboard's users, kept in the wear history (schema version 5): name, role, argon2 hash.
 
-Two roles: ``viewer`` reads; ``maintainer`` may also acknowledge and reset alarms.  Passwords
+Three roles (:data:`ROLES`): ``viewer`` reads; ``maintainer`` may also acknowledge and reset
+alarms; ``admin`` (schema version 7) may also manage the users.  Removing a user ends their
+sessions and API tokens in the same transaction; a new password ends their sessions.  Passwords
 are hashed with argon2id (argon2-cffi's :class:`~argon2.PasswordHasher`, its default cost);
 the plain password is never stored.  :func:`verify_user` spends one hash verification also for
 an unknown name, so that the time of a login does not tell which names exist; a hash made with
@@ -19,8 +21,16 @@ from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
 
 #: The roles of the dashboard's users: a viewer reads, a maintainer also acknowledges and
-#: resets alarms (the one definition: the dashboard and its command line import it).
-ROLES = ('viewer', 'maintainer')
+#: resets alarms, an admin also manages the users (the one definition: the dashboard and its
+#: command line import it; the history's CHECK of schema version 7 admits these).
+ROLES = ('viewer', 'maintainer', 'admin')
+#: The roles that may acknowledge and reset alarms.
+ACTING_ROLES = ('maintainer', 'admin')
+#: The role that manages the users.
+ADMIN_ROLE = 'admin'
+#: What each role may do, in words (for help texts and pages).
+ROLE_TEXTS = {'viewer': 'reads', 'maintainer': 'also acknowledges and resets alarms',
+              'admin': 'also manages the users'}
 #: Shortest password [characters].
 MIN_PASSWORD_CHARS = 8
 #: Longest password [characters] (a bound on the work of one login).
@@ -31,7 +41,7 @@ _NAME = re.compile(r'[A-Za-z0-9_.@-]{1,64}')
 
 @dataclass(frozen=True)
 class User:
-    """A dashboard user: name, role ('viewer' or 'maintainer'), created [s since the epoch]."""
+    """A dashboard user: name, role (one of :data:`ROLES`), created [s since the epoch]."""
 
     name: str
     role: str
@@ -69,8 +79,24 @@ def check_user_name(name: Any) -> str:
 def check_role(role: Any) -> str:
     """Return ``role`` when it is a known role; else :class:`HistoryError`."""
     if role not in ROLES:
-        raise HistoryError(f'a user role is {" or ".join(ROLES)}, got {str(role)[:40]!r}')
+        raise HistoryError(f'a user role is {", ".join(ROLES[:-1])} or {ROLES[-1]}, got '
+                           f'{str(role)[:40]!r}')
     return str(role)
+
+
+def check_password(name: str, password: Any) -> str:
+    """
+    Return ``password`` when it may be one; else :class:`HistoryError`.
+
+    A password has :data:`MIN_PASSWORD_CHARS` to :data:`MAX_PASSWORD_CHARS` characters.
+    """
+    if not isinstance(password, str) or len(password) < MIN_PASSWORD_CHARS:
+        raise HistoryError(f'the password of user {name!r} must have at least '
+                           f'{MIN_PASSWORD_CHARS} characters')
+    if len(password) > MAX_PASSWORD_CHARS:
+        raise HistoryError(f'the password of user {name!r} must have at most '
+                           f'{MAX_PASSWORD_CHARS} characters')
+    return password
 
 
 def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) -> User:
@@ -83,13 +109,7 @@ def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) ->
     """
     name = check_user_name(name)
     role = check_role(role)
-    if not isinstance(password, str) or len(password) < MIN_PASSWORD_CHARS:
-        raise HistoryError(f'the password of user {name!r} must have at least '
-                           f'{MIN_PASSWORD_CHARS} characters')
-    if len(password) > MAX_PASSWORD_CHARS:
-        raise HistoryError(f'the password of user {name!r} must have at most '
-                           f'{MAX_PASSWORD_CHARS} characters')
-    password_hash = _hasher().hash(password)
+    password_hash = _hasher().hash(check_password(name, password))
     now = time.time()
     with backend.transaction():
         rows = backend.execute(
@@ -102,14 +122,51 @@ def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) ->
 
 
 def remove_user(backend: HistoryBackend, *, name: str) -> None:
-    """Remove the user ``name`` and end their sessions; :class:`HistoryError` when none."""
+    """Remove the user ``name``, their sessions and tokens; :class:`HistoryError` when none."""
     name = check_user_name(name)
     with backend.transaction():
         rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))
-        if rows:  # the user's sessions end with them (schema version 6)
+        if rows:  # the user's sessions (schema version 6) and tokens (7) end with them
             backend.execute('DELETE FROM sessions WHERE user_name = ?', (name,))
+            backend.execute('DELETE FROM api_tokens WHERE user_name = ?', (name,))
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
+
+
+def set_password(backend: HistoryBackend, *, name: str, password: str) -> int:
+    """
+    Give the user ``name`` a new password; end their sessions; return how many ended.
+
+    Raises :class:`HistoryError` when there is no such user or the password may not be one
+    (:func:`check_password`).  Their API tokens stay (a token is not a password).
+    """
+    name = check_user_name(name)
+    password_hash = _hasher().hash(check_password(name, password))
+    with backend.transaction():
+        rows = backend.execute('UPDATE users SET password_hash = ? WHERE name = ? '
+                               'RETURNING name', (password_hash, name))
+        ended = backend.execute('DELETE FROM sessions WHERE user_name = ? RETURNING id_hash',
+                                (name,)) if rows else []
+    if not rows:
+        raise HistoryError(f'{backend.name}: no user {name!r}')
+    return len(ended)
+
+
+def set_role(backend: HistoryBackend, *, name: str, role: str) -> User:
+    """
+    Give the user ``name`` the role ``role``; return the user.
+
+    The role counts at once, for their live sessions and tokens too (each request reads it).
+    Raises :class:`HistoryError` when there is no such user or the role is unknown.
+    """
+    name = check_user_name(name)
+    role = check_role(role)
+    with backend.transaction():
+        rows = backend.execute('UPDATE users SET role = ? WHERE name = ? '
+                               'RETURNING name, role, created_wall_time_s', (role, name))
+    if not rows:
+        raise HistoryError(f'{backend.name}: no user {name!r}')
+    return User(name=rows[0][0], role=rows[0][1], created_wall_time_s=float(rows[0][2]))
 
 
 def list_users(backend: HistoryBackend) -> list[User]:

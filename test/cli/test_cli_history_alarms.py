@@ -37,7 +37,8 @@ def history_path(tmp_path):
                                               event='raised', wear=wear, robot=robot,
                                               note='w above the threshold')])
         history.acknowledge_alarm(joint=HOSTILE_JOINT, robot='r2', user='ana', owner='ben',
-                                  comment='order, "gear" box', planned_maintenance='2026-12-01')
+                                  comment='order, "gear" box', planned_maintenance='2026-12-01',
+                                  work_order='WO-9')
         history.reset_alarm(joint='joint_2', robot='r1', user='cy', reason='gear replaced',
                             stamp_s=T0_S + 7200.0)
     return path
@@ -62,7 +63,9 @@ def test_the_alarm_log_as_json_is_newest_first_with_who_and_why(history_path, ca
     assert rows[0]['event_time_s'] == rows[0]['wall_time_s'] and rows[0]['stamp_s'] == \
         T0_S + 7200.0
     assert rows[0]['note'] == 'gear replaced' and rows[0]['wear'] is None
-    assert (rows[1]['owner'], rows[1]['planned_maintenance']) == ('ben', '2026-12-01')
+    assert (rows[1]['owner'], rows[1]['planned_maintenance'], rows[1]['work_order']) == (
+        'ben', '2026-12-01', 'WO-9')
+    assert rows[0]['work_order'] == ''
     assert rows[3]['wear'] == 40.0 and rows[3]['time'] == '2023-11-14T22:13:20Z'
     code, out, _ = _run(capsys, history_path, '--alarms', '--json', '--robot', 'r2')
     assert [r['event'] for r in json.loads(out)['alarms']] == ['acknowledged', 'raised']
@@ -80,6 +83,7 @@ def test_the_alarm_log_as_csv_on_stdout_and_to_a_file(history_path, tmp_path, ca
     assert rows[1]['joint'] == HOSTILE_JOINT  # CSV quotes it; the text is kept as stored
     assert rows[1]['note'] == 'order, "gear" box' and rows[1]['planned_maintenance'] == \
         '2026-12-01'
+    assert ALARM_LOG_COLUMNS[-1] == 'work_order' and rows[1]['work_order'] == 'WO-9'
     assert rows[0]['wear'] == '' and float(rows[2]['wear']) == 50.0
     ids = [int(r['id']) for r in rows]
     assert ids == sorted(ids, reverse=True)
@@ -97,11 +101,12 @@ def test_the_alarm_log_table_escapes_control_characters(history_path, capsys):
     lines = out.splitlines()
     assert lines[0] == '4 alarm event(s), newest first; times UTC'
     assert lines[1].split() == ['id', 'time', 'robot', 'joint', 'event', 'wear', 'user',
-                                'owner', 'planned', 'note']
+                                'owner', 'planned', 'work_order', 'note']
     assert len(lines) == 2 + 4  # the newline in the joint's name forged no line
     assert '\x1b' not in out and not any(line.startswith('FORGED') for line in lines)
     assert '\\x1b[31m\\nFORGED LINE' in lines[3]
     assert 'acknowledged' in lines[3] and '2026-12-01' in lines[3] and 'ana' in lines[3]
+    assert 'WO-9' in lines[3]
     assert 'gear replaced' in lines[2] and 'cy' in lines[2]
 
 
@@ -115,7 +120,7 @@ def test_bad_alarm_log_options_are_one_line_errors(history_path, tmp_path, capsy
     code, out, _ = _run(capsys, history_path, '--alarms', '--robot', 'nobody')
     assert code == 0 and out.splitlines() == [
         '0 alarm event(s), newest first; times UTC',
-        'id  time  robot  joint  event  wear  user  owner  planned  note']
+        'id  time  robot  joint  event  wear  user  owner  planned  work_order  note']
 
 
 @pytest.mark.parametrize('start', ['=', '+', '-', '@', '\uff1d', '\uff0b', '\uff0d', '\uff20'])

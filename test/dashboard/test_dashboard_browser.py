@@ -67,8 +67,8 @@ def server(history):
     thread.join(timeout=WAIT_S)
 
 
-@pytest.fixture()
-def browser():
+def _chromium(*, javascript: bool = True):
+    """Start a headless Chromium (with JavaScript off when asked); return its driver."""
     _need_chromium()
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
@@ -77,8 +77,24 @@ def browser():
     for argument in ('--headless=new', '--no-sandbox', '--disable-dev-shm-usage',
                      '--window-size=1400,1000', '--disable-gpu'):
         options.add_argument(argument)
+    if not javascript:
+        options.add_experimental_option(
+            'prefs', {'profile.managed_default_content_settings.javascript': 2})
     driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
     driver.set_page_load_timeout(WAIT_S)
+    return driver
+
+
+@pytest.fixture()
+def browser():
+    driver = _chromium()
+    yield driver
+    driver.quit()
+
+
+@pytest.fixture()
+def browser_without_javascript():
+    driver = _chromium(javascript=False)
     yield driver
     driver.quit()
 
@@ -163,6 +179,7 @@ def test_maintainer_acknowledges_then_resets_with_a_reason(server, browser, hist
     assert 'acknowledged by mia' in first.find_element(_by('CSS_SELECTOR'), '.c-alarm').text
     browser.get(server + joint_url('press_line', 'joint_2'))
     browser.find_element(_by('ID'), 'reset-reason').send_keys('gearbox replaced, SN 4711')
+    browser.find_element(_by('ID'), 'reset-confirm').click()
     browser.find_element(_by('ID'), 'reset-button').click()
     _wait(browser, lambda d: 'alarm reset' in d.find_element(_by('ID'), 'flash').text,
           'the reset')
@@ -395,3 +412,73 @@ def test_a_phone_wide_fleet_page_has_no_sideways_scroll(server, browser):
         "return Array.from(document.querySelectorAll('#fleet-rows tr')).map((tr) =>"
         ' getComputedStyle(tr).display);')
     assert cards == ['block'] * len(ORDER)  # a card per joint
+
+
+def _latched(history: str) -> bool:
+    with open_history(history, init=False) as stored:
+        return stored.restore(joint='joint_2', robot='press_line').alarm_active
+
+
+def test_a_reset_waits_for_its_confirmation_without_javascript(
+        server, browser_without_javascript, history):
+    browser = browser_without_javascript
+    _log_in(browser, server, 'mia')
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    # the page's own scripts are off: the chart stays empty
+    assert not browser.find_elements(_by('CSS_SELECTOR'), '#wear-chart .plot-container')
+    reason = browser.find_element(_by('ID'), 'reset-reason')
+    reason.send_keys('gearbox replaced')
+    browser.find_element(_by('ID'), 'reset-button').click()
+    # the browser keeps the form while the confirmation box is not ticked: nothing was sent
+    # (a sent form comes back as a new page, its reason empty)
+    assert reason.get_attribute('value') == 'gearbox replaced' and _latched(history)
+    assert not browser.find_elements(_by('ID'), 'flash')
+    browser.find_element(_by('ID'), 'reset-confirm').click()
+    browser.find_element(_by('ID'), 'reset-button').click()
+    _wait(browser, lambda d: 'alarm reset' in d.find_element(_by('ID'), 'flash').text,
+          'the reset')
+    assert not _latched(history)
+
+
+def test_an_acknowledgement_is_edited_then_withdrawn(server, browser, history):
+    _log_in(browser, server, 'mia')
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    browser.find_element(_by('ID'), 'ack-owner').send_keys('Team B')
+    browser.find_element(_by('ID'), 'ack-comment').send_keys('gearbox ordered')
+    browser.find_element(_by('ID'), 'ack-work-order').send_keys('WO-4711')
+    browser.find_element(_by('ID'), 'acknowledge-button').click()
+    _wait(browser, lambda d: 'alarm acknowledged' in d.find_element(_by('ID'), 'flash').text,
+          'the acknowledgement')
+    # the edit form holds the acknowledgement's values
+    owner = browser.find_element(_by('ID'), 'edit-owner')
+    assert owner.get_attribute('value') == 'Team B'
+    order = browser.find_element(_by('ID'), 'edit-work-order')
+    assert order.get_attribute('value') == 'WO-4711'
+    owner.clear()
+    owner.send_keys('Team C')
+    order.clear()
+    order.send_keys('WO-4712')
+    browser.find_element(_by('ID'), 'edit-acknowledgement-button').click()
+    _wait(browser, lambda d: 'acknowledgement edited' in d.find_element(_by('ID'), 'flash').text,
+          'the edit')
+    assert browser.find_element(_by('ID'), 'ack-shown-owner').text == 'Team C'
+    assert browser.find_element(_by('ID'), 'ack-shown-work-order').text == 'WO-4712'
+    newest = browser.find_elements(_by('CSS_SELECTOR'), '#joint-events tbody tr')[0]
+    cells = [td.text for td in newest.find_elements(_by('TAG_NAME'), 'td')]
+    assert cells[1] == 'acknowledgement_edited' and cells[3:7] == [
+        'mia', 'Team C', '', 'WO-4712']
+    browser.find_element(_by('ID'), 'withdraw-reason').send_keys('the order was cancelled')
+    browser.find_element(_by('ID'), 'withdraw-acknowledgement-button').click()
+    _wait(browser, lambda d: 'withdrawn' in d.find_element(_by('ID'), 'flash').text,
+          'the withdrawal')
+    assert browser.find_elements(_by('ID'), 'acknowledge-form')
+    assert not browser.find_elements(_by('ID'), 'edit-acknowledgement-form')
+    browser.get(server + '/')
+    first = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr')
+    assert first.find_element(_by('CSS_SELECTOR'), '.c-state').text == 'alarm'
+    with open_history(history, init=False) as stored:
+        log = stored.alarm_log(robot='press_line', joint='joint_2')
+    assert [(e.event, e.user, e.owner, e.work_order) for e in log[:3]] == [
+        ('acknowledgement_withdrawn', 'mia', 'Team C', 'WO-4712'),
+        ('acknowledgement_edited', 'mia', 'Team C', 'WO-4712'),
+        ('acknowledged', 'mia', 'Team B', 'WO-4711')]

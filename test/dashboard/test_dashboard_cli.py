@@ -5,6 +5,7 @@ The password is read from stdin (never argv); a non-loopback ``--host`` without 
 ``--insecure-http`` is refused with exit 2; the command serves the login page on the port given.
 """
 
+import io
 import os
 from pathlib import Path
 import socket
@@ -57,8 +58,11 @@ def test_no_password_on_the_command_line(tmp_path, capsys):
     assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'viewer', '--history',
                      history, '--password', 'a long password']) == 2
     assert 'unrecognized arguments' in capsys.readouterr().err
-    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'admin', '--history',
+    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'root', '--history',
                      history]) == 2
+    assert cli_main(['dashboard', 'user', 'passwd', 'ana', '--password', 'a long password',
+                     '--history', history]) == 2
+    assert 'unrecognized arguments' in capsys.readouterr().err
 
 
 def test_a_host_reachable_from_other_machines_needs_tls(tmp_path, capsys):
@@ -120,3 +124,65 @@ def test_a_taken_port_is_one_line_naming_the_port(tmp_path):
     assert f'127.0.0.1:{port} is already in use' in lines[0]
     assert 'dashboard of' not in result.stderr + result.stdout  # no start line before it
     assert 'errno' not in result.stderr.lower()
+
+
+def test_a_new_password_and_role_from_the_command_line(tmp_path, monkeypatch, capsys):
+    history = str(tmp_path / 'h.sqlite3')
+    monkeypatch.setattr('sys.stdin', io.StringIO('first password\n'))
+    assert cli_main(['dashboard', 'user', 'add', 'ana', '--role', 'viewer', '--history',
+                     history]) == 0
+    with open_history(history, init=False) as stored:
+        session = stored.start_session(user='ana', lifetime_s=3600.0)
+    monkeypatch.setattr('sys.stdin', io.StringIO('second password\n'))
+    assert cli_main(['dashboard', 'user', 'passwd', 'ana', '--history', history]) == 0
+    out = capsys.readouterr().out
+    assert 'new password of ana stored; 1 session(s) ended' in out and 'second' not in out
+    monkeypatch.setattr('sys.stdin', io.StringIO('short\n'))
+    assert cli_main(['dashboard', 'user', 'passwd', 'ana', '--history', history]) == 2
+    assert 'at least 8 characters' in capsys.readouterr().err
+    assert cli_main(['dashboard', 'user', 'passwd', 'bob', '--history', history]) == 2
+    assert "no user 'bob'" in capsys.readouterr().err
+    assert cli_main(['dashboard', 'user', 'role', 'ana', '--role', 'admin', '--history',
+                     history]) == 0
+    assert 'user ana is now admin' in capsys.readouterr().out
+    with open_history(history, init=False) as stored:
+        assert stored.find_session(token=session.token) is None
+        assert stored.verify_user(name='ana', password='first password') is None
+        assert stored.verify_user(name='ana', password='second password').role == 'admin'
+
+
+def test_api_tokens_from_the_command_line_are_shown_once(tmp_path, capsys):
+    history = str(tmp_path / 'h.sqlite3')
+    added = _cli('dashboard', 'user', 'add', 'ana', '--role', 'maintainer', '--history',
+                 history, stdin='a long password\n')
+    assert added.returncode == 0, added.stderr
+    made = _cli('dashboard', 'token', 'add', 'ana', '--label', 'CMMS', '--history', history)
+    assert made.returncode == 0, made.stderr
+    token = made.stdout.strip()
+    assert token.startswith('rwm_') and 'shown this once' in made.stderr
+    with open_history(history, init=False) as stored:
+        assert stored.find_token(token=token).user == 'ana'
+    listed = _cli('dashboard', 'token', 'list', 'ana', '--history', history)
+    assert listed.returncode == 0 and token not in listed.stdout + listed.stderr
+    assert listed.stdout.startswith('1  ana  created ') and 'CMMS' in listed.stdout
+    assert 'last used 20' in listed.stdout  # the find_token above used it
+    assert token.encode() not in Path(history).read_bytes()
+    assert cli_main(['dashboard', 'token', 'remove', 'ana', '--history', history]) == 2
+    assert 'one of the arguments --id --all is required' in capsys.readouterr().err
+    assert cli_main(['dashboard', 'token', 'remove', 'ana', '--id', '7', '--history',
+                     history]) == 2
+    assert "no token 7 of user 'ana'" in capsys.readouterr().err
+    assert cli_main(['dashboard', 'token', 'add', 'bob', '--history', history]) == 2
+    assert "no user 'bob'" in capsys.readouterr().err
+    assert cli_main(['dashboard', 'token', 'remove', 'ana', '--id', '1', '--history',
+                     history]) == 0
+    assert '1 API token(s) of ana removed' in capsys.readouterr().out
+    with open_history(history, init=False) as stored:
+        assert stored.find_token(token=token) is None
+    assert cli_main(['dashboard', 'token', 'list', '--history', history]) == 0
+    assert 'no API tokens' in capsys.readouterr().out
+    # a removed user's tokens go with them
+    again = _cli('dashboard', 'token', 'add', 'ana', '--history', history).stdout.strip()
+    assert _cli('dashboard', 'user', 'remove', 'ana', '--history', history).returncode == 0
+    with open_history(history, init=False) as stored:
+        assert stored.find_token(token=again) is None and stored.tokens() == []

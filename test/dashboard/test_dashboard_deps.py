@@ -125,7 +125,8 @@ def test_the_csrf_check_comes_before_the_maintainer_check(client):
     token = csrf_of(client.get(joint_url(*ORDER[0])).text)
     viewer = client.post(url, data={'reason': 'new gearbox', 'csrf_token': token})
     assert viewer.status_code == 403
-    assert viewer.json()['detail'] == 'only a maintainer may acknowledge or reset an alarm'
+    assert viewer.json()['detail'] == 'only a maintainer or an admin may acknowledge or ' \
+        'reset an alarm'
     scripted = client.post(url, data={'reason': 'new gearbox'},
                            headers={'X-CSRF-Token': client.get('/api/me').json()['csrf_token']})
     assert scripted.status_code == 403 and 'maintainer' in scripted.json()['detail']
@@ -189,8 +190,8 @@ def test_a_reset_event_fits_the_alarm_model_too(client):
     robot, joint = ORDER[0]
     token = csrf_of(client.get(joint_url(robot, joint)).text)
     assert client.post(joint_url(robot, joint) + '/reset',
-                       data={'reason': 'gearbox replaced', 'csrf_token': token},
-                       follow_redirects=False).status_code == 303
+                       data={'reason': 'gearbox replaced', 'csrf_token': token,
+                             'confirm': 'yes'}, follow_redirects=False).status_code == 303
     events = client.get('/api/alarms', params={'robot': robot, 'joint': joint}).json()
     assert [e['event'] for e in events][:2] == ['reset', 'acknowledged']
     assert events[0]['user'] == 'mia' and events[0]['note'] == 'gearbox replaced'

@@ -315,7 +315,15 @@ def test_maintainer_acknowledges_then_resets(client, history):
     client.post(url + '/reset', data={'reason': '  ', 'csrf_token': token})
     with open_history(history, init=False) as stored:
         assert stored.restore(joint='joint_2', robot='press_line').alarm_active
-    client.post(url + '/reset', data={'reason': 'gearbox replaced', 'csrf_token': token})
+    # a reset needs its confirmation too: refused without the box ticked, the alarm stays
+    refused = client.post(url + '/reset', data={'reason': 'gearbox replaced',
+                                                'csrf_token': token})
+    assert 'tick' in refused.text and 'the maintenance is done' in refused.text
+    with open_history(history, init=False) as stored:
+        assert stored.restore(joint='joint_2', robot='press_line').alarm_active
+        assert stored.alarm_log()[0].event == 'acknowledged'
+    client.post(url + '/reset', data={'reason': 'gearbox replaced', 'csrf_token': token,
+                                      'confirm': 'yes'})
     with open_history(history, init=False) as stored:
         state = stored.restore(joint='joint_2', robot='press_line')
         log = stored.alarm_log()
@@ -347,12 +355,14 @@ def test_alarm_log_csv_holds_the_log(client, history):
     _as(client, 'mia')
     url = joint_url('press_line', 'joint_2')
     token = csrf_of(client.get(url).text)
-    client.post(url + '/reset', data={'reason': '=cmd|calc, "quoted"', 'csrf_token': token})
+    client.post(url + '/reset', data={'reason': '=cmd|calc, "quoted"', 'csrf_token': token,
+                                      'confirm': 'yes', 'work_order': 'WO-17'})
     response = client.get('/alarms.csv')
     assert response.headers['content-type'].startswith('text/csv')
     rows = list(csv.reader(io.StringIO(response.text)))
     assert rows[0] == ['id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                       'planned_maintenance', 'note', 'note_text']
+                       'planned_maintenance', 'note', 'note_text', 'work_order']
+    assert rows[1][11] == 'WO-17' and rows[2][11] == ''
     with open_history(history, init=False) as stored:
         log = stored.alarm_log()
     assert [int(r[0]) for r in rows[1:]] == [e.id for e in log]
@@ -410,7 +420,8 @@ def test_same_story_on_sqlite_and_postgresql(history_location):
         client.post(url + '/acknowledge', data={'owner': 'B', 'comment': 'ordered',
                                                 'csrf_token': token})
         assert client.get('/api/fleet').json()['rows'][0]['state'] == 'acknowledged'
-        client.post(url + '/reset', data={'reason': 'replaced', 'csrf_token': token})
+        client.post(url + '/reset', data={'reason': 'replaced', 'csrf_token': token,
+                                          'confirm': 'yes'})
         after = {(r['robot'], r['joint']): r for r in client.get('/api/fleet').json()['rows']}
         reset = after[('press_line', 'joint_2')]
         assert not reset['alarm'] and reset['state'] == 'ok'

@@ -113,7 +113,7 @@ def test_a_rerun_of_the_same_experiment_adds_nothing(history_location):
 
 def test_failed_transaction_leaves_nothing(history_location):
     with WearHistory(history_location) as history:
-        with pytest.raises(HistoryError, match='raised, reset or acknowledged'):
+        with pytest.raises(HistoryError, match='event must be one of raised, reset, ack'):
             history.append(_record(0), events=[AlarmEvent(joint='joint_2', stamp_s=1.0,
                                                           event='bogus', wear=1.0)])
         assert history.records(joint='joint_2') == ()

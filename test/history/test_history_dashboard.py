@@ -267,7 +267,7 @@ def test_users_have_argon2_hashes_and_roles(history_location):
         with pytest.raises(HistoryError, match="user 'viewer_1' exists already"):
             history.add_user(name='viewer_1', role='viewer', password='another one')
         for name, role, password, message in (
-                ('bob', 'admin', '12345678', 'role is viewer or maintainer'),
+                ('bob', 'root', '12345678', 'role is viewer, maintainer or admin'),
                 ('bob', 'viewer', '1234567', 'at least 8 characters'),
                 ('bob', 'viewer', '', 'at least 8 characters'),
                 ('', 'viewer', '12345678', 'user name is 1-64 characters'),
@@ -345,17 +345,17 @@ def test_each_notification_is_claimed_once_by_concurrent_notifiers(history_locat
                                        channel='webhook', payload={'v': float('nan')})
 
 
-def test_a_version_7_history_is_refused(history_location):
+def test_a_version_8_history_is_refused(history_location):
     WearHistory(history_location).close()
     if is_postgresql_url(history_location):
         import psycopg
         with psycopg.connect(history_location, autocommit=True) as conn:
-            conn.execute('UPDATE schema_version SET version = 7')
+            conn.execute('UPDATE schema_version SET version = 8')
     else:
         with sqlite3.connect(history_location) as conn:
-            conn.execute('UPDATE schema_version SET version = 7')
-    assert SCHEMA_VERSION == 6
-    with pytest.raises(HistoryError, match='schema version 7, this version reads 6'):
+            conn.execute('UPDATE schema_version SET version = 8')
+    assert SCHEMA_VERSION == 7
+    with pytest.raises(HistoryError, match='schema version 8, this version reads 7'):
         WearHistory(history_location)
 
 

@@ -130,7 +130,7 @@ function showEvents(events) {
     tr.className = 'event-' + e.event;
     tr.dataset.id = String(e.id);
     const cells = [e.time, e.event, e.wear === null ? '-' : e.wear.toFixed(1), e.user,
-      e.owner, e.planned_maintenance, e.note_text];
+      e.owner, e.planned_maintenance, e.work_order, e.note_text];
     cells.forEach((text, index) => {
       const td = document.createElement('td');
       if (index === 0 || index === 5) { td.className = 'c-time'; }
