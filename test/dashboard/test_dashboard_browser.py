@@ -213,6 +213,7 @@ def test_triage_order_then_a_reset_reads_as_a_new_life(server, browser, history)
     assert states[:2] == ['alarm', 'acknowledged']
     browser.get(server + joint_url('press_line', 'joint_2'))
     browser.find_element(_by('ID'), 'reset-reason').send_keys('gearbox replaced')
+    browser.find_element(_by('ID'), 'reset-confirm').click()
     browser.find_element(_by('ID'), 'reset-button').click()
     _wait(browser, lambda d: 'alarm reset' in d.find_element(_by('ID'), 'flash').text,
           'the reset')
