@@ -495,8 +495,8 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     else:
         if borrowed_wear == 'none':
             model = _model_with(model, {'f_s_wear': 0.0, 'f_v_wear': 0.0})
-            provenance.update({k: 'no wear model (identify --no-wear-model)'
-                               for k in ('f_s_wear', 'f_v_wear')})
+            provenance.update(dict.fromkeys(('f_s_wear', 'f_v_wear'),
+                                            'no wear model (identify --no-wear-model)'))
             provenance['phi_s_wear'] = (f'from {reference}, unused: no wear model (the '
                                         'amplitudes are 0)')
         elif borrowed_wear == 'scaled':

@@ -1,5 +1,5 @@
 """
-The real arm's identified sets as the nodes and the replay use them, and a set without a wear model.
+The real arm's sets as the nodes and the replay use them; a set without a wear model.
 
 The levels come from :mod:`wear_testing.real_arm_logger` (independent of the package's model
 code; motor current [A], 2 Hz, eq. (3) over position bins, joint speeds x gear ratio 100).
@@ -84,8 +84,8 @@ def test_the_service_accepts_the_robots_own_levels_with_its_set(sets, payload, s
 
 def _estimate(capsys, group: dict, params_file, *extra: str) -> str:
     capsys.readouterr()
-    assert main(['estimate', '--speeds', ','.join(f'{v * arm.GEAR_RATIO:.6g}'
-                                                   for v in group['speeds']),
+    speeds = ','.join(f'{v * arm.GEAR_RATIO:.6g}' for v in group['speeds'])
+    assert main(['estimate', '--speeds', speeds,
                  '--friction', ','.join(f'{f:.6g}' for f in group['friction']),
                  '--params', str(params_file), *extra]) == 0
     return capsys.readouterr().out
@@ -164,8 +164,8 @@ def test_what_needs_a_wear_model_is_refused_and_options_that_contradict_it(sets,
     assert main(['design', '--n', '3', '--params', params_file]) == 2
     assert 'did not identify wear' in capsys.readouterr().err
     table = str(sets / 'arm_levels.csv')
-    for extra in (['--borrowed-wear', 'reference'], ['--wear-test', table,
-                                                      '--critical-experiment', '1']):
+    for extra in (['--borrowed-wear', 'reference'],
+                  ['--wear-test', table, '--critical-experiment', '1']):
         assert main(['identify', table, '--no-wear-model', '--out',
                      str(sets / 'never.yaml'), *extra]) == 2
         assert '--no-wear-model' in capsys.readouterr().err
