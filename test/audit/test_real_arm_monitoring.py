@@ -8,6 +8,11 @@ code; motor current [A], 2 Hz, eq. (3) over position bins, joint speeds x gear r
   ``FrictionExperiment`` levels as the replay feeds it, accepts the robot's own monitoring
   groups with the set ``identify`` wrote, untouched: every estimate valid, T-hat within 3 degC
   of the measured temperature, no w-hat at the warning level (28).
+* ``robot-wear-monitor replay`` of a JointState bag of the generator's samples (logged at
+  50 Hz, as a controller's joint_states: at 2 Hz the passes are too short for the nodes'
+  time-window levels), motor current as effort (torque scale 1, gear ratio 100), with that
+  set: every experiment valid, T-hat within 3 degC of the mean reading and in order, w-hat
+  below the warning level, no alarm.
 * ``identify --no-wear-model`` writes a set that estimates the temperature only: ``estimate``
   reports T-hat (within 3 degC, in order) and w-hat "not determined" (null in --json, no
   alarm); the service does the same (no alarm, no trend, the history row marked as not judging
@@ -80,6 +85,37 @@ def test_the_service_accepts_the_robots_own_levels_with_its_set(sets, payload, s
     assert max(u.wear for u in updates) < params.wear_warning == 28.0
     assert not any(u.alarm_active for u in updates)
     assert service.invalid_estimates == 0 and not service.rejections
+
+
+def test_replay_of_a_bag_of_the_arm_with_its_set(sets, tmp_path, monkeypatch, capsys):
+    from robot_wear_monitor.recordings.bags.writer import write_joint_state_bag
+    monkeypatch.setattr(arm, 'SAMPLE_RATE_HZ', 50.0)
+    log = arm.log_session(arm.Session(payload=False, room_degc=23.0), seed=77, visit_s=12.0)
+    order = np.argsort(log['t_s'])
+    rows = order[log['sweep'][order] < 6]  # six whole sweeps (20 minutes), one experiment each
+    stamps = 1000.0 + log['t_s'][rows]
+    bag = write_joint_state_bag(
+        tmp_path / 'arm_bag', stamps_s=stamps, names=['joint_2'],
+        position=log['q_rad'][rows, None], velocity=log['dq_rad_s'][rows, None],
+        effort=log['current_a'][rows, None])
+    summary = tmp_path / 'summary.json'
+    assert main(['replay', str(bag), '--out', str(tmp_path / 'monitored'), '--json-out',
+                 str(summary), '--gear-ratio', str(arm.GEAR_RATIO), '--torque-scale', '1',
+                 '--params', str(sets / 'arm_load1.yaml')]) == 0
+    capsys.readouterr()
+    experiments = json.loads(summary.read_text())['experiments']
+    sweeps = log['sweep'][rows]
+    readings, t_hat = [], []
+    for e in experiments:
+        # the experiment of a sweep ends at its last level, within the sweep's samples
+        sweep = sweeps[np.searchsorted(stamps, e['stamp_s']) - 1]
+        readings.append(float(log['temperature_degc'][rows][sweeps == sweep].mean()))
+        t_hat.append(e['temperature_degc'])
+        assert e['valid'] and not e['alarm'], e
+        assert e['wear'] < 28.0, e
+    assert len(experiments) == 6
+    assert np.all(np.abs(np.subtract(t_hat, readings)) <= 3.0), (readings, t_hat)
+    assert np.all(np.diff(t_hat) > 0), t_hat
 
 
 def _estimate(capsys, group: dict, params_file, *extra: str) -> str:

@@ -74,9 +74,10 @@ ARM_MONITOR = (False, 22.0, 44.0)
 def _arm_run_text(log: dict, rows: np.ndarray) -> str:
     """Return one raw run: t, q, dq, the motor current (the reader's effort column)."""
     lines = ['t_s,q_rad,dq_rad_s,tau_measured_Nm,temperature_degc,load_a']
-    lines += [f'{t:.3f},{q:.4f},{dq:.4f},{i:.4f},{temp:.0f},{load:.3f}' for t, q, dq, i, temp, load
-              in zip(*(log[k][rows] for k in ('t_s', 'q_rad', 'dq_rad_s', 'current_a',
-                                                'temperature_degc', 'load_a')))]
+    columns = [log[k][rows] for k in ('t_s', 'q_rad', 'dq_rad_s', 'current_a',
+                                      'temperature_degc', 'load_a')]
+    lines += [f'{t:.3f},{q:.4f},{dq:.4f},{i:.4f},{temp:.0f},{load:.3f}'
+              for t, q, dq, i, temp, load in zip(*columns)]
     return '\n'.join(lines) + '\n'
 
 
