@@ -116,6 +116,16 @@ def test_replay_of_a_bag_of_the_arm_with_its_set(sets, tmp_path, monkeypatch, ca
     assert len(experiments) == 6
     assert np.all(np.abs(np.subtract(t_hat, readings)) <= 3.0), (readings, t_hat)
     assert np.all(np.diff(t_hat) > 0), t_hat
+    # the same bag with the set without a wear model: T-hat only, nothing said of wear
+    assert main(['replay', str(bag), '--out', str(tmp_path / 'monitored_t'), '--json-out',
+                 str(summary), '--gear-ratio', str(arm.GEAR_RATIO), '--torque-scale', '1',
+                 '--params', str(sets / 'arm_t_load1.yaml')]) == 0
+    capsys.readouterr()
+    only_t = json.loads(summary.read_text())['experiments']
+    assert len(only_t) == 6
+    assert all(e['wear'] is None and e['wear_determined'] is False and not e['alarm']
+               and 'wear not determined' in e['message'] for e in only_t)
+    assert np.all(np.abs(np.subtract([e['temperature_degc'] for e in only_t], readings)) <= 3.0)
 
 
 def _estimate(capsys, group: dict, params_file, *extra: str) -> str:
