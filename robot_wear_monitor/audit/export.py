@@ -168,6 +168,11 @@ def parameter_set_yaml(result: Identification) -> str:
                    f'{w.critical_experiment} with w = {w.critical_wear:g};')
         out.append(f'# wear-model error [mu, sigma] = [{w.error_mean:.3e}, {w.error_std:.3e}] '
                    f'over {len(w.levels)} experiments; alpha is shared with (5).')
+    elif not params.estimates_wear:
+        out.append('# Wear profile, eq. (7): none (identify --no-wear-model): this set estimates '
+                   'the temperature only;')
+        out.append('# w-hat is not determined and raises no alarm. A wear test of this joint '
+                   '(identify --wear-test) gives a wear model.')
     elif scaling:
         out.append('# Wear profile, eq. (7): not identified: no wear test. Assumption: '
                    f'{scaling["assumption"]}.')
@@ -201,7 +206,8 @@ def parameter_set_yaml(result: Identification) -> str:
             line('temperature_degc', params.design_temperature_degc,
                  f'degC, {provenance.get("temperature_degc", f"from {reference}")}'),
             line('wear', params.design_wear, f'design wear level, from {reference}'), '',
-            f'# Alarm: from {reference} (not determined by friction data).',
+            f'# Alarm: from {reference} (not determined by friction data)'
+            + ('; unused without a wear model.' if not params.estimates_wear else '.'),
             'alarm:',
             line('wear_threshold', params.wear_threshold, 'alarm at w >= threshold'),
             line('wear_warning', params.wear_warning, 'diagnostics WARN at w >= warning')]

@@ -398,7 +398,9 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
         standard deviation of the baseline's load column.
     :param borrowed_wear: without a wear test: ``'scaled'`` (the reference's wear model (7)
         scaled to this joint, :func:`~robot_wear_monitor.audit.operating_range.scaled_wear_model`),
-        ``'reference'`` (taken as it stands; for a joint like the reference's, in its unit).
+        ``'reference'`` (taken as it stands; for a joint like the reference's, in its unit),
+        ``'none'`` (no wear model: the set estimates T-hat only, w-hat not determined;
+        ``not_identified`` holds ``wear``).
 
     :return: The :class:`Identification`; ``params`` is validated like a loaded file.
 
@@ -408,8 +410,12 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     if wear_test is not None and critical_experiment is None:
         raise InputError('--wear-test needs --critical-experiment K (the experiment with '
                          'w = --critical-wear)')
-    if borrowed_wear not in ('scaled', 'reference'):
-        raise InputError(f'borrowed wear model: scaled or reference, got {borrowed_wear[:40]!r}')
+    if borrowed_wear not in ('scaled', 'reference', 'none'):
+        raise InputError(f'borrowed wear model: scaled, reference or none, got '
+                         f'{borrowed_wear[:40]!r}')
+    if borrowed_wear == 'none' and wear_test is not None:
+        raise InputError('--no-wear-model writes a set without a wear model; a wear test '
+                         '(--wear-test) identifies one: give one or the other')
     reference = from_params.name
     warnings = check_baseline(baseline)
     nominal = identify_nominal(table=baseline, start=from_params.model, n_folds=n_folds,
@@ -432,7 +438,7 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     alpha_undetermined = 'alpha' in dropped_names or not (
         {p.name: p for p in nominal.parameters}['alpha'].std_error
         <= 0.5 * abs(values['alpha']))
-    if 'alpha' in dropped_names and wear_test is None:
+    if 'alpha' in dropped_names and wear_test is None and borrowed_wear != 'none':
         # no Stribeck term left in (5): alpha shapes only the borrowed wear model (7)
         values['alpha'] = from_params.model.alpha
         provenance['alpha'] = f'from {reference} (no Stribeck term in (5) to determine it)'
@@ -441,7 +447,8 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     elif alpha_undetermined and wear_test is None:
         warnings.append(f'alpha is poorly determined by the baseline: the fitted '
                         f'{values["alpha"]:.3g} is kept (the other parameters of (5) were '
-                        'fitted with it) and shared with the borrowed wear model (7)')
+                        'fitted with it)' + ('' if borrowed_wear == 'none' else
+                                             ' and shared with the borrowed wear model (7)'))
     model = _model_with(from_params.model, values)
     speed_min, speed_max, separation = operating_range(baseline.numeric['speed'])
     t_lo, t_hi = (nominal.temperature_range_degc if temperature_bounds_degc is None
@@ -486,7 +493,13 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
         rule = ('root sum of squares of the held-out error of (5) and the wear-model error '
                 'of (7)')
     else:
-        if borrowed_wear == 'scaled':
+        if borrowed_wear == 'none':
+            model = _model_with(model, {'f_s_wear': 0.0, 'f_v_wear': 0.0})
+            provenance.update(dict.fromkeys(('f_s_wear', 'f_v_wear'),
+                                            'no wear model (identify --no-wear-model)'))
+            provenance['phi_s_wear'] = (f'from {reference}, unused: no wear model (the '
+                                        'amplitudes are 0)')
+        elif borrowed_wear == 'scaled':
             scaled, scaling = scaled_wear_model(
                 reference=from_params, model=model, speed_min=speed_min, speed_max=speed_max,
                 temperature_degc=design_t, load_mean=load_mean, friction_unit=friction_unit)
@@ -515,7 +528,8 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
                          load_mean=float(load_mean), load_std=float(load_std),
                          speed_min_rad_s=speed_min, speed_max_rad_s=speed_max,
                          speed_separation_rad_s=separation, friction_unit=friction_unit,
-                         not_identified=(), direction_model=None)
+                         not_identified=('wear',) if borrowed_wear == 'none' else (),
+                         direction_model=None)
     params = ParameterSet(**fields_of_set)
     extra: dict[str, Any] = {'temperature_bounds_given': temperature_bounds_degc is not None,
                              'friction_unit': friction_unit,

@@ -264,7 +264,8 @@ class Identification:
             'operating_range': {'speed_min_rad_s': self.params.speed_min_rad_s,
                                 'speed_max_rad_s': self.params.speed_max_rad_s,
                                 'speed_separation_rad_s': self.params.speed_separation_rad_s},
-            'wear_test': self.wear_source, 'warnings': list(self.warnings), **self.extra})
+            'wear_test': self.wear_source, 'estimates_wear': self.params.estimates_wear,
+            'warnings': list(self.warnings), **self.extra})
 
     def summary(self) -> str:
         """Return a plain-text report: the values the set holds, each with where it comes from."""
@@ -291,6 +292,9 @@ class Identification:
                          f'{wear.error_std:.3e}] over {len(wear.levels)} experiments')
             shown = ', '.join(f'{lv.experiment}: {lv.wear:.1f}' for lv in wear.levels[-8:])
             lines.append(f'  identified w (last {min(8, len(wear.levels))}): {shown}')
+        elif not self.params.estimates_wear:
+            lines.append('wear model (7): none (--no-wear-model): the set estimates the '
+                         'temperature only; w-hat is not determined and raises no alarm')
         else:
             scaling = self.extra.get('wear_model_scaling')
             borrowed = (scaling['assumption'] if scaling else

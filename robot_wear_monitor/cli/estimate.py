@@ -36,21 +36,30 @@ def main(args: argparse.Namespace) -> int:
     t_note = ' (on a bound)' if est.temperature_at_bound else ''
     w_note = ' (on w = 0)' if est.wear_at_bound else ''
     if est.n_levels == 1:
-        t_note = ' (posterior mean, N = 1)'
+        t_note = (' (posterior mean, N = 1)' if report.wear_determined
+                  else f' (N = 1){t_note}')
     p_text = ('n/a (dof = 0)' if not math.isfinite(est.p_value) else f'{est.p_value:.3f}'
               if est.p_value >= 1e-3 else f'{est.p_value:.2g}')
     above = '+' if interval.wear_high_at_grid_end else ''
     w_std = f' +- {wear_std:.2f}' if math.isfinite(wear_std) else ''
+    if report.wear_determined:
+        wear_row = (f'{est.wear:8.2f}  95 % [{interval.wear_low:.1f}, '
+                    f'{interval.wear_high:.1f}{above}]{w_std}{w_note}')
+        alarm_row = (f'{"YES" if report.alarm else "no"} (threshold w >= '
+                     f'{params.wear_threshold:g})' if report.plausibility.valid else
+                     'CANNOT JUDGE (the estimate is invalid, see below)')
+    else:
+        wear_row = (f'not determined (parameter set {params.name!r} has no wear model: '
+                    'identify --no-wear-model; temperature only)')
+        alarm_row = 'none (no wear model)'
     rows = [('temperature [degC]', f'{est.temperature_degc:8.2f}  95 % '
              f'[{interval.temperature_low:.1f}, {interval.temperature_high:.1f}]{t_note}'),
-            ('wear w [-]', f'{est.wear:8.2f}  95 % [{interval.wear_low:.1f}, '
-             f'{interval.wear_high:.1f}{above}]{w_std}{w_note}'),
-            ('alarm', f'{"YES" if report.alarm else "no"} (threshold w >= '
-                      f'{params.wear_threshold:g})' if report.plausibility.valid else
-             'CANNOT JUDGE (the estimate is invalid, see below)'),
+            ('wear w [-]', wear_row),
+            ('alarm', alarm_row),
             ('chi2 / dof', f'{est.chi2:8.3f} / {est.dof}'),
             ('p-value', p_text)]
-    print(f'wear estimate from N = {est.n_levels} level(s) at '
+    print(f'{"wear" if report.wear_determined else "temperature"} estimate from N = '
+          f'{est.n_levels} level(s) at '
           f'{", ".join(f"{v:g}" for v in est.speeds_rad_s)} rad/s')
     for name, value in rows:
         print(f'  {name:<20}{value}')

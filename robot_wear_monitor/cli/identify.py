@@ -79,11 +79,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: the baseline's load column)")
     parser.add_argument('--load-std', type=FINITE, metavar='SIGMA',
                         help='std of the load estimate of eq. (14) (with --load-mean)')
-    parser.add_argument('--borrowed-wear', choices=('scaled', 'reference'), default='scaled',
+    parser.add_argument('--borrowed-wear', choices=('scaled', 'reference'), default=None,
                         help='without --wear-test: the wear model (7) of --from-params scaled '
                              "to this joint's friction and speed range (default; the assumption "
                              'is written in the set), or taken as it stands (a joint like the '
                              'reference, in its unit)')
+    parser.add_argument('--no-wear-model', action='store_true',
+                        help='without --wear-test: write a set with no wear model; estimate, '
+                             'replay and the nodes then report T-hat only, w-hat "not '
+                             'determined" and no wear alarm (for a joint with no basis for a '
+                             'wear model; not the default)')
     add_level_source(parser, gear_default='1; level tables and raw runs in joint speeds: '
                                           'their speeds are multiplied by R too')
 
@@ -109,6 +114,11 @@ def main(args: argparse.Namespace) -> int:
                 args.temperature_bounds[0] < args.temperature_bounds[1]):
             raise InputError('--temperature-bounds: expected LOW,HIGH with LOW < HIGH')
         bounds = (args.temperature_bounds[0], args.temperature_bounds[1])
+    if args.no_wear_model and (args.wear_test or args.borrowed_wear or args.speed_only):
+        given = ('--wear-test' if args.wear_test else '--borrowed-wear' if args.borrowed_wear
+                 else '--speed-only')
+        raise InputError(f'--no-wear-model writes a set without a wear model: {given} '
+                         'contradicts it (give one or the other)')
     if (args.load_mean is None) != (args.load_std is None):
         raise InputError('--load-mean and --load-std go together (the load estimate '
                          'N(mu, sigma^2) of eq. (14))')
@@ -147,7 +157,8 @@ def main(args: argparse.Namespace) -> int:
                       n_folds=args.folds, friction_unit=unit,
                       load_prior=(None if args.load_mean is None else
                                   (args.load_mean, args.load_std)),
-                      borrowed_wear=args.borrowed_wear)
+                      borrowed_wear=('none' if args.no_wear_model else
+                                     args.borrowed_wear or 'scaled'))
     loaded = write_identified_parameter_set(args.out, result)
     report = result.to_dict()
     report['out'] = str(args.out)

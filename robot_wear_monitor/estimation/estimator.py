@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.special_functions import chi2_survival, log_sum_exp
+from robot_wear_monitor.estimation.temperature_only import estimate_temperature
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -211,6 +212,8 @@ def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
 
     N >= 2: the ML estimate (16) (global optimum over T in the temperature bounds, w >= 0).
     N = 1: the marginal ML estimate (17)-(19) of w, T from its posterior at the estimate.
+    A set without a wear model (``params.estimates_wear`` False): T-hat only, w-hat NaN (not
+    determined; :mod:`.temperature_only`).
 
     :param speeds_rad_s: motor-side speeds [rad/s], shape (N,), all > 0.
     :param friction: friction levels (normalised), shape (N,) or (B, N).
@@ -225,6 +228,15 @@ def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
     """
     speeds = validate_speeds(speeds_rad_s)
     values = _validate_friction(friction, speeds.size)
+    if not params.estimates_wear:  # a set without a wear model: T-hat only, w not determined
+        t = estimate_temperature(speeds, values, params)
+        covariance = np.zeros((values.shape[0], 2, 2))
+        covariance[:, 0, 0], covariance[:, 1, 1] = t.temperature_var, np.nan
+        return WearEstimates(
+            temperature_degc=t.temperature_degc, wear=np.full(values.shape[0], np.nan),
+            covariance=covariance, temperature_at_bound=t.temperature_at_bound,
+            wear_at_bound=np.zeros(values.shape[0], dtype=bool), chi2=t.chi2, dof=t.dof,
+            p_value=t.p_value, n_levels=speeds.size, speeds_rad_s=speeds.copy())
     if speeds.size == 1:
         return _estimate_single_level(speeds, values[:, 0], params)
     return _estimate_multi_level(speeds, values, params)

@@ -246,7 +246,7 @@ def check_levels(*, speeds_rad_s: ArrayLike, frictions: ArrayLike, params: Param
             reasons.append(f'the levels do not fit the model (chi2 {float(estimate.chi2):.3g} on '
                            f'{int(estimate.dof)} dof, p = {p_value:.2g} < {invalid_p_value:g})')
         wear = float(estimate.wear)
-        if not math.isfinite(wear) or wear >= params.wear_max:
+        if params.estimates_wear and (not math.isfinite(wear) or wear >= params.wear_max):
             failed.append('wear_range')
             reasons.append(f'w-hat {wear:.4g} is beyond the wear range 0-{params.wear_max:g} the '
                            'parameter set describes')

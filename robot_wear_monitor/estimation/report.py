@@ -59,6 +59,9 @@ class WearReport:
     :ivar wear_threshold: the alarm threshold of the parameter set [-].
     :ivar plausibility: the verdict of the plausibility checks; when invalid the wear cannot be
         judged from these levels and ``alarm`` means nothing (JSON ``alarm`` null).
+    :ivar wear_determined: False for a set without a wear model (``identify
+        --no-wear-model``): w-hat is not determined (JSON ``wear`` null), there is no alarm
+        (``alarm`` null) and ``interval`` holds T's interval only.
 
     """
 
@@ -69,12 +72,14 @@ class WearReport:
     warning: bool
     wear_threshold: float
     plausibility: Plausibility = VALID
+    #: False with a set without a wear model: T-hat only, w-hat not determined, no alarm
+    wear_determined: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         """Return the JSON object of ``estimate --json`` (keys stable; None for NaN/inf)."""
         est, interval = self.estimate, self.interval
         return {
-            'temperature': float(est.temperature_degc), 'wear': float(est.wear),
+            'temperature': float(est.temperature_degc), 'wear': finite_or_none(est.wear),
             'covariance': [[finite_or_none(x) for x in row] for row in est.covariance],
             'wear_std': finite_or_none(self.wear_std),
             'temperature_std': finite_or_none(est.temperature_std_degc),
@@ -83,7 +88,8 @@ class WearReport:
             'wear_interval_open_above': interval.wear_high_at_grid_end,
             'temperature_interval': [finite_or_none(interval.temperature_low),
                                      finite_or_none(interval.temperature_high)],
-            'alarm': self.alarm if self.plausibility.valid else None,
+            'alarm': self.alarm if self.plausibility.valid and self.wear_determined else None,
+            'wear_determined': self.wear_determined,
             'warning': self.warning,
             'chi2': float(est.chi2), 'dof': int(est.dof), 'p_value': finite_or_none(est.p_value),
             'temperature_at_bound': est.temperature_at_bound,
@@ -99,14 +105,32 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
 
     :param speeds_rad_s: motor-side speed levels [rad/s].
     :param frictions: friction levels, normalised torque, one per speed.
-    :param params: the parameter set (model, bounds, thresholds).
+    :param params: the parameter set (model, bounds, thresholds); a set without a wear model
+        gives T-hat with its interval only (``wear_determined`` False).
 
     """
-    from robot_wear_monitor.estimation.estimator import estimate_wear
-    from robot_wear_monitor.estimation.intervals import wear_intervals
-    params.require('wear', purpose='estimating wear (16)')
+    from robot_wear_monitor.estimation.estimator import estimate_wear, validate_speeds
+    from robot_wear_monitor.estimation.intervals import wear_intervals, WearInterval
+    params.require_estimator(purpose='estimating wear (16)')
     estimates = estimate_wear(speeds_rad_s, frictions, params=params)
     est = estimates[0]
+    if not params.estimates_wear:  # no wear model: T-hat and its interval only
+        import numpy as np
+
+        from robot_wear_monitor.estimation.temperature_only import estimate_temperature
+        speeds = validate_speeds(speeds_rad_s)
+        t_only = estimate_temperature(speeds, np.asarray(frictions, dtype=float)[None, :],
+                                      params)
+        interval = WearInterval(wear_low=math.nan, wear_high=math.nan,
+                                temperature_low=float(t_only.temperature_low[0]),
+                                temperature_high=float(t_only.temperature_high[0]),
+                                wear_high_at_grid_end=False, level=0.95)
+        return WearReport(estimate=est, interval=interval, wear_std=math.nan, alarm=False,
+                          warning=False, wear_threshold=params.wear_threshold,
+                          plausibility=check_levels(speeds_rad_s=speeds_rad_s,
+                                                    frictions=frictions, params=params,
+                                                    estimate=est),
+                          wear_determined=False)
     interval = wear_intervals(speeds_rad_s, frictions, params=params, estimates=estimates)[0]
     wear_std = meaningful_std(std=float(est.wear_std), value=float(est.wear),
                               low=interval.wear_low, high=interval.wear_high,

@@ -128,6 +128,26 @@ class ParameterSet:
                 f'{purpose} needs it; identify it from data that vary it (identify --wear-test '
                 'for wear)')
 
+    @property
+    def estimates_wear(self) -> bool:
+        """
+        Return False for a set without a wear model (``identify --no-wear-model``).
+
+        Such a set (``not_identified`` holds ``wear``) estimates the temperature only: w-hat is
+        not determined and raises no alarm.
+        """
+        return 'wear' not in self.not_identified
+
+    def require_estimator(self, *, purpose: str) -> None:
+        """
+        Raise ParameterError unless the estimator (16)-(19) can run with this set.
+
+        It needs the temperature and load terms; a set without a wear model (only ``wear``
+        not identified) estimates T-hat alone.
+        """
+        if {'temperature', 'load'} & set(self.not_identified):
+            self.require('wear', 'temperature', 'load', purpose=purpose)
+
     def with_overrides(self, **changes: Any) -> 'ParameterSet':
         """Return a copy with some scalar fields replaced, validated like a loaded file."""
         values = {f.name: getattr(self, f.name) for f in fields(self)}

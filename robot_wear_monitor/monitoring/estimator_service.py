@@ -179,7 +179,7 @@ class WearEstimatorService:
         levels = np.asarray(friction(speeds, 0.5, 40.0, 10.0, self.config.params.model),
                             dtype=float)
         self._estimate(speeds, levels, params=self.config.params)
-        if configured:
+        if configured and self.config.params.estimates_wear:
             calibrate_cutoffs(speeds, params=self.config.params)
 
     def prepare(self, levels: Sequence[FrictionLevelsMessage]) -> int:
@@ -190,8 +190,8 @@ class WearEstimatorService:
         same numbers); the trend, alarm and history still advance one experiment at a time,
         in order.  Only the default estimator prepares; returns how many were prepared.
         """
-        if self._estimate is not _default_estimate:
-            return 0
+        if self._estimate is not _default_estimate or not self.config.params.estimates_wear:
+            return 0  # (a set without a wear model: T-hat only, estimated one by one)
         return self.prepared.prepare(levels, joint=self.config.joint, params=self.config.params,
                                      trend_grid=self.wear_trend.wear_grid)
 
@@ -276,7 +276,13 @@ class WearEstimatorService:
             invalid_p_value=self.config.invalid_fit_p_value)
         interval = trend = None
         raised = False
-        if plausibility.valid:
+        wear_determined = self.config.params.estimates_wear
+        if not wear_determined:  # no wear model: T-hat and its interval, no evidence of wear
+            if plausibility.valid:
+                interval = self._temperature_interval(speeds, frictions)
+            else:
+                self.invalid_estimates += 1
+        elif plausibility.valid:
             interval, trend = self._interval_and_trend(speeds, frictions,
                                                        stamp_s=levels.stamp_s, estimates=batch,
                                                        prepared=prepared)
@@ -295,6 +301,14 @@ class WearEstimatorService:
         status = self._status(estimate=estimate, speeds=levels.speeds_rad_s,
                               interval=interval, trend=trend, wear_std=update_std,
                               plausibility=plausibility)
+        invalid_reason = '' if plausibility.valid else plausibility.text()
+        if not wear_determined:
+            # the history's wear column holds a number: 0 here, never read as wear (the
+            # reason marks the row as not judged, as the dashboard, fleet and trend read it)
+            wear = 0.0
+            invalid_reason = '; '.join(filter(None, (
+                f'wear not determined: parameter set {self.config.params.name} has no wear '
+                'model (identify --no-wear-model); temperature only', invalid_reason)))
         record = HistoryRecord(
             joint=self.config.joint, stamp_s=levels.stamp_s, speeds_rad_s=levels.speeds_rad_s,
             frictions=levels.frictions, temperature_degc=float(estimate.temperature_degc),
@@ -305,7 +319,7 @@ class WearEstimatorService:
             wear_at_bound=bool(estimate.wear_at_bound), alarm_active=self.latch.active,
             alarm_evidence=self.latch.evidence, status_level=status.level,
             parameter_set=self.config.params.name, **_interval_columns(interval, trend),
-            invalid_reason='' if plausibility.valid else plausibility.text())
+            invalid_reason=invalid_reason)
         events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
                              wear=wear, note=self._raise_note(wear, trend))] if raised else []
         record_id = self.history.append(record, events=events,
@@ -320,8 +334,23 @@ class WearEstimatorService:
             speeds_rad_s=levels.speeds_rad_s, frictions=levels.frictions, estimate=estimate,
             alarm_active=self.latch.active, alarm_raised=raised,
             alarm_evidence=self.latch.evidence, status=status, interval=interval, trend=trend,
-            plausibility=plausibility)
+            plausibility=plausibility, wear_determined=wear_determined)
         return self.last_update
+
+    def _temperature_interval(self, speeds: np.ndarray, frictions: np.ndarray
+                              ) -> Optional[WearInterval]:
+        """Return the 95 % interval of T of a set without a wear model (w's ends NaN)."""
+        from robot_wear_monitor.estimation.intervals import WearInterval
+        from robot_wear_monitor.estimation.temperature_only import estimate_temperature
+        try:
+            t_only = estimate_temperature(speeds, frictions[None, :], self.config.params)
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+            self.reject('interval_failed', str(error).splitlines()[0] if str(error) else '')
+            return None
+        return WearInterval(wear_low=math.nan, wear_high=math.nan,
+                            temperature_low=float(t_only.temperature_low[0]),
+                            temperature_high=float(t_only.temperature_high[0]),
+                            wear_high_at_grid_end=False, level=0.95)
 
     def _raise_note(self, wear: float, trend: Optional[TrendEstimate]) -> str:
         """Say which evidence raised the alarm (the history's ``alarm_events.note``)."""
@@ -416,6 +445,12 @@ class WearEstimatorService:
         p_value = float(estimate.p_value)
         summary = (f'w = {fmt_number(wear, 3)}{interval_text(interval)}, '
                    f'T = {fmt_number(estimate.temperature_degc, 3)} degC')
+        if not config.params.estimates_wear:
+            summary = (f'T = {fmt_number(estimate.temperature_degc, 3)} degC'
+                       + ('' if interval is None else
+                          f' (95 %: {fmt_number(interval.temperature_low, 3)}-'
+                          f'{fmt_number(interval.temperature_high, 3)})')
+                       + '; wear not determined (the parameter set has no wear model)')
         if trend is not None:
             summary += (f'; trend {fmt_number(trend.wear, 3)} ({fmt_number(trend.wear_low, 3)}-'
                         f'{fmt_number(trend.wear_high, 3)}), P(w >= '
@@ -432,7 +467,9 @@ class WearEstimatorService:
             # the levels are not what the parameter set speaks about: w-hat is no judgement
             level = DIAGNOSTIC_ERROR
             message = (f'CANNOT JUDGE THE WEAR ({plausibility.detail()}); the estimate '
-                       f'w = {fmt_number(wear, 3)} is not used')
+                       f'w = {fmt_number(wear, 3)} is not used' if config.params.estimates_wear
+                       else f'CANNOT JUDGE THE LEVELS ({plausibility.detail()}); the estimate '
+                       f'T = {fmt_number(estimate.temperature_degc, 3)} degC is not used')
             if self.latch.active:
                 message = 'WEAR ALARM (latched, reset after maintenance); ' + message
         elif self.latch.active:
@@ -446,7 +483,8 @@ class WearEstimatorService:
             message = summary
         values = [
             ('joint', config.joint),
-            ('wear', fmt_number(wear, 6)),
+            ('wear', fmt_number(wear, 6, missing='not determined')
+             if not config.params.estimates_wear else fmt_number(wear, 6)),
             ('wear_std', fmt_number(wear_std, 6, missing=STD_NOT_REPORTED)),
             ('wear_low', fmt_number(math.nan if interval is None else interval.wear_low, 6)),
             ('wear_high', fmt_number(math.nan if interval is None else interval.wear_high, 6)),

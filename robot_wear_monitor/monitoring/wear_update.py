@@ -48,7 +48,7 @@ class EstimatorConfig:
         """Build from validated ``wear_estimator_node`` parameters (see node_config)."""
         if params is None:
             params = load_parameter_set(values.get('parameter_set_file') or None)
-        params.require('wear', purpose='the wear estimator')
+        params.require_estimator(purpose='the wear estimator')
         return cls(joint=values['joint'], params=params,
                    alarm=AlarmPolicy(threshold=values['wear_threshold'],
                                      healthy=values['wear_healthy'],
@@ -81,6 +81,8 @@ class WearUpdate:
     trend: Optional[TrendEstimate] = None
     #: the plausibility verdict: an invalid estimate is reported and stored, never evidence
     plausibility: Plausibility = VALID
+    #: False with a set without a wear model: T-hat only, w-hat not determined (NaN), no alarm
+    wear_determined: bool = True
 
     @property
     def valid(self) -> bool:
@@ -142,6 +144,7 @@ class WearUpdate:
             'temperature_degc': json_number(self.temperature_degc),
             'temperature_std_degc': json_number(self.temperature_std_degc),
             'wear': json_number(self.wear), 'wear_std': json_number(self.wear_std),
+            'wear_determined': self.wear_determined,
             'wear_interval': [json_number(v) for v in self.wear_interval],
             'wear_interval_open_above': self.wear_interval_open_above,
             'temperature_interval': [json_number(v) for v in self.temperature_interval],

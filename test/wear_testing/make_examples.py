@@ -61,10 +61,60 @@ def example_files() -> dict[str, str]:
     }
 
 
+#: The raw runs of ``examples/arm_runs/``: 8 joint speeds [rad/s] (gear ratio 100).
+ARM_SPEEDS_RAD_S = tuple(float(v) for v in np.round(np.linspace(0.35, 1.05, 8), 4))
+#: Every how many sweeps of a heat-up session a run is kept, and each visit's length [s].
+ARM_EVERY_SWEEP, ARM_VISIT_S = 6, 16.0
+#: The identification sessions (payload, room degC, warm degC) and the held-out session.
+ARM_SESSIONS = ((False, 21.0, 44.0), (True, 22.0, 43.0), (False, 24.0, 45.0),
+                (True, 23.0, 42.0))
+ARM_MONITOR = (False, 22.0, 44.0)
+
+
+def _arm_run_text(log: dict, rows: np.ndarray) -> str:
+    """Return one raw run: t, q, dq, the motor current (the reader's effort column)."""
+    lines = ['t_s,q_rad,dq_rad_s,tau_measured_Nm,temperature_degc,load_a']
+    columns = [log[k][rows] for k in ('t_s', 'q_rad', 'dq_rad_s', 'current_a',
+                                      'temperature_degc', 'load_a')]
+    lines += [f'{t:.3f},{q:.4f},{dq:.4f},{i:.4f},{temp:.0f},{load:.3f}'
+              for t, q, dq, i, temp, load in zip(*columns)]
+    return '\n'.join(lines) + '\n'
+
+
+def arm_run_files() -> dict[str, str]:
+    """
+    Return the 2 Hz raw runs of ``examples/arm_runs/`` (names and texts, deterministic).
+
+    A lab's record of a 6-axis arm's joint (:mod:`wear_testing.real_arm_logger`, independent
+    of the package): heat-up sessions with and without a payload, one sweep over the 8 speeds
+    kept every ``ARM_EVERY_SWEEP`` sweeps as a run ``run_<session><k>.csv``; the held-out
+    session's first and a late sweep as ``monitor_cold.csv`` and ``monitor_warm.csv``.
+    Columns: time [s], joint position [rad], joint speed [rad/s], the motor current [A] (in
+    the raw-run reader's effort column ``tau_measured_Nm``), the controller's temperature
+    reading [degC, whole degrees] and the gravity current (load) [A].
+    """
+    from wear_testing import real_arm_logger as arm
+    files = {}
+    for index, (payload, room, warm) in enumerate(ARM_SESSIONS + (ARM_MONITOR,)):
+        session = arm.Session(payload=payload, room_degc=room, warm_degc=warm,
+                              duration_s=3600.0)
+        log = arm.log_session(session, seed=500 + index, visit_s=ARM_VISIT_S,
+                              speeds=ARM_SPEEDS_RAD_S, session_index=index)
+        sweeps = np.unique(log['sweep'])[:-1]  # the last sweep may be cut short
+        if index == len(ARM_SESSIONS):
+            names = {int(sweeps[0]): 'monitor_cold.csv', int(sweeps[-1]): 'monitor_warm.csv'}
+        else:
+            names = {int(k): f'run_{index + 1}{j + 1}.csv'
+                     for j, k in enumerate(sweeps[::ARM_EVERY_SWEEP])}
+        for sweep, name in names.items():
+            files[f'arm_runs/{name}'] = _arm_run_text(log, log['sweep'] == sweep)
+    return files
+
+
 def main() -> None:
     """Write the files under ``examples/``."""
-    EXAMPLES.mkdir(exist_ok=True)
-    for name, text in example_files().items():
+    (EXAMPLES / 'arm_runs').mkdir(parents=True, exist_ok=True)
+    for name, text in {**example_files(), **arm_run_files()}.items():
         (EXAMPLES / name).write_text(text, encoding='utf-8')
 
 
