@@ -129,7 +129,7 @@ class TextLines:
     """
     The lines of a UTF-8 text file (``.gz``: decompressed), read with bounds as they are read.
 
-    Iterating yields each line with its ``\\n`` (the last one may lack it), :meth:`blocks`
+    Iterating yields each line with its newline (the last one may lack it), :meth:`blocks`
     many whole lines at a time; :attr:`line_number` is the number of the line yielded last.
     The file is opened at once (a regular file only, as :func:`read_text_file`) and closed at
     the end, on an error or by :meth:`close` (a context manager too).
@@ -251,7 +251,7 @@ class TextLines:
         """
         Yield (number of its first line, text) of whole lines, about 64 KiB at a time.
 
-        Each block ends with a ``\\n`` but the last one may not; no line is longer than
+        Each block ends with a newline but the last one may not; no line is longer than
         ``line_limit_chars``.  Faster than the lines one by one for a table parser that takes
         many lines at once.
         """
@@ -282,7 +282,7 @@ class TextLines:
             self.close()
 
     def __iter__(self) -> Iterator[str]:
-        """Yield the lines, each with its ``\\n`` (the last may lack it)."""
+        """Yield the lines, each with its newline (the last may lack it)."""
         for first, block in self.blocks():
             lines = block.split('\n')
             if lines[-1] == '':
@@ -296,7 +296,8 @@ class TextLines:
 
 
 def csv_file_rows(path: str | os.PathLike, *, what: str, limit_bytes: int,
-                  line_limit_chars: int = MAX_LINE_CHARS, error: type[InputError] = InputError) -> Iterator[tuple[int, list[str]]]:
+                  line_limit_chars: int = MAX_LINE_CHARS,
+                  error: type[InputError] = InputError) -> Iterator[tuple[int, list[str]]]:
     """
     Yield (line number, row) of a CSV file (``.gz``: decompressed), read as :class:`TextLines`.
 

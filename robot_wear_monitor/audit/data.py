@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.audit.fitting import AuditTable
-from robot_wear_monitor.errors import InputError, no_such_path_text, shorten
+from robot_wear_monitor.errors import escaped, InputError, no_such_path_text, shorten
 from robot_wear_monitor.input_files import (csv_file_rows, MAX_LEVEL_TABLE_BYTES,
                                             MAX_TABLE_LINE_CHARS, TextLines)
 
@@ -35,7 +35,9 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
     Validate a mapping of columns into an :class:`AuditTable`.
 
     Numeric columns become float arrays; a column whose values are not all numbers is a text
-    (categorical) column.  Raises :class:`InputError` for an empty table, unequal lengths,
+    (categorical) column.  Column names and text values have their control characters escaped
+    here, where they enter (:func:`~robot_wear_monitor.errors.escaped`): they are printed in
+    the audit's report.  Raises :class:`InputError` for an empty table, unequal lengths,
     missing required columns, NaN/inf or non-positive speeds.
     """
     if model not in MODELS:
@@ -50,7 +52,7 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
     numeric: dict[str, FloatArray] = {}
     text: dict[str, NDArray[np.str_]] = {}
     for name, values in columns.items():
-        name = str(name).strip()
+        name = escaped(str(name).strip())
         array = np.asarray(values)
         if name.lower() in CATEGORICAL_COLUMNS:  # groups, never numbers (joint 2 != 2 x joint 1)
             text[name] = np.array([_category(v) for v in array])
@@ -61,7 +63,7 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
         try:
             numeric[name] = np.array([float(v) for v in array], dtype=float)
         except (TypeError, ValueError):
-            text[name] = np.array([str(v).strip() for v in array])
+            text[name] = np.array([escaped(str(v).strip()) for v in array])
     missing = [c for c in REQUIRED_COLUMNS[model] if c not in numeric]
     if missing:
         what = 'non-numeric' if missing[0] in text else 'missing'
@@ -87,7 +89,7 @@ CATEGORICAL_COLUMNS = ('joint', 'run', 'direction', 'robot', 'pose', 'test_set',
 
 def _category(value: object) -> str:
     """Return a group label: numbers written alike (2, 2.0 and ' 2' are one group)."""
-    text = str(value).strip()
+    text = escaped(str(value).strip())
     try:
         number = float(text)
     except ValueError:

@@ -15,7 +15,7 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             parse_float_list, RAW_STANDSTILL_DEFAULT,
                                             STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError
 
 HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
 
@@ -91,6 +91,6 @@ def main(args: argparse.Namespace) -> int:
         write_text_atomic(args.out, text)
     else:
         sys.stdout.write(text)
-    for line in report:
-        print(line, file=sys.stderr)
+    for line in report:  # names from the recording: control characters escaped
+        print(escaped(line), file=sys.stderr)
     return 0
