@@ -8,6 +8,8 @@ get a leading apostrophe (OWASP's advice on CSV injection); numbers are written 
 as numbers and never pass through here, so ``-0.5`` stays a number.
 """
 
+from robot_wear_monitor.errors import escaped
+
 #: First characters that make a spreadsheet read a cell as a formula.
 FORMULA_STARTS = frozenset('=+-@\t\r\uff1d\uff0b\uff0d\uff20')
 
@@ -15,3 +17,14 @@ FORMULA_STARTS = frozenset('=+-@\t\r\uff1d\uff0b\uff0d\uff20')
 def spreadsheet_text(text: str) -> str:
     """Return ``text`` with a leading apostrophe when a spreadsheet would run it as a formula."""
     return "'" + text if text[:1] in FORMULA_STARTS else text
+
+
+def terminal_csv_text(text: str) -> str:
+    """
+    Return a text cell of a CSV the command line writes: control characters escaped, then safe.
+
+    Such a CSV may go to a terminal (stdout): a robot's or joint's name with an escape sequence
+    or a newline must reach it escaped, as in every other text output
+    (:func:`~robot_wear_monitor.errors.escaped`); then :func:`spreadsheet_text`.
+    """
+    return spreadsheet_text(escaped(text))

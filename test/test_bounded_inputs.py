@@ -302,7 +302,9 @@ def test_a_hostile_joint_name_from_a_recording_reaches_no_terminal_raw(tmp_path,
              '--no-progress'],
             ['history', str(history)],
             ['history', str(history), '--csv'],
-            ['fleet', '--history', str(history)]]
+            ['fleet', '--history', str(history)],
+            ['fleet', '--history', str(history), '--csv'],
+            ['history', str(history), '--alarms', '--csv']]
     outputs = []
     for argv in runs:
         capsys.readouterr()
@@ -313,7 +315,8 @@ def test_a_hostile_joint_name_from_a_recording_reaches_no_terminal_raw(tmp_path,
         outputs.append(out + err)
     assert 'j\\x1b[31m\\nFORGED' in outputs[0]  # the level CSV's joint cells and the report
     assert 'joints seen: ' in outputs[1] and 'j\\x1b[31m\\nFORGED' in outputs[1]
-    assert 'j\\x1b[31m\\nFORGED' in outputs[3]  # the history names the joint
+    for shown in outputs[3], outputs[6], outputs[7]:  # the history and CSVs name the joint
+        assert 'j\\x1b[31m\\nFORGED' in shown, shown
 
 
 def test_hostile_names_in_a_level_table_reach_no_terminal_raw(tmp_path, capsys):

@@ -175,7 +175,7 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
 def alarm_log_main(args: argparse.Namespace) -> int:
     """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
     from robot_wear_monitor.cli.outputs import write_text_output
-    from robot_wear_monitor.csv_cells import spreadsheet_text
+    from robot_wear_monitor.csv_cells import terminal_csv_text
     from robot_wear_monitor.history import open_history
     from robot_wear_monitor.monitoring.diagnostics import clean_text
 
@@ -193,7 +193,7 @@ def alarm_log_main(args: argparse.Namespace) -> int:
         for row in rows:
             writer.writerow(['' if row[c] is None else
                              format(row[c], '.6g') if c == 'wear' else
-                             row[c] if isinstance(row[c], int) else spreadsheet_text(str(row[c]))
+                             row[c] if isinstance(row[c], int) else terminal_csv_text(str(row[c]))
                              for c in ALARM_LOG_COLUMNS])
         if write_text_output(args.csv, buffer.getvalue()):
             print(f'{len(rows)} alarm events written to {args.csv}')

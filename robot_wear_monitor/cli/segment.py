@@ -60,7 +60,7 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
                                                        segment_raw_csv)
     path = Path(args.data)
-    if path.name.endswith(('.csv', '.csv.gz')) and not path.is_dir():  # read bounded
+    if path.name.endswith(('.csv', '.csv.gz')) and path.exists() and not path.is_dir():
         result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
                                  torque_scale=args.torque_scale, speeds_rad_s=args.speeds,
                                  standstill_speed_rad_s=args.standstill_speed,
