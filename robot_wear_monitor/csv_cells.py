@@ -19,12 +19,13 @@ def spreadsheet_text(text: str) -> str:
     return "'" + text if text[:1] in FORMULA_STARTS else text
 
 
-def terminal_csv_text(text: str) -> str:
+def csv_text(text: str, *, terminal: bool = False) -> str:
     """
-    Return a text cell of a CSV the command line writes: control characters escaped, then safe.
+    Return a text cell of a CSV the command line writes: :func:`spreadsheet_text`.
 
-    Such a CSV may go to a terminal (stdout): a robot's or joint's name with an escape sequence
-    or a newline must reach it escaped, as in every other text output
-    (:func:`~robot_wear_monitor.errors.escaped`); then :func:`spreadsheet_text`.
+    ``terminal``: the CSV goes to a terminal (stdout is one): control characters are escaped
+    first (:func:`~robot_wear_monitor.errors.escaped`), as in every other text output, so a
+    robot's or joint's name with an escape sequence or a newline cannot forge a line there.  A
+    file or a pipe gets the text as stored (the CSV quotes it), as JSON does.
     """
-    return spreadsheet_text(escaped(text))
+    return spreadsheet_text(escaped(text) if terminal else text)

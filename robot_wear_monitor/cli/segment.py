@@ -56,6 +56,7 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.cli.outputs import to_terminal
     from robot_wear_monitor.monitoring.diagnostics import rejection_text
     from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
                                                        segment_raw_csv)
@@ -86,7 +87,8 @@ def main(args: argparse.Namespace) -> int:
             report.append(joint_summary_line(summary, estimates=False))
             if rejection_text(summary['rejected']):
                 report.append('    ' + rejection_text(summary['rejected']))
-    text = levels_csv_text(result.rows, robot=args.robot)
+    text = levels_csv_text(result.rows, robot=args.robot,
+                           terminal=not args.out and to_terminal('-'))
     if args.out:
         write_text_atomic(args.out, text)
     else:
