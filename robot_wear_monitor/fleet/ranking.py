@@ -163,8 +163,10 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
     """
     def number(value: Optional[float]) -> str:
         return '' if value is None or not math.isfinite(value) else f'{value:.6g}'
+
     def text(value: str) -> str:
         return csv_text(value, terminal=terminal)
+
     out = [list(FLEET_COLUMNS)]
     for row in rows:
         s = row.state

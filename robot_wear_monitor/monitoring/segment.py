@@ -209,8 +209,10 @@ def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]], *,
     extra = dict(extra or {})
     writer.writerow(list(LEVEL_COLUMNS) + (['robot'] if robot is not None else [])
                     + list(extra))
+
     def cell(value: Any) -> Any:
         return escaped(value) if terminal and isinstance(value, str) else value
+
     robot_cell = [cell(robot)] if robot is not None else []
     for i, (level, k, joint) in enumerate(rows):
         more = [f'{v[i]:.6g}' if isinstance(v[i], float) else cell(v[i])
