@@ -16,10 +16,16 @@ class InputError(ValueError):
     """
 
 
+def escaped(value: Any) -> str:
+    """Return the text of ``value``, each unprintable character escaped as Python writes it."""
+    text = str(value)
+    return text if text.isprintable() else ''.join(
+        c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def shorten(value: Any, limit: int = ECHO_LIMIT) -> str:
     """Return ``repr``-free text of ``value`` cut to ``limit`` characters with an ellipsis."""
-    text = str(value)
-    text = ''.join(c if c.isprintable() else repr(c)[1:-1] for c in text[:limit + 1])
+    text = escaped(str(value)[:limit + 1])
     return text if len(text) <= limit else text[:limit - 1] + '\u2026'
 
 

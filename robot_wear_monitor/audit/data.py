@@ -7,9 +7,7 @@ unit (normalised for the packaged model; N.m for the KUKA data), temperature [de
 
 from __future__ import annotations
 
-import csv
 from dataclasses import replace
-import gzip
 import math
 import os
 from pathlib import Path
@@ -18,7 +16,9 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.audit.fitting import AuditTable
-from robot_wear_monitor.errors import InputError, no_such_path_text
+from robot_wear_monitor.errors import escaped, InputError, no_such_path_text, shorten
+from robot_wear_monitor.input_files import (csv_file_rows, MAX_LEVEL_TABLE_BYTES,
+                                            MAX_TABLE_LINE_CHARS, TextLines)
 
 FloatArray = NDArray[np.float64]
 
@@ -35,7 +35,9 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
     Validate a mapping of columns into an :class:`AuditTable`.
 
     Numeric columns become float arrays; a column whose values are not all numbers is a text
-    (categorical) column.  Raises :class:`InputError` for an empty table, unequal lengths,
+    (categorical) column.  Column names and text values have their control characters escaped
+    here, where they enter (:func:`~robot_wear_monitor.errors.escaped`): they are printed in
+    the audit's report.  Raises :class:`InputError` for an empty table, unequal lengths,
     missing required columns, NaN/inf or non-positive speeds.
     """
     if model not in MODELS:
@@ -50,7 +52,7 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
     numeric: dict[str, FloatArray] = {}
     text: dict[str, NDArray[np.str_]] = {}
     for name, values in columns.items():
-        name = str(name).strip()
+        name = escaped(str(name).strip())
         array = np.asarray(values)
         if name.lower() in CATEGORICAL_COLUMNS:  # groups, never numbers (joint 2 != 2 x joint 1)
             text[name] = np.array([_category(v) for v in array])
@@ -61,7 +63,7 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
         try:
             numeric[name] = np.array([float(v) for v in array], dtype=float)
         except (TypeError, ValueError):
-            text[name] = np.array([str(v).strip() for v in array])
+            text[name] = np.array([escaped(str(v).strip()) for v in array])
     missing = [c for c in REQUIRED_COLUMNS[model] if c not in numeric]
     if missing:
         what = 'non-numeric' if missing[0] in text else 'missing'
@@ -87,7 +89,7 @@ CATEGORICAL_COLUMNS = ('joint', 'run', 'direction', 'robot', 'pose', 'test_set',
 
 def _category(value: object) -> str:
     """Return a group label: numbers written alike (2, 2.0 and ' 2' are one group)."""
-    text = str(value).strip()
+    text = escaped(str(value).strip())
     try:
         number = float(text)
     except ValueError:
@@ -117,35 +119,38 @@ def _fold_direction(numeric: dict[str, FloatArray], text: dict[str, NDArray[np.s
 
 
 def read_level_table(path: str | Path, *, model: str = 'speed') -> AuditTable:
-    """Read a CSV (optionally .gz) table of friction levels with a header row."""
+    """
+    Read a CSV (optionally .gz) table of friction levels with a header row.
+
+    Read with bounds as it is read (:func:`~robot_wear_monitor.input_files.csv_file_rows`: a
+    regular file, at most :data:`~robot_wear_monitor.input_files.MAX_LEVEL_TABLE_BYTES` of
+    text, decompressed ones for ``.gz``, lines of at most ``MAX_TABLE_LINE_CHARS``); an error
+    names the file and the line.
+    """
     file = Path(path)
-    opener = gzip.open if file.suffix == '.gz' else open
-    try:
-        with opener(file, 'rt', encoding='utf-8', newline='') as stream:
-            rows = list(csv.reader(stream))
-    except OSError as error:
-        raise InputError(f'{file}: cannot read: {error.strerror or error}') from None
-    except (UnicodeDecodeError, csv.Error) as error:
-        raise InputError(f'{file}: not a CSV text table ({error})') from None
-    rows = [r for r in rows if r and any(cell.strip() for cell in r)]
+    name = shorten(file, 200)
+    rows = [(number, row) for number, row in csv_file_rows(
+        file, what='level table', limit_bytes=MAX_LEVEL_TABLE_BYTES,
+        line_limit_chars=MAX_TABLE_LINE_CHARS) if row and any(cell.strip() for cell in row)]
     if not rows:
-        raise InputError(f'{file}: empty table')
-    header = [h.strip() for h in rows[0]]
-    body = rows[1:]
-    if not body:
-        raise InputError(f'{file}: the table has no rows')
+        raise InputError(f'{name}: empty table')
+    header = [h.strip() for h in rows[0][1]]
+    numbered = rows[1:]
+    if not numbered:
+        raise InputError(f'{name}: the table has no rows')
     if len(set(header)) != len(header):
-        raise InputError(f'{file}: duplicate column names in the header')
-    for number, row in enumerate(body, start=2):
+        raise InputError(f'{name}: duplicate column names in the header')
+    for number, row in numbered:
         if len(row) != len(header):
-            raise InputError(f'{file}: line {number} has {len(row)} fields, the header '
+            raise InputError(f'{name}: line {number} has {len(row)} fields, the header '
                              f'{len(header)}')
-    columns = {name: [row[i].strip() for row in body] for i, name in enumerate(header)}
-    for name in REQUIRED_COLUMNS.get(model, ()):
-        values = columns.get(name)
+    body = [row for _, row in numbered]
+    columns = {column: [row[i].strip() for row in body] for i, column in enumerate(header)}
+    for column in REQUIRED_COLUMNS.get(model, ()):
+        values = columns.get(column)
         if values is not None and any(v == '' or v.lower() == 'nan' for v in values):
-            raise InputError(f'{file}: column {name!r} has empty or NaN values')
-    return table_from_columns(columns, source=str(file), model=model)
+            raise InputError(f'{name}: column {column!r} has empty or NaN values')
+    return table_from_columns(columns, source=name, model=model)
 
 
 def table_from_levels(levels: Sequence, *, extra: Mapping[str, Sequence] | None = None,
@@ -464,10 +469,11 @@ def levels_out_text(tables: Sequence[AuditTable], *,
 
 
 def _is_raw_run(file: Path) -> bool:
-    opener = gzip.open if file.suffix == '.gz' else open
+    """Return True when the first line of ``file`` names a raw run's columns (read bounded)."""
     try:
-        with opener(file, 'rt', encoding='utf-8') as stream:
-            header = {h.strip() for h in stream.readline().split(',')}
-    except (OSError, UnicodeDecodeError):
-        return False
+        with TextLines(file, what='table', limit_bytes=MAX_LEVEL_TABLE_BYTES,
+                       line_limit_chars=MAX_TABLE_LINE_CHARS) as lines:
+            header = {h.strip() for h in next(iter(lines), '').split(',')}
+    except InputError:
+        return False  # read_level_table says what is wrong
     return {'t_s', 'q_rad', 'dq_rad_s', 'tau_measured_Nm'} <= header

@@ -23,7 +23,7 @@ from robot_wear_monitor import __version__
 from robot_wear_monitor.cli.options import (loading_modules, parse_float_list, parse_range,
                                             PROG, resolve_json, secrets_kept_out)
 from robot_wear_monitor.cli.outputs import check_outputs
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError, shorten
 
 __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'verb_module',
            'VERBS']
@@ -122,7 +122,8 @@ def _run_command(args: argparse.Namespace) -> int:
         check_outputs(args)
         return int(args.handler(args) or 0)
     except InputError as error:
-        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        # one line whatever a name in it holds: control characters escaped, newlines included
+        message = escaped(str(error).strip()) or type(error).__name__
         print(f'{PROG} {args.command}: error: {message}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -133,7 +134,7 @@ def _run_command(args: argparse.Namespace) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as error:  # a write that failed after the checks (disk full, ...)
-        where = f'{error.filename}: ' if error.filename else ''
+        where = f'{shorten(error.filename, 200)}: ' if error.filename else ''
         print(f'{PROG} {args.command}: error: {where}{error.strerror or error}',
               file=sys.stderr)
         return 2

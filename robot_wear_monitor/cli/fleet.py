@@ -62,6 +62,7 @@ def parse_time(text: str, *, option: str = '--now') -> float:
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     from robot_wear_monitor.cli.outputs import write_text_output
+    from robot_wear_monitor.cli.outputs import to_terminal
     from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
                                                   fleet_table, fleet_view)
     from robot_wear_monitor.history import open_history
@@ -80,8 +81,8 @@ def main(args: argparse.Namespace) -> int:
         return 0
     if args.csv:
         buffer = io.StringIO()
-        csv.writer(buffer, lineterminator='\n').writerows(fleet_csv_rows(rows,
-                                                                         local=args.local))
+        csv.writer(buffer, lineterminator='\n').writerows(fleet_csv_rows(
+            rows, local=args.local, terminal=to_terminal(args.csv)))
         if write_text_output(args.csv, buffer.getvalue()):
             print(f'{len(rows)} rows written to {args.csv}')
         return 0

@@ -184,7 +184,8 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
 def alarm_log_main(args: argparse.Namespace) -> int:
     """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
     from robot_wear_monitor.cli.outputs import write_text_output
-    from robot_wear_monitor.csv_cells import spreadsheet_text
+    from robot_wear_monitor.cli.outputs import to_terminal
+    from robot_wear_monitor.csv_cells import csv_text
     from robot_wear_monitor.history import open_history
     from robot_wear_monitor.monitoring.diagnostics import clean_text
 
@@ -199,10 +200,12 @@ def alarm_log_main(args: argparse.Namespace) -> int:
         buffer = io.StringIO()
         writer = csv.writer(buffer, lineterminator='\n')
         writer.writerow(ALARM_LOG_COLUMNS)
+        terminal = to_terminal(args.csv)
         for row in rows:
             writer.writerow(['' if row[c] is None else
                              format(row[c], '.6g') if c == 'wear' else
-                             row[c] if isinstance(row[c], int) else spreadsheet_text(str(row[c]))
+                             row[c] if isinstance(row[c], int) else
+                             csv_text(str(row[c]), terminal=terminal)
                              for c in ALARM_LOG_COLUMNS])
         if write_text_output(args.csv, buffer.getvalue()):
             print(f'{len(rows)} alarm events written to {args.csv}')

@@ -67,6 +67,16 @@ def check_outputs(args: argparse.Namespace) -> None:
             check_writable_file(history, what='--history')
 
 
+def to_terminal(target: str | None) -> bool:
+    """Return True when an output ``target`` ('-' or None: stdout) is a terminal."""
+    if target not in (None, '-'):
+        return False
+    try:
+        return bool(sys.stdout.isatty())
+    except (AttributeError, ValueError):  # a replaced or closed stdout
+        return False
+
+
 def write_text_output(target: str, text: str) -> bool:
     """
     Write ``text`` to the file ``target`` atomically, or to stdout when ``target`` is '-'.

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import FINITE, rclpy_missing, ros_args
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError
 
 HELP = 'play a recorded bag on the live ROS 2 graph, like ros2 bag play (needs rclpy)'
 
@@ -38,4 +38,4 @@ def main(args: argparse.Namespace) -> int:
     return run_player(args.bag, rate=args.rate, topics=args.topics,
                       wait_for_subscribers=args.wait_for_subscribers,
                       wait_timeout_s=args.wait_timeout, args=ros_args(args),
-                      say=lambda text: print(text, flush=True))
+                      say=lambda text: print(escaped(text), flush=True))  # bag's topics

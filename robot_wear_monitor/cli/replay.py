@@ -19,7 +19,7 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             add_progress, add_robot, emit_json,
                                             joint_selection, loading_modules, print_json,
                                             progress_wanted, shown_location, write_json_out)
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError, shorten
 
 HELP = 'replay a recorded bag through the monitoring service'
 
@@ -105,15 +105,17 @@ def main(args: argparse.Namespace) -> int:
                         history_init=True if args.init else None,
                         progress=progress_wanted(args), truth=truth, recover=not args.strict)
     if result.recovery is not None and not result.recovery.complete:
-        print(f'warning: {args.bag}: unfinished recording ({result.recovery.reason}): read '
+        print(f'warning: {shorten(args.bag, 200)}: unfinished recording '
+              f'({escaped(result.recovery.reason)}): read '
               f'{result.recovery.messages} complete messages up to bag time '
               f'{result.recovery.last_stamp_s:.3f} s; what followed is lost (--strict '
               f'refuses such a recording)', file=sys.stderr)
     for partial in result.removed_partials:
-        print(f'removed {partial}: the unfinished output of a replay that was killed',
+        print(f'removed {shorten(partial, 200)}: the unfinished output of a replay that was '
+              'killed',
               file=sys.stderr)
     for note in result.notes:
-        print(f'note: {note}', file=sys.stderr)
+        print(f'note: {escaped(note)}', file=sys.stderr)
     summary = result.summary()
     warn_if_emptier(args.json_out, summary)
     write_json_out(args.json_out, summary)
@@ -123,8 +125,8 @@ def main(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
         return 0
-    print(summary_line(result, summary)
-          + (f'; wrote {args.out}' if args.out
+    print(escaped(summary_line(result, summary))
+          + (f'; wrote {shorten(args.out, 200)}' if args.out
              else f'; history {shown_location(args.history)}'))
     if joints:
         for entry in result.joints:
@@ -195,16 +197,19 @@ def warn_if_emptier(path: str | None, summary: dict) -> None:
     """Say so on stderr when ``path`` holds a summary with more experiments than ``summary``."""
     import json
     from pathlib import Path
+
+    from robot_wear_monitor.input_files import MAX_JSON_BYTES, read_text_file
     if not path or not Path(path).is_file():
         return
-    try:
-        old = json.loads(Path(path).read_text(encoding='utf-8')[:50_000_000])
+    try:  # read bounded (a regular file of at most MAX_JSON_BYTES); InputError is a ValueError
+        old = json.loads(read_text_file(path, what='summary', limit_bytes=MAX_JSON_BYTES))
         before = len(old.get('experiments', ()))
-    except (OSError, ValueError, AttributeError, TypeError):
+    except (ValueError, AttributeError, TypeError):
         return
     after = len(summary['experiments'])
     if before > after:
-        print(f'note: {path} held {before} experiments, this run estimated {after} (the '
+        print(f'note: {shorten(path, 200)} held {before} experiments, this run estimated '
+              f'{after} (the '
               'others are in the history already); the new summary replaces it and carries '
               "each joint's state from the history under 'state'", file=sys.stderr)
 
@@ -224,7 +229,7 @@ def joint_summary_line(entry: dict, *, estimates: bool = True) -> str:
                  + ', '.join(f'{k} rad/s x{v}' for k, v in other.items()))
     if entry['no_experiment']:
         line += f'; no experiment: {entry["no_experiment"]}'
-    return line
+    return escaped(line)  # a joint's name from a recording: no control character raw
 
 
 def main_batch(args: argparse.Namespace) -> int:

@@ -15,7 +15,7 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             parse_float_list, RAW_STANDSTILL_DEFAULT,
                                             STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError
 
 HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
 
@@ -56,11 +56,12 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from robot_wear_monitor.atomic_files import write_text_atomic
+    from robot_wear_monitor.cli.outputs import to_terminal
     from robot_wear_monitor.monitoring.diagnostics import rejection_text
     from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
                                                        segment_raw_csv)
     path = Path(args.data)
-    if path.is_file() and path.name.endswith(('.csv', '.csv.gz')):
+    if path.name.endswith(('.csv', '.csv.gz')) and path.exists() and not path.is_dir():
         result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
                                  torque_scale=args.torque_scale, speeds_rad_s=args.speeds,
                                  standstill_speed_rad_s=args.standstill_speed,
@@ -86,11 +87,12 @@ def main(args: argparse.Namespace) -> int:
             report.append(joint_summary_line(summary, estimates=False))
             if rejection_text(summary['rejected']):
                 report.append('    ' + rejection_text(summary['rejected']))
-    text = levels_csv_text(result.rows, robot=args.robot)
+    text = levels_csv_text(result.rows, robot=args.robot,
+                           terminal=not args.out and to_terminal('-'))
     if args.out:
         write_text_atomic(args.out, text)
     else:
         sys.stdout.write(text)
-    for line in report:
-        print(line, file=sys.stderr)
+    for line in report:  # names from the recording: control characters escaped
+        print(escaped(line), file=sys.stderr)
     return 0

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.atomic_files import write_json_atomic
+from robot_wear_monitor.input_files import MAX_JSON_BYTES, read_text_file
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
@@ -162,12 +163,13 @@ def stored_calibration(key: str) -> CutoffCalibration | None:
         sources.append(folder / f'cutoffs-{key}-{code_fingerprint()}.json')
     for source in sources:
         try:
-            table = json.loads(source.read_text())
+            table = json.loads(read_text_file(source, what='calibration',
+                                              limit_bytes=MAX_JSON_BYTES))
             item = table.get(key) if source == SHIPPED_CALIBRATIONS else table
             if item is not None:
                 return calibration_from_json(item)
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):
-            continue  # absent, unreadable or damaged: calibrate anew
+        except (ValueError, KeyError, TypeError, AttributeError):  # InputError: a ValueError
+            continue  # absent, unreadable, too large or damaged: calibrate anew
     return None
 
 

@@ -38,11 +38,12 @@ from typing import Any, Iterator, Optional, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.atomic_files import write_json_atomic
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import InputError, shorten
 from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig
 from robot_wear_monitor.experiment.segmentation_settings import (SegmenterConfig,
                                                                  stream_segmenter_config,
                                                                  STREAM_SETTINGS)
+from robot_wear_monitor.input_files import MAX_JSON_BYTES, read_text_file
 from robot_wear_monitor.model.friction import friction as friction_model
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
 
@@ -510,10 +511,13 @@ def write_truth_json(path: str | os.PathLike, scenario: Scenario) -> Path:
 def read_truth_json(path: str | os.PathLike) -> list[ExperimentTruth]:
     """Read the experiments of a truth file written by :func:`write_truth_json`."""
     try:
-        document = json.loads(Path(path).read_text(encoding='utf-8'))
+        document = json.loads(read_text_file(path, what='truth file',
+                                             limit_bytes=MAX_JSON_BYTES))
         return [ExperimentTruth(**{**e, 'speeds_rad_s': tuple(e['speeds_rad_s']),
                                    'friction_model': tuple(e['friction_model']),
                                    'friction_true': tuple(e['friction_true'])})
                 for e in document['experiments']]
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        raise InputError(f'{path}: not a truth file: {error}') from None
+    except InputError:
+        raise
+    except (ValueError, KeyError, TypeError) as error:
+        raise InputError(f'{shorten(path, 200)}: not a truth file: {shorten(error)}') from None

@@ -31,7 +31,7 @@ from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 from robot_wear_monitor.errors import InputError, no_such_path_text, shorten
 from robot_wear_monitor.input_files import check_robot_name, csv_rows, read_text_file
 from robot_wear_monitor.recordings import is_bag
-from robot_wear_monitor.yaml_files import load_yaml_text
+from robot_wear_monitor.yaml_files import load_yaml_file
 
 #: The robot of bags given without a manifest and without ``--robot``.
 DEFAULT_ROBOT = 'default'
@@ -244,14 +244,13 @@ def collect_bags(*, paths: Sequence[str | os.PathLike] = (),
 
 def recording_start_ns(bag: Path) -> Optional[int]:
     """Return the start time [ns since the epoch] from a bag's ``metadata.yaml``, or None."""
-    metadata = bag / 'metadata.yaml' if bag.is_dir() else None
-    if metadata is None or not metadata.is_file() or metadata.stat().st_size > 1 << 20:
+    if not bag.is_dir():
         return None
-    try:
-        info = load_yaml_text(metadata.read_text(encoding='utf-8'), source=str(metadata))
+    try:  # read bounded as it is read (a regular file of at most MAX_YAML_BYTES)
+        info = load_yaml_file(bag / 'metadata.yaml', what='bag metadata')
         return int(info['rosbag2_bagfile_information']['starting_time']
                    ['nanoseconds_since_epoch'])
-    except (OSError, InputError, KeyError, TypeError, ValueError):
+    except (InputError, KeyError, TypeError, ValueError):
         return None
 
 

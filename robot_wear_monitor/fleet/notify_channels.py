@@ -221,7 +221,8 @@ def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,
     Send ``message`` through the SMTP server; retry connection errors and SMTP 4xx answers.
 
     STARTTLS (when configured) verifies the server's certificate against ``mail.ca_file``
-    (default: the system's certificate authorities); an SMTP 5xx answer (refused sender or
+    (default: the system's certificate authorities; its text as read with a bound when the
+    configuration was loaded, ``mail.ca_pem``); an SMTP 5xx answer (refused sender or
     recipient, failed login) fails at once.
     """
     def attempt_once() -> tuple[bool, bool, str]:
@@ -230,7 +231,8 @@ def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,
                 smtp.ehlo()
                 if mail.starttls:
                     smtp.starttls(context=ssl.create_default_context(
-                        cafile=mail.ca_file or None))
+                        cadata=mail.ca_pem or None,
+                        cafile=None if mail.ca_pem else mail.ca_file or None))
                     smtp.ehlo()
                 if mail.user:
                     smtp.login(mail.user, mail.password)

@@ -21,11 +21,13 @@ import math
 import os
 from pathlib import Path
 import re
+import ssl
 from typing import Any, Mapping, Optional
 from urllib.parse import urlsplit
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.fleet.ranking import DEFAULT_REESCALATION_MARGIN
+from robot_wear_monitor.input_files import MAX_PEM_BYTES, read_text_file
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
 #: The events a configuration may name: an alarm latched, a forecast crossing of the wear
@@ -99,6 +101,7 @@ class EmailConfig:
     password: str = field(default='', repr=False)
     ca_file: str = ''
     timeout_s: float = 30.0
+    ca_pem: str = field(default='', repr=False)
     name: str = 'email'
 
 
@@ -235,32 +238,36 @@ def _resolve(path_text: str, base: Path) -> Path:
     return path if path.is_absolute() else base / path
 
 
-def _ca_file(reader: _Reader, base: Path, starttls: bool) -> str:
+def _ca_file(reader: _Reader, base: Path, starttls: bool) -> tuple[str, str]:
+    """Return (path, PEM text) of ``ca_file`` (read bounded: a regular file of at most 1 MB)."""
     if not reader.has('ca_file'):
-        return ''
+        return '', ''
     if not starttls:
         raise reader.error('ca_file', 'is only used with starttls: true')
     path = _resolve(reader.text('ca_file', limit=4096), base)
-    if not path.is_file() or not os.access(path, os.R_OK):
-        raise reader.error('ca_file', f'cannot read {path}')
-    return str(path)
+    try:
+        pem = read_text_file(path, what='CA file', limit_bytes=MAX_PEM_BYTES)
+    except InputError as problem:
+        raise reader.error('ca_file', str(problem)) from None
+    try:
+        ssl.create_default_context(cadata=pem)
+    except (ssl.SSLError, ValueError) as problem:
+        raise reader.error('ca_file', f'{shorten(path, 200)}: not PEM certificates '
+                           f'({shorten(problem)})') from None
+    return str(path), pem
 
 
 def _read_password(reader: _Reader, path_text: str, base: Path) -> str:
+    """Return the password of ``password_file`` (read bounded: a regular file, 4 kB)."""
     path = _resolve(path_text, base)
     try:
-        with open(path, 'rb') as stream:
-            data = stream.read(MAX_PASSWORD_BYTES + 1)
-    except OSError as problem:
-        raise reader.error('password_file', f'cannot read {path}: {problem.strerror}') from None
-    if len(data) > MAX_PASSWORD_BYTES:
-        raise reader.error('password_file', f'{path}: more than {MAX_PASSWORD_BYTES} bytes')
-    try:
-        password = data.decode('utf-8').rstrip('\r\n')
-    except UnicodeDecodeError:
-        raise reader.error('password_file', f'{path}: not UTF-8 text') from None
+        text = read_text_file(path, what='password file', limit_bytes=MAX_PASSWORD_BYTES)
+    except InputError as problem:  # the message names the file, never its content
+        raise reader.error('password_file', str(problem)) from None
+    password = text.rstrip('\r\n')
     if not password or '\n' in password:
-        raise reader.error('password_file', f'{path}: must hold the password on one line')
+        raise reader.error('password_file', f'{shorten(path, 200)}: must hold the password '
+                           'on one line')
     return password
 
 
@@ -337,6 +344,7 @@ def _email(source: str, values: Any, base: Path) -> Optional[EmailConfig]:
                                  f'{shorten(repr(to_value))}')
     if len(to_value) > 100:
         raise reader.error('to', f'{len(to_value)} addresses, more than 100')
+    ca_file, ca_pem = _ca_file(reader, base, starttls)
     return EmailConfig(
         host=host,
         port=reader.number('port', 587 if starttls else 25, low=1, high=65535, unit='(TCP)',
@@ -345,7 +353,7 @@ def _email(source: str, values: Any, base: Path) -> Optional[EmailConfig]:
         to=tuple(_address(reader, f'to[{i}]', item) for i, item in enumerate(to_value)),
         starttls=starttls, user=user, password_file=password_file,
         password=_read_password(reader, password_file, base) if password_file else '',
-        ca_file=_ca_file(reader, base, starttls),
+        ca_file=ca_file, ca_pem=ca_pem,
         timeout_s=reader.number('timeout_s', EmailConfig.timeout_s, low=0.0, high=600.0,
                                 unit='s', low_open=True))
 

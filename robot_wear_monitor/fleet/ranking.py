@@ -22,7 +22,7 @@ import datetime
 import math
 from typing import Any, Iterable, Optional, Sequence
 
-from robot_wear_monitor.csv_cells import spreadsheet_text
+from robot_wear_monitor.csv_cells import csv_text
 from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.diagnostics import clean_text
@@ -215,19 +215,24 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     return '\n'.join(out)
 
 
-def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[list[str]]:
+def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
+                   terminal: bool = False) -> list[list[str]]:
     """
     Return the fleet as CSV rows (header first): numbers plain, times ISO 8601.
 
-    Text cells (robot, joint, user, planned maintenance) are spreadsheet-safe
-    (:func:`~robot_wear_monitor.csv_cells.spreadsheet_text`).
+    Text cells (robot, joint, user, planned maintenance) are spreadsheet-safe, their control
+    characters escaped for a ``terminal`` (:func:`~robot_wear_monitor.csv_cells.csv_text`).
     """
     def number(value: Optional[float]) -> str:
         return '' if value is None or not math.isfinite(value) else f'{value:.6g}'
+
+    def text(value: str) -> str:
+        return csv_text(value, terminal=terminal)
+
     out = [list(FLEET_COLUMNS)]
     for row in rows:
         s = row.state
-        out.append([spreadsheet_text(s.robot), spreadsheet_text(s.joint), number(s.wear),
+        out.append([text(s.robot), text(s.joint), number(s.wear),
                     number(s.wear_low), number(s.wear_high),
                     number(s.trend_wear), 'latched' if s.alarm else 'no',
                     iso_time(s.alarm_since_stamp_s, local=local) if s.alarm else '',
@@ -236,9 +241,9 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False) -> list[li
                     iso_time(row.crossing_time_s, local=local)
                     if row.crossing_time_s is not None else '',
                     'yes' if row.stale else 'no', 'no' if s.invalid_reason else 'yes',
-                    spreadsheet_text(s.acknowledged_by or '') if s.acknowledged else '',
-                    spreadsheet_text(s.planned_maintenance or '') if s.acknowledged else '',
-                    spreadsheet_text(row.reescalated),
+                    text(s.acknowledged_by or '') if s.acknowledged else '',
+                    text(s.planned_maintenance or '') if s.acknowledged else '',
+                    text(row.reescalated),
                     iso_time(s.life_started_s, local=local)
                     if math.isfinite(s.life_started_s) else ''])
     return out

@@ -17,7 +17,7 @@ import io
 import os
 from typing import Any, Mapping, Optional, Sequence
 
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 
 #: Columns of the level CSV, in order.
@@ -193,25 +193,35 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
 
 def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]], *,
                     robot: str | None = None,
-                    extra: Mapping[str, Sequence[Any]] | None = None) -> str:
+                    extra: Mapping[str, Sequence[Any]] | None = None,
+                    terminal: bool = False) -> str:
     """
     Return the level CSV (header :data:`LEVEL_COLUMNS`) of ``rows`` as text.
 
     ``robot``: a last column ``robot`` with this name (none when None); ``extra``: more
     columns after it, name -> one value per row (a float written with 6 significant digits).
+    ``terminal``: the text goes to a terminal; the text cells (experiment, joint, robot, extra
+    text) have their control characters escaped (:func:`~robot_wear_monitor.errors.escaped`),
+    so that a joint's name from a recording reaches no terminal raw (a file keeps the text).
     """
     text = io.StringIO()
     writer = csv.writer(text)
     extra = dict(extra or {})
     writer.writerow(list(LEVEL_COLUMNS) + (['robot'] if robot is not None else [])
                     + list(extra))
-    robot_cell = [robot] if robot is not None else []
+
+    def cell(value: Any) -> Any:
+        return escaped(value) if terminal and isinstance(value, str) else value
+
+    robot_cell = [cell(robot)] if robot is not None else []
     for i, (level, k, joint) in enumerate(rows):
-        more = [f'{v[i]:.6g}' if isinstance(v[i], float) else v[i] for v in extra.values()]
+        more = [f'{v[i]:.6g}' if isinstance(v[i], float) else cell(v[i])
+                for v in extra.values()]
         writer.writerow([f'{level.speed_rad_s:.6g}', f'{level.friction:.6g}',
                          f'{level.friction_std_error:.3g}', f'{level.tau_forward:.6g}',
                          f'{level.tau_backward:.6g}', level.n_forward, level.n_backward,
                          f'{level.position_min_rad:.6g}', f'{level.position_max_rad:.6g}',
-                         f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}', k, joint,
+                         f'{level.start_time_s:.6f}', f'{level.end_time_s:.6f}',
+                         cell(k), cell(joint),
                          *robot_cell, *more])
     return text.getvalue()

@@ -19,6 +19,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
+from robot_wear_monitor.errors import escaped
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, rejections_by_joint
@@ -117,7 +118,7 @@ class FrictionExperimentNode(Node):
             position=msg.position, velocity=msg.velocity, effort=msg.effort))
         if len(self.fleet.refused) > refused:  # said once per joint; the others go on
             for joint, error in list(self.fleet.refused.items())[refused:]:
-                self.get_logger().error(f'joint {joint!r} not monitored: {error}')
+                self.get_logger().error(f'joint {joint!r} not monitored: {escaped(error)}')
         self._log_new_rejections()
 
     def _guarded(self, call, *args, **kwargs):

@@ -16,7 +16,7 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import escaped, InputError
 from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
@@ -112,7 +112,7 @@ class WearEstimatorNode(Node):
         config = service.config
         self.get_logger().info(
             f'joint {joint!r}, parameter set {config.params.name!r}, alarm at '
-            f'w >= {config.alarm.threshold}; history {self.history.path}: '
+            f'w >= {config.alarm.threshold}; history {escaped(self.history.path)}: '
             f'{service.restored_estimates} estimates restored, alarm '
             f'{"LATCHED" if service.latch.active else "clear"}'
             + ('' if self.parameters['reset_service_enabled'] else
@@ -135,7 +135,7 @@ class WearEstimatorNode(Node):
             try:
                 event = service.follow_history_reset()
             except InputError as error:  # a lost history server: said once per period
-                self.get_logger().error(f'{joint!r}: {error}')
+                self.get_logger().error(f'{joint!r}: {escaped(error)}')
                 break
             if event is not None:
                 self.get_logger().warning(
@@ -167,7 +167,7 @@ class WearEstimatorNode(Node):
             if target is not None:
                 target.reject('internal_error', f'{type(error).__name__}: {error}')
             self.get_logger().error(f'friction_levels not processed: {type(error).__name__}: '
-                                    f'{error}')
+                                    f'{escaped(error)}')
             return
         if update is None:
             self.log_rejections()
@@ -178,17 +178,17 @@ class WearEstimatorNode(Node):
         # One call site per severity: rclpy refuses a call site that changes its severity.
         if update.alarm_raised:
             self.get_logger().error(f'WEAR ALARM raised by experiment {update.index} of '
-                                    f'{update.joint!r}: {update.status.message}')
+                                    f'{update.joint!r}: {escaped(update.status.message)}')
         else:
             self.get_logger().info(f'experiment {update.index} of {update.joint!r}: '
-                                   f'{update.status.message}')
+                                   f'{escaped(update.status.message)}')
 
     def on_reset_alarm(self, request, response, *, joint=None):
         """Clear the latched alarm of a joint after maintenance (std_srvs/Trigger)."""
         joint = joint if joint is not None else self.service.config.joint
         service = self.fleet.services[joint]
         response.success, response.message = service.reset_alarm(stamp_s=node_time_s(self))
-        self.get_logger().warning(f'reset_alarm of {joint!r}: {response.message}')
+        self.get_logger().warning(f'reset_alarm of {joint!r}: {escaped(response.message)}')
         self.publish_alarm(joint)
         self.publish_diagnostics()
         return response

@@ -14,18 +14,22 @@ For the segmenter, the iiwa's sensors are on the link side, so ``gear_ratio`` is
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-import gzip
+import io
 import math
 import os
 from pathlib import Path
 import re
 from typing import Any
+import warnings
 
 import numpy as np
 from numpy.typing import NDArray
-from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.errors import InputError, shorten
 from robot_wear_monitor.experiment.segmentation_settings import (raw_run_segmenter_config,
                                                                  SegmenterConfig)
+from robot_wear_monitor.input_files import (MAX_LEVEL_TABLE_BYTES, MAX_RAW_RUN_BYTES,
+                                            MAX_RAW_RUN_SAMPLES, MAX_TABLE_LINE_CHARS,
+                                            read_text_file, TextLines)
 
 FloatArray = NDArray[np.float64]
 
@@ -95,28 +99,69 @@ def read_raw_csv(path: str | os.PathLike, *,
     """
     Read a (gzip) CSV with a header row; return the named columns as float arrays (n,).
 
-    :raises RecordingError: the file is missing, not CSV, lacks a column or has no rows.
+    Read with bounds as it is read (:class:`~robot_wear_monitor.input_files.TextLines`: a
+    regular file, at most :data:`~robot_wear_monitor.input_files.MAX_RAW_RUN_BYTES` of text,
+    decompressed ones for ``.gz``, lines of at most ``MAX_TABLE_LINE_CHARS``, at most
+    ``MAX_RAW_RUN_SAMPLES`` rows); the rows are parsed a block of lines at a time, and an error
+    names the file and the line.
+
+    :raises RecordingError: the file is missing, not a regular file, past a limit, not UTF-8,
+        not CSV, lacks a column or has no rows.
 
     """
-    file = Path(path)
-    opener = gzip.open if file.suffix == '.gz' else open
-    try:
-        with opener(file, 'rt', encoding='utf-8') as stream:
-            header = stream.readline().strip().split(',')
-            missing = [c for c in columns if c not in header]
-            if missing:
-                raise RecordingError(f'{file}: missing column {missing[0]!r} '
-                                     f'(header: {",".join(header)})')
-            data = np.loadtxt(stream, delimiter=',', dtype=np.float64, ndmin=2,
-                              usecols=[header.index(c) for c in columns])
-    except OSError as error:
-        raise RecordingError(f'{file}: cannot read: {error}') from None
-    except ValueError as error:
-        raise RecordingError(f'{file}: not a numeric CSV: {str(error).splitlines()[0]}') \
-            from None
+    reader = TextLines(path, what='raw run', limit_bytes=MAX_RAW_RUN_BYTES,
+                       line_limit_chars=MAX_TABLE_LINE_CHARS, error=RecordingError)
+    name = reader.name
+    parts: list[FloatArray] = []
+    samples = 0
+    with reader:
+        header: list[str] | None = None
+        for first, block in reader.blocks():
+            if header is None:
+                head, _, block = block.partition('\n')
+                header = [h.strip() for h in head.split(',')]
+                missing = [c for c in columns if c not in header]
+                if missing:
+                    raise RecordingError(f'{name}: missing column {shorten(missing[0])!r} '
+                                         f'(header: {shorten(",".join(header))})')
+                usecols = [header.index(c) for c in columns]
+                first += 1
+            if block.isspace() or not block:
+                continue  # blank lines (the parser is slow on them)
+            parts.append(_parsed_rows(block, first, usecols, name))
+            samples += parts[-1].shape[0]
+            if samples > MAX_RAW_RUN_SAMPLES:
+                last = first + block.count('\n') - 1
+                raise RecordingError(f'{name}: line {last}: more than the limit of '
+                                     f'{MAX_RAW_RUN_SAMPLES} samples (rows) of a raw run')
+    data = np.concatenate(parts) if parts else np.empty((0, len(columns)))
     if data.shape[0] == 0:
-        raise RecordingError(f'{file}: no data rows')
+        raise RecordingError(f'{name}: no data rows')
     return tuple(np.ascontiguousarray(data[:, i]) for i in range(len(columns)))
+
+
+def _parsed_rows(block: str, first_line: int, usecols: list[int], name: str) -> FloatArray:
+    """Return the rows of ``block`` (lines from ``first_line``) as an (n, columns) array."""
+    def parse(text: str) -> FloatArray:
+        with warnings.catch_warnings():
+            warnings.simplefilter('ignore')  # "input contained no data": an empty block
+            return np.loadtxt(io.StringIO(text), delimiter=',', dtype=np.float64, ndmin=2,
+                              usecols=usecols)
+
+    try:
+        return parse(block)
+    except ValueError:
+        pass
+    for offset, line in enumerate(block.split('\n')):  # find the line and say why
+        try:
+            parse(line)
+        except ValueError as error:
+            reason = str(error).splitlines()[0] if str(error) else 'not numbers'
+            reason = re.sub(r' at row \d+, column (\d+)\.?$', r' (column \1)', reason)
+            reason = re.sub(r' at row \d+', '', reason)
+            raise RecordingError(f'{name}: line {first_line + offset}: not a numeric CSV row: '
+                                 f'{shorten(reason, 160)}') from None
+    raise RecordingError(f'{name}: line {first_line}: not a numeric CSV block')
 
 
 def read_kuka_run(path: str | os.PathLike) -> RawRun:
@@ -154,13 +199,16 @@ def read_author_table(path: str | os.PathLike) -> tuple[FloatArray, FloatArray]:
     """
     Read a processed table ``FRICTION_*_SET_JOINT*.dat``: (velocity [rad/s], torque [N m]).
 
-    Rows are returned sorted by |velocity|.
+    Rows are returned sorted by |velocity|.  Read with a bound (a regular file, at most
+    :data:`~robot_wear_monitor.input_files.MAX_LEVEL_TABLE_BYTES`).
     """
+    text = read_text_file(path, what='processed table', limit_bytes=MAX_LEVEL_TABLE_BYTES,
+                          error=RecordingError)
     try:
-        data = np.loadtxt(path, dtype=np.float64, ndmin=2)
-    except (OSError, ValueError) as error:
-        raise RecordingError(f'{path}: cannot read table: {str(error).splitlines()[0]}') \
-            from None
+        data = np.loadtxt(io.StringIO(text), dtype=np.float64, ndmin=2)
+    except ValueError as error:
+        raise RecordingError(f'{shorten(path, 200)}: cannot read table: '
+                             f'{shorten(str(error).splitlines()[0], 160)}') from None
     if data.shape[1] != 2 or data.shape[0] == 0:
         raise RecordingError(f'{path}: expected two columns, got shape {data.shape}')
     order = np.argsort(np.abs(data[:, 0]))
