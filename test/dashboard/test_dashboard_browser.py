@@ -483,3 +483,42 @@ def test_an_acknowledgement_is_edited_then_withdrawn(server, browser, history):
         ('acknowledgement_withdrawn', 'mia', 'Team C', 'WO-4712'),
         ('acknowledgement_edited', 'mia', 'Team C', 'WO-4712'),
         ('acknowledged', 'mia', 'Team B', 'WO-4711')]
+
+
+def test_an_admin_manages_users_from_the_page_and_a_maintainer_may_not(server, browser,
+                                                                          history):
+    with open_history(history) as stored:
+        stored.add_user(name='ada', role='admin', password='admin-pass-333')
+    browser.get(server + '/login')
+    browser.find_element(_by('ID'), 'username').send_keys('ada')
+    browser.find_element(_by('ID'), 'password').send_keys('admin-pass-333')
+    browser.find_element(_by('ID'), 'login-button').click()
+    _wait(browser, lambda d: d.find_elements(_by('ID'), 'fleet-rows'), 'the fleet page')
+    browser.find_element(_by('CSS_SELECTOR'), 'a[href="/users"]').click()
+    _wait(browser, lambda d: d.find_elements(_by('ID'), 'add-user-form'), 'the users page')
+    browser.find_element(_by('ID'), 'new-name').send_keys('neo')
+    from selenium.webdriver.support.select import Select
+    Select(browser.find_element(_by('ID'), 'new-role')).select_by_value('maintainer')
+    browser.find_element(_by('ID'), 'new-password').send_keys('neo-pass-4444')
+    browser.find_element(_by('ID'), 'add-user-button').click()
+    row = _wait(browser, lambda d: d.find_elements(_by('CSS_SELECTOR'),
+                                                   '#users tr[data-user="neo"]'), 'neo')[0]
+    assert row.find_element(_by('CSS_SELECTOR'), '.c-role').text == 'maintainer'
+    # the viewer vic made a maintainer from the page
+    vic = browser.find_element(_by('CSS_SELECTOR'), '#users tr[data-user="vic"]')
+    Select(vic.find_element(_by('CSS_SELECTOR'), 'select[name="role"]')).select_by_value(
+        'maintainer')
+    vic.find_element(_by('XPATH'), ".//button[text()='Change']").click()
+    _wait(browser, lambda d: d.find_element(
+        _by('CSS_SELECTOR'), '#users tr[data-user="vic"] .c-role').text == 'maintainer',
+        'the role change')
+    with open_history(history, init=False) as stored:
+        roles = {u.name: u.role for u in stored.users()}
+    assert roles['neo'] == 'maintainer' and roles['vic'] == 'maintainer'
+    # a maintainer sees no Users page and is refused it by the server
+    browser.delete_all_cookies()
+    _log_in(browser, server, 'mia')
+    assert not browser.find_elements(_by('CSS_SELECTOR'), 'a[href="/users"]')
+    browser.get(server + '/users')
+    assert 'only an admin may manage the users' in browser.page_source
+    assert not browser.find_elements(_by('ID'), 'add-user-form')
