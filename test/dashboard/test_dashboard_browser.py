@@ -485,8 +485,8 @@ def test_an_acknowledgement_is_edited_then_withdrawn(server, browser, history):
         ('acknowledged', 'mia', 'Team B', 'WO-4711')]
 
 
-def test_an_admin_manages_users_from_the_page_and_a_maintainer_may_not(server, browser,
-                                                                          history):
+def test_an_admin_manages_users_from_the_page_and_a_maintainer_may_not(
+        server, browser, history):
     with open_history(history) as stored:
         stored.add_user(name='ada', role='admin', password='admin-pass-333')
     browser.get(server + '/login')
