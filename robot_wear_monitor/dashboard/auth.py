@@ -142,6 +142,9 @@ def start_session(request: Request, *, history: Any, name: str) -> bool:
 
     Return False when the user is gone (removed between the password check and now).
     """
+    old = request.session.get('sid')
+    if isinstance(old, str):  # a new login ends the session this browser had
+        history.end_session(token=old)
     session = history.start_session(user=name, lifetime_s=SESSION_MAX_AGE_S)
     request.session.clear()
     if session is None:
@@ -301,37 +304,46 @@ class LoginBodyLimit:
         if scope['type'] != 'http' or scope['method'] != 'POST' or scope['path'] != '/login':
             await self.app(scope, receive, send)
             return
-        headers = {k.decode('latin-1').lower(): v.decode('latin-1')
-                   for k, v in scope.get('headers', [])}
-        kind = headers.get('content-type', '').split(';')[0].strip().lower()
-        if kind.startswith('multipart/'):
+        headers: dict[str, list[str]] = {}
+        for key, value in scope.get('headers', []):
+            headers.setdefault(key.decode('latin-1').lower(), []).append(value.decode('latin-1'))
+        kinds = headers.get('content-type', [])
+        lengths = headers.get('content-length', [])
+        if len(kinds) > 1 or len(lengths) > 1:  # which one a parser takes is anybody's guess
+            await PlainTextResponse('one Content-Type and one Content-Length, please',
+                                    status_code=400)(scope, receive, send)
+            return
+        if any(k.split(';')[0].strip().lower().startswith('multipart/') for k in kinds):
             await PlainTextResponse('the login form is sent URL-encoded, not multipart',
                                     status_code=415)(scope, receive, send)
             return
-        length = headers.get('content-length', '')
-        if length and (not length.isdigit() or int(length) > self.max_bytes):
-            await PlainTextResponse(f'a login body is at most {self.max_bytes} bytes',
-                                    status_code=413)(scope, receive, send)
+        too_large = PlainTextResponse(f'a login body is at most {self.max_bytes} bytes',
+                                      status_code=413)
+        if lengths and (not lengths[0].isdigit() or int(lengths[0]) > self.max_bytes):
+            await too_large(scope, receive, send)
             return
-        seen = 0
-
-        async def bounded_receive() -> Any:
-            nonlocal seen
+        # the body is taken whole here (at most max_bytes: a chunked one is cut off as it
+        # arrives) and handed to the app after
+        body = b''
+        more = True
+        while more:
             message = await receive()
-            if message['type'] == 'http.request':
-                seen += len(message.get('body', b''))
-                if seen > self.max_bytes:
-                    raise _BodyTooLarge()
-            return message
-        try:
-            await self.app(scope, bounded_receive, send)
-        except _BodyTooLarge:
-            await PlainTextResponse(f'a login body is at most {self.max_bytes} bytes',
-                                    status_code=413)(scope, receive, send)
+            if message['type'] != 'http.request':
+                return  # the client went away
+            body += message.get('body', b'')
+            if len(body) > self.max_bytes:
+                await too_large(scope, receive, send)
+                return
+            more = bool(message.get('more_body', False))
+        given = False
 
-
-class _BodyTooLarge(Exception):
-    """A chunked login body went past the limit."""
+        async def replay() -> Any:
+            nonlocal given
+            if not given:
+                given = True
+                return {'type': 'http.request', 'body': body, 'more_body': False}
+            return await receive()
+        await self.app(scope, replay, send)
 
 
 def safe_next(target: Any) -> str:

@@ -367,20 +367,30 @@ class WearHistory:
         with self._guard('cannot add the user'):
             return user_accounts.add_user(self._backend, name=name, role=role, password=password)
 
-    def remove_user(self, *, name: str) -> None:
-        """Remove the dashboard user ``name`` (:class:`HistoryError` when there is none)."""
+    def remove_user(self, *, name: str, keep_an_admin: bool = False) -> None:
+        """
+        Remove the dashboard user ``name`` (:class:`HistoryError` when there is none).
+
+        ``keep_an_admin``: refuse to remove the last admin (the Users page does).
+        """
         with self._guard('cannot remove the user'):
-            user_accounts.remove_user(self._backend, name=name)
+            user_accounts.remove_user(self._backend, name=name, keep_an_admin=keep_an_admin)
 
     def set_password(self, *, name: str, password: str) -> int:
         """Give user ``name`` a new password, ending their sessions; return how many ended."""
         with self._guard('cannot change the password'):
             return user_accounts.set_password(self._backend, name=name, password=password)
 
-    def set_role(self, *, name: str, role: str) -> user_accounts.User:
-        """Give user ``name`` the role ``role`` (it counts at once); return the user."""
+    def set_role(self, *, name: str, role: str,
+                 keep_an_admin: bool = False) -> user_accounts.User:
+        """
+        Give user ``name`` the role ``role`` (it counts at once); return the user.
+
+        ``keep_an_admin``: refuse a change that would leave no admin (the Users page does).
+        """
         with self._guard('cannot change the role'):
-            return user_accounts.set_role(self._backend, name=name, role=role)
+            return user_accounts.set_role(self._backend, name=name, role=role,
+                                          keep_an_admin=keep_an_admin)
 
     def add_token(self, *, user: str, label: str = '') -> tuple[api_tokens.ApiToken, str]:
         """Make an API token of ``user``; return it as listed and the token (shown once)."""
@@ -631,12 +641,20 @@ class WearHistory:
                 + where.replace('robot', 's.robot'), params)
             latches = self._backend.execute(
                 'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id, a.estimate_id, '
-                'a.user_name, a.note FROM alarm_events a JOIN ' + last_latch, params)
+                'a.user_name, a.note, a.wall_time_s FROM alarm_events a JOIN ' + last_latch,
+                params)
             acknowledgements = self._backend.execute(
                 'SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
                 'a.planned_maintenance, a.wear, t.trend_wear, a.event FROM alarm_events a JOIN '
                 '(SELECT MAX(id) AS last_id '
                 f'FROM alarm_events WHERE {alarms.ACKNOWLEDGEMENT_SQL} ' + event_where
+                + 'GROUP BY robot, joint) l ON a.id = l.last_id '
+                'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
+            # the acknowledgement itself (not an edit): the baseline of the re-escalation
+            baselines = self._backend.execute(
+                'SELECT a.robot, a.joint, a.id, a.wall_time_s, a.wear, t.trend_wear '
+                'FROM alarm_events a JOIN (SELECT MAX(id) AS last_id FROM alarm_events '
+                "WHERE event = 'acknowledged' " + event_where
                 + 'GROUP BY robot, joint) l ON a.id = l.last_id '
                 'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
             lives = self._backend.execute(
@@ -646,20 +664,31 @@ class WearHistory:
                 'GROUP BY a.robot, a.joint', params)
         last_event = {(r[0], r[1]): r[2:] for r in latches}
         last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
+        baseline = {(r[0], r[1]): r[2:] for r in baselines}
         life_experiments = {(r[0], r[1]): int(r[2]) for r in lives}
         rows = [_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
-                           life_experiments.get((r[0], r[1]), 0)) for r in latest]
+                           life_experiments.get((r[0], r[1]), 0),
+                           baseline.get((r[0], r[1]))) for r in latest]
         return sorted(rows, key=FleetRow.rank_key)
 
 
 def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[Sequence[Any]],
-               life_experiments: int) -> FleetRow:
-    """Return the :class:`FleetRow` of a joint's latest estimate, latch and acknowledgement."""
+               life_experiments: int, baseline: Optional[Sequence[Any]] = None) -> FleetRow:
+    """
+    Return the :class:`FleetRow` of a joint's latest estimate, latch and acknowledgement.
+
+    Who acknowledged, the planned date and the work order are the latest acknowledgement's or
+    edit's; the time, the wear and the trend at acknowledgement (the re-escalation's baseline)
+    are the acknowledgement's own (``baseline``): an edit does not move them.
+    """
     event = latch[0] if latch is not None else ''
     raised = event == 'raised'
     # the last acknowledgement (or its edit) after the raise, unless it was withdrawn
     acknowledged = raised and latch is not None and ack is not None and \
         int(ack[0]) > latch[2] and ack[6] != 'acknowledgement_withdrawn'
+    if acknowledged and ack is not None and baseline is not None and latch is not None and \
+            int(ack[0]) >= int(baseline[0]) > latch[2]:
+        ack = (ack[0], ack[1], baseline[1], ack[3], baseline[2], baseline[3], ack[6])
     row = FleetRow(
         robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
         last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),

@@ -121,14 +121,34 @@ def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) ->
     return User(name=name, role=role, created_wall_time_s=now)
 
 
-def remove_user(backend: HistoryBackend, *, name: str) -> None:
-    """Remove the user ``name``, their sessions and tokens; :class:`HistoryError` when none."""
+#: The advisory lock of a change that may leave no admin (any constant; 'wear' 'adm').
+_ADMINS_LOCK_KEY = 0x7765617261646D
+
+
+def _keep_an_admin(backend: HistoryBackend, name: str) -> None:
+    """Refuse (inside the caller's transaction) a change that left no admin."""
+    if not backend.execute('SELECT name FROM users WHERE role = ? LIMIT 1', (ADMIN_ROLE,)):
+        raise HistoryError(f'{backend.name}: {name!r} is the last admin: make another user an '
+                           'admin first')
+
+
+def remove_user(backend: HistoryBackend, *, name: str, keep_an_admin: bool = False) -> None:
+    """
+    Remove the user ``name``, their sessions and tokens; :class:`HistoryError` when none.
+
+    ``keep_an_admin``: refuse to remove the last admin (the Users page; checked in the same
+    transaction under a lock, so two admins removing each other at once leave one).
+    """
     name = check_user_name(name)
     with backend.transaction():
+        if keep_an_admin:
+            backend.lock_in_transaction(_ADMINS_LOCK_KEY)
         rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))
         if rows:  # the user's sessions (schema version 6) and tokens (7) end with them
             backend.execute('DELETE FROM sessions WHERE user_name = ?', (name,))
             backend.execute('DELETE FROM api_tokens WHERE user_name = ?', (name,))
+            if keep_an_admin:
+                _keep_an_admin(backend, name)
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
 
@@ -152,18 +172,24 @@ def set_password(backend: HistoryBackend, *, name: str, password: str) -> int:
     return len(ended)
 
 
-def set_role(backend: HistoryBackend, *, name: str, role: str) -> User:
+def set_role(backend: HistoryBackend, *, name: str, role: str,
+             keep_an_admin: bool = False) -> User:
     """
     Give the user ``name`` the role ``role``; return the user.
 
     The role counts at once, for their live sessions and tokens too (each request reads it).
-    Raises :class:`HistoryError` when there is no such user or the role is unknown.
+    Raises :class:`HistoryError` when there is no such user or the role is unknown, and with
+    ``keep_an_admin`` when the change would leave no admin (as :func:`remove_user`).
     """
     name = check_user_name(name)
     role = check_role(role)
     with backend.transaction():
+        if keep_an_admin:
+            backend.lock_in_transaction(_ADMINS_LOCK_KEY)
         rows = backend.execute('UPDATE users SET role = ? WHERE name = ? '
                                'RETURNING name, role, created_wall_time_s', (role, name))
+        if rows and keep_an_admin:
+            _keep_an_admin(backend, name)
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
     return User(name=rows[0][0], role=rows[0][1], created_wall_time_s=float(rows[0][2]))

@@ -149,3 +149,60 @@ def test_login_refuses_multipart_and_large_bodies_before_reading_them(history):
     assert asyncio.run(refused([(b'content-type', b'application/x-www-form-urlencoded'),
                                 (b'content-length',
                                  str(MAX_LOGIN_BODY_BYTES + 1).encode())])) == 413
+
+
+def test_a_new_login_in_the_same_browser_ends_the_session_it_had(history):
+    app = create_app(DashboardSettings(history=history))
+    with fastapi_testclient.TestClient(app) as browser, \
+            fastapi_testclient.TestClient(app) as thief:
+        assert login(browser, 'vic').status_code == 303
+        thief.cookies.update(browser.cookies)  # vic's session, copied
+        assert thief.get('/api/fleet').status_code == 200
+        assert login(browser, 'mia').status_code == 303  # another user, same browser
+        assert browser.get('/api/me').json()['name'] == 'mia'
+        assert thief.get('/api/fleet').status_code == 401
+
+
+def test_a_chunked_or_ambiguous_login_body_is_refused_before_the_app_reads_it(history):
+    with _client(history) as client:
+        def chunks():
+            for _ in range(4):
+                yield b'username=mia&password=' + b'x' * 20_000
+        chunked = client.post('/login', content=chunks(),
+                              headers={'content-type': 'application/x-www-form-urlencoded'})
+        assert chunked.status_code == 413
+
+    async def answer(headers, body=b''):
+        sent = []
+
+        async def receive():
+            return {'type': 'http.request', 'body': body, 'more_body': False}
+
+        async def send(message):
+            sent.append(message)
+
+        async def app(scope, receive_, send_):
+            raise AssertionError('the request reached the app')
+        scope = {'type': 'http', 'method': 'POST', 'path': '/login', 'headers': headers}
+        await LoginBodyLimit(app)(scope, receive, send)
+        return sent[0]['status']
+    # two Content-Types: the guard cannot know which one a parser takes
+    assert asyncio.run(answer([(b'content-type', b'multipart/form-data; boundary=B'),
+                               (b'content-type', b'application/x-www-form-urlencoded')])) == 400
+    assert asyncio.run(answer([(b'content-type', b'application/x-www-form-urlencoded'),
+                               (b'content-length', b'10'), (b'content-length', b'99')])) == 400
+
+
+def test_the_last_admin_cannot_be_removed_or_demoted_from_the_page(history):
+    from robot_wear_monitor.history import HistoryError
+    with WearHistory(history) as stored:
+        stored.add_user(name='ada', role='admin', password='admin-pass-333')
+        stored.add_user(name='bea', role='admin', password='admin-pass-444')
+        stored.set_role(name='bea', role='viewer', keep_an_admin=True)  # ada is left
+        with pytest.raises(HistoryError, match='last admin'):
+            stored.set_role(name='ada', role='viewer', keep_an_admin=True)
+        with pytest.raises(HistoryError, match='last admin'):
+            stored.remove_user(name='ada', keep_an_admin=True)
+        assert {u.name: u.role for u in stored.users()}['ada'] == 'admin'
+        stored.remove_user(name='ada')  # the command line may (it needs no admin)
+        assert 'ada' not in {u.name for u in stored.users()}

@@ -190,6 +190,16 @@ def test_an_acknowledged_alarm_is_reescalated_when_its_wear_rises_the_margin(
     assert f'margin {used:g}' in row['reescalated_reason']
     assert 'trend w rose' in webhook.bodies[0]['alerts'][0]['annotations']['summary']
     assert _notify(capsys, path, config) == []  # once
+    # an edit of the acknowledgement (a work order added) moves neither the baseline nor the
+    # event: still re-escalated, and not notified again
+    with open_history(path) as history:
+        history.edit_acknowledgement(robot='press_line', joint='joint_2', user='mia',
+                                     owner='ben', comment='gear box ordered',
+                                     work_order='WO-17')
+    [row] = [r for r in _fleet_json(capsys, path, *option)
+             if (r['robot'], r['joint']) == ('press_line', 'joint_2')]
+    assert (row['acknowledged'], row['reescalated']) == (True, True)
+    assert _notify(capsys, path, config) == []
 
 
 def test_an_acknowledged_alarm_is_reescalated_when_its_planned_date_passes(
