@@ -173,7 +173,7 @@ def print_table(rows: list[dict]) -> None:
 
 def main() -> None:
     """Run the benchmark and print the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--runs', type=int, default=100)
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--sweep', action='store_true', help='several alarm probabilities')

@@ -74,7 +74,7 @@ def power(seeds: int) -> None:
 
 def main() -> None:
     """Run the timing, and the FDR/power measurement with ``--power``."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--power', action='store_true', help='also measure FDR and power')
     parser.add_argument('--seeds', type=int, default=20, help='tables per cell (default 20)')
     args = parser.parse_args()

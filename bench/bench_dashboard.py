@@ -150,20 +150,30 @@ def report(kind: str, figures: dict[str, float], fill_s: float, args: argparse.N
               + verdict)
 
 
-def main() -> int:
-    """Run the bench on SQLite (and PostgreSQL)."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--joints', type=int, default=1000)
-    parser.add_argument('--experiments', type=int, default=100)
-    parser.add_argument('--robots', type=int, default=100)
-    parser.add_argument('--repeats', type=int, default=7)
+def run_on_sqlite_and_postgresql(*, description: str, name: str, defaults: dict,
+                                 fill, measure, report) -> int:
+    """
+    Parse the bench's options, fill a history and measure it on SQLite, then on PostgreSQL.
+
+    :param description: the command line's description.
+    :param name: the history's file and database name.
+    :param defaults: the defaults of ``--joints``, ``--experiments``, ``--robots``,
+        ``--repeats``.
+    :param fill: ``fill(location, joints=, experiments=, robots=)`` -> seconds.
+    :param measure: ``measure(location, repeats=)`` -> results.
+    :param report: ``report(store, results, fill_s, args)`` prints them.
+    :return: the exit code.
+    """
+    parser = argparse.ArgumentParser(description=description)
+    for option in ('joints', 'experiments', 'robots', 'repeats'):
+        parser.add_argument(f'--{option}', type=int, default=defaults[option])
     parser.add_argument('--no-postgresql', action='store_true')
     parser.add_argument('--keep', type=Path, help='keep the SQLite history here')
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         folder = args.keep or Path(scratch)
         folder.mkdir(parents=True, exist_ok=True)
-        location = str(folder / 'bench_dashboard.sqlite3')
+        location = str(folder / f'{name}.sqlite3')
         if Path(location).exists():
             fill_s = 0.0  # a kept history: measured again as it is
         else:
@@ -181,13 +191,22 @@ def main() -> int:
     server = PostgresServer(binaries)
     try:
         server.start()
-        url = server.create_database('dashboard')
+        url = server.create_database(name)
         fill_s = fill(url, joints=args.joints, experiments=args.experiments,
                       robots=args.robots)
         report('PostgreSQL', measure(url, repeats=args.repeats), fill_s, args)
     finally:
         server.stop()
     return 0
+
+
+def main() -> int:
+    """Run the bench on SQLite (and PostgreSQL)."""
+    return run_on_sqlite_and_postgresql(
+        description=__doc__.strip().splitlines()[0], name='dashboard', fill=fill,
+        measure=measure, report=report,
+        defaults={'joints': 1000, 'experiments': 100, 'robots': 100,
+                  'repeats': 7})
 
 
 if __name__ == '__main__':

@@ -132,7 +132,7 @@ def postgresql_rate(*, writers: int, rows: int) -> float | None:
 
 def main() -> None:
     """Run the benchmark and print its figures."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--robots', type=int, default=4)
     parser.add_argument('--bags-per-robot', type=int, default=4)
     parser.add_argument('--experiments', type=int, default=20)

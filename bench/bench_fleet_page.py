@@ -20,10 +20,8 @@ page < 300 ms.
 
 import argparse
 import os
-from pathlib import Path
 import statistics
 import sys
-import tempfile
 import time
 
 from bench_dashboard import _new_experiment, fill, PASSWORD
@@ -97,42 +95,12 @@ def report(kind: str, figures: dict[str, dict[str, float]], fill_s: float,
 
 def main() -> int:
     """Run the bench on SQLite (and PostgreSQL)."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
-    parser.add_argument('--joints', type=int, default=6000)
-    parser.add_argument('--experiments', type=int, default=5)
-    parser.add_argument('--robots', type=int, default=100)
-    parser.add_argument('--repeats', type=int, default=21)
-    parser.add_argument('--no-postgresql', action='store_true')
-    parser.add_argument('--keep', type=Path, help='keep the SQLite history here')
-    args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as scratch:
-        folder = args.keep or Path(scratch)
-        folder.mkdir(parents=True, exist_ok=True)
-        location = str(folder / 'bench_fleet_page.sqlite3')
-        if Path(location).exists():
-            fill_s = 0.0  # a kept history: measured again as it is
-        else:
-            fill_s = fill(location, joints=args.joints, experiments=args.experiments,
-                          robots=args.robots)
-        report('SQLite', measure(location, repeats=args.repeats), fill_s, args)
-    if args.no_postgresql:
-        return 0
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
-    from wear_testing.postgres_server import find_postgresql_binaries, PostgresServer
-    binaries = find_postgresql_binaries()
-    if binaries is None:
-        print('\nPostgreSQL: skipped (no initdb/pg_ctl; apt-get install postgresql)')
-        return 0
-    server = PostgresServer(binaries)
-    try:
-        server.start()
-        url = server.create_database('fleet_page')
-        fill_s = fill(url, joints=args.joints, experiments=args.experiments,
-                      robots=args.robots)
-        report('PostgreSQL', measure(url, repeats=args.repeats), fill_s, args)
-    finally:
-        server.stop()
-    return 0
+    from bench_dashboard import run_on_sqlite_and_postgresql
+    return run_on_sqlite_and_postgresql(
+        description=__doc__.strip().splitlines()[0], name='fleet_page', fill=fill,
+        measure=measure, report=report,
+        defaults={'joints': 6000, 'experiments': 5, 'robots': 100,
+                  'repeats': 21})
 
 
 if __name__ == '__main__':

@@ -1067,7 +1067,7 @@ def _variants(text):
 
 def main(argv=None):
     """Parse the arguments; run a child role or the whole benchmark."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--rates', type=_rates, default=[250.0, 1000.0],
                         help='publishing rates [Hz], comma separated (default 250,1000)')
     parser.add_argument('--duration', type=float, default=10.0,

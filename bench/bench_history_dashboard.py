@@ -158,7 +158,7 @@ def measure(location: str, *, name: str, args: argparse.Namespace) -> None:
 
 def main() -> None:
     """Run the benchmark and print its figures."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--joints', type=int, default=1000)
     parser.add_argument('--experiments', type=int, default=100_000)
     parser.add_argument('--long-joint', type=int, default=5000)

@@ -149,7 +149,7 @@ def _measure(bag: Path, folder: Path, joint: list[str], repeat: int, read_repeat
 
 def main(argv=None):
     """Run the benchmark and print one line per measurement and the verdict."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--experiments', type=int, default=60, help='the short bag')
     parser.add_argument('--long', type=int, default=600, help='the long bag (0: skip)')
     parser.add_argument('--mid', type=int, default=150,

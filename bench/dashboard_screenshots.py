@@ -123,7 +123,7 @@ def take_screenshots(history: Path, out: Path) -> list[Path]:
 
 def main() -> int:
     """Make the history and the screenshots."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', type=Path, default=REPO / 'docs' / 'figures')
     parser.add_argument('--keep', type=Path, help='keep the bags and the history here')
     args = parser.parse_args()

@@ -177,7 +177,7 @@ def placed_runs(bag: str | os.PathLike) -> list[PlacedRun]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command line: convert the raw runs and print what was written."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('out', help='bag folder to create')
     parser.add_argument('--kuka-dir', default=str(DEFAULT_KUKA_DIR))
     parser.add_argument('--storage', choices=sorted(STORAGES), default='mcap')

@@ -130,25 +130,32 @@ def test_login_refuses_multipart_and_large_bodies_before_reading_them(history):
         assert login(client, 'mia').status_code == 303  # an ordinary login still works
 
     # the ASGI guard answers without calling receive (nothing of the body is read)
-    async def refused(headers):
-        sent = []
+    assert _guard_status([(b'content-type', b'multipart/form-data; boundary=x'),
+                          (b'content-length', b'400000000')]) == 415
+    assert _guard_status([(b'content-type', b'application/x-www-form-urlencoded'),
+                          (b'content-length', str(MAX_LOGIN_BODY_BYTES + 1).encode())]) == 413
 
-        async def receive():
-            raise AssertionError('the body was read')
 
-        async def send(message):
-            sent.append(message)
+def _guard_status(headers, body=None):
+    """
+    Return the status :class:`LoginBodyLimit` answers a ``/login`` POST with, app untouched.
 
-        async def app(scope, receive_, send_):
-            raise AssertionError('the request reached the app')
-        scope = {'type': 'http', 'method': 'POST', 'path': '/login', 'headers': headers}
-        await LoginBodyLimit(app)(scope, receive, send)
-        return sent[0]['status']
-    assert asyncio.run(refused([(b'content-type', b'multipart/form-data; boundary=x'),
-                                (b'content-length', b'400000000')])) == 415
-    assert asyncio.run(refused([(b'content-type', b'application/x-www-form-urlencoded'),
-                                (b'content-length',
-                                 str(MAX_LOGIN_BODY_BYTES + 1).encode())])) == 413
+    ``body`` None: the body must not be read at all.
+    """
+    sent = []
+
+    async def receive():
+        assert body is not None, 'the body was read'
+        return {'type': 'http.request', 'body': body, 'more_body': False}
+
+    async def send(message):
+        sent.append(message)
+
+    async def app(scope, receive_, send_):
+        raise AssertionError('the request reached the app')
+    scope = {'type': 'http', 'method': 'POST', 'path': '/login', 'headers': headers}
+    asyncio.run(LoginBodyLimit(app)(scope, receive, send))
+    return sent[0]['status']
 
 
 def test_a_new_login_in_the_same_browser_ends_the_session_it_had(history):
@@ -172,25 +179,11 @@ def test_a_chunked_or_ambiguous_login_body_is_refused_before_the_app_reads_it(hi
                               headers={'content-type': 'application/x-www-form-urlencoded'})
         assert chunked.status_code == 413
 
-    async def answer(headers, body=b''):
-        sent = []
-
-        async def receive():
-            return {'type': 'http.request', 'body': body, 'more_body': False}
-
-        async def send(message):
-            sent.append(message)
-
-        async def app(scope, receive_, send_):
-            raise AssertionError('the request reached the app')
-        scope = {'type': 'http', 'method': 'POST', 'path': '/login', 'headers': headers}
-        await LoginBodyLimit(app)(scope, receive, send)
-        return sent[0]['status']
     # two Content-Types: the guard cannot know which one a parser takes
-    assert asyncio.run(answer([(b'content-type', b'multipart/form-data; boundary=B'),
-                               (b'content-type', b'application/x-www-form-urlencoded')])) == 400
-    assert asyncio.run(answer([(b'content-type', b'application/x-www-form-urlencoded'),
-                               (b'content-length', b'10'), (b'content-length', b'99')])) == 400
+    assert _guard_status([(b'content-type', b'multipart/form-data; boundary=B'),
+                          (b'content-type', b'application/x-www-form-urlencoded')]) == 400
+    assert _guard_status([(b'content-type', b'application/x-www-form-urlencoded'),
+                          (b'content-length', b'10'), (b'content-length', b'99')]) == 400
 
 
 def test_the_last_admin_cannot_be_removed_or_demoted_from_the_page(history):
