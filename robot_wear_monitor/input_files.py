@@ -114,14 +114,20 @@ def csv_rows(text: str, *, source: str,
     :raises InputError: (``error``) a field over the csv module's limit (128 KiB), a NUL
         byte, or a quote the csv dialect cannot read.
     """
-    reader = csv.reader(io.StringIO(text, newline=''))
+    yield from _numbered_rows(csv.reader(io.StringIO(text, newline='')),
+                              name=shorten(source, 200), error=error)
+
+
+def _numbered_rows(reader: Any, *, name: str,
+                   error: type[InputError]) -> Iterator[tuple[int, list[str]]]:
+    """Yield (line number, row) of a csv reader; its errors as ``error`` naming the line."""
     while True:
         try:
             row = next(reader)
         except StopIteration:
             return
         except csv.Error as problem:
-            raise error(f'{shorten(source, 200)}: line {reader.line_num}: {problem}') from None
+            raise error(f'{name}: line {reader.line_num}: {problem}') from None
         yield reader.line_num, row
 
 
@@ -305,16 +311,8 @@ def csv_file_rows(path: str | os.PathLike, *, what: str, limit_bytes: int,
     """
     lines = TextLines(path, what=what, limit_bytes=limit_bytes,
                       line_limit_chars=line_limit_chars, error=error)
-    reader = csv.reader(lines)
     try:
-        while True:
-            try:
-                row = next(reader)
-            except StopIteration:
-                return
-            except csv.Error as problem:
-                raise error(f'{lines.name}: line {reader.line_num}: {problem}') from None
-            yield reader.line_num, row
+        yield from _numbered_rows(csv.reader(lines), name=lines.name, error=error)
     finally:
         lines.close()
 

@@ -165,6 +165,14 @@ def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
                            f'latched alarm to {what}')
 
 
+def _acknowledgement_fields(user: str, owner: str, comment: str, planned_maintenance: str,
+                            work_order: str) -> tuple[str, str, str, str, str]:
+    """Return (user, owner, comment, planned date, work order) checked, or HistoryError."""
+    return (_person('user', user), _person('owner', owner),
+            _note('comment', comment, required=False),
+            check_planned_maintenance(planned_maintenance), check_work_order(work_order))
+
+
 def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, owner: str,
                       comment: str, planned_maintenance: str = '', work_order: str = ''
                       ) -> AlarmEvent:
@@ -174,11 +182,8 @@ def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: 
     Raises :class:`HistoryError` when the joint has no latched alarm, when it is acknowledged
     already, or on bad text (see :meth:`WearHistory.acknowledge_alarm`).
     """
-    user = _person('user', user)
-    owner = _person('owner', owner)
-    comment = _note('comment', comment, required=False)
-    planned = check_planned_maintenance(planned_maintenance)
-    order = check_work_order(work_order)
+    user, owner, comment, planned, order = _acknowledgement_fields(
+        user, owner, comment, planned_maintenance, work_order)
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
         latch, acknowledged = latch_events(backend, robot=robot, joint=joint)
@@ -207,11 +212,8 @@ def edit_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str, use
     :class:`HistoryError` when the alarm is not acknowledged, when the edit changes nothing,
     or on bad text.
     """
-    user = _person('user', user)
-    owner = _person('owner', owner)
-    comment = _note('comment', comment, required=False)
-    planned = check_planned_maintenance(planned_maintenance)
-    order = check_work_order(work_order)
+    user, owner, comment, planned, order = _acknowledgement_fields(
+        user, owner, comment, planned_maintenance, work_order)
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
         current = _current_acknowledgement(backend, robot, joint, 'edit')
