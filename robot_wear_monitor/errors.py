@@ -50,9 +50,7 @@ def no_such_path_text(path: str | os.PathLike, *, what: str) -> str:
     given = str(path)
     if given.lower().endswith(('.csv', '.csv.gz')):
         what = 'file'
-    shown = given if len(given) <= 200 else given[:199] + '\u2026'
-    shown = ''.join(c if c.isprintable() else repr(c)[1:-1] for c in shown)
-    text = f'{shown}: no such {what}'
+    text = f'{shorten(given, 200)}: no such {what}'
     parts = Path(given).parts
     if 'shared' in parts:
         folder = Path(*parts[:parts.index('shared') + 1])

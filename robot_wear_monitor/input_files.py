@@ -80,30 +80,9 @@ def read_text_file(path: str | os.PathLike, *, what: str, limit_bytes: int,
     :raises InputError: (``error``) no such file, not readable, not a regular file (a device,
         a pipe, a folder), over ``limit_bytes``, or not UTF-8 (naming the line).
     """
-    name = shorten(os.fspath(path), 200)
-    fd = _open_regular(path, name, what, error)
-    try:
-        chunks = []
-        total = 0
-        while True:
-            chunk = os.read(fd, min(_CHUNK_BYTES, limit_bytes + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > limit_bytes:
-                raise error(f'{name}: the {what} holds more than the limit of '
-                            f'{limit_bytes} bytes')
-    except OSError as problem:
-        raise error(f'{name}: cannot read {what}: {problem.strerror}') from None
-    finally:
-        os.close(fd)
-    data = b''.join(chunks)
-    try:
-        return data.decode('utf-8')
-    except UnicodeDecodeError as problem:
-        line = data[:problem.start].count(b'\n') + 1
-        raise error(f'{name}: line {line}: the {what} is not UTF-8 text') from None
+    with TextLines(path, what=what, limit_bytes=limit_bytes, error=error,
+                   gzip=False) as lines:
+        return ''.join(lines.text())
 
 
 def csv_rows(text: str, *, source: str,
@@ -145,20 +124,21 @@ class TextLines:
     :param limit_bytes: the most bytes of text (decompressed ones for ``.gz``) it may hold.
     :param line_limit_chars: the most characters of a line (default 1 MiB).
     :param error: the :class:`InputError` type raised.
+    :param gzip: read the file as gzip (default: when its name ends in ``.gz``).
     :raises InputError: (``error``, while reading) no such file, not a regular file, past a
         limit, not gzip data, or not UTF-8 (naming the line).
     """
 
     def __init__(self, path: str | os.PathLike, *, what: str, limit_bytes: int,
                  line_limit_chars: int = MAX_LINE_CHARS,
-                 error: type[InputError] = InputError) -> None:
+                 error: type[InputError] = InputError, gzip: bool | None = None) -> None:
         self.name = shorten(os.fspath(path), 200)
         self.what = what
         self.limit_bytes = int(limit_bytes)
         self.line_limit_chars = line_limit_chars
         self.error = error
         self.line_number = 0
-        self.gzip = os.fspath(path).endswith('.gz')
+        self.gzip = os.fspath(path).endswith('.gz') if gzip is None else gzip
         self._fd: int | None = _open_regular(path, self.name, what, error)
 
     def __enter__(self) -> 'TextLines':
@@ -225,8 +205,8 @@ class TextLines:
         if fed:
             raise self.error(f'{self.name}: the {self.what} is cut (the gzip data ends early)')
 
-    def _text(self) -> Iterator[str]:
-        """Yield the decoded text, bounded by ``limit_bytes`` (decompressed)."""
+    def text(self) -> Iterator[str]:
+        """Yield the decoded text in pieces, bounded by ``limit_bytes`` (decompressed)."""
         chunks = self._raw_chunks()
         source = self._inflated(chunks) if self.gzip else chunks
         decoder = codecs.getincrementaldecoder('utf-8')()
@@ -266,7 +246,7 @@ class TextLines:
         lines_read = 0
         tail = ''
         try:
-            for text in self._text():
+            for text in self.text():
                 text = tail + text if tail else text
                 cut = text.rfind('\n') + 1
                 block, tail = text[:cut], text[cut:]

@@ -104,21 +104,22 @@ LimiterDep = Annotated[LoginLimiter, Depends(get_limiter)]
 CurrentUser = Annotated[SessionUser, Depends(get_current_user)]
 
 
-def _stored_role(user: SessionUser, history: WearHistory) -> str:
-    return {u.name: u.role for u in history.users()}.get(user['name'], '')
+def get_current_maintainer(user: CurrentUser) -> SessionUser:
+    """
+    Return the user when they are a maintainer or admin; else 403.
 
-
-def get_current_maintainer(user: CurrentUser, history: HistoryDep) -> SessionUser:
-    """Return the user when the history names them a maintainer or admin still; else 403."""
-    if _stored_role(user, history) not in ACTING_ROLES:
+    The role is the history's at this request: ``RequireSession`` read it with the session
+    (or the API token), so a changed role or a removed user counts at once.
+    """
+    if user['role'] not in ACTING_ROLES:
         raise HTTPException(status_code=403, detail='only a maintainer or an admin may '
                                                     'acknowledge or reset an alarm')
     return user
 
 
-def get_current_admin(user: CurrentUser, history: HistoryDep) -> SessionUser:
-    """Return the user when the history names them an admin still; else 403."""
-    if _stored_role(user, history) != ADMIN_ROLE:
+def get_current_admin(user: CurrentUser) -> SessionUser:
+    """Return the user when they are an admin (the history's role at this request); else 403."""
+    if user['role'] != ADMIN_ROLE:
         raise HTTPException(status_code=403, detail='only an admin may manage the users')
     return user
 

@@ -31,8 +31,13 @@ class Session:
     expires_wall_time_s: float
 
 
-def _hash(token: str) -> str:
-    return hashlib.sha256(token.encode('utf-8', 'replace')).hexdigest()
+def secret_digest(secret: str) -> str:
+    """
+    Return the SHA-256 (hex) a random secret is kept as: a session id, an API token.
+
+    Secrets of 256 random bits need no slow hash; the history never holds the secret itself.
+    """
+    return hashlib.sha256(secret.encode('utf-8', 'replace')).hexdigest()
 
 
 def start_session(backend: HistoryBackend, *, user: str, lifetime_s: float,
@@ -56,7 +61,7 @@ def start_session(backend: HistoryBackend, *, user: str, lifetime_s: float,
             return None
         backend.execute('INSERT INTO sessions (id_hash, user_name, csrf, created_wall_time_s, '
                         'expires_wall_time_s) VALUES (?, ?, ?, ?, ?)',
-                        (_hash(token), user, csrf, now, now + float(lifetime_s)))
+                        (secret_digest(token), user, csrf, now, now + float(lifetime_s)))
     return Session(token=token, user=user, role=str(rows[0][0]), csrf=csrf,
                    expires_wall_time_s=now + float(lifetime_s))
 
@@ -70,7 +75,7 @@ def find_session(backend: HistoryBackend, *, token: str,
     rows = backend.execute(
         'SELECT s.user_name, u.role, s.csrf, s.expires_wall_time_s FROM sessions s '
         'JOIN users u ON u.name = s.user_name WHERE s.id_hash = ? AND '
-        's.expires_wall_time_s > ?', (_hash(token), now))
+        's.expires_wall_time_s > ?', (secret_digest(token), now))
     if not rows:
         return None
     user, role, csrf, expires = rows[0]
@@ -82,12 +87,5 @@ def end_session(backend: HistoryBackend, *, token: str) -> bool:
     """End the session of ``token``; return whether there was one."""
     with backend.transaction():
         rows = backend.execute('DELETE FROM sessions WHERE id_hash = ? RETURNING user_name',
-                               (_hash(str(token)),))
+                               (secret_digest(str(token)),))
     return bool(rows)
-
-
-def end_user_sessions(backend: HistoryBackend, *, user: str) -> int:
-    """End every session of ``user`` (inside the caller's transaction); return how many."""
-    rows = backend.execute('DELETE FROM sessions WHERE user_name = ? RETURNING id_hash',
-                           (user,))
-    return len(rows)

@@ -13,13 +13,13 @@ tokens (``users.remove_user``); a token is only honoured while its user exists.
 from __future__ import annotations
 
 from dataclasses import dataclass
-import hashlib
 import secrets
 import time
 from typing import Any, Optional
 
 from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
+from robot_wear_monitor.history.sessions import secret_digest
 from robot_wear_monitor.history.users import check_user_name
 
 #: The start of every token (so that a leaked one is recognisable, e.g. by secret scanners).
@@ -57,10 +57,6 @@ class TokenUser:
     token_id: int
 
 
-def _hash(token: str) -> str:
-    return hashlib.sha256(token.encode('utf-8', 'replace')).hexdigest()
-
-
 def _label(value: object) -> str:
     text = '' if value is None else str(value).strip()
     if len(text) > MAX_LABEL_CHARS or not text.isprintable():
@@ -85,7 +81,7 @@ def add_token(backend: HistoryBackend, *, user: str, label: str = '',
             raise HistoryError(f'{backend.name}: no user {user!r}')
         rows = backend.execute('INSERT INTO api_tokens (user_name, token_hash, label, '
                                'created_wall_time_s) VALUES (?, ?, ?, ?) RETURNING id',
-                               (user, _hash(token), label, now))
+                               (user, secret_digest(token), label, now))
     return ApiToken(id=int(rows[0][0]), user=user, label=label, created_wall_time_s=now,
                     last_used_wall_time_s=None), token
 
@@ -134,7 +130,7 @@ def find_token(backend: HistoryBackend, *, token: str,
         return None
     rows = backend.execute(
         'SELECT t.id, t.user_name, u.role, t.last_used_wall_time_s FROM api_tokens t '
-        'JOIN users u ON u.name = t.user_name WHERE t.token_hash = ?', (_hash(token),))
+        'JOIN users u ON u.name = t.user_name WHERE t.token_hash = ?', (secret_digest(token),))
     if not rows:
         return None
     token_id, user, role, last_used = rows[0]

@@ -145,7 +145,7 @@ def remove_user(backend: HistoryBackend, *, name: str, keep_an_admin: bool = Fal
             backend.lock_in_transaction(_ADMINS_LOCK_KEY)
         rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))
         if rows:  # the user's sessions (schema version 6) and tokens (7) end with them
-            backend.execute('DELETE FROM sessions WHERE user_name = ?', (name,))
+            _end_sessions(backend, name)
             backend.execute('DELETE FROM api_tokens WHERE user_name = ?', (name,))
             if keep_an_admin:
                 _keep_an_admin(backend, name)
@@ -165,11 +165,16 @@ def set_password(backend: HistoryBackend, *, name: str, password: str) -> int:
     with backend.transaction():
         rows = backend.execute('UPDATE users SET password_hash = ? WHERE name = ? '
                                'RETURNING name', (password_hash, name))
-        ended = backend.execute('DELETE FROM sessions WHERE user_name = ? RETURNING id_hash',
-                                (name,)) if rows else []
+        ended = _end_sessions(backend, name) if rows else 0
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
-    return len(ended)
+    return ended
+
+
+def _end_sessions(backend: HistoryBackend, name: str) -> int:
+    """End every session of user ``name`` (inside the caller's transaction); return how many."""
+    return len(backend.execute('DELETE FROM sessions WHERE user_name = ? RETURNING id_hash',
+                               (name,)))
 
 
 def set_role(backend: HistoryBackend, *, name: str, role: str,

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import math
 from typing import Mapping, Optional, TYPE_CHECKING
 
+from robot_wear_monitor.errors import shorten
 from robot_wear_monitor.estimation.report import meaningful_std  # noqa: F401 (re-export)
 from robot_wear_monitor.json_values import finite_or_none
 
@@ -62,8 +63,7 @@ def clean_text(text: str, *, limit: int = 200) -> str:
     Names come from recordings and histories other people wrote: a newline, an escape
     sequence or a carriage return in a joint's name must not forge or hide a line of output.
     """
-    cleaned = ''.join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
-    return cleaned if len(cleaned) <= limit else cleaned[:limit - 1] + '\u2026'
+    return shorten(text, limit)
 
 
 def fmt_number(value: float, digits: int = 4, *, missing: str = UNKNOWN) -> str:
