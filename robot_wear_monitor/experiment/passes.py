@@ -210,16 +210,113 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
                 level_rad_s=level)
 
 
-def _torque_at(position: FloatArray, torque: FloatArray, centre: float) -> tuple[float, float]:
+def _analyse_moves(t: FloatArray, q: FloatArray, speed: FloatArray, torque: FloatArray,
+                   sign: NDArray[np.int8], starts: NDArray[np.intp], stops: NDArray[np.intp],
+                   config: SegmenterConfig) -> list[Pass | str]:
+    """
+    Analyse the moves [starts[k], stops[k]) of one chunk at once, each as :func:`_analyse_move`.
+
+    ``t`` (accepted sample times [s], strictly increasing), ``q`` [rad], ``speed`` (signed
+    motor speed [rad/s]) and ``torque``: shape (n,); ``sign``: the move direction of each
+    sample.  The same operations on the same values as the per-move analysis (so the same
+    levels bit for bit), with numpy over all moves where an operation is elementwise and per
+    move only for the sort and the densest-speed search.
+
+    :return: per move that is not standstill jitter, in time order, its :class:`Pass` or the
+        reason it is unusable (``pass_too_short``, ``pass_no_common_window``).
+
+    """
+    length = stops - starts
+    keep = (sign[starts] != 0) & (length >= 3)
+    keep[keep] = ~(t[stops[keep] - 1] - t[starts[keep]] < config.min_duration_s - _TIME_EPS_S)
+    starts, stops, length = starts[keep], stops[keep], length[keep]
+    if not starts.size:
+        return []
+    # compact arrays of the moves' samples, move after move: offsets[k] is move k's first
+    offsets = np.cumsum(length) - length
+    ends = offsets + length
+    move = np.repeat(np.arange(starts.size), length)
+    speeds = np.abs(speed[np.arange(move.size) + np.repeat(starts - offsets, length)])
+    bounds = list(zip(offsets.tolist(), ends.tolist()))
+    ordered = np.concatenate([np.sort(speeds[a:b]) for a, b in bounds])
+    fraction, least = config.speed_tolerance_fraction, config.speed_tolerance_rad_s
+    band = np.maximum(fraction * ordered, least)
+    high, low = ordered + band, ordered - band
+    densest = [a + int(np.argmax(ordered[a:b].searchsorted(high[a:b], side='right')
+                                 - ordered[a:b].searchsorted(low[a:b], side='left')))
+               for a, b in bounds]
+    level = ordered[densest]
+    alive = np.ones(starts.size, dtype=bool)
+    for _ in range(2):
+        # the median of the speeds within the band of the level, move by move
+        near = np.flatnonzero(np.abs(ordered - level[move])
+                              <= np.maximum(fraction * level, least)[move])
+        first = near.searchsorted(offsets)
+        count = near.searchsorted(ends) - first
+        alive &= count > 0
+        if not near.size:
+            break
+        half = np.where(alive, first + count // 2, 0)
+        upper = ordered[near[half]]
+        lower = ordered[near[np.where(alive & (count % 2 == 0), half - 1, half)]]
+        level = np.where(count % 2 == 1, upper, (lower + upper) / 2.0)
+    # the longest run of samples in the band, in time order (runs do not cross moves)
+    inside = np.abs(speeds - level[move]) <= np.maximum(fraction * level, least)[move]
+    head, tail = inside.copy(), inside.copy()
+    head[1:] &= ~inside[:-1]
+    tail[:-1] &= ~inside[1:]
+    head[offsets], tail[ends - 1] = inside[offsets], inside[ends - 1]
+    run_start, run_stop = np.flatnonzero(head), np.flatnonzero(tail) + 1
+    run_move = move[run_start]
+    order = np.lexsort((run_start, run_start - run_stop, run_move))  # longest first
+    best = order[np.flatnonzero(np.diff(run_move[order], prepend=-1))]
+    has_run = np.zeros(starts.size, dtype=bool)
+    has_run[run_move[best]] = True
+    start, stop = starts.copy(), starts.copy()  # chunk indices; no run: empty
+    start[run_move[best]] += run_start[best] - offsets[run_move[best]]
+    stop[run_move[best]] += run_stop[best] - offsets[run_move[best]]
+    if config.trim_s > 0:
+        last = np.where(has_run, stop - 1, start)
+        trimmed_stop = t.searchsorted(t[last] - config.trim_s + _TIME_EPS_S, side='right')
+        trimmed_start = t.searchsorted(t[start] + config.trim_s - _TIME_EPS_S, side='left')
+        start, stop = (np.where(has_run, np.clip(trimmed_start, start, stop), start),
+                       np.where(has_run, np.clip(trimmed_stop, start, stop), stop))
+    enough = stop - start >= 3
+    enough[enough] = ~(t[stop[enough] - 1] - t[start[enough]]
+                       < config.min_duration_s - _TIME_EPS_S)
+    found: list[Pass | str] = []
+    for k, (a, b) in enumerate(zip(start.tolist(), stop.tolist())):
+        if not (alive[k] and enough[k]):
+            found.append('pass_too_short')
+            continue
+        keep_s = slice(a, b)
+        tk, qk, vk, ek = t[keep_s], q[keep_s], speed[keep_s], torque[keep_s]
+        if config.window_center_rad is not None:
+            in_window = np.abs(qk - config.window_center_rad) <= config.window_half_width_rad
+            if np.count_nonzero(in_window) < config.min_samples:
+                found.append('pass_no_common_window')
+                continue
+            tk, qk, vk, ek = tk[in_window], qk[in_window], vk[in_window], ek[in_window]
+        found.append(Pass(direction=int(sign[a]), time_s=tk, position_rad=qk, speed_rad_s=vk,
+                          torque=ek, level_rad_s=float(level[k])))
+    return found
+
+
+def _mean(values: FloatArray) -> float:
+    """Return the mean of ``values`` (shape (n,), n >= 1): numpy's sum and division, at once."""
+    return float(np.add.reduce(values)) / values.size
+
+
+def _torque_at(position: FloatArray, torque: FloatArray, centre: float, mean_q: float,
+               mean: float) -> tuple[float, float]:
     """
     Return the torque of a pass at ``centre`` and the residual variance, by a line fit.
 
     The line tau = a + b (q - mean q) is fitted in position; its value at the window centre is
     the mean torque corrected for the pass's samples not being centred in the window (so a
-    gravity slope cancels exactly between the two directions).
+    gravity slope cancels exactly between the two directions).  ``mean_q`` and ``mean``: the
+    means of ``position`` [rad] and ``torque``.
     """
-    mean_q = float(np.mean(position))
-    mean = float(np.mean(torque))
     x = position - mean_q
     y = torque - mean
     sxx = float(np.dot(x, x))
@@ -309,36 +406,42 @@ def pair_passes(first: Pass, second: Pass, config: SegmenterConfig
         return None, 'pass_no_common_window'
     parts = []
     for p in (forward, backward):
-        inside = (p.position_rad >= low) & (p.position_rad <= high)
-        if np.count_nonzero(inside) < config.min_samples:
+        inside = np.flatnonzero((p.position_rad >= low) & (p.position_rad <= high))
+        n = inside.size
+        if n < config.min_samples:
             return None, 'pass_no_common_window'
-        parts.append((p.time_s[inside], p.position_rad[inside], p.speed_rad_s[inside],
-                      p.torque[inside]))
-    (tf, qf, vf, ef), (tb, qb, vb, eb) = parts
-    clipped = sorted((_at_extreme(ef), _at_extreme(eb)))
+        # the same samples as a boolean mask takes; a view when they are consecutive
+        keep = slice(inside[0], inside[-1] + 1) if inside[-1] - inside[0] + 1 == n else inside
+        q, e = p.position_rad[keep], p.torque[keep]
+        mean = _mean(e)
+        parts.append((p.time_s[inside[0]], p.time_s[inside[-1]], q, e, _mean(q), mean,
+                      _at_extreme(e, mean), _mean(np.abs(p.speed_rad_s[keep]))))
+    (tf0, tf1, qf, ef, qf_mean, ef_mean, clip_f, vf_mean), \
+        (tb0, tb1, qb, eb, qb_mean, eb_mean, clip_b, vb_mean) = parts
+    clipped = sorted((clip_f, clip_b))
     if clipped[1] >= SATURATED_FRACTION and clipped[0] < _PARTNER_FRACTION:
         return None, 'pass_torque_saturated'
     centre = 0.5 * (low + high)
-    mean_f, var_f = _torque_at(qf, ef, centre)
-    mean_b, var_b = _torque_at(qb, eb, centre)
-    speed = 0.5 * (float(np.mean(np.abs(vf))) + float(np.mean(np.abs(vb))))
+    mean_f, var_f = _torque_at(qf, ef, centre, qf_mean, ef_mean)
+    mean_b, var_b = _torque_at(qb, eb, centre, qb_mean, eb_mean)
+    speed = 0.5 * (vf_mean + vb_mean)
     return FrictionLevel(
         speed_rad_s=speed, friction=0.5 * (mean_f - mean_b),
         friction_std_error=0.5 * math.sqrt(var_f / ef.size + var_b / eb.size),
         tau_forward=mean_f, tau_backward=mean_b, n_forward=int(ef.size),
         n_backward=int(eb.size), position_min_rad=float(low), position_max_rad=float(high),
-        start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1]))), ''
+        start_time_s=float(min(tf0, tb0)), end_time_s=float(max(tf1, tb1))), ''
 
 
-def _at_extreme(torque: FloatArray) -> float:
+def _at_extreme(torque: FloatArray, mean: float) -> float:
     """
     Return the fraction of a pass's torque samples at its extreme value away from zero.
 
     A drive at its torque limit records the limit itself, sample after sample: a measured
-    torque with noise repeats its largest magnitude only by chance.
+    torque with noise repeats its largest magnitude only by chance.  ``mean``: the mean of
+    ``torque`` (which side is away from zero).
     """
-    mean = float(np.mean(torque))
-    extreme = float(np.max(torque) if mean >= 0 else np.min(torque))
+    extreme = float(torque.max() if mean >= 0 else torque.min())
     return float(np.count_nonzero(torque == extreme)) / max(torque.size, 1)
 
 
@@ -577,14 +680,20 @@ class ChunkSegmenter:
         new_move = gap | (np.diff(sign, prepend=self._sign) != 0)
         starts = np.flatnonzero(new_move)
         levels: list[FrictionLevel] = []
+        qa, ea = q[index], e[index] / config.torque_scale
         if starts.size and starts[0] == 0:
             levels += self._close_move()  # the move in progress ends before this chunk
+        elif starts.size:  # the move in progress ends in this chunk
+            self._extend(ta, qa, speed, ea, int(sign[0]), 0, int(starts[0]))
+            levels += self._close_move()
         else:
-            starts = np.concatenate(([0], starts))
-        stops = np.concatenate((starts[1:], [index.size]))
-        qa, ea = q[index], e[index] / config.torque_scale
-        for start, stop in zip(starts[:-1], stops[:-1]):
-            levels += self._extend_and_close(ta, qa, speed, ea, int(sign[start]), start, stop)
+            starts = np.zeros(1, dtype=np.intp)  # it goes on past this chunk
+        # the moves that start and end in this chunk, at once
+        for found in _analyse_moves(ta, qa, speed, ea, sign, starts[:-1], starts[1:], config):
+            if isinstance(found, str):
+                rejections[found] += 1
+            else:
+                levels += self._pairer.add(found)
         last = int(starts[-1])
         self._extend(ta, qa, speed, ea, int(sign[last]), last, index.size)
         self._last_time = float(ta[-1])
@@ -606,12 +715,6 @@ class ChunkSegmenter:
         part = (t[start:stop], q[start:stop], speed[start:stop], torque[start:stop])
         self._move = part if not self._move else tuple(
             np.concatenate((old, new)) for old, new in zip(self._move, part))
-
-    def _extend_and_close(self, t: FloatArray, q: FloatArray, speed: FloatArray,
-                          torque: FloatArray, sign: int, start: int, stop: int
-                          ) -> list[FrictionLevel]:
-        self._extend(t, q, speed, torque, sign, start, stop)
-        return self._close_move()
 
     @property
     def last_time_s(self) -> float:
