@@ -53,7 +53,8 @@ clipped signal): both passes are rejected as ``pass_torque_saturated``.
 The streaming path buffers only the samples of the current move (constant work per message; the
 move is analysed with numpy when it ends, so each sample is touched a bounded number of times)
 and holds at most one unpaired pass.  The batch path finds the moves of a whole recording with
-numpy and runs the same per-move analysis and the same pairing.
+numpy, analyses the moves that end in a chunk at once (the same operations on the same values
+as the per-move analysis, so the same levels bit for bit) and runs the same pairing.
 """
 
 from __future__ import annotations
@@ -218,63 +219,81 @@ def _analyse_moves(t: FloatArray, q: FloatArray, speed: FloatArray, torque: Floa
 
     ``t`` (accepted sample times [s], strictly increasing), ``q`` [rad], ``speed`` (signed
     motor speed [rad/s]) and ``torque``: shape (n,); ``sign``: the move direction of each
-    sample.  The same operations on the same values as the per-move analysis (so the same
-    levels bit for bit), with numpy over all moves where an operation is elementwise and per
-    move only for the sort and the densest-speed search.
+    sample; the segments (moves and standstills) follow each other.  The same operations on
+    the same values as the per-move analysis (so the same levels bit for bit), with numpy over
+    all moves where an operation is elementwise and per move only for the sort and the
+    densest-speed search.
 
     :return: per move that is not standstill jitter, in time order, its :class:`Pass` or the
         reason it is unusable (``pass_too_short``, ``pass_no_common_window``).
 
     """
+    if not starts.size:
+        return []
     length = stops - starts
     keep = (sign[starts] != 0) & (length >= 3)
     keep[keep] = ~(t[stops[keep] - 1] - t[starts[keep]] < config.min_duration_s - _TIME_EPS_S)
-    starts, stops, length = starts[keep], stops[keep], length[keep]
-    if not starts.size:
+    moves = np.flatnonzero(keep)
+    if not moves.size:
         return []
-    # compact arrays of the moves' samples, move after move: offsets[k] is move k's first
-    offsets = np.cumsum(length) - length
-    ends = offsets + length
-    move = np.repeat(np.arange(starts.size), length)
-    speeds = np.abs(speed[np.arange(move.size) + np.repeat(starts - offsets, length)])
-    bounds = list(zip(offsets.tolist(), ends.tolist()))
-    ordered = np.concatenate([np.sort(speeds[a:b]) for a, b in bounds])
+    # The work is on the span of the segments, in buffers reused (no large temporaries): the
+    # samples of the other segments (standstill, jitter) are masked out by the tolerance -inf.
+    origin = int(starts[0])
+    first_s, end_s = starts[moves] - origin, stops[moves] - origin  # in the span
+    speeds = np.abs(speed[origin:int(stops[-1])])
+    ordered = speeds.copy()
+    bounds = list(zip(first_s.tolist(), end_s.tolist()))
+    for a, b in bounds:
+        ordered[a:b].sort()
     fraction, least = config.speed_tolerance_fraction, config.speed_tolerance_rad_s
-    band = np.maximum(fraction * ordered, least)
-    high, low = ordered + band, ordered - band
-    densest = [a + int(np.argmax(ordered[a:b].searchsorted(high[a:b], side='right')
-                                 - ordered[a:b].searchsorted(low[a:b], side='left')))
-               for a, b in bounds]
+    work = np.multiply(ordered, fraction)
+    np.maximum(work, least, out=work)  # the band of each speed
+    high, low = ordered + work, ordered - work
+    densest = []
+    for a, b in bounds:
+        within_band = ordered[a:b].searchsorted(high[a:b], side='right')
+        within_band -= ordered[a:b].searchsorted(low[a:b], side='left')
+        densest.append(a + int(within_band.argmax()))
     level = ordered[densest]
-    alive = np.ones(starts.size, dtype=bool)
+    per_segment, tolerance = np.zeros(starts.size), np.full(starts.size, -np.inf)
+    mask = np.empty(speeds.size, dtype=bool)
+
+    def near(values: FloatArray, level: FloatArray) -> NDArray[np.bool_]:
+        """Return |values - level| <= tolerance(level), per sample of the span, in ``mask``."""
+        per_segment[moves] = level
+        tolerance[moves] = np.maximum(fraction * level, least)
+        np.abs(np.subtract(values, np.repeat(per_segment, length), out=work), out=work)
+        return np.less_equal(work, np.repeat(tolerance, length), out=mask)
+
+    alive = np.ones(moves.size, dtype=bool)
     for _ in range(2):
         # the median of the speeds within the band of the level, move by move
-        near = np.flatnonzero(np.abs(ordered - level[move])
-                              <= np.maximum(fraction * level, least)[move])
-        first = near.searchsorted(offsets)
-        count = near.searchsorted(ends) - first
+        index = np.flatnonzero(near(ordered, level))
+        first = index.searchsorted(first_s)
+        count = index.searchsorted(end_s) - first
         alive &= count > 0
-        if not near.size:
+        if not index.size:
             break
         half = np.where(alive, first + count // 2, 0)
-        upper = ordered[near[half]]
-        lower = ordered[near[np.where(alive & (count % 2 == 0), half - 1, half)]]
+        upper = ordered[index[half]]
+        lower = ordered[index[np.where(alive & (count % 2 == 0), half - 1, half)]]
         level = np.where(count % 2 == 1, upper, (lower + upper) / 2.0)
     # the longest run of samples in the band, in time order (runs do not cross moves)
-    inside = np.abs(speeds - level[move]) <= np.maximum(fraction * level, least)[move]
-    head, tail = inside.copy(), inside.copy()
-    head[1:] &= ~inside[:-1]
-    tail[:-1] &= ~inside[1:]
-    head[offsets], tail[ends - 1] = inside[offsets], inside[ends - 1]
+    inside = near(speeds, level)
+    head, tail = np.empty_like(inside), np.empty_like(inside)
+    head[0], tail[-1] = inside[0], inside[-1]
+    np.greater(inside[1:], inside[:-1], out=head[1:])
+    np.greater(inside[:-1], inside[1:], out=tail[:-1])
+    head[first_s], tail[end_s - 1] = inside[first_s], inside[end_s - 1]
     run_start, run_stop = np.flatnonzero(head), np.flatnonzero(tail) + 1
-    run_move = move[run_start]
+    run_move = first_s.searchsorted(run_start, side='right') - 1
     order = np.lexsort((run_start, run_start - run_stop, run_move))  # longest first
     best = order[np.flatnonzero(np.diff(run_move[order], prepend=-1))]
-    has_run = np.zeros(starts.size, dtype=bool)
+    has_run = np.zeros(moves.size, dtype=bool)
     has_run[run_move[best]] = True
-    start, stop = starts.copy(), starts.copy()  # chunk indices; no run: empty
-    start[run_move[best]] += run_start[best] - offsets[run_move[best]]
-    stop[run_move[best]] += run_stop[best] - offsets[run_move[best]]
+    start, stop = starts[moves], starts[moves]  # in the chunk; no run: empty
+    start[run_move[best]] = run_start[best] + origin
+    stop[run_move[best]] = run_stop[best] + origin
     if config.trim_s > 0:
         last = np.where(has_run, stop - 1, start)
         trimmed_stop = t.searchsorted(t[last] - config.trim_s + _TIME_EPS_S, side='right')
@@ -289,8 +308,7 @@ def _analyse_moves(t: FloatArray, q: FloatArray, speed: FloatArray, torque: Floa
         if not (alive[k] and enough[k]):
             found.append('pass_too_short')
             continue
-        keep_s = slice(a, b)
-        tk, qk, vk, ek = t[keep_s], q[keep_s], speed[keep_s], torque[keep_s]
+        tk, qk, vk, ek = t[a:b], q[a:b], speed[a:b], torque[a:b]
         if config.window_center_rad is not None:
             in_window = np.abs(qk - config.window_center_rad) <= config.window_half_width_rad
             if np.count_nonzero(in_window) < config.min_samples:
@@ -400,21 +418,28 @@ def pair_passes(first: Pass, second: Pass, config: SegmenterConfig
     ``pass_torque_saturated``.
     """
     forward, backward = (first, second) if first.direction > 0 else (second, first)
-    low = max(forward.position_rad.min(), backward.position_rad.min())
-    high = min(forward.position_rad.max(), backward.position_rad.max())
+    ranges = [(p.position_rad.min(), p.position_rad.max()) for p in (forward, backward)]
+    low = max(ranges[0][0], ranges[1][0])
+    high = min(ranges[0][1], ranges[1][1])
     if high <= low or high - low < config.min_window_rad:
         return None, 'pass_no_common_window'
     parts = []
-    for p in (forward, backward):
-        inside = np.flatnonzero((p.position_rad >= low) & (p.position_rad <= high))
-        n = inside.size
-        if n < config.min_samples:
+    for p, (least, most) in zip((forward, backward), ranges):
+        keep: slice | NDArray[np.intp] = slice(None)  # the pass within the window: all of it
+        begin, end, n = 0, -1, p.position_rad.size
+        if least < low or most > high:
+            inside = np.flatnonzero((p.position_rad >= low) & (p.position_rad <= high))
+            n = inside.size
+            if n < config.min_samples:
+                return None, 'pass_no_common_window'
+            begin, end = int(inside[0]), int(inside[-1])
+            # the same samples as a boolean mask takes; a view when they are consecutive
+            keep = slice(begin, end + 1) if end - begin + 1 == n else inside
+        elif n < config.min_samples:
             return None, 'pass_no_common_window'
-        # the same samples as a boolean mask takes; a view when they are consecutive
-        keep = slice(inside[0], inside[-1] + 1) if inside[-1] - inside[0] + 1 == n else inside
         q, e = p.position_rad[keep], p.torque[keep]
         mean = _mean(e)
-        parts.append((p.time_s[inside[0]], p.time_s[inside[-1]], q, e, _mean(q), mean,
+        parts.append((p.time_s[begin], p.time_s[end], q, e, _mean(q), mean,
                       _at_extreme(e, mean), _mean(np.abs(p.speed_rad_s[keep]))))
     (tf0, tf1, qf, ef, qf_mean, ef_mean, clip_f, vf_mean), \
         (tb0, tb1, qb, eb, qb_mean, eb_mean, clip_b, vb_mean) = parts
@@ -646,41 +671,33 @@ class ChunkSegmenter:
         if t.size == 0:
             return []
         rejections = self.rejections
-        finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
-        with np.errstate(invalid='ignore'):
-            in_range = ((np.abs(q) <= SAMPLE_LIMITS[0]) & (np.abs(v) <= SAMPLE_LIMITS[1])
-                        & (np.abs(e) <= SAMPLE_LIMITS[2]))
-        _count(rejections, 'out_of_range', np.count_nonzero(finite & ~in_range))
-        usable = finite & in_range
-        finite_time = np.where(usable, t, -np.inf)
-        running = np.maximum.accumulate(finite_time)
-        before = np.maximum(running[:-1], self._time_max)
-        previous_max = np.concatenate(([self._time_max], before))
-        self._time_max = max(self._time_max, float(running[-1]))
-        accepted = usable & (t > previous_max)
-        _count(rejections, 'non_finite', np.count_nonzero(~finite))
-        _count(rejections, 'time_not_increasing', np.count_nonzero(usable & ~accepted))
-
-        index = np.flatnonzero(accepted)
-        if index.size == 0:
-            return []
-        ta = t[index]
-        gap = np.diff(ta, prepend=self._last_time) > config.max_gap_s
-        gap[0] = gap[0] and self._last_time > -math.inf
+        accepted = self._accepted(t, q, v, e)
+        if accepted is not None:  # some samples are rejected
+            if accepted.size == 0:
+                return []
+            t, q, v, e = t[accepted], q[accepted], v[accepted], e[accepted]
+        else:  # all are accepted: copies all the same (the passes keep views of them)
+            t, q = t.copy(), q.copy()
+        ta, n = t, t.size
+        gap = np.empty(n, dtype=bool)
+        gap[0] = ta[0] - self._last_time > config.max_gap_s and self._last_time > -math.inf
+        np.greater(np.diff(ta), config.max_gap_s, out=gap[1:])
         _count(rejections, 'time_gap', np.count_nonzero(gap))
-        speed = config.gear_ratio * v[index]
-        self.fastest_speed_rad_s = max(self.fastest_speed_rad_s, float(np.max(np.abs(speed))))
-        sign = np.where(speed > config.standstill_speed_rad_s, 1,
-                        np.where(speed < -config.standstill_speed_rad_s, -1, 0)).astype(np.int8)
+        speed = config.gear_ratio * v
+        self.fastest_speed_rad_s = max(self.fastest_speed_rad_s, float(speed.max()),
+                                       -float(speed.min()))
+        sign = ((speed > config.standstill_speed_rad_s).view(np.int8)
+                - (speed < -config.standstill_speed_rad_s).view(np.int8))
         moving = np.flatnonzero(sign)
         if moving.size:
             self.last_motion_s = float(ta[moving[-1]])
         # A new move starts where the sign changes or after a gap (a rejected sample alone
         # does not cut it: the time between its neighbours decides).
-        new_move = gap | (np.diff(sign, prepend=self._sign) != 0)
-        starts = np.flatnonzero(new_move)
+        gap[0] |= sign[0] != self._sign
+        gap[1:] |= sign[1:] != sign[:-1]
+        starts = np.flatnonzero(gap)
         levels: list[FrictionLevel] = []
-        qa, ea = q[index], e[index] / config.torque_scale
+        qa, ea = q, e / config.torque_scale
         if starts.size and starts[0] == 0:
             levels += self._close_move()  # the move in progress ends before this chunk
         elif starts.size:  # the move in progress ends in this chunk
@@ -695,9 +712,34 @@ class ChunkSegmenter:
             else:
                 levels += self._pairer.add(found)
         last = int(starts[-1])
-        self._extend(ta, qa, speed, ea, int(sign[last]), last, index.size)
+        self._extend(ta, qa, speed, ea, int(sign[last]), last, n)
         self._last_time = float(ta[-1])
         return levels
+
+    def _accepted(self, t: FloatArray, q: FloatArray, v: FloatArray, e: FloatArray
+                  ) -> NDArray[np.intp] | None:
+        """
+        Count the rejected samples of a chunk; return the indices of the others (None: all).
+
+        A sample is accepted when its fields are finite and within :data:`SAMPLE_LIMITS` and
+        its time is past that of every such sample before it (of this or an earlier chunk).
+        """
+        with np.errstate(invalid='ignore'):  # a comparison with NaN is False: not in range
+            usable = ((np.abs(q) <= SAMPLE_LIMITS[0]) & (np.abs(v) <= SAMPLE_LIMITS[1])
+                      & (np.abs(e) <= SAMPLE_LIMITS[2]) & np.isfinite(t))
+        if t[0] > self._time_max and usable.all() and (t[1:] > t[:-1]).all():
+            self._time_max = float(t[-1])
+            return None
+        finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
+        _count(self.rejections, 'out_of_range', np.count_nonzero(finite & ~usable))
+        running = np.maximum.accumulate(np.where(usable, t, -np.inf))
+        before = np.maximum(running[:-1], self._time_max)
+        previous_max = np.concatenate(([self._time_max], before))
+        self._time_max = max(self._time_max, float(running[-1]))
+        accepted = usable & (t > previous_max)
+        _count(self.rejections, 'non_finite', np.count_nonzero(~finite))
+        _count(self.rejections, 'time_not_increasing', np.count_nonzero(usable & ~accepted))
+        return np.flatnonzero(accepted)
 
     def finish(self) -> list[FrictionLevel]:
         """End of the recording: analyse the move in progress; return the levels it completes."""
