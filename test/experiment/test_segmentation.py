@@ -7,7 +7,8 @@ import pytest
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, segment_batch,
-                                                        SegmenterConfig, StreamingSegmenter)
+                                                        SegmenterConfig, SpeedTally,
+                                                        StreamingSegmenter)
 from robot_wear_monitor.experiment.simulation import (JointSimConfig, PAPER_SPEEDS_RAD_S,
                                                       ScenarioConfig, segmenter_config_for,
                                                       simulate_scenario)
@@ -241,3 +242,11 @@ def test_moves_of_one_chunk_at_once_give_the_streaming_levels(settings):
     if 'window_center_rad' in settings:
         assert all(0.59 <= level.position_min_rad < level.position_max_rad <= 0.61
                    for level in batch.levels)
+
+
+def test_speed_tally_counts_each_level_at_the_nearest_speed():
+    """A speed joins the nearest mean within the tolerance (the first of two as near)."""
+    tally = SpeedTally(tolerance_rad_s=1.0)
+    for speed in (10.0, 12.0, 11.0, 13.2, 12.4):  # 11.0: 1.0 from both 10.0 and 12.0
+        tally.add(speed)
+    assert tally.counts() == {10.5: 2, 12.2: 2, 13.2: 1}
