@@ -72,9 +72,11 @@ class SpeedTally:
         """Count one level at ``speed_rad_s`` (motor side)."""
         speed = float(speed_rad_s)
         if self._sums:
-            means = np.asarray(self._sums) / np.asarray(self._counts)
-            nearest = int(np.argmin(np.abs(means - speed)))
-            if abs(means[nearest] - speed) <= self.tolerance_rad_s:
+            # the nearest mean (the first of equals); a NaN anywhere matches none
+            distances = [abs(total / count - speed)
+                         for total, count in zip(self._sums, self._counts)]
+            nearest = distances.index(min(distances))
+            if distances[nearest] <= self.tolerance_rad_s and not math.isnan(sum(distances)):
                 self._sums[nearest] += speed
                 self._counts[nearest] += 1
                 return

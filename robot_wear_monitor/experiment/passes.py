@@ -53,7 +53,8 @@ clipped signal): both passes are rejected as ``pass_torque_saturated``.
 The streaming path buffers only the samples of the current move (constant work per message; the
 move is analysed with numpy when it ends, so each sample is touched a bounded number of times)
 and holds at most one unpaired pass.  The batch path finds the moves of a whole recording with
-numpy and runs the same per-move analysis and the same pairing.
+numpy, analyses the moves that end in a chunk at once (the same operations on the same values
+as the per-move analysis, so the same levels bit for bit) and runs the same pairing.
 """
 
 from __future__ import annotations
@@ -210,16 +211,130 @@ def _analyse_move(time_s: FloatArray, position_rad: FloatArray, speed_rad_s: Flo
                 level_rad_s=level)
 
 
-def _torque_at(position: FloatArray, torque: FloatArray, centre: float) -> tuple[float, float]:
+def _analyse_moves(t: FloatArray, q: FloatArray, speed: FloatArray, torque: FloatArray,
+                   sign: NDArray[np.int8], starts: NDArray[np.intp], stops: NDArray[np.intp],
+                   config: SegmenterConfig) -> list[Pass | str]:
+    """
+    Analyse the moves [starts[k], stops[k]) of one chunk at once, each as :func:`_analyse_move`.
+
+    ``t`` (accepted sample times [s], strictly increasing), ``q`` [rad], ``speed`` (signed
+    motor speed [rad/s]) and ``torque``: shape (n,); ``sign``: the move direction of each
+    sample; the segments (moves and standstills) follow each other.  The same operations on
+    the same values as the per-move analysis (so the same levels bit for bit), with numpy over
+    all moves where an operation is elementwise and per move only for the sort and the
+    densest-speed search.
+
+    :return: per move that is not standstill jitter, in time order, its :class:`Pass` or the
+        reason it is unusable (``pass_too_short``, ``pass_no_common_window``).
+
+    """
+    if not starts.size:
+        return []
+    length = stops - starts
+    keep = (sign[starts] != 0) & (length >= 3)
+    keep[keep] = ~(t[stops[keep] - 1] - t[starts[keep]] < config.min_duration_s - _TIME_EPS_S)
+    moves = np.flatnonzero(keep)
+    if not moves.size:
+        return []
+    # The work is on the span of the segments, in buffers reused (no large temporaries): the
+    # samples of the other segments (standstill, jitter) are masked out by the tolerance -inf.
+    origin = int(starts[0])
+    first_s, end_s = starts[moves] - origin, stops[moves] - origin  # in the span
+    speeds = np.abs(speed[origin:int(stops[-1])])
+    ordered = speeds.copy()
+    bounds = list(zip(first_s.tolist(), end_s.tolist()))
+    for a, b in bounds:
+        ordered[a:b].sort()
+    fraction, least = config.speed_tolerance_fraction, config.speed_tolerance_rad_s
+    work = np.multiply(ordered, fraction)
+    np.maximum(work, least, out=work)  # the band of each speed
+    high, low = ordered + work, ordered - work
+    densest = []
+    for a, b in bounds:
+        within_band = ordered[a:b].searchsorted(high[a:b], side='right')
+        within_band -= ordered[a:b].searchsorted(low[a:b], side='left')
+        densest.append(a + int(within_band.argmax()))
+    level = ordered[densest]
+    per_segment, tolerance = np.zeros(starts.size), np.full(starts.size, -np.inf)
+    mask = np.empty(speeds.size, dtype=bool)
+
+    def near(values: FloatArray, level: FloatArray) -> NDArray[np.bool_]:
+        """Return |values - level| <= tolerance(level), per sample of the span, in ``mask``."""
+        per_segment[moves] = level
+        tolerance[moves] = np.maximum(fraction * level, least)
+        np.abs(np.subtract(values, np.repeat(per_segment, length), out=work), out=work)
+        return np.less_equal(work, np.repeat(tolerance, length), out=mask)
+
+    alive = np.ones(moves.size, dtype=bool)
+    for _ in range(2):
+        # the median of the speeds within the band of the level, move by move
+        index = np.flatnonzero(near(ordered, level))
+        first = index.searchsorted(first_s)
+        count = index.searchsorted(end_s) - first
+        alive &= count > 0
+        if not index.size:
+            break
+        half = np.where(alive, first + count // 2, 0)
+        upper = ordered[index[half]]
+        lower = ordered[index[np.where(alive & (count % 2 == 0), half - 1, half)]]
+        level = np.where(count % 2 == 1, upper, (lower + upper) / 2.0)
+    # the longest run of samples in the band, in time order (runs do not cross moves)
+    inside = near(speeds, level)
+    head, tail = np.empty_like(inside), np.empty_like(inside)
+    head[0], tail[-1] = inside[0], inside[-1]
+    np.greater(inside[1:], inside[:-1], out=head[1:])
+    np.greater(inside[:-1], inside[1:], out=tail[:-1])
+    head[first_s], tail[end_s - 1] = inside[first_s], inside[end_s - 1]
+    run_start, run_stop = np.flatnonzero(head), np.flatnonzero(tail) + 1
+    run_move = first_s.searchsorted(run_start, side='right') - 1
+    order = np.lexsort((run_start, run_start - run_stop, run_move))  # longest first
+    best = order[np.flatnonzero(np.diff(run_move[order], prepend=-1))]
+    has_run = np.zeros(moves.size, dtype=bool)
+    has_run[run_move[best]] = True
+    start, stop = starts[moves], starts[moves]  # in the chunk; no run: empty
+    start[run_move[best]] = run_start[best] + origin
+    stop[run_move[best]] = run_stop[best] + origin
+    if config.trim_s > 0:
+        last = np.where(has_run, stop - 1, start)
+        trimmed_stop = t.searchsorted(t[last] - config.trim_s + _TIME_EPS_S, side='right')
+        trimmed_start = t.searchsorted(t[start] + config.trim_s - _TIME_EPS_S, side='left')
+        start, stop = (np.where(has_run, np.clip(trimmed_start, start, stop), start),
+                       np.where(has_run, np.clip(trimmed_stop, start, stop), stop))
+    enough = stop - start >= 3
+    enough[enough] = ~(t[stop[enough] - 1] - t[start[enough]]
+                       < config.min_duration_s - _TIME_EPS_S)
+    found: list[Pass | str] = []
+    for k, (a, b) in enumerate(zip(start.tolist(), stop.tolist())):
+        if not (alive[k] and enough[k]):
+            found.append('pass_too_short')
+            continue
+        tk, qk, vk, ek = t[a:b], q[a:b], speed[a:b], torque[a:b]
+        if config.window_center_rad is not None:
+            in_window = np.abs(qk - config.window_center_rad) <= config.window_half_width_rad
+            if np.count_nonzero(in_window) < config.min_samples:
+                found.append('pass_no_common_window')
+                continue
+            tk, qk, vk, ek = tk[in_window], qk[in_window], vk[in_window], ek[in_window]
+        found.append(Pass(direction=int(sign[a]), time_s=tk, position_rad=qk, speed_rad_s=vk,
+                          torque=ek, level_rad_s=float(level[k])))
+    return found
+
+
+def _mean(values: FloatArray) -> float:
+    """Return the mean of ``values`` (shape (n,), n >= 1): numpy's sum and division, at once."""
+    return float(np.add.reduce(values)) / values.size
+
+
+def _torque_at(position: FloatArray, torque: FloatArray, centre: float, mean_q: float,
+               mean: float) -> tuple[float, float]:
     """
     Return the torque of a pass at ``centre`` and the residual variance, by a line fit.
 
     The line tau = a + b (q - mean q) is fitted in position; its value at the window centre is
     the mean torque corrected for the pass's samples not being centred in the window (so a
-    gravity slope cancels exactly between the two directions).
+    gravity slope cancels exactly between the two directions).  ``mean_q`` and ``mean``: the
+    means of ``position`` [rad] and ``torque``.
     """
-    mean_q = float(np.mean(position))
-    mean = float(np.mean(torque))
     x = position - mean_q
     y = torque - mean
     sxx = float(np.dot(x, x))
@@ -303,42 +418,55 @@ def pair_passes(first: Pass, second: Pass, config: SegmenterConfig
     ``pass_torque_saturated``.
     """
     forward, backward = (first, second) if first.direction > 0 else (second, first)
-    low = max(forward.position_rad.min(), backward.position_rad.min())
-    high = min(forward.position_rad.max(), backward.position_rad.max())
+    ranges = [(p.position_rad.min(), p.position_rad.max()) for p in (forward, backward)]
+    low = max(ranges[0][0], ranges[1][0])
+    high = min(ranges[0][1], ranges[1][1])
     if high <= low or high - low < config.min_window_rad:
         return None, 'pass_no_common_window'
     parts = []
-    for p in (forward, backward):
-        inside = (p.position_rad >= low) & (p.position_rad <= high)
-        if np.count_nonzero(inside) < config.min_samples:
+    for p, (least, most) in zip((forward, backward), ranges):
+        keep: slice | NDArray[np.intp] = slice(None)  # the pass within the window: all of it
+        begin, end, n = 0, -1, p.position_rad.size
+        if least < low or most > high:
+            inside = np.flatnonzero((p.position_rad >= low) & (p.position_rad <= high))
+            n = inside.size
+            if n < config.min_samples:
+                return None, 'pass_no_common_window'
+            begin, end = int(inside[0]), int(inside[-1])
+            # the same samples as a boolean mask takes; a view when they are consecutive
+            keep = slice(begin, end + 1) if end - begin + 1 == n else inside
+        elif n < config.min_samples:
             return None, 'pass_no_common_window'
-        parts.append((p.time_s[inside], p.position_rad[inside], p.speed_rad_s[inside],
-                      p.torque[inside]))
-    (tf, qf, vf, ef), (tb, qb, vb, eb) = parts
-    clipped = sorted((_at_extreme(ef), _at_extreme(eb)))
+        q, e = p.position_rad[keep], p.torque[keep]
+        mean = _mean(e)
+        parts.append((p.time_s[begin], p.time_s[end], q, e, _mean(q), mean,
+                      _at_extreme(e, mean), _mean(np.abs(p.speed_rad_s[keep]))))
+    (tf0, tf1, qf, ef, qf_mean, ef_mean, clip_f, vf_mean), \
+        (tb0, tb1, qb, eb, qb_mean, eb_mean, clip_b, vb_mean) = parts
+    clipped = sorted((clip_f, clip_b))
     if clipped[1] >= SATURATED_FRACTION and clipped[0] < _PARTNER_FRACTION:
         return None, 'pass_torque_saturated'
     centre = 0.5 * (low + high)
-    mean_f, var_f = _torque_at(qf, ef, centre)
-    mean_b, var_b = _torque_at(qb, eb, centre)
-    speed = 0.5 * (float(np.mean(np.abs(vf))) + float(np.mean(np.abs(vb))))
+    mean_f, var_f = _torque_at(qf, ef, centre, qf_mean, ef_mean)
+    mean_b, var_b = _torque_at(qb, eb, centre, qb_mean, eb_mean)
+    speed = 0.5 * (vf_mean + vb_mean)
     return FrictionLevel(
         speed_rad_s=speed, friction=0.5 * (mean_f - mean_b),
         friction_std_error=0.5 * math.sqrt(var_f / ef.size + var_b / eb.size),
         tau_forward=mean_f, tau_backward=mean_b, n_forward=int(ef.size),
         n_backward=int(eb.size), position_min_rad=float(low), position_max_rad=float(high),
-        start_time_s=float(min(tf[0], tb[0])), end_time_s=float(max(tf[-1], tb[-1]))), ''
+        start_time_s=float(min(tf0, tb0)), end_time_s=float(max(tf1, tb1))), ''
 
 
-def _at_extreme(torque: FloatArray) -> float:
+def _at_extreme(torque: FloatArray, mean: float) -> float:
     """
     Return the fraction of a pass's torque samples at its extreme value away from zero.
 
     A drive at its torque limit records the limit itself, sample after sample: a measured
-    torque with noise repeats its largest magnitude only by chance.
+    torque with noise repeats its largest magnitude only by chance.  ``mean``: the mean of
+    ``torque`` (which side is away from zero).
     """
-    mean = float(np.mean(torque))
-    extreme = float(np.max(torque) if mean >= 0 else np.min(torque))
+    extreme = float(torque.max() if mean >= 0 else torque.min())
     return float(np.count_nonzero(torque == extreme)) / max(torque.size, 1)
 
 
@@ -543,52 +671,75 @@ class ChunkSegmenter:
         if t.size == 0:
             return []
         rejections = self.rejections
-        finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
-        with np.errstate(invalid='ignore'):
-            in_range = ((np.abs(q) <= SAMPLE_LIMITS[0]) & (np.abs(v) <= SAMPLE_LIMITS[1])
-                        & (np.abs(e) <= SAMPLE_LIMITS[2]))
-        _count(rejections, 'out_of_range', np.count_nonzero(finite & ~in_range))
-        usable = finite & in_range
-        finite_time = np.where(usable, t, -np.inf)
-        running = np.maximum.accumulate(finite_time)
-        before = np.maximum(running[:-1], self._time_max)
-        previous_max = np.concatenate(([self._time_max], before))
-        self._time_max = max(self._time_max, float(running[-1]))
-        accepted = usable & (t > previous_max)
-        _count(rejections, 'non_finite', np.count_nonzero(~finite))
-        _count(rejections, 'time_not_increasing', np.count_nonzero(usable & ~accepted))
-
-        index = np.flatnonzero(accepted)
-        if index.size == 0:
-            return []
-        ta = t[index]
-        gap = np.diff(ta, prepend=self._last_time) > config.max_gap_s
-        gap[0] = gap[0] and self._last_time > -math.inf
+        accepted = self._accepted(t, q, v, e)
+        if accepted is not None:  # some samples are rejected
+            if accepted.size == 0:
+                return []
+            t, q, v, e = t[accepted], q[accepted], v[accepted], e[accepted]
+        else:  # all are accepted: copies all the same (the passes keep views of them)
+            t, q = t.copy(), q.copy()
+        ta, n = t, t.size
+        gap = np.empty(n, dtype=bool)
+        gap[0] = ta[0] - self._last_time > config.max_gap_s and self._last_time > -math.inf
+        np.greater(np.diff(ta), config.max_gap_s, out=gap[1:])
         _count(rejections, 'time_gap', np.count_nonzero(gap))
-        speed = config.gear_ratio * v[index]
-        self.fastest_speed_rad_s = max(self.fastest_speed_rad_s, float(np.max(np.abs(speed))))
-        sign = np.where(speed > config.standstill_speed_rad_s, 1,
-                        np.where(speed < -config.standstill_speed_rad_s, -1, 0)).astype(np.int8)
+        speed = config.gear_ratio * v
+        self.fastest_speed_rad_s = max(self.fastest_speed_rad_s, float(speed.max()),
+                                       -float(speed.min()))
+        sign = ((speed > config.standstill_speed_rad_s).view(np.int8)
+                - (speed < -config.standstill_speed_rad_s).view(np.int8))
         moving = np.flatnonzero(sign)
         if moving.size:
             self.last_motion_s = float(ta[moving[-1]])
         # A new move starts where the sign changes or after a gap (a rejected sample alone
         # does not cut it: the time between its neighbours decides).
-        new_move = gap | (np.diff(sign, prepend=self._sign) != 0)
-        starts = np.flatnonzero(new_move)
+        gap[0] |= sign[0] != self._sign
+        gap[1:] |= sign[1:] != sign[:-1]
+        starts = np.flatnonzero(gap)
         levels: list[FrictionLevel] = []
+        qa, ea = q, e / config.torque_scale
         if starts.size and starts[0] == 0:
             levels += self._close_move()  # the move in progress ends before this chunk
+        elif starts.size:  # the move in progress ends in this chunk
+            self._extend(ta, qa, speed, ea, int(sign[0]), 0, int(starts[0]))
+            levels += self._close_move()
         else:
-            starts = np.concatenate(([0], starts))
-        stops = np.concatenate((starts[1:], [index.size]))
-        qa, ea = q[index], e[index] / config.torque_scale
-        for start, stop in zip(starts[:-1], stops[:-1]):
-            levels += self._extend_and_close(ta, qa, speed, ea, int(sign[start]), start, stop)
+            starts = np.zeros(1, dtype=np.intp)  # it goes on past this chunk
+        # the moves that start and end in this chunk, at once
+        for found in _analyse_moves(ta, qa, speed, ea, sign, starts[:-1], starts[1:], config):
+            if isinstance(found, str):
+                rejections[found] += 1
+            else:
+                levels += self._pairer.add(found)
         last = int(starts[-1])
-        self._extend(ta, qa, speed, ea, int(sign[last]), last, index.size)
+        self._extend(ta, qa, speed, ea, int(sign[last]), last, n)
         self._last_time = float(ta[-1])
         return levels
+
+    def _accepted(self, t: FloatArray, q: FloatArray, v: FloatArray, e: FloatArray
+                  ) -> NDArray[np.intp] | None:
+        """
+        Count the rejected samples of a chunk; return the indices of the others (None: all).
+
+        A sample is accepted when its fields are finite and within :data:`SAMPLE_LIMITS` and
+        its time is past that of every such sample before it (of this or an earlier chunk).
+        """
+        with np.errstate(invalid='ignore'):  # a comparison with NaN is False: not in range
+            usable = ((np.abs(q) <= SAMPLE_LIMITS[0]) & (np.abs(v) <= SAMPLE_LIMITS[1])
+                      & (np.abs(e) <= SAMPLE_LIMITS[2]) & np.isfinite(t))
+        if t[0] > self._time_max and usable.all() and (t[1:] > t[:-1]).all():
+            self._time_max = float(t[-1])
+            return None
+        finite = np.isfinite(t) & np.isfinite(q) & np.isfinite(v) & np.isfinite(e)
+        _count(self.rejections, 'out_of_range', np.count_nonzero(finite & ~usable))
+        running = np.maximum.accumulate(np.where(usable, t, -np.inf))
+        before = np.maximum(running[:-1], self._time_max)
+        previous_max = np.concatenate(([self._time_max], before))
+        self._time_max = max(self._time_max, float(running[-1]))
+        accepted = usable & (t > previous_max)
+        _count(self.rejections, 'non_finite', np.count_nonzero(~finite))
+        _count(self.rejections, 'time_not_increasing', np.count_nonzero(usable & ~accepted))
+        return np.flatnonzero(accepted)
 
     def finish(self) -> list[FrictionLevel]:
         """End of the recording: analyse the move in progress; return the levels it completes."""
@@ -606,12 +757,6 @@ class ChunkSegmenter:
         part = (t[start:stop], q[start:stop], speed[start:stop], torque[start:stop])
         self._move = part if not self._move else tuple(
             np.concatenate((old, new)) for old, new in zip(self._move, part))
-
-    def _extend_and_close(self, t: FloatArray, q: FloatArray, speed: FloatArray,
-                          torque: FloatArray, sign: int, start: int, stop: int
-                          ) -> list[FrictionLevel]:
-        self._extend(t, q, speed, torque, sign, start, stop)
-        return self._close_move()
 
     @property
     def last_time_s(self) -> float:

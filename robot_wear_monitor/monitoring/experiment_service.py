@@ -204,10 +204,12 @@ class FrictionExperimentService:
         ``motion_before_s``, the last motion of the previous chunk).
         """
         t = np.asarray(time_s, dtype=float)
+        speed = np.abs(np.asarray(velocity_rad_s, dtype=float))  # a new array: scaled in place
         with np.errstate(over='ignore', invalid='ignore'):  # a 1e308 sample: out_of_range later
-            speed = (np.abs(np.asarray(velocity_rad_s, dtype=float))
-                     * self.segmenter_config.gear_ratio)
-        moving = t[np.isfinite(t) & (speed > self.segmenter_config.standstill_speed_rad_s)]
+            np.multiply(speed, self.segmenter_config.gear_ratio, out=speed)
+        in_motion = speed > self.segmenter_config.standstill_speed_rad_s
+        in_motion &= np.isfinite(t)
+        moving = t[in_motion]
         if moving.size == 0:
             return moving, moving
         starts = np.concatenate(([motion_before_s], moving[:-1]))

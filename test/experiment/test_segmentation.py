@@ -7,7 +7,8 @@ import pytest
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler, segment_batch,
-                                                        SegmenterConfig, StreamingSegmenter)
+                                                        SegmenterConfig, SpeedTally,
+                                                        StreamingSegmenter)
 from robot_wear_monitor.experiment.simulation import (JointSimConfig, PAPER_SPEEDS_RAD_S,
                                                       ScenarioConfig, segmenter_config_for,
                                                       simulate_scenario)
@@ -206,3 +207,46 @@ def test_chunks_of_any_size_give_the_streaming_levels(seed):
     assert levels == expected
     assert chunked.rejections == streaming.rejections
     assert chunked.rejections['non_finite'] == 7 and chunked.rejections['time_gap'] >= 1
+
+
+@pytest.mark.parametrize('settings', [{}, {'trim_s': 0.0, 'min_duration_s': 0.05},
+                                      {'window_center_rad': 0.6, 'window_half_width_rad': 0.01}])
+def test_moves_of_one_chunk_at_once_give_the_streaming_levels(settings):
+    """One chunk's moves analysed together equal the per-move live path, bit for bit."""
+    from wear_testing import independent_robot as robot
+    recording = robot.generate_wear_test(n_experiments=3, seed=4)
+    column = recording.joint_index
+    t = recording.stamps_s.copy()
+    q = recording.position[:, column].copy()
+    v = recording.velocity[:, column].copy()
+    e = recording.effort[:, column].copy()
+    rng = np.random.default_rng(4)
+    bad = rng.choice(t.size, 12, replace=False)
+    e[bad[:4]] = np.nan
+    v[bad[4:7]] = np.inf
+    t[bad[7:11]] -= 0.3
+    t[bad[11]:] += 0.5  # a gap
+    config = SegmenterConfig(joint=recording.joint, gear_ratio=recording.gear_ratio,
+                             torque_scale=recording.torque_scale, **settings)
+    streaming = StreamingSegmenter(config)
+    expected = []
+    for sample in zip(t, q, v, e):
+        expected += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
+                                         velocity_rad_s=sample[2], effort=sample[3])
+    expected += streaming.finish()
+    batch = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
+    assert batch.levels == expected  # every field of every level, exactly
+    assert batch.rejections == streaming.rejections
+    assert batch.rejections['non_finite'] == 7 and batch.rejections['time_not_increasing'] == 4
+    assert len(batch.levels) == 12  # 3 experiments of the 4 speeds of Table V
+    if 'window_center_rad' in settings:
+        assert all(0.59 <= level.position_min_rad < level.position_max_rad <= 0.61
+                   for level in batch.levels)
+
+
+def test_speed_tally_counts_each_level_at_the_nearest_speed():
+    """A speed joins the nearest mean within the tolerance (the first of two as near)."""
+    tally = SpeedTally(tolerance_rad_s=1.0)
+    for speed in (10.0, 12.0, 11.0, 13.2, 12.4):  # 11.0: 1.0 from both 10.0 and 12.0
+        tally.add(speed)
+    assert tally.counts() == {10.5: 2, 12.2: 2, 13.2: 1}
