@@ -48,7 +48,7 @@ cadence both give the same trend.
 Forecast: the posterior is propagated without data for up to ``forecast_horizon`` experiments.
 Since w is monotone, P(crossed within n experiments) = P(w_{k+n} >= threshold); the
 propagation is linear, so the adjoint rows (M^T)^n a are computed once per configuration and a
-forecast is one matrix-vector product (about 0.5 ms).  Its quantiles
+forecast multiplies p by the rows that decide its quantiles (about 0.1 ms).  Its quantiles
 give the remaining experiments (median and 95 % interval, ``inf`` beyond the horizon) and, at the
 recent spacing, the crossing time [s].
 
@@ -241,6 +241,8 @@ class _GridFilter:
         self.prob = np.empty((batch, self.rates.size, grid.size))
         self.reset(np.ones(batch, dtype=bool))
         self._transitions: dict[float, FloatArray] = {}
+        #: the forecast basis and its largest value per cell, once looked up (_forecast_tables)
+        self.forecast_tables: Optional[_ForecastTables] = None
 
     def _wear_prior(self) -> FloatArray:
         cdf = erf(self.wear_edges / (math.sqrt(2.0) * self.config.initial_wear_scale))
@@ -365,18 +367,6 @@ class _GridFilter:
         return self.rates[index]
 
 
-def _quantile_crossing(probability: FloatArray, level: float) -> float:
-    """Return n (interpolated) where the non-decreasing P(crossed by n) first reaches level."""
-    above = np.nonzero(probability >= level)[0]
-    if above.size == 0:
-        return math.inf
-    n = int(above[0])
-    if n == 0:
-        return 0.0
-    p0, p1 = probability[n - 1], probability[n]
-    return n - 1 + (level - p0) / max(p1 - p0, 1e-300)
-
-
 def _crossing_time(time_s: float, remaining: float, spacing_s: float) -> float:
     """Return time_s + remaining x spacing [s]: inf beyond the horizon, NaN if spacing unknown."""
     if remaining == 0:
@@ -424,6 +414,8 @@ class WearTrend:
         self.segment = 0
         self.experiments = 0
         self.last_estimate: Optional[TrendEstimate] = None
+        #: the block of rows of each quantile's last crossing: where the next forecast starts
+        self._forecast_blocks: dict[float, int] = {}
 
     @property
     def wear_grid(self) -> FloatArray:
@@ -450,7 +442,7 @@ class WearTrend:
             experiment or reset.
         :param log_likelihood: log-likelihood of w on ``wear_grid`` (any additive constant; -inf
             allowed), shape (G,).
-        :param forecast: compute the crossing forecast (about 0.5 ms once the first forecast of the
+        :param forecast: compute the crossing forecast (about 0.1 ms once the first forecast of the
             configuration built its rows); False leaves its fields NaN, e.g. when replaying
             a history (the state does not depend on it).
 
@@ -511,8 +503,7 @@ class WearTrend:
         low, median, high = flt.wear_quantiles([0.025, 0.5, 0.975])[0]
         spacing = self._spacing_s()
         if forecast:
-            crossing = self._forecast()
-            remaining = [_quantile_crossing(crossing, q) for q in (0.5, 0.025, 0.975)]
+            remaining = self._forecast()
             times = [_crossing_time(time_s, n, spacing) for n in remaining]
         else:
             remaining = times = [math.nan] * 3
@@ -526,25 +517,127 @@ class WearTrend:
             crossing_time_s=times[0], crossing_time_low_s=times[1],
             crossing_time_high_s=times[2])
 
-    def _forecast(self) -> FloatArray:
+    def _forecast(self) -> list[float]:
         """
-        Return P(w >= threshold after n more experiments), n = 0 .. horizon, shape (H+1,).
+        Return the experiments until w >= threshold at the quantiles of :data:`_FORECAST_LEVELS`.
 
         Without data, one experiment ahead is the same linear map M of p(r, w) every step, so
-        P_n = <M^n p, a> = <p, (M^T)^n a> with a the threshold indicator: the rows
-        (M^T)^n a (:func:`_forecast_basis`) depend only on the configuration and are computed
-        once per process; a forecast is then one matrix-vector product.  The series stops at
-        the first value >= 0.975 (the highest quantile read from it) and is made non-decreasing.
+        P_n = P(w >= threshold after n more experiments) = <M^n p, a> = <p, (M^T)^n a> with a
+        the threshold indicator: the rows (M^T)^n a, n = 0 .. horizon (:func:`_forecast_basis`)
+        depend only on the configuration and are computed once per process.  The quantile q of
+        the crossing is where the running maximum of P_n first reaches q (linear between two
+        experiments; ``inf`` when not within the horizon).  Only the rows that decide the
+        three crossings are multiplied (:class:`_ForecastSeries`); they start at the blocks
+        of the previous forecast's crossings (a starting point, which does not change a result).
         """
-        basis = _forecast_basis(self._filter)
-        series = np.clip(basis @ self._filter.prob[0].ravel(), 0.0, 1.0)
-        reached = np.flatnonzero(series >= 0.975)
-        if reached.size:
-            series = series[:reached[0] + 1]
-        return np.maximum.accumulate(series)
+        series = _ForecastSeries(_forecast_tables(self._filter), self._filter.prob[0].ravel())
+        remaining = []
+        for level in _FORECAST_LEVELS:
+            value, block = series.crossing(level, self._forecast_blocks.get(level, 0))
+            self._forecast_blocks[level] = block
+            remaining.append(value)
+        return remaining
 
 
-_FORECAST_BASES: dict[tuple, FloatArray] = {}
+#: the quantiles of the crossing the estimate reads from the forecast (in the order of the
+#: estimate's remaining_experiments, _low, _high)
+_FORECAST_LEVELS = (0.5, 0.025, 0.975)
+#: rows of the forecast basis per matrix-vector product (a multiple of 4, see _ForecastSeries)
+_FORECAST_BLOCK_ROWS = 4
+
+
+@dataclass(frozen=True)
+class _ForecastTables:
+    """
+    What a forecast needs of one configuration (K = R G cells, H the horizon).
+
+    :ivar basis: the rows (M^T)^n a, shape (H+1, K).
+    :ivar ceiling: the largest value of every cell over the rows, shape (K,).
+    :ivar excess: the largest b_j - b_n of a cell over rows j < n (>= 0: the rows do not
+        decrease but by rounding).
+    :ivar edges: the first row of every block of rows and H+1, shape (blocks+1,).
+    :ivar margin: 1 + the relative rounding bound of a product of K terms (see _ForecastSeries).
+
+    """
+
+    basis: FloatArray
+    ceiling: FloatArray
+    excess: float
+    edges: NDArray[np.int64]
+    margin: float
+
+
+class _ForecastSeries:
+    """
+    The forecast series s_n = <p, b_n> of one posterior p, its rows multiplied on demand.
+
+    Rows are multiplied by blocks of :data:`_FORECAST_BLOCK_ROWS` (a multiple of 4; the last
+    block also takes the rows past the last multiple of 4), a block with one product, so a row
+    has the same bits whichever blocks are multiplied.  They are the bits of one product of the
+    whole basis too: OpenBLAS's dgemv forms each row's dot product on its own, the rows in
+    groups of four with one kernel and the last (rows mod 4) with others, over the same
+    splits of the cells (checked in ``test_trend.py``, one BLAS thread, as the command line and
+    the nodes run).
+
+    Rows not multiplied are bounded.  p >= 0 and b_n >= 0, so a product of K terms computed in
+    any order is within a relative 2 K u of the exact one (u the unit roundoff): s_n <=
+    <p, c> m with c the ceiling and m the tables' margin, and, the rows not decreasing but by
+    ``excess`` (e), s_j <= s_i m + 4 e sum(p) for j <= i.  A crossing found in a run of rows
+    i .. is the first one and its running maximum is the run's if that bound of the rows
+    before i is below the run's maximum before the crossing; otherwise the run grows down.
+    """
+
+    def __init__(self, tables: _ForecastTables, p: FloatArray) -> None:
+        self.tables = tables
+        self.p = p
+        self.blocks: dict[int, FloatArray] = {}
+        self.slack = 4.0 * tables.excess * float(p.sum()) + 1e-300  # 1e-300: underflows
+        self.bound = float(tables.ceiling @ p) * tables.margin + self.slack
+
+    def _rows(self, first: int, last: int) -> FloatArray:
+        """Return s_n of the blocks first .. last (raw products, not clipped)."""
+        edges = self.tables.edges
+        for k in range(first, last + 1):
+            if k not in self.blocks:
+                self.blocks[k] = self.tables.basis[edges[k]:edges[k + 1]] @ self.p
+        return np.concatenate([self.blocks[k] for k in range(first, last + 1)])
+
+    def crossing(self, level: float, block: int) -> tuple[float, int]:
+        """
+        Return (n, its block) where the running maximum of clip(s_n, 0, 1) first reaches level.
+
+        n is interpolated linearly, 0 when s_0 >= level, ``inf`` when not reached within the
+        horizon.  ``block``: the block to start from.
+        """
+        last = self.tables.edges.size - 2
+        if level > self.bound:
+            return math.inf, last
+        low = high = min(max(block, 0), last)
+        while True:
+            start = int(self.tables.edges[low])
+            values = self._rows(low, high)
+            above = np.flatnonzero(values >= level)
+            if above.size:
+                n = start + int(above[0])
+                if n == 0:
+                    return 0.0, 0
+                before = values[:n - start]
+                if n > start and (start == 0 or values[0] * self.tables.margin + self.slack
+                                  < before.max()):
+                    p0 = np.clip(before.max(), 0.0, 1.0)
+                    p1 = np.clip(values[n - start], 0.0, 1.0)
+                    block = int(np.searchsorted(self.tables.edges, n, side='right')) - 1
+                    return n - 1 + (level - p0) / max(p1 - p0, 1e-300), block
+            elif high < last:
+                high += 1
+                continue
+            elif start == 0 or values[0] * self.tables.margin + self.slack < level:
+                return math.inf, last
+            low -= 1
+
+
+#: per configuration: the forecast basis and its bounds
+_FORECAST_TABLES: dict[tuple, _ForecastTables] = {}
 
 
 def _config_key(config: TrendConfig) -> tuple:
@@ -566,11 +659,44 @@ def _forecast_basis(flt: _GridFilter) -> FloatArray:
     rate row shifted by its rate (the linear split between two cells of :meth:`_GridFilter._shift`,
     mass past the top kept in the top cell).  a is the P(w >= threshold) weight of every cell.
     """
+    return _forecast_tables(flt).basis
+
+
+def _forecast_tables(flt: _GridFilter) -> _ForecastTables:
+    """
+    Return the forecast basis and its bounds (:class:`_ForecastTables`), cached.
+
+    They depend on the configuration only: computed once per configuration and process (and
+    kept on the filter, which saves the look-up by the configuration's key).
+    """
+    if flt.forecast_tables is not None:
+        return flt.forecast_tables
+    key = _config_key(flt.config)
+    tables = _FORECAST_TABLES.get(key)
+    if tables is None:
+        basis = _basis_rows(flt)
+        rows, size = basis.shape
+        ceiling, drop = basis[0].copy(), np.empty(size)
+        excess = 0.0
+        for row in basis[1:]:  # the largest b_j - b_n, j < n, and the largest b_n of a cell
+            np.subtract(ceiling, row, out=drop)
+            excess = max(excess, float(drop.max()))
+            np.maximum(ceiling, row, out=ceiling)
+        whole = rows - rows % 4  # rows in groups of four; the rest join the last block
+        starts = list(range(0, whole, _FORECAST_BLOCK_ROWS)) or [0]
+        tables = _ForecastTables(basis=basis, ceiling=ceiling, excess=excess,
+                                 edges=np.array(starts + [rows], dtype=np.int64),
+                                 margin=1.0 + max(1e-9, 4.0 * size * 2.0 ** -53))
+        if len(_FORECAST_TABLES) >= 4:  # 23 MB each at the default grid
+            _FORECAST_TABLES.clear()
+        _FORECAST_TABLES[key] = tables
+    flt.forecast_tables = tables
+    return tables
+
+
+def _basis_rows(flt: _GridFilter) -> FloatArray:
+    """Return the rows (M^T)^n a, n = 0 .. horizon, shape (H+1, R*G) (see _forecast_basis)."""
     cfg = flt.config
-    key = _config_key(cfg)
-    basis = _FORECAST_BASES.get(key)
-    if basis is not None:
-        return basis
     r, g = flt.rates.size, flt.grid.size
     transition = flt.rate_transition(np.ones(1))[0]  # (R, R): new p = transition.T @ p
     shift = flt.rates / flt.step
@@ -594,9 +720,6 @@ def _forecast_basis(flt: _GridFilter) -> FloatArray:
         upper *= move
         moved += upper
         np.matmul(transition, moved.reshape(r, g), out=basis[n + 1].reshape(r, g))
-    if len(_FORECAST_BASES) >= 4:  # 23 MB each at the default grid
-        _FORECAST_BASES.clear()
-    _FORECAST_BASES[key] = basis
     return basis
 
 

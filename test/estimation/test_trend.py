@@ -18,6 +18,7 @@ from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood
 from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig, WearTrend
 from robot_wear_monitor.model.params import load_parameter_set
+from threadpoolctl import threadpool_limits
 from wear_testing import independent_robot as robot
 
 SPEEDS = robot.TABLE_V_SPEEDS_RAD_S
@@ -219,21 +220,72 @@ def _forward_forecast(trend):
     return np.maximum.accumulate(np.array(out))
 
 
+def _crossing(series, level):
+    """Return n (interpolated) where the running maximum of ``series`` first reaches level."""
+    above = np.flatnonzero(series >= level)
+    if above.size == 0:
+        return math.inf
+    n = int(above[0])
+    if n == 0:
+        return 0.0
+    p0, p1 = series[n - 1], series[n]
+    return n - 1 + (level - p0) / max(p1 - p0, 1e-300)
+
+
+def _whole_product_crossings(trend):
+    """Return the crossings from one product of the whole forecast basis (as before blocks)."""
+    basis = trend_module._forecast_basis(trend._filter)
+    series = np.maximum.accumulate(np.clip(basis @ trend._filter.prob[0].ravel(), 0.0, 1.0))
+    return [_crossing(series, q) for q in trend_module._FORECAST_LEVELS]
+
+
+def _posteriors(slopes=(0.0, 0.4, 1.5, 4.0), experiments=24):
+    """Yield trends after each experiment of Gaussian rows around w = 1 + slope k (+ noise)."""
+    rng = np.random.default_rng(7)
+    for slope in slopes:
+        trend = WearTrend()
+        grid = trend.config.wear_grid
+        for k in range(experiments):
+            wear = 1.0 + slope * k + rng.normal(0.0, 2.0)
+            trend.update(time_s=3600.0 * k, log_likelihood=-0.5 * ((grid - wear) / 4.0) ** 2,
+                         forecast=False)
+            yield trend
+
+
 @pytest.mark.parametrize('slope', [0.0, 0.4, 1.5])
 def test_forecast_equals_the_step_by_step_propagation(slope):
-    rng = np.random.default_rng(7)
-    trend = WearTrend()
-    grid = trend.config.wear_grid
-    for k in range(12):
-        wear = slope * k + rng.normal(0.0, 2.0)
-        trend.update(time_s=3600.0 * k, log_likelihood=-0.5 * ((grid - wear) / 4.0) ** 2,
-                     forecast=False)
-    fast = trend._forecast()
+    trend = list(_posteriors(slopes=(slope,), experiments=12))[-1]
     reference = _forward_forecast(trend)
-    assert fast.size >= 2
-    np.testing.assert_allclose(fast, reference[:fast.size], atol=1e-12)
-    if fast.size < reference.size:  # stopped at the first value the quantiles need
-        assert fast[-1] >= 0.975 > fast[-2]
+    expected = [_crossing(reference, q) for q in trend_module._FORECAST_LEVELS]
+    assert math.isfinite(expected[0])
+    np.testing.assert_allclose(trend._forecast(), expected, rtol=0.0, atol=1e-8)
+
+
+def test_forecast_is_bit_for_bit_the_whole_product_from_any_start():
+    """The rows multiplied by blocks give the crossings of one product of all rows."""
+    seen = set()
+    with threadpool_limits(limits=1, user_api='blas'):  # as the command line and nodes run
+        for trend in _posteriors():
+            expected = _whole_product_crossings(trend)
+            blocks = trend_module._forecast_tables(trend._filter).edges.size - 1
+            for start in (0, 5, 13, blocks - 1):
+                trend._forecast_blocks = dict.fromkeys(trend_module._FORECAST_LEVELS, start)
+                assert trend._forecast() == expected
+            seen.update(('inf' if math.isinf(n) else 'zero' if n == 0 else 'inside')
+                        for n in expected)
+    assert seen == {'inf', 'zero', 'inside'}
+
+
+def test_forecast_bound_holds_for_every_row():
+    """<p, ceiling> bounds every row's product: a level above it is never reached."""
+    with threadpool_limits(limits=1, user_api='blas'):
+        for trend in _posteriors(slopes=(0.0, 1.5)):
+            tables = trend_module._forecast_tables(trend._filter)
+            p = trend._filter.prob[0].ravel()
+            series = trend_module._ForecastSeries(tables, p)
+            assert np.max(tables.basis @ p) <= series.bound
+            rises = np.maximum.accumulate(tables.basis, axis=0) - tables.basis
+            assert 0.0 <= np.max(rises) == tables.excess < 1e-12
 
 
 def test_forecast_basis_is_bit_for_bit_the_row_by_row_adjoint():
