@@ -241,6 +241,7 @@ class _GridFilter:
         self.prob = np.empty((batch, self.rates.size, grid.size))
         self.reset(np.ones(batch, dtype=bool))
         self._transitions: dict[float, FloatArray] = {}
+        self._moves: dict[float, tuple[NDArray[np.int64], FloatArray]] = {}
         #: the forecast basis and its largest value per cell, once looked up (_forecast_tables)
         self.forecast_tables: Optional[_ForecastTables] = None
 
@@ -296,27 +297,63 @@ class _GridFilter:
         moving = e > 0
         if not np.any(moving):
             return
-        p = self.prob[moving]
-        p = np.einsum('bij,big->bjg', self.rate_transition(e[moving]), p, optimize=True)
-        self.prob[moving] = self._shift(p, e[moving])
+        every = bool(np.all(moving))
+        p = self.prob if every else self.prob[moving]
+        e = e if every else e[moving]
+        # new p(j) = sum_i P(j | i) p(i), the product numpy's einsum('bij,big->bjg',
+        # optimize=True) makes: (p^T P)^T, laid out (g, j) (the sums over g below follow it)
+        p = np.matmul(p.transpose(0, 2, 1), self.rate_transition(e)).transpose(0, 2, 1)
+        if every:
+            self.prob = self._shift(p, e)
+        else:
+            self.prob[moving] = self._shift(p, e)
 
     def _shift(self, p: FloatArray, elapsed: FloatArray) -> FloatArray:
         """Move the wear of rate row j by r_j e (linear split between cells, top absorbs)."""
         b, r, g = p.shape
-        shift = self.rates[None, :] * elapsed[:, None] / self.step  # (b, r) in cells
-        whole = np.minimum(np.floor(shift), g).astype(np.int64)
-        frac = (shift - np.floor(shift))[:, :, None]
-        pad = int(whole.max()) + 1
-        width = g + pad
-        padded = np.zeros((b, r, width))
-        padded[:, :, pad:] = p
-        start = (np.arange(b * r).reshape(b, r) * width + pad - whole).reshape(-1, 1)
-        index = start + np.arange(g)[None, :]
-        flat = padded.reshape(-1)
-        low = np.take(flat, index).reshape(b, r, g)
-        out = low + frac * (np.take(flat, index - 1).reshape(b, r, g) - low)
+        cells = r * g
+        source = np.empty((b, cells + 1))  # every row's cells, then a zero
+        source[:, :cells] = p.reshape(b, cells)
+        source[:, cells] = 0.0
+        moves = [self._move_of(value) for value in elapsed.tolist()]
+        if b == 1:
+            index, frac = moves[0]
+            moved = np.take(source.reshape(-1), index)[None]
+            frac = frac[None]
+        else:
+            offsets = np.arange(b)[:, None, None] * (cells + 1)
+            moved = np.take(source.reshape(-1), np.stack([m[0] for m in moves]) + offsets)
+            frac = np.stack([m[1] for m in moves])
+        # moved[j, c] = p[j, c - 1 - whole_j] (0 below): low = moved[1:], high = moved[:-1]
+        low = moved[:, :, 1:]
+        out = moved[:, :, :-1] - low
+        out *= frac
+        out += low  # low + frac (high - low)
         out[:, :, -1] += p.sum(axis=2) - out.sum(axis=2)  # what moved past the top
         return out
+
+    def _move_of(self, elapsed: float) -> tuple[NDArray[np.int64], FloatArray]:
+        """
+        Return the cells of a shift over ``elapsed`` experiments (kept, as the transitions).
+
+        The shift of rate row j is s_j = r_j e / step cells: whole_j = floor(s_j) (at most G)
+        and frac_j = s_j - floor(s_j), shape (R, 1); the index (R, G+1) takes, from a filter's
+        flat cells followed by a zero, the cell c - 1 - whole_j of row j at c (the zero where
+        that is below the grid).
+        """
+        kept = self._moves.get(elapsed)
+        if kept is not None:
+            return kept
+        r, g = self.rates.size, self.grid.size
+        shift = self.rates * elapsed / self.step
+        whole = np.minimum(np.floor(shift), g).astype(np.int64)
+        frac = (shift - np.floor(shift))[:, None]
+        source = np.arange(g + 1)[None, :] - 1 - whole[:, None]
+        index = np.where(source >= 0, np.arange(r)[:, None] * g + source, r * g)
+        if len(self._moves) >= _TRANSITIONS_KEPT:
+            self._moves.pop(next(iter(self._moves)))
+        self._moves[elapsed] = (index, frac)
+        return index, frac
 
     def update(self, log_likelihood: FloatArray) -> None:
         """Multiply by the likelihood rows (B, G) (outlier mixture) and renormalise."""

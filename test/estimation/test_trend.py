@@ -323,3 +323,41 @@ def test_rate_transitions_are_kept_per_interval_and_equal_fresh_ones():
     for value in np.linspace(3.0, 9.0, 40):  # the oldest go first
         flt._transition_of(float(value))
     assert len(flt._transitions) == trend_module._TRANSITIONS_KEPT
+
+
+def _plain_predict(flt, prob, elapsed):
+    """Propagate ``prob`` (B, R, G) as plainly written: einsum, then a zero-padded shift."""
+    p = np.einsum('bij,big->bjg', flt.rate_transition(elapsed), prob, optimize=True)
+    b, r, g = p.shape
+    shift = flt.rates[None, :] * elapsed[:, None] / flt.step
+    whole = np.minimum(np.floor(shift), g).astype(np.int64)
+    frac = (shift - np.floor(shift))[:, :, None]
+    pad = int(whole.max()) + 1
+    padded = np.zeros((b, r, g + pad))
+    padded[:, :, pad:] = p
+    start = (np.arange(b * r).reshape(b, r) * (g + pad) + pad - whole).reshape(-1, 1)
+    index = start + np.arange(g)[None, :]
+    low = np.take(padded.reshape(-1), index).reshape(b, r, g)
+    out = low + frac * (np.take(padded.reshape(-1), index - 1).reshape(b, r, g) - low)
+    out[:, :, -1] += p.sum(axis=2) - out.sum(axis=2)
+    return out
+
+
+@pytest.mark.parametrize('batch', [1, 3])
+def test_predict_is_bit_for_bit_the_plain_propagation(batch):
+    """The kept shifts and the product give the bits of einsum and a padded shift."""
+    rng = np.random.default_rng(11)
+    flt = trend_module._GridFilter(CONFIG, batch)
+    for _ in range(30):
+        prob = rng.random(flt.prob.shape) ** 6
+        prob /= prob.sum(axis=(1, 2), keepdims=True)
+        elapsed = rng.choice([0.0, 1e-3, 0.5, 1.0, 2.5, 40.0, 400.0], size=batch)
+        expected = prob.copy()  # a row with no elapsed time stays
+        moving = elapsed > 0
+        if np.any(moving):
+            expected[moving] = _plain_predict(flt, prob[moving], elapsed[moving])
+        flt.prob = prob.copy()
+        flt.predict(elapsed)
+        assert flt.prob.tobytes() == expected.tobytes()
+        np.testing.assert_allclose(flt.prob.sum(axis=(1, 2)), 1.0, atol=1e-12)  # mass kept
+    assert len(flt._moves) <= trend_module._TRANSITIONS_KEPT
