@@ -242,6 +242,7 @@ class _GridFilter:
         self.reset(np.ones(batch, dtype=bool))
         self._transitions: dict[float, FloatArray] = {}
         self._moves: dict[float, tuple[NDArray[np.int64], FloatArray]] = {}
+        self._above: dict[float, FloatArray] = {}  # probability_above's cell parts, last one
         #: the forecast basis and its largest value per cell, once looked up (_forecast_tables)
         self.forecast_tables: Optional[_ForecastTables] = None
 
@@ -365,8 +366,8 @@ class _GridFilter:
         eps = self.config.outlier_probability
         like = (1.0 - eps) * np.exp(ll) + eps
         p = self.prob * like[:, None, :]
-        total = p.sum(axis=(1, 2), keepdims=True)
-        self.prob = p / total
+        p /= p.sum(axis=(1, 2), keepdims=True)
+        self.prob = p
 
     # ----------------------------------------------------------------- summaries
 
@@ -374,27 +375,34 @@ class _GridFilter:
         """Return p(w) per row, shape (B, G)."""
         return self.prob.sum(axis=1)
 
-    def wear_quantiles(self, levels: ArrayLike) -> FloatArray:
-        """Return quantiles of w, shape (B, Q) (mass uniform within the grid cells)."""
-        mass = self.wear_marginal()
+    def wear_quantiles(self, levels: ArrayLike, mass: Optional[FloatArray] = None
+                       ) -> FloatArray:
+        """
+        Return quantiles of w, shape (B, Q) (mass uniform within the grid cells).
+
+        :param levels: the quantile levels, shape (Q,).
+        :param mass: :meth:`wear_marginal` when the caller has it.
+        """
+        mass = self.wear_marginal() if mass is None else mass
         cdf = np.cumsum(mass, axis=1)
         cdf /= cdf[:, -1:]
+        q = np.asarray(levels, dtype=float)[None, :]  # (1, Q)
+        cell = np.minimum(np.sum(cdf[:, None, :] < q[:, :, None], axis=2), cdf.shape[1] - 1)
+        upper = np.take_along_axis(cdf, cell, axis=1)
+        lower = upper - np.take_along_axis(mass, cell, axis=1) / np.sum(mass, axis=1)[:, None]
+        frac = np.clip((q - lower) / np.maximum(upper - lower, 1e-300), 0.0, 1.0)
         edges = self.wear_edges
-        out = []
-        for q in np.asarray(levels, dtype=float):
-            cell = np.minimum(np.sum(cdf < q, axis=1), cdf.shape[1] - 1)
-            rows = np.arange(cdf.shape[0])
-            upper = cdf[rows, cell]
-            lower = upper - mass[rows, cell] / np.sum(mass, axis=1)
-            frac = np.clip((q - lower) / np.maximum(upper - lower, 1e-300), 0.0, 1.0)
-            out.append(edges[cell] + frac * (edges[cell + 1] - edges[cell]))
-        return np.stack(out, axis=1)
+        return edges[cell] + frac * (edges[cell + 1] - edges[cell])
 
-    def probability_above(self, threshold: float) -> FloatArray:
-        """Return P(w >= threshold) per row, shape (B,)."""
-        mass = self.wear_marginal()
-        lo, hi = self.wear_edges[:-1], self.wear_edges[1:]
-        frac = np.clip((hi - threshold) / np.maximum(hi - lo, 1e-300), 0.0, 1.0)
+    def probability_above(self, threshold: float, mass: Optional[FloatArray] = None
+                          ) -> FloatArray:
+        """Return P(w >= threshold) per row, shape (B,) (``mass``: :meth:`wear_marginal`)."""
+        mass = self.wear_marginal() if mass is None else mass
+        frac = self._above.get(threshold)
+        if frac is None:  # the part of every cell above the threshold
+            lo, hi = self.wear_edges[:-1], self.wear_edges[1:]
+            frac = np.clip((hi - threshold) / np.maximum(hi - lo, 1e-300), 0.0, 1.0)
+            self._above = {threshold: frac}
         return np.clip(mass @ frac, 0.0, 1.0)
 
     def rate_median(self) -> FloatArray:
@@ -419,13 +427,15 @@ class _Spacing:
     def __init__(self, window: int) -> None:
         self.window = window
         self.intervals: list[float] = []
+        self._value = math.nan
 
     def add(self, interval: float) -> None:
         if interval > 0:
             self.intervals = (self.intervals + [interval])[-self.window:]
+            self._value = float(np.median(self.intervals))
 
     def value(self) -> float:
-        return float(np.median(self.intervals)) if self.intervals else math.nan
+        return self._value
 
 
 # --------------------------------------------------------------------------- public classes
@@ -494,7 +504,8 @@ class WearTrend:
         if row.shape != self.wear_grid.shape:
             raise InputError(f'trend: log_likelihood must have shape {self.wear_grid.shape}, '
                              f'got {row.shape}')
-        if np.any(np.isnan(row)) or np.any(row == np.inf) or not np.any(np.isfinite(row)):
+        if not np.all(np.isfinite(row)) and (np.any(np.isnan(row)) or np.any(row == np.inf)
+                                             or not np.any(np.isfinite(row))):
             raise InputError('trend: log_likelihood must be finite or -inf (not NaN, +inf, '
                              'nor all -inf)')
         known = [t for t in (self._last_time, self._segment_start) if t is not None]
@@ -537,7 +548,8 @@ class WearTrend:
 
     def _estimate(self, time_s: float, forecast: bool) -> TrendEstimate:
         flt, cfg = self._filter, self.config
-        low, median, high = flt.wear_quantiles([0.025, 0.5, 0.975])[0]
+        mass = flt.wear_marginal()
+        low, median, high = flt.wear_quantiles(_WEAR_LEVELS, mass)[0]
         spacing = self._spacing_s()
         if forecast:
             remaining = self._forecast()
@@ -548,7 +560,7 @@ class WearTrend:
             time_s=time_s, segment=self.segment, experiments=self.experiments,
             wear=float(median), wear_low=float(low), wear_high=float(high),
             rate=float(flt.rate_median()[0]), threshold=cfg.threshold,
-            probability_above_threshold=float(flt.probability_above(cfg.threshold)[0]),
+            probability_above_threshold=float(flt.probability_above(cfg.threshold, mass)[0]),
             remaining_experiments=remaining[0], remaining_experiments_low=remaining[1],
             remaining_experiments_high=remaining[2], experiment_spacing_s=spacing,
             crossing_time_s=times[0], crossing_time_low_s=times[1],
@@ -576,6 +588,8 @@ class WearTrend:
         return remaining
 
 
+#: the quantiles of w of an estimate (wear_low, wear, wear_high)
+_WEAR_LEVELS = np.array([0.025, 0.5, 0.975])
 #: the quantiles of the crossing the estimate reads from the forecast (in the order of the
 #: estimate's remaining_experiments, _low, _high)
 _FORECAST_LEVELS = (0.5, 0.025, 0.975)
