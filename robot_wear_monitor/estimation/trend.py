@@ -301,21 +301,28 @@ class _GridFilter:
         every = bool(np.all(moving))
         p = self.prob if every else self.prob[moving]
         e = e if every else e[moving]
-        # new p(j) = sum_i P(j | i) p(i), the product numpy's einsum('bij,big->bjg',
-        # optimize=True) makes: (p^T P)^T, laid out (g, j) (the sums over g below follow it)
-        p = np.matmul(p.transpose(0, 2, 1), self.rate_transition(e)).transpose(0, 2, 1)
+        shifted = self._shift(p, e)
         if every:
-            self.prob = self._shift(p, e)
+            self.prob = shifted
         else:
-            self.prob[moving] = self._shift(p, e)
+            self.prob[moving] = shifted
 
     def _shift(self, p: FloatArray, elapsed: FloatArray) -> FloatArray:
-        """Move the wear of rate row j by r_j e (linear split between cells, top absorbs)."""
+        """
+        Mix the rates, then move the wear of rate row j by r_j e (linear split, top absorbs).
+
+        The product is the one numpy's einsum('bij,big->bjg', optimize=True) makes,
+        (p^T P)^T, here written into a buffer laid out (g, j) with a zero after every filter's
+        cells, from which one gather takes both cells of the split; the sums over g follow
+        that layout, as they followed the einsum's.
+        """
         b, r, g = p.shape
         cells = r * g
-        source = np.empty((b, cells + 1))  # every row's cells, then a zero
-        source[:, :cells] = p.reshape(b, cells)
+        source = np.empty((b, cells + 1))  # every filter's cells (g, j), then a zero
         source[:, cells] = 0.0
+        mixed = source[:, :cells].reshape(b, g, r)
+        np.matmul(p.transpose(0, 2, 1), self.rate_transition(elapsed), out=mixed)
+        mixed = mixed.transpose(0, 2, 1)  # new p(j) = sum_i P(j | i) p(i), (b, r, g)
         moves = [self._move_of(value) for value in elapsed.tolist()]
         if b == 1:
             index, frac = moves[0]
@@ -330,7 +337,7 @@ class _GridFilter:
         out = moved[:, :, :-1] - low
         out *= frac
         out += low  # low + frac (high - low)
-        out[:, :, -1] += p.sum(axis=2) - out.sum(axis=2)  # what moved past the top
+        out[:, :, -1] += mixed.sum(axis=2) - out.sum(axis=2)  # what moved past the top
         return out
 
     def _move_of(self, elapsed: float) -> tuple[NDArray[np.int64], FloatArray]:
@@ -339,8 +346,8 @@ class _GridFilter:
 
         The shift of rate row j is s_j = r_j e / step cells: whole_j = floor(s_j) (at most G)
         and frac_j = s_j - floor(s_j), shape (R, 1); the index (R, G+1) takes, from a filter's
-        flat cells followed by a zero, the cell c - 1 - whole_j of row j at c (the zero where
-        that is below the grid).
+        cells laid out (g, j) followed by a zero, the cell c - 1 - whole_j of row j at c (the
+        zero where that is below the grid).
         """
         kept = self._moves.get(elapsed)
         if kept is not None:
@@ -350,7 +357,7 @@ class _GridFilter:
         whole = np.minimum(np.floor(shift), g).astype(np.int64)
         frac = (shift - np.floor(shift))[:, None]
         source = np.arange(g + 1)[None, :] - 1 - whole[:, None]
-        index = np.where(source >= 0, np.arange(r)[:, None] * g + source, r * g)
+        index = np.where(source >= 0, source * r + np.arange(r)[:, None], r * g)
         if len(self._moves) >= _TRANSITIONS_KEPT:
             self._moves.pop(next(iter(self._moves)))
         self._moves[elapsed] = (index, frac)
