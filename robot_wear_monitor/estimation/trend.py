@@ -439,7 +439,11 @@ class _Spacing:
     def add(self, interval: float) -> None:
         if interval > 0:
             self.intervals = (self.intervals + [interval])[-self.window:]
-            self._value = float(np.median(self.intervals))
+            # numpy's median: the middle value, or the mean of the middle two (a + b) / 2
+            ordered = sorted(self.intervals)
+            middle = len(ordered) // 2
+            self._value = (ordered[middle] if len(ordered) % 2
+                           else (ordered[middle - 1] + ordered[middle]) / 2.0)
 
     def value(self) -> float:
         return self._value

@@ -361,3 +361,17 @@ def test_predict_is_bit_for_bit_the_plain_propagation(batch):
         assert flt.prob.tobytes() == expected.tobytes()
         np.testing.assert_allclose(flt.prob.sum(axis=(1, 2)), 1.0, atol=1e-12)  # mass kept
     assert len(flt._moves) <= trend_module._TRANSITIONS_KEPT
+
+
+def test_spacing_is_numpys_median_of_the_last_intervals():
+    rng = np.random.default_rng(3)
+    for window in (1, 2, 5, 8):
+        spacing = trend_module._Spacing(window)
+        assert math.isnan(spacing.value())
+        intervals = []
+        for interval in rng.uniform(0.5, 2.0, 40) * rng.choice([1.0, 3600.0, 0.1], 40):
+            spacing.add(float(interval))
+            intervals = (intervals + [float(interval)])[-window:]
+            assert spacing.value() == float(np.median(intervals))
+        spacing.add(0.0)  # not an interval: the same experiment again
+        assert spacing.value() == float(np.median(intervals))
