@@ -60,7 +60,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 import math
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -243,7 +243,7 @@ class _GridFilter:
         self._transitions: dict[float, FloatArray] = {}
         self._moves: dict[float, tuple[NDArray[np.int64], FloatArray]] = {}
         self._above: dict[float, FloatArray] = {}  # probability_above's cell parts, last one
-        #: the forecast basis and its largest value per cell, once looked up (_forecast_tables)
+        #: the forecast's tables, once looked up (_forecast_tables)
         self.forecast_tables: Optional[_ForecastTables] = None
 
     def _wear_prior(self) -> FloatArray:
@@ -298,23 +298,18 @@ class _GridFilter:
         moving = e > 0
         if not np.any(moving):
             return
-        every = bool(np.all(moving))
-        p = self.prob if every else self.prob[moving]
-        e = e if every else e[moving]
-        shifted = self._shift(p, e)
-        if every:
-            self.prob = shifted
+        if np.all(moving):
+            self.prob = self._shift(self.prob, e)
         else:
-            self.prob[moving] = shifted
+            self.prob[moving] = self._shift(self.prob[moving], e[moving])
 
     def _shift(self, p: FloatArray, elapsed: FloatArray) -> FloatArray:
         """
         Mix the rates, then move the wear of rate row j by r_j e (linear split, top absorbs).
 
-        The product is the one numpy's einsum('bij,big->bjg', optimize=True) makes,
-        (p^T P)^T, here written into a buffer laid out (g, j) with a zero after every filter's
-        cells, from which one gather takes both cells of the split; the sums over g follow
-        that layout, as they followed the einsum's.
+        The product is numpy's einsum('bij,big->bjg', optimize=True), (p^T P)^T, laid out
+        (g, j) in a buffer with a zero after the cells, for one gather of both cells of the
+        split (the sums over g follow that layout, as they followed the einsum's).
         """
         b, r, g = p.shape
         cells = r * g
@@ -324,14 +319,9 @@ class _GridFilter:
         np.matmul(p.transpose(0, 2, 1), self.rate_transition(elapsed), out=mixed)
         mixed = mixed.transpose(0, 2, 1)  # new p(j) = sum_i P(j | i) p(i), (b, r, g)
         moves = [self._move_of(value) for value in elapsed.tolist()]
-        if b == 1:
-            index, frac = moves[0]
-            moved = np.take(source.reshape(-1), index)[None]
-            frac = frac[None]
-        else:
-            offsets = np.arange(b)[:, None, None] * (cells + 1)
-            moved = np.take(source.reshape(-1), np.stack([m[0] for m in moves]) + offsets)
-            frac = np.stack([m[1] for m in moves])
+        offsets = np.arange(b)[:, None, None] * (cells + 1)
+        moved = np.take(source.reshape(-1), np.stack([m[0] for m in moves]) + offsets)
+        frac = np.stack([m[1] for m in moves])
         # moved[j, c] = p[j, c - 1 - whole_j] (0 below): low = moved[1:], high = moved[:-1]
         low = moved[:, :, 1:]
         out = moved[:, :, :-1] - low
@@ -342,12 +332,11 @@ class _GridFilter:
 
     def _move_of(self, elapsed: float) -> tuple[NDArray[np.int64], FloatArray]:
         """
-        Return the cells of a shift over ``elapsed`` experiments (kept, as the transitions).
+        Return the gather index (R, G+1) and frac (R, 1) of a shift over ``elapsed`` (kept).
 
-        The shift of rate row j is s_j = r_j e / step cells: whole_j = floor(s_j) (at most G)
-        and frac_j = s_j - floor(s_j), shape (R, 1); the index (R, G+1) takes, from a filter's
-        cells laid out (g, j) followed by a zero, the cell c - 1 - whole_j of row j at c (the
-        zero where that is below the grid).
+        Row j moves s_j = r_j e / step cells, whole_j = floor(s_j) (at most G), frac_j = s_j -
+        floor(s_j); at c the index takes cell c - 1 - whole_j of row j from the cells laid out
+        (g, j), or the zero after them below the grid.
         """
         kept = self._moves.get(elapsed)
         if kept is not None:
@@ -384,12 +373,7 @@ class _GridFilter:
 
     def wear_quantiles(self, levels: ArrayLike, mass: Optional[FloatArray] = None
                        ) -> FloatArray:
-        """
-        Return quantiles of w, shape (B, Q) (mass uniform within the grid cells).
-
-        :param levels: the quantile levels, shape (Q,).
-        :param mass: :meth:`wear_marginal` when the caller has it.
-        """
+        """Return quantiles (Q,) of w, (B, Q), mass uniform in a cell (``mass``: wear_marginal)."""
         mass = self.wear_marginal() if mass is None else mass
         cdf = np.cumsum(mass, axis=1)
         cdf /= cdf[:, -1:]
@@ -472,8 +456,8 @@ class WearTrend:
         self.segment = 0
         self.experiments = 0
         self.last_estimate: Optional[TrendEstimate] = None
-        #: the block of rows of each quantile's last crossing: where the next forecast starts
-        self._forecast_blocks: dict[float, int] = {}
+        #: the row of each quantile's last crossing: where the next forecast looks first
+        self._forecast_rows: dict[float, int] = {}
 
     @property
     def wear_grid(self) -> FloatArray:
@@ -583,18 +567,16 @@ class WearTrend:
 
         Without data, one experiment ahead is the same linear map M of p(r, w) every step, so
         P_n = P(w >= threshold after n more experiments) = <M^n p, a> = <p, (M^T)^n a> with a
-        the threshold indicator: the rows (M^T)^n a, n = 0 .. horizon (:func:`_forecast_basis`)
-        depend only on the configuration and are computed once per process.  The quantile q of
-        the crossing is where the running maximum of P_n first reaches q (linear between two
-        experiments; ``inf`` when not within the horizon).  Only the rows that decide the
-        three crossings are multiplied (:class:`_ForecastSeries`); they start at the blocks
-        of the previous forecast's crossings (a starting point, which does not change a result).
+        the threshold indicator; the rows (M^T)^n a (:func:`_forecast_basis`) are computed once.
+        The quantile q of the crossing is where the running maximum of P_n first reaches q
+        (linear in between; ``inf`` beyond the horizon).  Only the rows that decide it are
+        multiplied (:class:`_ForecastSeries`), first around the last forecast's crossings.
         """
         series = _ForecastSeries(_forecast_tables(self._filter), self._filter.prob[0].ravel())
         remaining = []
         for level in _FORECAST_LEVELS:
-            value, block = series.crossing(level, self._forecast_blocks.get(level, 0))
-            self._forecast_blocks[level] = block
+            value, row = series.crossing(level, self._forecast_rows.get(level, 0))
+            self._forecast_rows[level] = row
             remaining.append(value)
         return remaining
 
@@ -604,98 +586,82 @@ _WEAR_LEVELS = np.array([0.025, 0.5, 0.975])
 #: the quantiles of the crossing the estimate reads from the forecast (in the order of the
 #: estimate's remaining_experiments, _low, _high)
 _FORECAST_LEVELS = (0.5, 0.025, 0.975)
-#: rows of the forecast basis per matrix-vector product (a multiple of 4, see _ForecastSeries)
-_FORECAST_BLOCK_ROWS = 4
 
 
-@dataclass(frozen=True)
-class _ForecastTables:
-    """
-    What a forecast needs of one configuration (K = R G cells, H the horizon).
-
-    :ivar basis: the rows (M^T)^n a, shape (H+1, K).
-    :ivar ceiling: the largest value of every cell over the rows, shape (K,).
-    :ivar excess: the largest b_j - b_n of a cell over rows j < n (>= 0: the rows do not
-        decrease but by rounding).
-    :ivar edges: the first row of every block of rows and H+1, shape (blocks+1,).
-    :ivar margin: 1 + the relative rounding bound of a product of K terms (see _ForecastSeries).
-
-    """
+class _ForecastTables(NamedTuple):
+    """A configuration's rows b_n, (H+1, K); max_n b_n, (K,); max b_j - b_n, j < n (rounding)."""
 
     basis: FloatArray
     ceiling: FloatArray
     excess: float
-    edges: NDArray[np.int64]
-    margin: float
 
 
 class _ForecastSeries:
     """
     The forecast series s_n = <p, b_n> of one posterior p, its rows multiplied on demand.
 
-    Rows are multiplied by blocks of :data:`_FORECAST_BLOCK_ROWS` (a multiple of 4; the last
-    block also takes the rows past the last multiple of 4), a block with one product, so a row
-    has the same bits whichever blocks are multiplied.  They are the bits of one product of the
-    whole basis too: OpenBLAS's dgemv forms each row's dot product on its own, the rows in
-    groups of four with one kernel and the last (rows mod 4) with others, over the same
-    splits of the cells (checked in ``test_trend.py``, one BLAS thread, as the command line and
-    the nodes run).
+    Rows are multiplied in one product of four consecutive rows or, for the last (H+1 mod 4)
+    rows, which the kernels treat apart, of those and the four before.  A row has then the
+    bits of one product of the whole basis: OpenBLAS's dgemv forms each row's dot product on
+    its own, a row of a group of four with one kernel, the last (rows mod 4) with others, over
+    the same splits of the cells (``test_trend.py``, one BLAS thread as the CLI and nodes run).
 
-    Rows not multiplied are bounded.  p >= 0 and b_n >= 0, so a product of K terms computed in
-    any order is within a relative 2 K u of the exact one (u the unit roundoff): s_n <=
-    <p, c> m with c the ceiling and m the tables' margin, and, the rows not decreasing but by
-    ``excess`` (e), s_j <= s_i m + 4 e sum(p) for j <= i.  A crossing found in a run of rows
-    i .. is the first one and its running maximum is the run's if that bound of the rows
-    before i is below the run's maximum before the crossing; otherwise the run grows down.
+    Rows not multiplied are bounded.  p, b_n >= 0: a product of K = R G terms in any order is
+    within a relative 2 K u of the exact one (u the unit roundoff), so s_n <= <p, max_n b_n> m
+    (m = 1 + 4 K u, at least 1 + 1e-9) and, the rows not decreasing but by e = ``excess``,
+    s_j <= s_i m + 4 e sum(p) for j <= i.  A crossing found in a run of rows i .. is the first
+    one, and its running maximum the run's, when that bound of the rows before i is below the
+    run's maximum before the crossing; otherwise the run grows down.
     """
 
     def __init__(self, tables: _ForecastTables, p: FloatArray) -> None:
-        self.tables = tables
+        self.basis = tables.basis
+        self.margin = 1.0 + max(1e-9, 4.0 * p.size * 2.0 ** -53)
         self.p = p
-        self.blocks: dict[int, FloatArray] = {}
+        self.rows = self.basis.shape[0]
+        self.whole = self.rows - self.rows % 4  # rows in groups of four
+        self.values = np.full(self.rows, np.nan)  # NaN: not multiplied
         self.slack = 4.0 * tables.excess * float(p.sum()) + 1e-300  # 1e-300: underflows
-        self.bound = float(tables.ceiling @ p) * tables.margin + self.slack
+        self.bound = float(tables.ceiling @ p) * self.margin + self.slack
 
-    def _rows(self, first: int, last: int) -> FloatArray:
-        """Return s_n of the blocks first .. last (raw products, not clipped)."""
-        edges = self.tables.edges
-        for k in range(first, last + 1):
-            if k not in self.blocks:
-                self.blocks[k] = self.tables.basis[edges[k]:edges[k + 1]] @ self.p
-        return np.concatenate([self.blocks[k] for k in range(first, last + 1)])
+    def _multiply(self, first: int) -> tuple[int, int]:
+        """Multiply rows first .. first + 3 (or the last group and the rest); return the range."""
+        first = max(first, 0)
+        end = first + 4
+        if end > self.whole:
+            first, end = max(self.whole - 4, 0), self.rows
+        if np.isnan(self.values[first:end]).any():
+            self.values[first:end] = self.basis[first:end] @ self.p
+        return first, end
 
-    def crossing(self, level: float, block: int) -> tuple[float, int]:
+    def crossing(self, level: float, row: int) -> tuple[float, int]:
         """
-        Return (n, its block) where the running maximum of clip(s_n, 0, 1) first reaches level.
+        Return (n, its row): where the running maximum of clip(s_n, 0, 1) first reaches level.
 
-        n is interpolated linearly, 0 when s_0 >= level, ``inf`` when not reached within the
-        horizon.  ``block``: the block to start from.
+        n is linear in between, 0 if s_0 does, ``inf`` if none; ``row``: where to look first.
         """
-        last = self.tables.edges.size - 2
         if level > self.bound:
-            return math.inf, last
-        low = high = min(max(block, 0), last)
+            return math.inf, row
+        low, high = self._multiply(min(max(row, 0), self.rows - 1) - 2)
         while True:
-            start = int(self.tables.edges[low])
-            values = self._rows(low, high)
+            values = self.values[low:high]
             above = np.flatnonzero(values >= level)
             if above.size:
-                n = start + int(above[0])
+                n = low + int(above[0])
                 if n == 0:
                     return 0.0, 0
-                before = values[:n - start]
-                if n > start and (start == 0 or values[0] * self.tables.margin + self.slack
-                                  < before.max()):
+                before = values[:n - low]
+                if n > low and (low == 0 or values[0] * self.margin + self.slack
+                                < before.max()):
                     p0 = np.clip(before.max(), 0.0, 1.0)
-                    p1 = np.clip(values[n - start], 0.0, 1.0)
-                    block = int(np.searchsorted(self.tables.edges, n, side='right')) - 1
-                    return n - 1 + (level - p0) / max(p1 - p0, 1e-300), block
-            elif high < last:
-                high += 1
+                    p1 = np.clip(values[n - low], 0.0, 1.0)
+                    return n - 1 + (level - p0) / max(p1 - p0, 1e-300), n
+            elif high < self.rows:
+                high = self._multiply(high)[1]
                 continue
-            elif start == 0 or values[0] * self.tables.margin + self.slack < level:
-                return math.inf, last
-            low -= 1
+            elif low == 0 or values[0] * self.margin + self.slack < level:
+                return math.inf, self.rows - 1
+            low = min(low, self._multiply(low - 4)[0])
 
 
 #: per configuration: the forecast basis and its bounds
@@ -713,42 +679,22 @@ def _config_key(config: TrendConfig) -> tuple:
     return tuple(key)
 
 
-def _forecast_basis(flt: _GridFilter) -> FloatArray:
-    """
-    Return the rows (M^T)^n a, n = 0 .. horizon, shape (H+1, R*G), cached per configuration.
-
-    M is one experiment ahead without data: the rate transition of one experiment, then every
-    rate row shifted by its rate (the linear split between two cells of :meth:`_GridFilter._shift`,
-    mass past the top kept in the top cell).  a is the P(w >= threshold) weight of every cell.
-    """
-    return _forecast_tables(flt).basis
-
-
 def _forecast_tables(flt: _GridFilter) -> _ForecastTables:
-    """
-    Return the forecast basis and its bounds (:class:`_ForecastTables`), cached.
-
-    They depend on the configuration only: computed once per configuration and process (and
-    kept on the filter, which saves the look-up by the configuration's key).
-    """
+    """Return the forecast basis and its bounds, once per configuration (kept on the filter)."""
     if flt.forecast_tables is not None:
         return flt.forecast_tables
     key = _config_key(flt.config)
     tables = _FORECAST_TABLES.get(key)
     if tables is None:
-        basis = _basis_rows(flt)
-        rows, size = basis.shape
+        basis = _forecast_basis(flt)
+        size = basis.shape[1]
         ceiling, drop = basis[0].copy(), np.empty(size)
         excess = 0.0
         for row in basis[1:]:  # the largest b_j - b_n, j < n, and the largest b_n of a cell
             np.subtract(ceiling, row, out=drop)
             excess = max(excess, float(drop.max()))
             np.maximum(ceiling, row, out=ceiling)
-        whole = rows - rows % 4  # rows in groups of four; the rest join the last block
-        starts = list(range(0, whole, _FORECAST_BLOCK_ROWS)) or [0]
-        tables = _ForecastTables(basis=basis, ceiling=ceiling, excess=excess,
-                                 edges=np.array(starts + [rows], dtype=np.int64),
-                                 margin=1.0 + max(1e-9, 4.0 * size * 2.0 ** -53))
+        tables = _ForecastTables(basis, ceiling, excess)
         if len(_FORECAST_TABLES) >= 4:  # 23 MB each at the default grid
             _FORECAST_TABLES.clear()
         _FORECAST_TABLES[key] = tables
@@ -756,8 +702,14 @@ def _forecast_tables(flt: _GridFilter) -> _ForecastTables:
     return tables
 
 
-def _basis_rows(flt: _GridFilter) -> FloatArray:
-    """Return the rows (M^T)^n a, n = 0 .. horizon, shape (H+1, R*G) (see _forecast_basis)."""
+def _forecast_basis(flt: _GridFilter) -> FloatArray:
+    """
+    Return the rows (M^T)^n a, n = 0 .. horizon, shape (H+1, R*G) (:func:`_forecast_tables`).
+
+    M is one experiment ahead without data: the rate transition of one experiment, then every
+    rate row shifted by its rate (the linear split between two cells of :meth:`_GridFilter._shift`,
+    mass past the top kept in the top cell).  a is the P(w >= threshold) weight of every cell.
+    """
     cfg = flt.config
     r, g = flt.rates.size, flt.grid.size
     transition = flt.rate_transition(np.ones(1))[0]  # (R, R): new p = transition.T @ p

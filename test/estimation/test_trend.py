@@ -234,7 +234,7 @@ def _crossing(series, level):
 
 def _whole_product_crossings(trend):
     """Return the crossings from one product of the whole forecast basis (as before blocks)."""
-    basis = trend_module._forecast_basis(trend._filter)
+    basis = trend_module._forecast_tables(trend._filter).basis
     series = np.maximum.accumulate(np.clip(basis @ trend._filter.prob[0].ravel(), 0.0, 1.0))
     return [_crossing(series, q) for q in trend_module._FORECAST_LEVELS]
 
@@ -267,9 +267,9 @@ def test_forecast_is_bit_for_bit_the_whole_product_from_any_start():
     with threadpool_limits(limits=1, user_api='blas'):  # as the command line and nodes run
         for trend in _posteriors():
             expected = _whole_product_crossings(trend)
-            blocks = trend_module._forecast_tables(trend._filter).edges.size - 1
-            for start in (0, 5, 13, blocks - 1):
-                trend._forecast_blocks = dict.fromkeys(trend_module._FORECAST_LEVELS, start)
+            rows = trend.config.forecast_horizon + 1
+            for start in (0, 1, 6, 39, 57, rows - 3, rows - 1):  # groups of 4 at any row
+                trend._forecast_rows = dict.fromkeys(trend_module._FORECAST_LEVELS, start)
                 assert trend._forecast() == expected
             seen.update(('inf' if math.isinf(n) else 'zero' if n == 0 else 'inside')
                         for n in expected)
