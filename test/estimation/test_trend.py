@@ -18,6 +18,7 @@ from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood
 from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig, WearTrend
 from robot_wear_monitor.model.params import load_parameter_set
+from threadpoolctl import threadpool_limits
 from wear_testing import independent_robot as robot
 
 SPEEDS = robot.TABLE_V_SPEEDS_RAD_S
@@ -219,21 +220,72 @@ def _forward_forecast(trend):
     return np.maximum.accumulate(np.array(out))
 
 
+def _crossing(series, level):
+    """Return n (interpolated) where the running maximum of ``series`` first reaches level."""
+    above = np.flatnonzero(series >= level)
+    if above.size == 0:
+        return math.inf
+    n = int(above[0])
+    if n == 0:
+        return 0.0
+    p0, p1 = series[n - 1], series[n]
+    return n - 1 + (level - p0) / max(p1 - p0, 1e-300)
+
+
+def _whole_product_crossings(trend):
+    """Return the crossings from one product of the whole forecast basis (as before blocks)."""
+    basis = trend_module._forecast_tables(trend._filter).basis
+    series = np.maximum.accumulate(np.clip(basis @ trend._filter.prob[0].ravel(), 0.0, 1.0))
+    return [_crossing(series, q) for q in trend_module._FORECAST_LEVELS]
+
+
+def _posteriors(slopes=(0.0, 0.4, 1.5, 4.0), experiments=24):
+    """Yield trends after each experiment of Gaussian rows around w = 1 + slope k (+ noise)."""
+    rng = np.random.default_rng(7)
+    for slope in slopes:
+        trend = WearTrend()
+        grid = trend.config.wear_grid
+        for k in range(experiments):
+            wear = 1.0 + slope * k + rng.normal(0.0, 2.0)
+            trend.update(time_s=3600.0 * k, log_likelihood=-0.5 * ((grid - wear) / 4.0) ** 2,
+                         forecast=False)
+            yield trend
+
+
 @pytest.mark.parametrize('slope', [0.0, 0.4, 1.5])
 def test_forecast_equals_the_step_by_step_propagation(slope):
-    rng = np.random.default_rng(7)
-    trend = WearTrend()
-    grid = trend.config.wear_grid
-    for k in range(12):
-        wear = slope * k + rng.normal(0.0, 2.0)
-        trend.update(time_s=3600.0 * k, log_likelihood=-0.5 * ((grid - wear) / 4.0) ** 2,
-                     forecast=False)
-    fast = trend._forecast()
+    trend = list(_posteriors(slopes=(slope,), experiments=12))[-1]
     reference = _forward_forecast(trend)
-    assert fast.size >= 2
-    np.testing.assert_allclose(fast, reference[:fast.size], atol=1e-12)
-    if fast.size < reference.size:  # stopped at the first value the quantiles need
-        assert fast[-1] >= 0.975 > fast[-2]
+    expected = [_crossing(reference, q) for q in trend_module._FORECAST_LEVELS]
+    assert math.isfinite(expected[0])
+    np.testing.assert_allclose(trend._forecast(), expected, rtol=0.0, atol=1e-8)
+
+
+def test_forecast_is_bit_for_bit_the_whole_product_from_any_start():
+    """The rows multiplied by blocks give the crossings of one product of all rows."""
+    seen = set()
+    with threadpool_limits(limits=1, user_api='blas'):  # as the command line and nodes run
+        for trend in _posteriors():
+            expected = _whole_product_crossings(trend)
+            rows = trend.config.forecast_horizon + 1
+            for start in (0, 1, 6, 39, 57, rows - 3, rows - 1):  # groups of 4 at any row
+                trend._forecast_rows = dict.fromkeys(trend_module._FORECAST_LEVELS, start)
+                assert trend._forecast() == expected
+            seen.update(('inf' if math.isinf(n) else 'zero' if n == 0 else 'inside')
+                        for n in expected)
+    assert seen == {'inf', 'zero', 'inside'}
+
+
+def test_forecast_bound_holds_for_every_row():
+    """<p, ceiling> bounds every row's product: a level above it is never reached."""
+    with threadpool_limits(limits=1, user_api='blas'):
+        for trend in _posteriors(slopes=(0.0, 1.5)):
+            tables = trend_module._forecast_tables(trend._filter)
+            p = trend._filter.prob[0].ravel()
+            series = trend_module._ForecastSeries(tables, p)
+            assert np.max(tables.basis @ p) <= series.bound
+            rises = np.maximum.accumulate(tables.basis, axis=0) - tables.basis
+            assert 0.0 <= np.max(rises) == tables.excess < 1e-12
 
 
 def test_forecast_basis_is_bit_for_bit_the_row_by_row_adjoint():
@@ -271,3 +323,55 @@ def test_rate_transitions_are_kept_per_interval_and_equal_fresh_ones():
     for value in np.linspace(3.0, 9.0, 40):  # the oldest go first
         flt._transition_of(float(value))
     assert len(flt._transitions) == trend_module._TRANSITIONS_KEPT
+
+
+def _plain_predict(flt, prob, elapsed):
+    """Propagate ``prob`` (B, R, G) as plainly written: einsum, then a zero-padded shift."""
+    p = np.einsum('bij,big->bjg', flt.rate_transition(elapsed), prob, optimize=True)
+    b, r, g = p.shape
+    shift = flt.rates[None, :] * elapsed[:, None] / flt.step
+    whole = np.minimum(np.floor(shift), g).astype(np.int64)
+    frac = (shift - np.floor(shift))[:, :, None]
+    pad = int(whole.max()) + 1
+    padded = np.zeros((b, r, g + pad))
+    padded[:, :, pad:] = p
+    start = (np.arange(b * r).reshape(b, r) * (g + pad) + pad - whole).reshape(-1, 1)
+    index = start + np.arange(g)[None, :]
+    low = np.take(padded.reshape(-1), index).reshape(b, r, g)
+    out = low + frac * (np.take(padded.reshape(-1), index - 1).reshape(b, r, g) - low)
+    out[:, :, -1] += p.sum(axis=2) - out.sum(axis=2)
+    return out
+
+
+@pytest.mark.parametrize('batch', [1, 3])
+def test_predict_is_bit_for_bit_the_plain_propagation(batch):
+    """The kept shifts and the product give the bits of einsum and a padded shift."""
+    rng = np.random.default_rng(11)
+    flt = trend_module._GridFilter(CONFIG, batch)
+    for _ in range(30):
+        prob = rng.random(flt.prob.shape) ** 6
+        prob /= prob.sum(axis=(1, 2), keepdims=True)
+        elapsed = rng.choice([0.0, 1e-3, 0.5, 1.0, 2.5, 40.0, 400.0], size=batch)
+        expected = prob.copy()  # a row with no elapsed time stays
+        moving = elapsed > 0
+        if np.any(moving):
+            expected[moving] = _plain_predict(flt, prob[moving], elapsed[moving])
+        flt.prob = prob.copy()
+        flt.predict(elapsed)
+        assert flt.prob.tobytes() == expected.tobytes()
+        np.testing.assert_allclose(flt.prob.sum(axis=(1, 2)), 1.0, atol=1e-12)  # mass kept
+    assert len(flt._moves) <= trend_module._TRANSITIONS_KEPT
+
+
+def test_spacing_is_numpys_median_of_the_last_intervals():
+    rng = np.random.default_rng(3)
+    for window in (1, 2, 5, 8):
+        spacing = trend_module._Spacing(window)
+        assert math.isnan(spacing.value())
+        intervals = []
+        for interval in rng.uniform(0.5, 2.0, 40) * rng.choice([1.0, 3600.0, 0.1], 40):
+            spacing.add(float(interval))
+            intervals = (intervals + [float(interval)])[-window:]
+            assert spacing.value() == float(np.median(intervals))
+        spacing.add(0.0)  # not an interval: the same experiment again
+        assert spacing.value() == float(np.median(intervals))
