@@ -24,7 +24,7 @@ from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChun
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
                                                        MONITOR_TYPESTORE, open_reader)
-from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource, RawRows
+from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
 
@@ -154,64 +154,44 @@ def read_scalar_topic(path: str | os.PathLike, *, topic: str
     return time_s[keep][order], value[keep][order], msgtype
 
 
-def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[tuple[list, list]]:
-    """Yield (bag times [ns], CDR bytes) of up to ``size`` messages from a message iterator."""
+def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[list[tuple[list, list]]]:
+    """Yield [(bag times [ns], CDR bytes)] of up to ``size`` messages from a message iterator."""
     stamps: list = []
     raws: list = []
     for stamp, raw in pairs:
         stamps.append(stamp)
         raws.append(raw)
         if len(raws) >= size:
-            yield stamps, raws
+            yield [(stamps, raws)]
             stamps, raws = [], []
     if raws:
-        yield stamps, raws
+        yield [(stamps, raws)]
 
 
-def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[tuple[Any, list]]:
+def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[list[tuple[Any, Any]]]:
     """
-    Yield (bag times [ns], CDR bytes) of ``size`` messages at a time from whole MCAP chunks.
+    Yield the pieces (bag times [ns], CDR bytes) of ``size`` messages at a time, chunk by chunk.
 
     The batches are those of the message-by-message path (``size`` each, the last one shorter),
-    so that the chunks a reader yields do not depend on how the bag is read.
+    so that the chunks a reader yields do not depend on how the bag is read; each batch comes
+    as the consecutive pieces of the MCAP chunks it spans (views into the chunks' bytes, not
+    joined: the decoder reads them where they lie).
     """
-    times: list = []
-    pieces: list = []  # lists of memoryviews and RawRows, in order
+    pieces: list = []
     held = 0
     for batch in bulk:
-        times.append(batch.log_time_ns)
-        pieces.append(batch.raws)
-        held += len(batch.raws)
-        while held >= size:
-            stamps = np.concatenate(times)
-            taken, pieces = _split_pieces(pieces, size)
-            yield stamps[:size], _joined(taken)
-            times = [stamps[size:]]
-            held -= size
-    if held:
-        yield np.concatenate(times), _joined(pieces)
-
-
-def _split_pieces(pieces: list, size: int) -> tuple[list, list]:
-    """Return the pieces of the first ``size`` messages and those of the rest."""
-    taken: list = []
-    for i, piece in enumerate(pieces):
-        if size <= 0:
-            return taken, pieces[i:]
-        if len(piece) > size:
-            return taken + [piece[:size]], [piece[size:]] + pieces[i + 1:]
-        taken.append(piece)
-        size -= len(piece)
-    return taken, []
-
-
-def _joined(pieces: list) -> Any:
-    """Return the messages of ``pieces`` as one RawRows (all rows of one size) or a list."""
-    if pieces and all(isinstance(p, RawRows) for p in pieces) and \
-            len({p.array.shape[1] for p in pieces}) == 1:
-        return RawRows(pieces[0].array if len(pieces) == 1
-                       else np.concatenate([p.array for p in pieces]))
-    return [raw for piece in pieces for raw in piece]
+        times, raws = batch.log_time_ns, batch.raws
+        while held + len(raws) >= size:
+            take = size - held
+            pieces.append((times[:take], raws[:take]))
+            yield pieces
+            pieces, held = [], 0
+            times, raws = times[take:], raws[take:]
+        if len(raws):
+            pieces.append((times, raws))
+            held += len(raws)
+    if pieces:
+        yield pieces
 
 
 class JointStream:
@@ -332,7 +312,7 @@ class JointStream:
         collecting = gc.isenabled()
         try:
             if bulk is not None:
-                batches: Iterator[tuple[Any, list]] = _bulk_batches(bulk, self.chunk_messages)
+                batches: Iterator[list] = _bulk_batches(bulk, self.chunk_messages)
             elif reader is not None:
                 connections = joint_state_connections(reader, path, topic)
                 batches = _batched(((t, raw) for _, t, raw in
@@ -347,7 +327,7 @@ class JointStream:
             while True:
                 gc.disable()  # the chunk holds many small objects; the collector rescans them
                 try:
-                    stamps, raws = next(batches, (None, []))
+                    pieces = next(batches, None)
                 except BagError:
                     raise
                 except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
@@ -357,9 +337,9 @@ class JointStream:
                 finally:
                     if collecting:
                         gc.enable()
-                if not raws:
+                if not pieces:
                     break
-                chunk = decoder.decode(raws, stamps)
+                chunk = decoder.decode_pieces(pieces)
                 if self.progress is not None:
                     self.progress(decoder.messages, max(total, decoder.messages))
                 yield chunk
