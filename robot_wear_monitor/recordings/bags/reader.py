@@ -25,6 +25,7 @@ from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_con
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
                                                        MONITOR_TYPESTORE, open_reader)
 from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource
+from robot_wear_monitor.recordings.bags.read_ahead import read_ahead
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
 
@@ -221,7 +222,7 @@ class JointStream:
     def __init__(self, path: str | os.PathLike, *, joints: Sequence[str] | None,
                  topic: str, chunk_messages: int,
                  progress: Callable[[int, int], None] | None, recover: bool,
-                 require_joints: bool) -> None:
+                 require_joints: bool, read_ahead: int = 0) -> None:
         """Check the bag and the topic (BagError); nothing is read before iterating."""
         if isinstance(joints, str):
             joints = [joints]
@@ -240,6 +241,8 @@ class JointStream:
         self.bulk = os.environ.get('ROBOT_WEAR_MONITOR_BULK_READ', '1') != '0'
         #: whether the last iteration used the bulk reader
         self.bulk_read = False
+        #: chunks a thread reads and decodes ahead of the one in hand (0: no thread)
+        self.read_ahead = int(read_ahead)
         self.recovery: Recovery | None = None
         self.total_messages = 0
         bag = Path(path)
@@ -297,7 +300,13 @@ class JointStream:
     # -- reading
 
     def __iter__(self) -> Iterator[dict[str, JointChunk]]:
-        """Read the bag from its start (a new iteration starts over)."""
+        """
+        Read the bag from its start (a new iteration starts over).
+
+        With ``read_ahead`` > 0 a thread reads and decodes up to that many chunks ahead of the
+        one in hand (the counters then run ahead of it; all are complete at the end); a bad
+        bag raises its BagError when the iteration reaches the chunk where it was found.
+        """
         self._decoder = MultiDecoder(self.joints)
         self.recovery = None
         path, topic = self.path, self.topic
@@ -309,7 +318,7 @@ class JointStream:
         if unfinished is None and bulk is None:
             reader = open_reader(path)
         self.bulk_read = bulk is not None
-        collecting = gc.isenabled()
+        chunks: Iterator[tuple[dict[str, JointChunk], int]] | None = None
         try:
             if bulk is not None:
                 batches: Iterator[list] = _bulk_batches(bulk, self.chunk_messages)
@@ -323,30 +332,39 @@ class JointStream:
                 batches = _batched(iter_unfinished_mcap(Path(path), unfinished[0], topic,
                                                         state), self.chunk_messages)
             total = self.total_messages
-            decoder = self._decoder
-            while True:
-                gc.disable()  # the chunk holds many small objects; the collector rescans them
-                try:
-                    pieces = next(batches, None)
-                except BagError:
-                    raise
-                except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
-                    message = str(error).splitlines()[0] if str(error) \
-                        else type(error).__name__
-                    raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
-                finally:
-                    if collecting:
-                        gc.enable()
-                if not pieces:
-                    break
-                chunk = decoder.decode_pieces(pieces)
+            chunks = self._decoded(batches, gc.isenabled())
+            if self.read_ahead > 0:
+                chunks = read_ahead(chunks, self.read_ahead, name=f'read {Path(path).name}')
+            for chunk, messages in chunks:
                 if self.progress is not None:
-                    self.progress(decoder.messages, max(total, decoder.messages))
+                    self.progress(messages, max(total, messages))
                 yield chunk
         finally:
+            if chunks is not None:
+                chunks.close()  # type: ignore[attr-defined]  # the reading thread ends first
             if reader is not None:
                 reader.close()
         self._finish(unfinished, state)
+
+    def _decoded(self, batches: Iterator[list], collecting: bool
+                 ) -> Iterator[tuple[dict[str, JointChunk], int]]:
+        """Yield each decoded chunk with the messages read so far (BagError: a bad bag)."""
+        path, decoder = self.path, self._decoder
+        while True:
+            gc.disable()  # the chunk holds many small objects; the collector rescans them
+            try:
+                pieces = next(batches, None)
+            except BagError:
+                raise
+            except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
+                message = str(error).splitlines()[0] if str(error) else type(error).__name__
+                raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+            finally:
+                if collecting:
+                    gc.enable()
+            if not pieces:
+                return
+            yield decoder.decode_pieces(pieces), decoder.messages
 
     def _finish(self, unfinished: tuple[list[Path], str] | None, state: dict) -> None:
         """Check the end of the reading: cut recordings, absent topic, unseen joints."""
@@ -382,7 +400,8 @@ class JointStream:
 def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None = None,
                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                       progress: Callable[[int, int], None] | None = None,
-                      recover: bool = True, require_joints: bool = True) -> JointStream:
+                      recover: bool = True, require_joints: bool = True,
+                      read_ahead: int = 0) -> JointStream:
     """
     Stream the samples of several joints of a bag chunk by chunk (flat memory).
 
@@ -403,6 +422,8 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
     :param recover: read an unfinished recording whose end is cut (False: refuse it).
     :param require_joints: raise when a requested joint is in no message (at the end of the
         iteration); False leaves it with no samples (see ``joints_missing``).
+    :param read_ahead: chunks a thread reads and decodes ahead of the one in hand, while the
+        caller works on it (0: none, the default; the replay uses 2): wall time, not CPU.
 
     :raises BagError: at the call, the bag is missing or unreadable, the topic is absent (the
         message lists the topics) or has another type; during the iteration, the bag is
@@ -412,7 +433,8 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
 
     """
     return JointStream(path, joints=joints, topic=topic, chunk_messages=chunk_messages,
-                       progress=progress, recover=recover, require_joints=require_joints)
+                       progress=progress, recover=recover, require_joints=require_joints,
+                       read_ahead=read_ahead)
 
 
 def _concatenate(stream: JointStream, parts: list[JointChunk], joint: str) -> JointSamples:
