@@ -178,3 +178,30 @@ def test_leaving_the_loop_stops_the_reading_thread(simulated):
         simulated, joints=['joint_2'], chunk_messages=500)]
     for a, b in zip(first, full):
         np.testing.assert_array_equal(a, b)
+
+
+def test_the_chunks_from_rosbags_index_are_those_of_the_mcap_summary(simulated, tmp_path):
+    from robot_wear_monitor.recordings.bags import open_reader
+    from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source_of
+    recording = foreign.generate(schedule=['shoulder', 'elbow'],
+                                 imperfections=foreign.Imperfections(), seed=4)
+    split = foreign.write_bag(recording, tmp_path / 'foreign', split_files=3)
+    for bag in (simulated, split):
+        reader = open_reader(bag)
+        try:
+            known, source = bulk_source_of(reader, '/joint_states')
+        finally:
+            reader.close()
+        summary = bulk_source(bag, '/joint_states')
+        assert known and source is not None and summary is not None
+        assert source.chunks == summary.chunks and len(source.chunks) > 1
+        assert source.channels == summary.channels
+    sqlite = tmp_path / 'sqlite'
+    assert main(['simulate', '--out', str(sqlite), '--experiments', '1', '--seed', '3',
+                 '--storage', 'sqlite3']) == 0
+    reader = open_reader(sqlite)
+    try:
+        assert bulk_source_of(reader, '/joint_states') == (False, None)
+    finally:
+        reader.close()
+    assert bulk_source(sqlite, '/joint_states') is None

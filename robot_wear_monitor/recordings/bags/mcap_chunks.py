@@ -250,6 +250,43 @@ def _take_stride(fixed: tuple[int, int, int], data: bytes | memoryview, channels
     times.extend(log_time[keep].tolist())
 
 
+def bulk_source_of(reader: Any, topic: str) -> tuple[bool, Optional[BulkSource]]:
+    """
+    Return (whether rosbags showed its index, the bulk reader of ``topic`` or None).
+
+    rosbags reads each MCAP file's summary (channels and chunk index) when it opens a bag;
+    this takes the same chunks from it that :func:`bulk_source` takes from the ``mcap``
+    package, under the same conditions, so that the summary is read once and ``mcap`` is not
+    loaded.  (False, None) when the open reader does not show that index (sqlite3 storage,
+    or another rosbags version): :func:`bulk_source` then decides.
+    """
+    storages = getattr(getattr(reader, 'storage', None), 'storages', None)
+    if not storages or not all(isinstance(getattr(storage, 'chunks', None), list)
+                               for storage in storages):
+        return False, None
+    if getattr(reader, 'compression_format', None):
+        return True, None
+    chunks: list[_Chunk] = []
+    channels: dict[Path, set[int]] = {}
+    for storage in storages:
+        file, found, index = storage.path, storage.channels, storage.chunks
+        if not index:
+            return True, None  # no summary with a chunk index
+        mine = {i for i, channel in found.items() if channel.topic == topic}
+        channels[Path(file)] = mine
+        for entry in index:
+            if entry.compression not in ('', 'zstd', 'lz4'):
+                return True, None
+            if entry.message_index_offsets and not mine & set(entry.message_index_offsets):
+                continue  # no message of the topic in this chunk (by its message index)
+            chunks.append(_Chunk(file=Path(file), offset=entry.chunk_start_offset,
+                                 length=entry.chunk_length,
+                                 start_ns=entry.message_start_time,
+                                 end_ns=entry.message_end_time,
+                                 compression=entry.compression))
+    return True, _in_time_order(chunks, channels)
+
+
 def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
     """
     Return the bulk reader of ``topic`` in the bag at ``path``, or None when it does not apply.
@@ -294,6 +331,12 @@ def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
                                  start_ns=index.message_start_time,
                                  end_ns=index.message_end_time,
                                  compression=index.compression))
+    return _in_time_order(chunks, channels)
+
+
+def _in_time_order(chunks: list[_Chunk], channels: dict[Path, set[int]]
+                   ) -> Optional[BulkSource]:
+    """Return the source of the chunks in time order; None when two overlap in time."""
     chunks.sort(key=lambda c: (c.start_ns, c.end_ns))
     if any(a.end_ns >= b.start_ns for a, b in zip(chunks, chunks[1:])):
         return None

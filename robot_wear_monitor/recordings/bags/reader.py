@@ -24,7 +24,8 @@ from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChun
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
                                                        MONITOR_TYPESTORE, open_reader)
-from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource
+from robot_wear_monitor.recordings.bags.mcap_chunks import (bulk_source, bulk_source_of,
+                                                            BulkSource)
 from robot_wear_monitor.recordings.bags.read_ahead import read_ahead
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
@@ -247,12 +248,16 @@ class JointStream:
         self.total_messages = 0
         bag = Path(path)
         self._unfinished = unfinished_mcap_files(bag) if bag.exists() else None
+        #: (known, source): the chunks of a finished MCAP bag, from the index rosbags read on
+        #: opening it (not known: :func:`.mcap_chunks.bulk_source` reads the summary)
+        self._bulk_source: tuple[bool, BulkSource | None] = (False, None)
         if self._unfinished is None:
             reader = open_reader(path)
             try:
                 connections = joint_state_connections(reader, path, topic)
                 self.total_messages = sum(int(getattr(c, 'msgcount', 0) or 0)
                                           for c in connections)
+                self._bulk_source = bulk_source_of(reader, topic)
             finally:
                 reader.close()
         self._decoder = MultiDecoder(self.joints)
@@ -314,7 +319,9 @@ class JointStream:
         state = {'count': 0, 'last_ns': -1, 'cut': False, 'types': {}}
         reader = bulk = None
         if unfinished is None and self.bulk:  # the topic and its type were checked on opening
-            bulk = bulk_source(path, topic)
+            known, bulk = self._bulk_source
+            if not known:
+                bulk = bulk_source(path, topic)
         if unfinished is None and bulk is None:
             reader = open_reader(path)
         self.bulk_read = bulk is not None
