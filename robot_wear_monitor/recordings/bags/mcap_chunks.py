@@ -25,11 +25,12 @@ from dataclasses import dataclass
 import os
 from pathlib import Path
 import struct
-from typing import Any, Iterator, Optional
+from typing import Any, Generator, Iterator, Optional
 
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.recordings.bags.read_ahead import read_ahead
 from robot_wear_monitor.yaml_files import load_yaml_file
 
 _MESSAGE = 0x05
@@ -97,21 +98,35 @@ class BulkSource:
         """Keep the chunks (sorted, non-overlapping) and each file's channel ids of the topic."""
         self.chunks = chunks
         self.channels = channels
+        #: chunk records a thread reads from the files ahead of the one split (0: no thread)
+        self.read_ahead = 0
 
     def __iter__(self) -> Iterator[RawBatch]:
         """Yield one :class:`RawBatch` per chunk that holds messages of the topic."""
-        handles: dict[Path, object] = {}
+        records = self._records()
+        if self.read_ahead > 0:
+            records = read_ahead(records, self.read_ahead, name='read chunks')
+        try:
+            for chunk, record in records:
+                batch = _split_chunk(record, chunk, self.channels[chunk.file])
+                if batch is not None:
+                    yield batch
+        finally:
+            records.close()  # a reading thread ends first, then the files are closed
+
+    def _records(self) -> Generator[tuple[_Chunk, bytes], None, None]:
+        """Yield each chunk with its record's bytes, read with one ``read``."""
+        handles: dict[Path, Any] = {}
         try:
             for chunk in self.chunks:
                 handle = handles.get(chunk.file)
                 if handle is None:
                     handle = handles[chunk.file] = open(chunk.file, 'rb')
-                batch = _read_chunk(handle, chunk, self.channels[chunk.file])
-                if batch is not None:
-                    yield batch
+                handle.seek(chunk.offset)
+                yield chunk, handle.read(chunk.length)
         finally:
             for handle in handles.values():
-                handle.close()  # type: ignore[attr-defined]
+                handle.close()
 
 
 def _decompress(data: memoryview, compression: str, size: int) -> bytes | memoryview:
@@ -126,9 +141,8 @@ def _decompress(data: memoryview, compression: str, size: int) -> bytes | memory
     raise InputError(f'unknown MCAP chunk compression {compression[:20]!r}')
 
 
-def _read_chunk(handle, chunk: _Chunk, channels: set[int]) -> Optional[RawBatch]:
-    handle.seek(chunk.offset)
-    record = handle.read(chunk.length)
+def _split_chunk(record: bytes, chunk: _Chunk, channels: set[int]) -> Optional[RawBatch]:
+    """Return the messages of ``channels`` in a chunk record read whole (InputError: bad)."""
     if len(record) != chunk.length or record[0] != _CHUNK:
         raise InputError(f'{chunk.file}: chunk at byte {chunk.offset} is cut or not a chunk')
     _, _, size, _ = _CHUNK_HEAD.unpack_from(record, _RECORD_HEAD)
@@ -198,7 +212,7 @@ def _fixed_stride(data: bytes | memoryview, at: int,
         count, stride)
     if np.any(rows[:, 0] != _MESSAGE):
         return None
-    lengths = rows[:, 1:_RECORD_HEAD].copy().view('<u8').ravel()
+    lengths = rows[:, 1:_RECORD_HEAD].view('<u8')[:, 0]  # a strided view, no copy
     if np.any(lengths != length):
         return None
     return at, stride, count
@@ -211,9 +225,12 @@ def _record_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
     rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
         count, stride)
     head = _RECORD_HEAD
-    channel = rows[:, head:head + 2].copy().view('<u2').ravel()
-    log_time = rows[:, head + 6:head + 14].copy().view('<u8').ravel().astype(np.int64)
-    keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
+    channel = rows[:, head:head + 2].view('<u2')[:, 0]  # strided views, no copy
+    log_time = rows[:, head + 6:head + 14].view('<u8')[:, 0].astype(np.int64)
+    if len(channels) == 1:
+        keep = channel == next(iter(channels))
+    else:
+        keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
     return rows, log_time, keep
 
 
@@ -232,8 +249,8 @@ def _stride_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
     payload = rows[:, head + _MESSAGE_HEAD:]
     if not keep.all():
         payload, log_time = payload[keep], log_time[keep]
-    order = np.argsort(log_time, kind='stable')
-    if np.any(np.diff(order) != 1):
+    if np.any(log_time[1:] < log_time[:-1]):  # else the stable order is the file's
+        order = np.argsort(log_time, kind='stable')
         payload, log_time = payload[order], log_time[order]
     return RawBatch(log_time_ns=log_time, raws=RawRows(payload))
 

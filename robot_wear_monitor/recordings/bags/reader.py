@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import gc
 import os
 from pathlib import Path
-from typing import Any, Callable, Iterator, Optional, Sequence
+from typing import Any, Callable, Generator, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,7 +26,6 @@ from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_con
                                                        MONITOR_TYPESTORE, open_reader)
 from robot_wear_monitor.recordings.bags.mcap_chunks import (bulk_source, bulk_source_of,
                                                             BulkSource)
-from robot_wear_monitor.recordings.bags.read_ahead import read_ahead
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
 
@@ -156,7 +155,7 @@ def read_scalar_topic(path: str | os.PathLike, *, topic: str
     return time_s[keep][order], value[keep][order], msgtype
 
 
-def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[list[tuple[list, list]]]:
+def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Generator[list, None, None]:
     """Yield [(bag times [ns], CDR bytes)] of up to ``size`` messages from a message iterator."""
     stamps: list = []
     raws: list = []
@@ -170,7 +169,7 @@ def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[list[tuple
         yield [(stamps, raws)]
 
 
-def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[list[tuple[Any, Any]]]:
+def _bulk_batches(bulk: BulkSource, size: int) -> Generator[list, None, None]:
     """
     Yield the pieces (bag times [ns], CDR bytes) of ``size`` messages at a time, chunk by chunk.
 
@@ -242,7 +241,7 @@ class JointStream:
         self.bulk = os.environ.get('ROBOT_WEAR_MONITOR_BULK_READ', '1') != '0'
         #: whether the last iteration used the bulk reader
         self.bulk_read = False
-        #: chunks a thread reads and decodes ahead of the one in hand (0: no thread)
+        #: MCAP chunk records a thread reads ahead of the one decoded (0: no thread)
         self.read_ahead = int(read_ahead)
         self.recovery: Recovery | None = None
         self.total_messages = 0
@@ -308,9 +307,9 @@ class JointStream:
         """
         Read the bag from its start (a new iteration starts over).
 
-        With ``read_ahead`` > 0 a thread reads and decodes up to that many chunks ahead of the
-        one in hand (the counters then run ahead of it; all are complete at the end); a bad
-        bag raises its BagError when the iteration reaches the chunk where it was found.
+        With ``read_ahead`` > 0, a finished MCAP bag's chunk records are read from the file by a
+        thread, up to that many ahead of the one being split and decoded; a bad chunk raises
+        its BagError when the iteration reaches it, as without.
         """
         self._decoder = MultiDecoder(self.joints)
         self.recovery = None
@@ -325,10 +324,11 @@ class JointStream:
         if unfinished is None and bulk is None:
             reader = open_reader(path)
         self.bulk_read = bulk is not None
-        chunks: Iterator[tuple[dict[str, JointChunk], int]] | None = None
+        batches: Generator[list, None, None] | None = None
         try:
             if bulk is not None:
-                batches: Iterator[list] = _bulk_batches(bulk, self.chunk_messages)
+                bulk.read_ahead = self.read_ahead
+                batches = _bulk_batches(bulk, self.chunk_messages)
             elif reader is not None:
                 connections = joint_state_connections(reader, path, topic)
                 batches = _batched(((t, raw) for _, t, raw in
@@ -339,16 +339,13 @@ class JointStream:
                 batches = _batched(iter_unfinished_mcap(Path(path), unfinished[0], topic,
                                                         state), self.chunk_messages)
             total = self.total_messages
-            chunks = self._decoded(batches, gc.isenabled())
-            if self.read_ahead > 0:
-                chunks = read_ahead(chunks, self.read_ahead, name=f'read {Path(path).name}')
-            for chunk, messages in chunks:
+            for chunk, messages in self._decoded(batches, gc.isenabled()):
                 if self.progress is not None:
                     self.progress(messages, max(total, messages))
                 yield chunk
         finally:
-            if chunks is not None:
-                chunks.close()  # type: ignore[attr-defined]  # the reading thread ends first
+            if batches is not None:
+                batches.close()  # a reading thread ends first
             if reader is not None:
                 reader.close()
         self._finish(unfinished, state)
@@ -429,8 +426,9 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
     :param recover: read an unfinished recording whose end is cut (False: refuse it).
     :param require_joints: raise when a requested joint is in no message (at the end of the
         iteration); False leaves it with no samples (see ``joints_missing``).
-    :param read_ahead: chunks a thread reads and decodes ahead of the one in hand, while the
-        caller works on it (0: none, the default; the replay uses 2): wall time, not CPU.
+    :param read_ahead: MCAP chunk records (about 1 MB each) a thread reads from the file ahead
+        of the one decoded, while the caller computes (0: none, the default; the replay asks
+        for 4): wall time, not CPU; a bag read with rosbags (sqlite3, unfinished) has none.
 
     :raises BagError: at the call, the bag is missing or unreadable, the topic is absent (the
         message lists the topics) or has another type; during the iteration, the bag is
