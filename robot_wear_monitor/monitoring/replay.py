@@ -206,7 +206,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     stream = iter_joint_chunks(bag, joints=experiments.selection,
                                progress=advance if progress else None,
                                recover=recover, require_joints=False,
-                               chunk_messages=chunk_messages, read_ahead=4)
+                               chunk_messages=chunk_messages)
     history = WearHistory(history_file if history_file is not None else ':memory:',
                           init=history_init,
                           robot=estimator_parameters.get('robot_id') or None)

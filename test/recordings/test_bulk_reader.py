@@ -205,3 +205,16 @@ def test_the_chunks_from_rosbags_index_are_those_of_the_mcap_summary(simulated, 
     finally:
         reader.close()
     assert bulk_source(sqlite, '/joint_states') is None
+
+
+def test_read_ahead_from_the_environment(simulated, monkeypatch):
+    for text, chunks in (('3', 3), ('0', 0), ('', 0), ('many', 0), ('-2', 0), ('1000', 0)):
+        monkeypatch.setenv('ROBOT_WEAR_MONITOR_READ_AHEAD', text)
+        assert iter_joint_chunks(simulated).read_ahead == chunks
+    assert iter_joint_chunks(simulated, read_ahead=2).read_ahead == 2
+    monkeypatch.setenv('ROBOT_WEAR_MONITOR_READ_AHEAD', '2')
+    ahead, _ = _read(simulated, bulk=True)
+    monkeypatch.delenv('ROBOT_WEAR_MONITOR_READ_AHEAD')
+    plain, _ = _read(simulated, bulk=True)
+    for joint in plain:
+        np.testing.assert_array_equal(ahead[joint], plain[joint])

@@ -195,6 +195,12 @@ def _bulk_batches(bulk: BulkSource, size: int) -> Generator[list, None, None]:
         yield pieces
 
 
+def _read_ahead_setting() -> int:
+    """Return ``ROBOT_WEAR_MONITOR_READ_AHEAD`` as chunks to read ahead (0 unless a count 1-64)."""
+    text = os.environ.get('ROBOT_WEAR_MONITOR_READ_AHEAD', '0').strip()
+    return int(text) if text.isdigit() and 1 <= int(text) <= 64 else 0
+
+
 class JointStream:
     """
     Chunks of the samples of several joints of a bag; see :func:`iter_joint_chunks`.
@@ -222,7 +228,7 @@ class JointStream:
     def __init__(self, path: str | os.PathLike, *, joints: Sequence[str] | None,
                  topic: str, chunk_messages: int,
                  progress: Callable[[int, int], None] | None, recover: bool,
-                 require_joints: bool, read_ahead: int = 0) -> None:
+                 require_joints: bool, read_ahead: int | None = None) -> None:
         """Check the bag and the topic (BagError); nothing is read before iterating."""
         if isinstance(joints, str):
             joints = [joints]
@@ -242,7 +248,7 @@ class JointStream:
         #: whether the last iteration used the bulk reader
         self.bulk_read = False
         #: MCAP chunk records a thread reads ahead of the one decoded (0: no thread)
-        self.read_ahead = int(read_ahead)
+        self.read_ahead = _read_ahead_setting() if read_ahead is None else int(read_ahead)
         self.recovery: Recovery | None = None
         self.total_messages = 0
         bag = Path(path)
@@ -405,7 +411,7 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                       progress: Callable[[int, int], None] | None = None,
                       recover: bool = True, require_joints: bool = True,
-                      read_ahead: int = 0) -> JointStream:
+                      read_ahead: int | None = None) -> JointStream:
     """
     Stream the samples of several joints of a bag chunk by chunk (flat memory).
 
@@ -427,8 +433,10 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
     :param require_joints: raise when a requested joint is in no message (at the end of the
         iteration); False leaves it with no samples (see ``joints_missing``).
     :param read_ahead: MCAP chunk records (about 1 MB each) a thread reads from the file ahead
-        of the one decoded, while the caller computes (0: none, the default; the replay asks
-        for 4): wall time, not CPU; a bag read with rosbags (sqlite3, unfinished) has none.
+        of the one decoded, while the caller computes (0: none; None: the environment's
+        ``ROBOT_WEAR_MONITOR_READ_AHEAD``, default 0).  For wall time on an idle second core:
+        it costs CPU (about 0.05 s at 2 million messages, the records then reach the decoder
+        from another core's cache); a bag read with rosbags (sqlite3, unfinished) has none.
 
     :raises BagError: at the call, the bag is missing or unreadable, the topic is absent (the
         message lists the topics) or has another type; during the iteration, the bag is
