@@ -3,14 +3,16 @@ The raw messages of one topic of a finished MCAP bag, a whole chunk at a time.
 
 rosbags iterates an MCAP bag message by message (a heap merge over its message sources, a few
 Python calls per message); for replay that is most of the reading time.  This module reads the
-same messages in bulk, with the ``mcap`` package only for the summary (channels and the chunk
-index):
+same messages in bulk, taking the summary (channels and the chunk index) from the one rosbags
+read when it opened the bag (:func:`bulk_source_of`), or from the ``mcap`` package
+(:func:`bulk_source`):
 
 * each chunk is read with one ``read``, decompressed in one call (``zstandard``, ``lz4``) and
   its records are split with numpy when the messages after the first one sit at a fixed stride
   (the usual case: one JointState layout, one channel); otherwise record by record;
 * the messages of the topic's channels are returned in log-time order (ties: in file order),
-  chunk after chunk, as one :class:`RawBatch` per chunk (memoryviews into the chunk's bytes).
+  chunk after chunk, as one :class:`RawBatch` per chunk (views into the chunk's bytes);
+* a thread can read the chunk records ahead of the one split (:attr:`BulkSource.read_ahead`).
 
 :func:`bulk_source` says whether a bag qualifies: a finished rosbag2 folder of MCAP files (no
 file-level compression) whose files have a summary with a chunk index, and whose chunks do not
