@@ -142,8 +142,11 @@ def summary_line(result: Any, summary: dict) -> str:
     run was valid; an invalid estimate says why the wear cannot be judged; a run that found
     only experiments the history already holds reports the state from the history.
     """
-    from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.monitoring.diagnostics import is_routine, rejection_text
+
+    def iso_time(stamp_s: Any) -> str:  # the fleet module is loaded for a state only
+        from robot_wear_monitor.fleet.ranking import iso_time
+        return iso_time(stamp_s)
     first = summary['first_alarm']
     defects = {r: n for r, n in result.rejections.items() if not is_routine(r)}
     skipped = result.rejections.get('friction_levels_already_in_history', 0)

@@ -228,6 +228,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
 
     def run(writer: Any) -> None:
         pending: list = []  # (service, experiment, friction_levels message), in time order
+        declared: dict[str, str] = {}  # output topic -> its bag topic, once declared
 
         def flush() -> None:  # estimate the pending experiments together, then one by one
             if batch_experiments > 1:
@@ -251,11 +252,14 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                 return
             updates.append(update)
             if writer is not None:
-                types = {mapped: OUTPUT_TOPICS[base] for base, mapped
-                         in estimators.topics(estimator.config.joint).items()}
                 for topic, out in estimators.output_messages(KIT, estimator, update):
-                    writer.add_topic(bag_topic(topic), types[topic])
-                    writer.write(bag_topic(topic), out, stamp_ns)
+                    name = declared.get(topic)
+                    if name is None:  # declared when first written, as the nodes publish
+                        types = {mapped: OUTPUT_TOPICS[base] for base, mapped
+                                 in estimators.topics(estimator.config.joint).items()}
+                        name = declared[topic] = bag_topic(topic)
+                        writer.add_topic(name, types[topic])
+                    writer.write(name, out, stamp_ns)
 
         def in_time_order(done: list) -> list:  # the joints' experiments of one chunk
             return sorted(done, key=lambda pair: pair[1].end_time_s)

@@ -100,7 +100,7 @@ class MessageKit:
 
 def rosbags_kit(typestore: Any) -> MessageKit:
     """Return the kit for a rosbags typestore (``float64[]`` as numpy, ``byte`` as int)."""
-    return MessageKit(get_type=lambda name: typestore.types[name],
+    return MessageKit(get_type=typestore.types.__getitem__,
                       float_array=lambda values: np.asarray(list(values), dtype=np.float64),
                       byte=int)
 
@@ -250,8 +250,8 @@ def diagnostics_to_msg(kit: MessageKit, *, stamp_s: float, name: str, hardware_i
                        level: int, message: str,
                        values: Sequence[tuple[str, str]]) -> Any:
     """Build a DiagnosticArray with one DiagnosticStatus and its key-values."""
-    key_values = [kit.make('diagnostic_msgs/msg/KeyValue', key=str(k), value=str(v))
-                  for k, v in values]
+    key_value = kit.get_type('diagnostic_msgs/msg/KeyValue')  # looked up once, not per pair
+    key_values = [key_value(key=str(k), value=str(v)) for k, v in values]
     status = kit.make('diagnostic_msgs/msg/DiagnosticStatus', level=kit.byte(level),
                       name=name, message=message, hardware_id=hardware_id, values=key_values)
     return kit.make(DIAGNOSTICS_TYPE, header=make_header(kit, stamp_s=stamp_s),

@@ -6,10 +6,12 @@ messages are grouped by layout (same length and same bytes apart from the stamp 
 arrays: same frame_id, names, name order and array lengths), matched word by word against the
 recent layouts and otherwise grouped with ``np.unique``; each new layout is parsed once, and the
 stamps and every requested joint's position/velocity/effort of all messages sharing float
-offsets are read with one gather.  A message is rejected for a joint, counted by reason
-(:data:`READER_REASONS`), when it lacks the joint or an array, or an array's length differs
-from the names.  The decoder is one algorithm (layout cache, grouping, gather) and reads best
-whole.
+offsets are read with one gather.  Messages of one size that all share a recent layout (a
+chunk of a recording, usually) are checked and read where they lie in their chunk (a strided
+view, :meth:`MultiDecoder._decode_one_layout`), without a copy.  A message is rejected for a
+joint, counted by reason (:data:`READER_REASONS`), when it lacks the joint or an array, or an
+array's length differs from the names.  The decoder is one algorithm (layout cache, grouping,
+gather) and reads best whole.
 """
 
 from __future__ import annotations
@@ -202,10 +204,12 @@ class _Known:
     """
 
     __slots__ = ('layout', 'words', 'reference', 'reason', 'index', 'count', 'end',
-                 'signature')
+                 'signature', 'raw', '_structure')
 
     def __init__(self, layout: Layout, raw: bytes | memoryview) -> None:
         self.layout = layout
+        self.raw = bytes(raw)
+        self._structure: list[tuple[int, int, str, Any]] | None = None
         self.words = _identifying_words(layout.size, layout.arrays)
         self.reference = _padded(raw)[self.words]
         self.reason = _layout_reason(layout)
@@ -220,6 +224,34 @@ class _Known:
     def key(self) -> tuple[int, bytes, bytes]:
         """Return the identity of the layout: size, identifying words and their bytes."""
         return self.layout.size, self.words.tobytes(), self.reference.tobytes()
+
+    def matches(self, rows: NDArray[np.uint8]) -> NDArray[np.bool_]:
+        """
+        Return which messages share this layout; ``rows`` has shape (n, size), one per row.
+
+        The bytes the identifying words hold (:meth:`Layout.structure_ranges`: all but the
+        stamp and the floats) are compared field by field (8 bytes at a time, then 4, 2, 1):
+        what comparing the words of a decoding block tells, without copying the messages into
+        one.  The rows may be a strided view (each message where it lies in its record).
+        """
+        same = np.ones(rows.shape[0], dtype=bool)
+        for start, width, dtype, reference in self._fields():
+            same &= rows[:, start:start + width].view(dtype)[:, 0] == reference
+        return same
+
+    def _fields(self) -> list[tuple[int, int, str, Any]]:
+        """Return the identifying bytes as (offset, width, dtype, reference value), kept."""
+        if self._structure is None:
+            fields = []
+            for start, stop in self.layout.structure_ranges():
+                for width, dtype in ((8, '<u8'), (4, '<u4'), (2, '<u2'), (1, 'u1')):
+                    while stop - start >= width:
+                        reference = np.frombuffer(self.raw, dtype=dtype, count=1,
+                                                  offset=start)[0]
+                        fields.append((start, width, dtype, reference))
+                        start += width
+            self._structure = fields
+        return self._structure
 
 
 class MultiDecoder:
@@ -297,17 +329,44 @@ class MultiDecoder:
 
     # -- decoding
 
+    def decode_pieces(self, pieces: Sequence[tuple[Any, Any]]) -> dict[str, JointChunk]:
+        """
+        Decode one chunk given in consecutive pieces of (bag times [ns], raw messages).
+
+        The samples, tallies and joint order are those :meth:`decode` gives for the pieces
+        joined into one chunk (each message is matched to its own layout wherever it sits);
+        the pieces are decoded one by one and the joints' samples concatenated.
+        """
+        if len(pieces) == 1:
+            return self.decode(pieces[0][1], pieces[0][0])
+        parts = [self.decode(raws, receive_ns) for receive_ns, raws in pieces]
+        joints = self.requested if self.requested is not None else list(self.seen)
+        chunk = {}
+        for name in joints:
+            got = [part[name] for part in parts if name in part and len(part[name])]
+            if len(got) == 1:
+                chunk[name] = got[0]
+                continue
+            chunk[name] = JointChunk(
+                *(np.concatenate([getattr(p, key) for p in got]) if got else np.zeros(0)
+                  for key in ('time_s', 'position_rad', 'velocity_rad_s', 'effort')))
+        return chunk
+
     def decode(self, raws: list, receive_ns: Any) -> dict[str, JointChunk]:
         """Decode one chunk; return joint -> its samples of the chunk, in bag order."""
         if len(self.known) > _MAX_LAYOUTS:
             self._forget()  # between chunks, so that no tally of this chunk is lost
+        rows_of_one_size = getattr(raws, 'array', None)  # mcap_chunks.RawRows
+        if rows_of_one_size is not None:
+            one = self._decode_one_layout(rows_of_one_size, receive_ns)
+            if one is not None:
+                return one
         count = len(raws)
         self.messages += count
         time_s = np.zeros(count)
         receive = None
         before = len(self.seen)
         first_rows: dict[str, tuple[int, int]] = {}  # new joint -> (message, column)
-        rows_of_one_size = getattr(raws, 'array', None)  # mcap_chunks.RawRows: one numpy step
         sizes = (np.full(count, rows_of_one_size.shape[1], dtype=np.int64)
                  if rows_of_one_size is not None
                  else np.fromiter(map(len, raws), dtype=np.int64, count=count))
@@ -362,6 +421,59 @@ class MultiDecoder:
             else:
                 chunk[name] = JointChunk(time_s=np.zeros(0), position_rad=np.zeros(0),
                                          velocity_rad_s=np.zeros(0), effort=np.zeros(0))
+        return chunk
+
+    def _decode_one_layout(self, rows: NDArray[np.uint8],
+                           receive_ns: Any) -> dict[str, JointChunk] | None:
+        """
+        Decode messages of one size that all share a recent layout, read where they lie.
+
+        ``rows``: shape (n, size), one message per row (a strided view into a chunk is fine).
+        The usual chunk of a recording: the layout :meth:`_match` would give every message
+        (the first recent layout of the size that any message shares, shared by all), the
+        same tallies, stamps and floats, without copying the messages into a decoding block.
+        Returns None, having changed nothing, for any other chunk (:meth:`decode` then reads
+        it in a block).
+        """
+        count, size = rows.shape
+        for known in self.by_size.get(size, ()):
+            same = known.matches(rows)
+            if same.any():
+                break
+        else:
+            return None
+        if count == 0 or not same.all():
+            return None
+        self.messages += count
+        known.count += count
+        joints = self.requested if self.requested is not None else list(self.seen)
+        chunk = {}
+        usable = known.reason is None
+        if usable:
+            end = known.end
+            sec = rows[:, 4:8].view(end + 'i4')[:, 0]
+            nanosec = rows[:, 8:12].view(end + 'u4')[:, 0]
+            time_s = sec + nanosec * 1e-9
+            zero = (sec == 0) & (nanosec == 0)
+            if zero.any():
+                self.zero_stamps += int(np.count_nonzero(zero))
+                received = np.asarray(receive_ns, dtype=np.int64)[zero]
+                seconds, nanoseconds = np.divmod(received, 1_000_000_000)
+                time_s[zero] = seconds + nanoseconds * 1e-9
+        shared = False
+        for name in joints:
+            column = known.index.get(name) if usable else None
+            if column is None:
+                chunk[name] = JointChunk(time_s=np.zeros(0), position_rad=np.zeros(0),
+                                         velocity_rad_s=np.zeros(0), effort=np.zeros(0))
+                continue
+            position, velocity, effort = (
+                rows[:, offset + 8 * column:offset + 8 * column + 8].view(end + 'f8')[:, 0]
+                .astype(np.float64) for offset, _ in known.layout.arrays)
+            chunk[name] = JointChunk(time_s=time_s.copy() if shared else time_s,
+                                     position_rad=position, velocity_rad_s=velocity,
+                                     effort=effort)
+            shared = True
         return chunk
 
     def _read(self, layouts: list[_Known], members: list[int], assign: NDArray[np.int64],

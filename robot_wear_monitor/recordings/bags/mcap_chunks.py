@@ -3,14 +3,16 @@ The raw messages of one topic of a finished MCAP bag, a whole chunk at a time.
 
 rosbags iterates an MCAP bag message by message (a heap merge over its message sources, a few
 Python calls per message); for replay that is most of the reading time.  This module reads the
-same messages in bulk, with the ``mcap`` package only for the summary (channels and the chunk
-index):
+same messages in bulk, taking the summary (channels and the chunk index) from the one rosbags
+read when it opened the bag (:func:`bulk_source_of`), or from the ``mcap`` package
+(:func:`bulk_source`):
 
 * each chunk is read with one ``read``, decompressed in one call (``zstandard``, ``lz4``) and
   its records are split with numpy when the messages after the first one sit at a fixed stride
   (the usual case: one JointState layout, one channel); otherwise record by record;
 * the messages of the topic's channels are returned in log-time order (ties: in file order),
-  chunk after chunk, as one :class:`RawBatch` per chunk (memoryviews into the chunk's bytes).
+  chunk after chunk, as one :class:`RawBatch` per chunk (views into the chunk's bytes);
+* a thread can read the chunk records ahead of the one split (:attr:`BulkSource.read_ahead`).
 
 :func:`bulk_source` says whether a bag qualifies: a finished rosbag2 folder of MCAP files (no
 file-level compression) whose files have a summary with a chunk index, and whose chunks do not
@@ -25,11 +27,12 @@ from dataclasses import dataclass
 import os
 from pathlib import Path
 import struct
-from typing import Any, Iterator, Optional
+from typing import Any, Generator, Iterator, Optional
 
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.recordings.bags.read_ahead import read_ahead
 from robot_wear_monitor.yaml_files import load_yaml_file
 
 _MESSAGE = 0x05
@@ -97,21 +100,35 @@ class BulkSource:
         """Keep the chunks (sorted, non-overlapping) and each file's channel ids of the topic."""
         self.chunks = chunks
         self.channels = channels
+        #: chunk records a thread reads from the files ahead of the one split (0: no thread)
+        self.read_ahead = 0
 
     def __iter__(self) -> Iterator[RawBatch]:
         """Yield one :class:`RawBatch` per chunk that holds messages of the topic."""
-        handles: dict[Path, object] = {}
+        records = self._records()
+        if self.read_ahead > 0:
+            records = read_ahead(records, self.read_ahead, name='read chunks')
+        try:
+            for chunk, record in records:
+                batch = _split_chunk(record, chunk, self.channels[chunk.file])
+                if batch is not None:
+                    yield batch
+        finally:
+            records.close()  # a reading thread ends first, then the files are closed
+
+    def _records(self) -> Generator[tuple[_Chunk, bytes], None, None]:
+        """Yield each chunk with its record's bytes, read with one ``read``."""
+        handles: dict[Path, Any] = {}
         try:
             for chunk in self.chunks:
                 handle = handles.get(chunk.file)
                 if handle is None:
                     handle = handles[chunk.file] = open(chunk.file, 'rb')
-                batch = _read_chunk(handle, chunk, self.channels[chunk.file])
-                if batch is not None:
-                    yield batch
+                handle.seek(chunk.offset)
+                yield chunk, handle.read(chunk.length)
         finally:
             for handle in handles.values():
-                handle.close()  # type: ignore[attr-defined]
+                handle.close()
 
 
 def _decompress(data: memoryview, compression: str, size: int) -> bytes | memoryview:
@@ -126,9 +143,8 @@ def _decompress(data: memoryview, compression: str, size: int) -> bytes | memory
     raise InputError(f'unknown MCAP chunk compression {compression[:20]!r}')
 
 
-def _read_chunk(handle, chunk: _Chunk, channels: set[int]) -> Optional[RawBatch]:
-    handle.seek(chunk.offset)
-    record = handle.read(chunk.length)
+def _split_chunk(record: bytes, chunk: _Chunk, channels: set[int]) -> Optional[RawBatch]:
+    """Return the messages of ``channels`` in a chunk record read whole (InputError: bad)."""
     if len(record) != chunk.length or record[0] != _CHUNK:
         raise InputError(f'{chunk.file}: chunk at byte {chunk.offset} is cut or not a chunk')
     _, _, size, _ = _CHUNK_HEAD.unpack_from(record, _RECORD_HEAD)
@@ -198,7 +214,7 @@ def _fixed_stride(data: bytes | memoryview, at: int,
         count, stride)
     if np.any(rows[:, 0] != _MESSAGE):
         return None
-    lengths = rows[:, 1:_RECORD_HEAD].copy().view('<u8').ravel()
+    lengths = rows[:, 1:_RECORD_HEAD].view('<u8')[:, 0]  # a strided view, no copy
     if np.any(lengths != length):
         return None
     return at, stride, count
@@ -211,9 +227,12 @@ def _record_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
     rows = np.frombuffer(data, dtype=np.uint8, count=count * stride, offset=at).reshape(
         count, stride)
     head = _RECORD_HEAD
-    channel = rows[:, head:head + 2].copy().view('<u2').ravel()
-    log_time = rows[:, head + 6:head + 14].copy().view('<u8').ravel().astype(np.int64)
-    keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
+    channel = rows[:, head:head + 2].view('<u2')[:, 0]  # strided views, no copy
+    log_time = rows[:, head + 6:head + 14].view('<u8')[:, 0].astype(np.int64)
+    if len(channels) == 1:
+        keep = channel == next(iter(channels))
+    else:
+        keep = np.isin(channel, np.fromiter(channels, dtype=np.uint16, count=len(channels)))
     return rows, log_time, keep
 
 
@@ -232,8 +251,8 @@ def _stride_rows(fixed: tuple[int, int, int], data: bytes | memoryview,
     payload = rows[:, head + _MESSAGE_HEAD:]
     if not keep.all():
         payload, log_time = payload[keep], log_time[keep]
-    order = np.argsort(log_time, kind='stable')
-    if np.any(np.diff(order) != 1):
+    if np.any(log_time[1:] < log_time[:-1]):  # else the stable order is the file's
+        order = np.argsort(log_time, kind='stable')
         payload, log_time = payload[order], log_time[order]
     return RawBatch(log_time_ns=log_time, raws=RawRows(payload))
 
@@ -248,6 +267,43 @@ def _take_stride(fixed: tuple[int, int, int], data: bytes | memoryview, channels
     starts.extend(first.tolist())
     ends.extend((first + (stride - head - _MESSAGE_HEAD)).tolist())
     times.extend(log_time[keep].tolist())
+
+
+def bulk_source_of(reader: Any, topic: str) -> tuple[bool, Optional[BulkSource]]:
+    """
+    Return (whether rosbags showed its index, the bulk reader of ``topic`` or None).
+
+    rosbags reads each MCAP file's summary (channels and chunk index) when it opens a bag;
+    this takes the same chunks from it that :func:`bulk_source` takes from the ``mcap``
+    package, under the same conditions, so that the summary is read once and ``mcap`` is not
+    loaded.  (False, None) when the open reader does not show that index (sqlite3 storage,
+    or another rosbags version): :func:`bulk_source` then decides.
+    """
+    storages = getattr(getattr(reader, 'storage', None), 'storages', None)
+    if not storages or not all(isinstance(getattr(storage, 'chunks', None), list)
+                               for storage in storages):
+        return False, None
+    if getattr(reader, 'compression_format', None):
+        return True, None
+    chunks: list[_Chunk] = []
+    channels: dict[Path, set[int]] = {}
+    for storage in storages:
+        file, found, index = storage.path, storage.channels, storage.chunks
+        if not index:
+            return True, None  # no summary with a chunk index
+        mine = {i for i, channel in found.items() if channel.topic == topic}
+        channels[Path(file)] = mine
+        for entry in index:
+            if entry.compression not in ('', 'zstd', 'lz4'):
+                return True, None
+            if entry.message_index_offsets and not mine & set(entry.message_index_offsets):
+                continue  # no message of the topic in this chunk (by its message index)
+            chunks.append(_Chunk(file=Path(file), offset=entry.chunk_start_offset,
+                                 length=entry.chunk_length,
+                                 start_ns=entry.message_start_time,
+                                 end_ns=entry.message_end_time,
+                                 compression=entry.compression))
+    return True, _in_time_order(chunks, channels)
 
 
 def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
@@ -294,6 +350,12 @@ def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
                                  start_ns=index.message_start_time,
                                  end_ns=index.message_end_time,
                                  compression=index.compression))
+    return _in_time_order(chunks, channels)
+
+
+def _in_time_order(chunks: list[_Chunk], channels: dict[Path, set[int]]
+                   ) -> Optional[BulkSource]:
+    """Return the source of the chunks in time order; None when two overlap in time."""
     chunks.sort(key=lambda c: (c.start_ns, c.end_ns))
     if any(a.end_ns >= b.start_ns for a, b in zip(chunks, chunks[1:])):
         return None

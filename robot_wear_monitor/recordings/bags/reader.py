@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import gc
 import os
 from pathlib import Path
-from typing import Any, Callable, Iterator, Optional, Sequence
+from typing import Any, Callable, Generator, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +24,8 @@ from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChun
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
                                                        MONITOR_TYPESTORE, open_reader)
-from robot_wear_monitor.recordings.bags.mcap_chunks import bulk_source, BulkSource, RawRows
+from robot_wear_monitor.recordings.bags.mcap_chunks import (bulk_source, bulk_source_of,
+                                                            BulkSource)
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
 
@@ -154,64 +155,50 @@ def read_scalar_topic(path: str | os.PathLike, *, topic: str
     return time_s[keep][order], value[keep][order], msgtype
 
 
-def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Iterator[tuple[list, list]]:
-    """Yield (bag times [ns], CDR bytes) of up to ``size`` messages from a message iterator."""
+def _batched(pairs: Iterator[tuple[int, Any]], size: int) -> Generator[list, None, None]:
+    """Yield [(bag times [ns], CDR bytes)] of up to ``size`` messages from a message iterator."""
     stamps: list = []
     raws: list = []
     for stamp, raw in pairs:
         stamps.append(stamp)
         raws.append(raw)
         if len(raws) >= size:
-            yield stamps, raws
+            yield [(stamps, raws)]
             stamps, raws = [], []
     if raws:
-        yield stamps, raws
+        yield [(stamps, raws)]
 
 
-def _bulk_batches(bulk: BulkSource, size: int) -> Iterator[tuple[Any, list]]:
+def _bulk_batches(bulk: BulkSource, size: int) -> Generator[list, None, None]:
     """
-    Yield (bag times [ns], CDR bytes) of ``size`` messages at a time from whole MCAP chunks.
+    Yield the pieces (bag times [ns], CDR bytes) of ``size`` messages at a time, chunk by chunk.
 
     The batches are those of the message-by-message path (``size`` each, the last one shorter),
-    so that the chunks a reader yields do not depend on how the bag is read.
+    so that the chunks a reader yields do not depend on how the bag is read; each batch comes
+    as the consecutive pieces of the MCAP chunks it spans (views into the chunks' bytes, not
+    joined: the decoder reads them where they lie).
     """
-    times: list = []
-    pieces: list = []  # lists of memoryviews and RawRows, in order
+    pieces: list = []
     held = 0
     for batch in bulk:
-        times.append(batch.log_time_ns)
-        pieces.append(batch.raws)
-        held += len(batch.raws)
-        while held >= size:
-            stamps = np.concatenate(times)
-            taken, pieces = _split_pieces(pieces, size)
-            yield stamps[:size], _joined(taken)
-            times = [stamps[size:]]
-            held -= size
-    if held:
-        yield np.concatenate(times), _joined(pieces)
+        times, raws = batch.log_time_ns, batch.raws
+        while held + len(raws) >= size:
+            take = size - held
+            pieces.append((times[:take], raws[:take]))
+            yield pieces
+            pieces, held = [], 0
+            times, raws = times[take:], raws[take:]
+        if len(raws):
+            pieces.append((times, raws))
+            held += len(raws)
+    if pieces:
+        yield pieces
 
 
-def _split_pieces(pieces: list, size: int) -> tuple[list, list]:
-    """Return the pieces of the first ``size`` messages and those of the rest."""
-    taken: list = []
-    for i, piece in enumerate(pieces):
-        if size <= 0:
-            return taken, pieces[i:]
-        if len(piece) > size:
-            return taken + [piece[:size]], [piece[size:]] + pieces[i + 1:]
-        taken.append(piece)
-        size -= len(piece)
-    return taken, []
-
-
-def _joined(pieces: list) -> Any:
-    """Return the messages of ``pieces`` as one RawRows (all rows of one size) or a list."""
-    if pieces and all(isinstance(p, RawRows) for p in pieces) and \
-            len({p.array.shape[1] for p in pieces}) == 1:
-        return RawRows(pieces[0].array if len(pieces) == 1
-                       else np.concatenate([p.array for p in pieces]))
-    return [raw for piece in pieces for raw in piece]
+def _read_ahead_setting() -> int:
+    """Return ``ROBOT_WEAR_MONITOR_READ_AHEAD`` as chunks to read ahead (0 unless a count 1-64)."""
+    text = os.environ.get('ROBOT_WEAR_MONITOR_READ_AHEAD', '0').strip()
+    return int(text) if text.isdigit() and 1 <= int(text) <= 64 else 0
 
 
 class JointStream:
@@ -241,7 +228,7 @@ class JointStream:
     def __init__(self, path: str | os.PathLike, *, joints: Sequence[str] | None,
                  topic: str, chunk_messages: int,
                  progress: Callable[[int, int], None] | None, recover: bool,
-                 require_joints: bool) -> None:
+                 require_joints: bool, read_ahead: int | None = None) -> None:
         """Check the bag and the topic (BagError); nothing is read before iterating."""
         if isinstance(joints, str):
             joints = [joints]
@@ -260,16 +247,22 @@ class JointStream:
         self.bulk = os.environ.get('ROBOT_WEAR_MONITOR_BULK_READ', '1') != '0'
         #: whether the last iteration used the bulk reader
         self.bulk_read = False
+        #: MCAP chunk records a thread reads ahead of the one decoded (0: no thread)
+        self.read_ahead = _read_ahead_setting() if read_ahead is None else int(read_ahead)
         self.recovery: Recovery | None = None
         self.total_messages = 0
         bag = Path(path)
         self._unfinished = unfinished_mcap_files(bag) if bag.exists() else None
+        #: (known, source): the chunks of a finished MCAP bag, from the index rosbags read on
+        #: opening it (not known: :func:`.mcap_chunks.bulk_source` reads the summary)
+        self._bulk_source: tuple[bool, BulkSource | None] = (False, None)
         if self._unfinished is None:
             reader = open_reader(path)
             try:
                 connections = joint_state_connections(reader, path, topic)
                 self.total_messages = sum(int(getattr(c, 'msgcount', 0) or 0)
                                           for c in connections)
+                self._bulk_source = bulk_source_of(reader, topic)
             finally:
                 reader.close()
         self._decoder = MultiDecoder(self.joints)
@@ -317,7 +310,13 @@ class JointStream:
     # -- reading
 
     def __iter__(self) -> Iterator[dict[str, JointChunk]]:
-        """Read the bag from its start (a new iteration starts over)."""
+        """
+        Read the bag from its start (a new iteration starts over).
+
+        With ``read_ahead`` > 0, a finished MCAP bag's chunk records are read from the file by a
+        thread, up to that many ahead of the one being split and decoded; a bad chunk raises
+        its BagError when the iteration reaches it, as without.
+        """
         self._decoder = MultiDecoder(self.joints)
         self.recovery = None
         path, topic = self.path, self.topic
@@ -325,14 +324,17 @@ class JointStream:
         state = {'count': 0, 'last_ns': -1, 'cut': False, 'types': {}}
         reader = bulk = None
         if unfinished is None and self.bulk:  # the topic and its type were checked on opening
-            bulk = bulk_source(path, topic)
+            known, bulk = self._bulk_source
+            if not known:
+                bulk = bulk_source(path, topic)
         if unfinished is None and bulk is None:
             reader = open_reader(path)
         self.bulk_read = bulk is not None
-        collecting = gc.isenabled()
+        batches: Generator[list, None, None] | None = None
         try:
             if bulk is not None:
-                batches: Iterator[tuple[Any, list]] = _bulk_batches(bulk, self.chunk_messages)
+                bulk.read_ahead = self.read_ahead
+                batches = _bulk_batches(bulk, self.chunk_messages)
             elif reader is not None:
                 connections = joint_state_connections(reader, path, topic)
                 batches = _batched(((t, raw) for _, t, raw in
@@ -343,30 +345,36 @@ class JointStream:
                 batches = _batched(iter_unfinished_mcap(Path(path), unfinished[0], topic,
                                                         state), self.chunk_messages)
             total = self.total_messages
-            decoder = self._decoder
-            while True:
-                gc.disable()  # the chunk holds many small objects; the collector rescans them
-                try:
-                    stamps, raws = next(batches, (None, []))
-                except BagError:
-                    raise
-                except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
-                    message = str(error).splitlines()[0] if str(error) \
-                        else type(error).__name__
-                    raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
-                finally:
-                    if collecting:
-                        gc.enable()
-                if not raws:
-                    break
-                chunk = decoder.decode(raws, stamps)
+            for chunk, messages in self._decoded(batches, gc.isenabled()):
                 if self.progress is not None:
-                    self.progress(decoder.messages, max(total, decoder.messages))
+                    self.progress(messages, max(total, messages))
                 yield chunk
         finally:
+            if batches is not None:
+                batches.close()  # a reading thread ends first
             if reader is not None:
                 reader.close()
         self._finish(unfinished, state)
+
+    def _decoded(self, batches: Iterator[list], collecting: bool
+                 ) -> Iterator[tuple[dict[str, JointChunk], int]]:
+        """Yield each decoded chunk with the messages read so far (BagError: a bad bag)."""
+        path, decoder = self.path, self._decoder
+        while True:
+            gc.disable()  # the chunk holds many small objects; the collector rescans them
+            try:
+                pieces = next(batches, None)
+            except BagError:
+                raise
+            except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
+                message = str(error).splitlines()[0] if str(error) else type(error).__name__
+                raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+            finally:
+                if collecting:
+                    gc.enable()
+            if not pieces:
+                return
+            yield decoder.decode_pieces(pieces), decoder.messages
 
     def _finish(self, unfinished: tuple[list[Path], str] | None, state: dict) -> None:
         """Check the end of the reading: cut recordings, absent topic, unseen joints."""
@@ -402,7 +410,8 @@ class JointStream:
 def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None = None,
                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                       progress: Callable[[int, int], None] | None = None,
-                      recover: bool = True, require_joints: bool = True) -> JointStream:
+                      recover: bool = True, require_joints: bool = True,
+                      read_ahead: int | None = None) -> JointStream:
     """
     Stream the samples of several joints of a bag chunk by chunk (flat memory).
 
@@ -423,6 +432,11 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
     :param recover: read an unfinished recording whose end is cut (False: refuse it).
     :param require_joints: raise when a requested joint is in no message (at the end of the
         iteration); False leaves it with no samples (see ``joints_missing``).
+    :param read_ahead: MCAP chunk records (about 1 MB each) a thread reads from the file ahead
+        of the one decoded, while the caller computes (0: none; None: the environment's
+        ``ROBOT_WEAR_MONITOR_READ_AHEAD``, default 0).  For wall time on an idle second core:
+        it costs CPU (about 0.05 s at 2 million messages, the records then reach the decoder
+        from another core's cache); a bag read with rosbags (sqlite3, unfinished) has none.
 
     :raises BagError: at the call, the bag is missing or unreadable, the topic is absent (the
         message lists the topics) or has another type; during the iteration, the bag is
@@ -432,7 +446,8 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
 
     """
     return JointStream(path, joints=joints, topic=topic, chunk_messages=chunk_messages,
-                       progress=progress, recover=recover, require_joints=require_joints)
+                       progress=progress, recover=recover, require_joints=require_joints,
+                       read_ahead=read_ahead)
 
 
 def _concatenate(stream: JointStream, parts: list[JointChunk], joint: str) -> JointSamples:

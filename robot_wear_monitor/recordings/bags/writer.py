@@ -13,7 +13,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 import os
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,8 @@ class BagWriter:
         self._writer = writer
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
+        #: topic -> (connection, serializer of its type): one look-up per message written
+        self._serializers: dict[str, tuple[Any, Callable[[Any, str], Any], str]] = {}
         self.message_count = 0
         #: staging copies of killed writers of the same bag, removed before this one started
         self.removed_stale: list[Path] = []
@@ -53,14 +55,17 @@ class BagWriter:
                            'typestore')
         self._connections[topic] = self._writer.add_connection(topic, msgtype, typestore=store)
         self._types[topic] = msgtype
+        self._serializers[topic] = (self._connections[topic], store.serialize_cdr, msgtype)
 
     def write(self, topic: str, msg: Any, timestamp_ns: int) -> None:
         """Write a typestore message object (or CDR bytes) on a declared topic."""
-        if topic not in self._connections:
+        entry = self._serializers.get(topic)
+        if entry is None:
             raise BagError(f'topic {topic} was not added before writing')
+        connection, serialize, msgtype = entry
         data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else \
-            typestore_of(self._types[topic]).serialize_cdr(msg, self._types[topic])
-        self._writer.write(self._connections[topic], int(timestamp_ns), data)
+            serialize(msg, msgtype)
+        self._writer.write(connection, int(timestamp_ns), data)
         self.message_count += 1
 
     def write_raw_many(self, topic: str, messages: Sequence[bytes],
