@@ -20,6 +20,7 @@ from typing import Optional, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.estimation import intervals as one
+from robot_wear_monitor.estimation.batch import _levels_last, whitening_rows
 from robot_wear_monitor.estimation.estimator import WearEstimates
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
 from robot_wear_monitor.model import friction as fm
@@ -29,20 +30,49 @@ FloatArray = NDArray[np.float64]
 
 
 class _StackedProfile:
-    """The :class:`~robot_wear_monitor.estimation.intervals._Profile` of B rows, stacked."""
+    """
+    The :class:`~robot_wear_monitor.estimation.intervals._Profile` of B rows, stacked.
 
-    def __init__(self, profiles: Sequence[one._Profile]) -> None:
-        first = profiles[0]
-        self.params, self.grid, self.t_grid = first.params, first.grid, first.t_grid
-        self.t_min, self.t_max = first.t_min, first.t_max
-        self.speeds = np.stack([p.speeds for p in profiles])           # (B, N)
-        self.whiten = np.stack([p.whiten for p in profiles])           # (B, N, N)
-        self.const = np.array([p.const for p in profiles])             # (B,)
-        self.nom = np.stack([p.nom for p in profiles])                 # (B, K, N)
-        self.wear = np.stack([p.wear for p in profiles])               # (B, G, N)
-        self.nom2 = np.stack([p.nom2 for p in profiles])               # (B, K)
-        self.wear2 = np.stack([p.wear2 for p in profiles])             # (B, G)
-        self.cross = np.stack([p.cross for p in profiles])             # (B, G, K)
+    Built for all rows at once (:meth:`build`), with the operations of one row's profile: the
+    model on the grids elementwise (evaluated levels-first, on long rows of memory), then one
+    BLAS product and one einsum kernel per row, so row ``i`` holds the arrays of ``_Profile(
+    speeds[i], params, grid)`` number for number (tested).
+    """
+
+    def __init__(self, params: ParameterSet, grid: FloatArray, speeds: FloatArray,
+                 whiten: FloatArray, const: FloatArray, nom: FloatArray, wear: FloatArray,
+                 nom2: FloatArray, wear2: FloatArray, cross: FloatArray) -> None:
+        self.params, self.grid = params, grid
+        self.t_min = float(params.temperature_min_degc)
+        self.t_max = float(params.temperature_max_degc)
+        self.t_grid = np.linspace(self.t_min, self.t_max, one._T_POINTS)
+        self.speeds = speeds                                           # (B, N)
+        self.whiten = whiten                                           # (B, N, N)
+        self.const = const                                             # (B,)
+        self.nom = nom                                                 # (B, K, N)
+        self.wear = wear                                               # (B, G, N)
+        self.nom2 = nom2                                               # (B, K)
+        self.wear2 = wear2                                             # (B, G)
+        self.cross = cross                                             # (B, G, K)
+
+    @classmethod
+    def build(cls, speeds: FloatArray, params: ParameterSet, grid: FloatArray
+              ) -> '_StackedProfile':
+        """Return the profiles of the rows ``speeds`` (B, N) [rad/s] on the wear ``grid``."""
+        whiten, factor = whitening_rows(speeds, params)
+        const = (-0.5 * speeds.shape[1] * np.log(2.0 * np.pi)
+                 - np.sum(np.log(np.diagonal(factor, axis1=1, axis2=2)), axis=1))
+        t_grid = np.linspace(float(params.temperature_min_degc),
+                             float(params.temperature_max_degc), one._T_POINTS)
+        levels_first = speeds.T[:, :, None]  # (N, B, 1)
+        whiten_t = cls._t(whiten)
+        nom = np.matmul(_levels_last(fm.nominal_friction(levels_first, params.load_mean, t_grid,
+                                                         params.model)), whiten_t)
+        wear = np.matmul(_levels_last(fm.wear_friction(levels_first, grid, params.model)),
+                         whiten_t)
+        return cls(params, grid, speeds, whiten, const, nom, wear,
+                   np.einsum('bkn,bkn->bk', nom, nom), np.einsum('bgn,bgn->bg', wear, wear),
+                   np.matmul(2.0 * wear, cls._t(nom)))
 
     @staticmethod
     def _t(stack: FloatArray) -> FloatArray:
@@ -138,14 +168,24 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
         calibration = one.calibrate_cutoffs(s, params=params, level=level)
         extended = _extended_grid(grid, float(estimates[i].wear[0]))
         groups.setdefault((s.size, id(calibration), extended.tobytes()), []).append(i)
-    for rows in groups.values():
-        for i, result in zip(rows, _intervals_stacked(
-                [speeds[i] for i in rows], [values[i] for i in rows],
-                [estimates[i] for i in rows], params, grid, level)):
-            out[i] = result
+    trend = None if trend_grid is None else one._validate_grid(trend_grid)
     trend_rows: list[Optional[FloatArray]] = [None] * len(speeds)
-    if trend_grid is not None:
-        trend_rows = _likelihood_rows(speeds, values, params, trend_grid)
+    for (_, _, extended), rows in groups.items():
+        results, like_rows = _intervals_stacked(
+            [speeds[i] for i in rows], [values[i] for i in rows],
+            [estimates[i] for i in rows], params, grid, level)
+        # the trend row of a row whose profile is on the trend grid is its wear profile there
+        # (profile_log_likelihood and wear_intervals compute it alike)
+        same = trend is not None and extended == trend.tobytes()
+        for j, (i, result) in enumerate(zip(rows, results)):
+            out[i] = result
+            if same:
+                trend_rows[i] = like_rows[j:j + 1]
+    if trend is not None:
+        left = [i for i, row in enumerate(trend_rows) if row is None]
+        for i, row in zip(left, _likelihood_rows([speeds[i] for i in left],
+                                                 [values[i] for i in left], params, trend)):
+            trend_rows[i] = row
     return [r for r in out if r is not None], trend_rows
 
 
@@ -163,8 +203,7 @@ def _likelihood_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArray],
         else:
             by_size.setdefault(s.size, []).append(i)
     for group in by_size.values():
-        stacked = _StackedProfile([one._Profile(np.asarray(speeds[i], dtype=float).copy(),
-                                                params, grid.copy()) for i in group])
+        stacked = _StackedProfile.build(np.stack([speeds[i] for i in group]), params, grid)
         index = np.arange(len(group))
         data = stacked.whitened(np.concatenate([np.asarray(values[i], dtype=float)
                                                 for i in group]), index)
@@ -176,17 +215,20 @@ def _likelihood_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArray],
 
 
 def _intervals_stacked(speeds: list, values: list, estimates: list, params: ParameterSet,
-                       grid: FloatArray, level: float) -> list[one.WearIntervals]:
-    """Return :func:`wear_intervals` of rows of equal N, calibration and extended grid."""
+                       grid: FloatArray, level: float
+                       ) -> tuple[list[one.WearIntervals], FloatArray]:
+    """
+    Return :func:`wear_intervals` of rows of equal N, calibration and extended grid.
+
+    Also the rows' profile log-likelihood on ``grid``, (B, G) (``like_rows``).
+    """
     speeds = [np.asarray(s, dtype=float) for s in speeds]
     vals = np.concatenate([np.asarray(v, dtype=float) for v in values])
     w_hat = np.concatenate([np.asarray(e.wear, dtype=float) for e in estimates])
     t_hat = np.concatenate([np.asarray(e.temperature_degc, dtype=float) for e in estimates])
     half_q = 0.5 * chi2_quantile_one_dof(level)
-    profiles = [one._Profile(s.copy(), params, _extended_grid(grid, w).copy())
-                for s, w in zip(speeds, w_hat)]
-    profile = _StackedProfile(profiles)
-    del profiles  # stacked: one copy in memory
+    profile = _StackedProfile.build(np.stack(speeds), params,
+                                    _extended_grid(grid, float(w_hat[0])))
     index = np.arange(len(speeds))
     data = profile.whitened(vals, index)
     # _WearLikelihood, N >= 2
@@ -221,4 +263,4 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     return [one.WearIntervals(wear_low=wear_low[i:i + 1], wear_high=wear_high[i:i + 1],
                               temperature_low=t_low[i:i + 1], temperature_high=t_high[i:i + 1],
                               wear_high_at_grid_end=open_end[i:i + 1], level=float(level))
-            for i in index]
+            for i in index], like_rows
