@@ -249,7 +249,8 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     def wear_func(w: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
         return at_wear(w, rows) + 0.5 * calibration.at(w)
     wear_low, wear_high, open_end = one._hull(like_rows + half_c[None, :], grid, l_max, w_hat,
-                                              l_hat + 0.5 * calibration.at(w_hat), wear_func)
+                                              l_hat + 0.5 * calibration.at(w_hat), wear_func,
+                                              together=True)
     wear_low = np.maximum(wear_low, 0.0)
     joint_t = profile.const[:, None] - 0.5 * cost_t
 
@@ -257,7 +258,7 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
         return profile.const[rows] - 0.5 * profile.cost_at_temperature(data[rows], t, rows)
     lt_max = np.maximum(l_hat, joint_t.max(axis=1))
     t_low, t_high, _ = one._hull(joint_t, profile.t_grid, lt_max - half_q, t_hat, l_hat,
-                                 temp_func)
+                                 temp_func, together=True)
     t_low = np.clip(t_low, profile.t_min, profile.t_max)
     t_high = np.clip(t_high, profile.t_min, profile.t_max)
     return [one.WearIntervals(wear_low=wear_low[i:i + 1], wear_high=wear_high[i:i + 1],

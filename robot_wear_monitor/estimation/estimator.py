@@ -311,22 +311,24 @@ class _WhitenedProblem:
         singular and Gauss-Newton alone converges very slowly.
         """
         h_t, h_w = 1e-3, 1e-4 * np.maximum(1.0, np.abs(w))
-        columns = []
-        steps: tuple[tuple[Any, Any], ...] = ((h_t, 0.0), (0.0, h_w))
-        for dt, dw in steps:
-            plus = self._jacobian(t + dt, w + dw)
-            minus = self._jacobian(t - dt, w - dw)
-            columns.append((plus - minus) / (2.0 * (dt + dw))[..., None, None]
-                           if np.ndim(dw) else (plus - minus) / (2.0 * dt))
-        curvature = np.stack(columns, axis=-1)  # (B, N, 2, 2): d/d theta_j of column i
+        # the gradients at (t +- h_t, w + 0) and (t + 0, w +- h_w): one stacked evaluation
+        count = t.shape[0]
+        stacked = self.rows(np.tile(np.arange(count), 4))._jacobian(
+            np.concatenate([t + h_t, t - h_t, t + 0.0, t - 0.0]),
+            np.concatenate([w + 0.0, w - 0.0, w + h_w, w - h_w]))
+        plus_t, minus_t, plus_w, minus_w = (stacked[i * count:(i + 1) * count]
+                                            for i in range(4))
+        # (B, N, 2, 2): d/d theta_j of column i
+        curvature = np.stack([(plus_t - minus_t) / (2.0 * h_t),
+                              (plus_w - minus_w) / (2.0 * (0.0 + h_w))[..., None, None]], axis=-1)
         curvature = 0.5 * (curvature + np.swapaxes(curvature, -1, -2))
         return (np.einsum('bni,bnj->bij', jacobian, jacobian)
                 - np.einsum('bn,bnij->bij', residual, curvature))
 
     def _jacobian(self, t: FloatArray, w: FloatArray) -> FloatArray:
-        g = fm.friction_with_gradients(self.speed_rows, self.params.load_mean,
-                                       t[:, None], w[:, None], self.params.model)
-        return np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
+        d_temperature, d_wear = fm.friction_gradients(self.speed_rows, self.params.load_mean,
+                                                      t[:, None], w[:, None], self.params.model)
+        return np.stack([self.apply(d_temperature), self.apply(d_wear)], axis=-1)
 
     def cost(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> FloatArray:
         """Return the cost of (16), shape (B,), at the points (t, w)."""
