@@ -27,6 +27,8 @@ from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
+#: at most this many cells of the (rows, G, K) cost cube at a time (cache-sized)
+_CUBE_CELLS = 1 << 20
 
 
 class _StackedProfile:
@@ -41,7 +43,7 @@ class _StackedProfile:
 
     def __init__(self, params: ParameterSet, grid: FloatArray, speeds: FloatArray,
                  whiten: FloatArray, const: FloatArray, nom: FloatArray, wear: FloatArray,
-                 nom2: FloatArray, wear2: FloatArray, cross: FloatArray) -> None:
+                 nom2: FloatArray, wear2: FloatArray) -> None:
         self.params, self.grid = params, grid
         self.t_min = float(params.temperature_min_degc)
         self.t_max = float(params.temperature_max_degc)
@@ -53,7 +55,6 @@ class _StackedProfile:
         self.wear = wear                                               # (B, G, N)
         self.nom2 = nom2                                               # (B, K)
         self.wear2 = wear2                                             # (B, G)
-        self.cross = cross                                             # (B, G, K)
 
     @classmethod
     def build(cls, speeds: FloatArray, params: ParameterSet, grid: FloatArray
@@ -71,8 +72,7 @@ class _StackedProfile:
         wear = np.matmul(_levels_last(fm.wear_friction(levels_first, grid, params.model)),
                          whiten_t)
         return cls(params, grid, speeds, whiten, const, nom, wear,
-                   np.einsum('bkn,bkn->bk', nom, nom), np.einsum('bgn,bgn->bg', wear, wear),
-                   np.matmul(2.0 * wear, cls._t(nom)))
+                   np.einsum('bkn,bkn->bk', nom, nom), np.einsum('bgn,bgn->bg', wear, wear))
 
     @staticmethod
     def _t(stack: FloatArray) -> FloatArray:
@@ -87,18 +87,23 @@ class _StackedProfile:
         """Return the rows' values whitened, (R, N) (one (1, N) product per row)."""
         return self._times(values[:, None, :], self.whiten[rows])[:, 0, :]
 
+    def cross(self, part: slice) -> FloatArray:
+        """Return the ``_Profile.cross`` 2 a_k.c_g of the rows ``part``, (R, G, K)."""
+        return np.matmul(2.0 * self.wear[part], self._t(self.nom[part]))
+
     def grid_profiles(self, data: FloatArray, *, want_t: bool) -> tuple:
         """Return min_T cost (B, G) and (if want_t) min_w cost (B, K), as per row alone."""
         d2 = np.einsum('bn,bn->b', data, data)
         p_t = self.nom2 - self._times(2.0 * data[:, None, :], self.nom)[:, 0, :]
         q_w = self.wear2 - self._times(2.0 * data[:, None, :], self.wear)[:, 0, :]
-        b = data.shape[0]
-        g, k = self.cross.shape[1:]
+        b, g, k = data.shape[0], self.wear.shape[1], self.nom.shape[1]
         prof_w = np.empty((b, g))
         prof_t = np.empty((b, k)) if want_t else None
+        # a few rows' cost cubes at a time (cache-sized), each made from its rows' products
         chunk = max(1, one._CHUNK_CELLS // (g * k))
         for s in range(0, b, chunk):
-            cube = self.cross[s:s + chunk] + p_t[s:s + chunk, None, :]
+            cube = self.cross(slice(s, s + chunk))
+            cube += p_t[s:s + chunk, None, :]
             cube += q_w[s:s + chunk, :, None]
             prof_w[s:s + chunk] = one._parabola_min(cube, self.t_grid)[0]
             if prof_t is not None:

@@ -50,6 +50,8 @@ _GRID_MAX_POINTS = 400  # per axis (a very small sigma would ask for more)
 _ARC_SAMPLES = 1001
 _GAUSS_NEWTON_ITERATIONS = 100
 _LINE_SEARCH_HALVINGS = 8
+#: the line search's step lengths: the full step, then 4^-1 .. 4^-(_LINE_SEARCH_HALVINGS - 1)
+_STEP_LENGTHS = (np.ones(1), np.ldexp(1.0, -2 * np.arange(1, _LINE_SEARCH_HALVINGS)))
 _BATCH_CHUNK = 64  # rows of the grid search at a time (cache-sized)
 _GRID_CHUNK_CELLS = 1 << 21  # at most this many (row, grid point) costs at a time
 _STARTS = 3
@@ -494,28 +496,35 @@ def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: Flo
             fixed = fixed | out
             step[redo] = _newton_step(jacobian[redo], hessian[redo], residual[redo],
                                       fixed[redo], lam[redo])
-        # backtracking line search along the projected path
-        alpha = np.ones(idx.size)
+        # backtracking line search along the projected path: the full step of every row, then
+        # the shorter steps 4^-k (k = 1 .. _LINE_SEARCH_HALVINGS - 1) of the rows it did not
+        # improve, all at once; a row takes its first (longest) step that lowers the cost
         accepted = np.zeros(idx.size, dtype=bool)
+        full_step = np.zeros(idx.size, dtype=bool)
         new_t, new_w, new_cost = ti.copy(), wi.copy(), cost.copy()
         pending = np.flatnonzero(np.any(step != 0, axis=1))
-        for _ in range(_LINE_SEARCH_HALVINGS):
+        for alphas in _STEP_LENGTHS:
             if pending.size == 0:
                 break
-            cand_t, cand_w = problem.project(ti[pending] + alpha[pending] * step[pending, 0],
-                                             wi[pending] + alpha[pending] * step[pending, 1])
-            cand_cost = active_rows.rows(pending).cost(d[pending], cand_t, cand_w)
-            ok = cand_cost < cost[pending]
-            good = pending[ok]
-            new_t[good], new_w[good], new_cost[good] = cand_t[ok], cand_w[ok], cand_cost[ok]
+            tries = np.repeat(pending, alphas.size)
+            alpha = np.tile(alphas, pending.size)
+            cand_t, cand_w = problem.project(ti[tries] + alpha * step[tries, 0],
+                                             wi[tries] + alpha * step[tries, 1])
+            cand_cost = active_rows.rows(tries).cost(d[tries], cand_t, cand_w)
+            ok = (cand_cost < cost[tries]).reshape(pending.size, alphas.size)
+            first = np.argmax(ok, axis=1)
+            hit = ok[np.arange(pending.size), first]
+            pick = np.flatnonzero(hit) * alphas.size + first[hit]
+            good = pending[hit]
+            new_t[good], new_w[good], new_cost[good] = cand_t[pick], cand_w[pick], cand_cost[pick]
             accepted[good] = True
-            pending = pending[~ok]
-            alpha[pending] *= 0.25
+            full_step[good] = alphas[0] == 1.0
+            pending = pending[~hit]
         small = ((np.abs(new_t - ti) <= 1e-10 * (1.0 + np.abs(ti)))
                  & (np.abs(new_w - wi) <= 1e-10 * (1.0 + np.abs(wi))))
         flat = cost - new_cost <= 1e-13 * (1.0 + cost)
         t[idx], w[idx] = new_t, new_w
-        damping[idx] = np.where(accepted & (alpha == 1.0), np.maximum(lam / 10.0, 1e-9),
+        damping[idx] = np.where(full_step, np.maximum(lam / 10.0, 1e-9),
                                 np.where(accepted, lam, lam * 100.0))
         gave_up = ~accepted & (lam * 100.0 > 1e8)
         converged = gave_up | (accepted & (small | flat)) | ~np.any(step != 0, axis=1)
