@@ -303,34 +303,35 @@ class _WhitenedProblem:
         jacobian = np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
         return residual, jacobian, np.einsum('bn,bn->b', residual, residual)
 
-    def hessian(self, data_w: FloatArray, t: FloatArray, w: FloatArray, residual: FloatArray,
-                jacobian: FloatArray) -> FloatArray:
+    def evaluate_with_hessian(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> tuple:
         """
-        Return the Hessian of cost/2, (B, 2, 2), J^T J - sum_n r_n d2f_n.
+        Return :meth:`evaluate`'s residuals, Jacobian and cost, and the Hessian of cost/2.
 
-        The model curvature is a central difference of the analytic gradients.  It matters: with
-        N = 2 levels and a residual left at the optimum, the optimum lies where J is nearly
-        singular and Gauss-Newton alone converges very slowly.
+        The Hessian (B, 2, 2) is J^T J - sum_n r_n d2f_n; the model curvature is a central
+        difference of the analytic gradients at (t +- h_t, w) and (t, w +- h_w), evaluated with
+        the point itself in one stacked model evaluation.  It matters: with N = 2 levels and a
+        residual left at the optimum, the optimum lies where J is nearly singular and
+        Gauss-Newton alone converges very slowly.
         """
-        h_t, h_w = 1e-3, 1e-4 * np.maximum(1.0, np.abs(w))
-        # the gradients at (t +- h_t, w + 0) and (t + 0, w +- h_w): one stacked evaluation
         count = t.shape[0]
-        stacked = self.rows(np.tile(np.arange(count), 4))._jacobian(
-            np.concatenate([t + h_t, t - h_t, t + 0.0, t - 0.0]),
-            np.concatenate([w + 0.0, w - 0.0, w + h_w, w - h_w]))
-        plus_t, minus_t, plus_w, minus_w = (stacked[i * count:(i + 1) * count]
+        h_t, h_w = 1e-3, 1e-4 * np.maximum(1.0, np.abs(w))
+        points = self.rows(np.tile(np.arange(count), 5))
+        g = fm.friction_with_gradients(
+            points.speed_rows, self.params.load_mean,
+            np.concatenate([t, t + h_t, t - h_t, t + 0.0, t - 0.0])[:, None],
+            np.concatenate([w, w + 0.0, w - 0.0, w + h_w, w - h_w])[:, None], self.params.model)
+        residual = data_w - self.apply(g.friction[:count])
+        gradients = np.stack([points.apply(g.d_temperature), points.apply(g.d_wear)], axis=-1)
+        jacobian = gradients[:count]
+        plus_t, minus_t, plus_w, minus_w = (gradients[(i + 1) * count:(i + 2) * count]
                                             for i in range(4))
         # (B, N, 2, 2): d/d theta_j of column i
         curvature = np.stack([(plus_t - minus_t) / (2.0 * h_t),
                               (plus_w - minus_w) / (2.0 * (0.0 + h_w))[..., None, None]], axis=-1)
         curvature = 0.5 * (curvature + np.swapaxes(curvature, -1, -2))
-        return (np.einsum('bni,bnj->bij', jacobian, jacobian)
-                - np.einsum('bn,bnij->bij', residual, curvature))
-
-    def _jacobian(self, t: FloatArray, w: FloatArray) -> FloatArray:
-        d_temperature, d_wear = fm.friction_gradients(self.speed_rows, self.params.load_mean,
-                                                      t[:, None], w[:, None], self.params.model)
-        return np.stack([self.apply(d_temperature), self.apply(d_wear)], axis=-1)
+        hessian = (np.einsum('bni,bnj->bij', jacobian, jacobian)
+                   - np.einsum('bn,bnij->bij', residual, curvature))
+        return residual, jacobian, np.einsum('bn,bn->b', residual, residual), hessian
 
     def cost(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> FloatArray:
         """Return the cost of (16), shape (B,), at the points (t, w)."""
@@ -479,8 +480,7 @@ def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: Flo
             break
         d, ti, wi, lam = data_w[idx], t[idx], w[idx], damping[idx]
         active_rows = problem.rows(idx)
-        residual, jacobian, cost = active_rows.evaluate(d, ti, wi)
-        hessian = active_rows.hessian(d, ti, wi, residual, jacobian)
+        residual, jacobian, cost, hessian = active_rows.evaluate_with_hessian(d, ti, wi)
         descent = np.einsum('bni,bn->bi', jacobian, residual)  # = -grad(cost)/2
         at_low_t = ti <= problem.t_min + 1e-12 * span_t
         at_high_t = ti >= problem.t_max - 1e-12 * span_t

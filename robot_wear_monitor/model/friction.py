@@ -99,15 +99,13 @@ def friction(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike, wear: Ar
     return nominal_friction(speed, load, temperature, model) + wear_friction(speed, wear, model)
 
 
-def _temperature_wear_terms(v: FloatArray, t: FloatArray, w: FloatArray,
-                            model: FrictionModel) -> tuple:
-    """
-    Return the paper model's terms in T and w and their derivatives (broadcast arrays).
+def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
+                            wear: ArrayLike, model: FrictionModel) -> FrictionWithGradients:
+    """Return the complete model (8) and its analytic derivatives in T [1/degC], w and load."""
+    v, tl, t, w = np.broadcast_arrays(*(np.asarray(a, dtype=float)
+                                        for a in (speed, load, temperature, wear)))
+    m = _paper_load_sensitivity(v, model)
 
-    (amplitude_t, decay_t, viscous_decay, decay_w, d_temperature, d_wear): the Stribeck
-    amplitude and decay in T, exp(-T/T_v0), the wear decay (0 at w <= 0), and d tau_f / dT
-    [1/degC] and d tau_f / dw of the paper's terms.
-    """
     stribeck_speed = model.phi_s0 + model.phi_s_temp * t
     decay_t, power_t = _stribeck(v, stribeck_speed, model.alpha)
     amplitude_t = model.f_s0 + model.f_s_temp * t
@@ -124,17 +122,7 @@ def _temperature_wear_terms(v: FloatArray, t: FloatArray, w: FloatArray,
     growth = np.where(positive, decay_w * (1.0 + model.alpha * np.where(positive, power_w, 0.0)),
                       0.0)
     d_wear = model.f_s_wear * growth + model.f_v_wear * v
-    return amplitude_t, decay_t, viscous_decay, decay_w, d_temperature, d_wear
 
-
-def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
-                            wear: ArrayLike, model: FrictionModel) -> FrictionWithGradients:
-    """Return the complete model (8) and its analytic derivatives in T [1/degC], w and load."""
-    v, tl, t, w = np.broadcast_arrays(*(np.asarray(a, dtype=float)
-                                        for a in (speed, load, temperature, wear)))
-    m = _paper_load_sensitivity(v, model)
-    amplitude_t, decay_t, viscous_decay, decay_w, d_temperature, d_wear = \
-        _temperature_wear_terms(v, t, w, model)
     value = (model.f_c0 + tl * m + amplitude_t * decay_t
              + (model.f_v0 + model.f_v_temp * viscous_decay) * v
              + model.f_s_wear * w * decay_w + model.f_v_wear * w * v)
@@ -146,24 +134,6 @@ def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: Arra
         m = m + slopes['load']
     return FrictionWithGradients(friction=value, d_temperature=d_temperature, d_wear=d_wear,
                                  d_load=m)
-
-
-def friction_gradients(speed: ArrayLike, load: ArrayLike, temperature: ArrayLike,
-                       wear: ArrayLike, model: FrictionModel) -> tuple[FloatArray, FloatArray]:
-    """
-    Return d tau_f / dT [1/degC] and d tau_f / dw of the complete model (8).
-
-    The ``d_temperature`` and ``d_wear`` of :func:`friction_with_gradients`, number for number,
-    without the friction and load derivative (an estimator's curvature needs only these).
-    """
-    v, tl, t, w = np.broadcast_arrays(*(np.asarray(a, dtype=float)
-                                        for a in (speed, load, temperature, wear)))
-    d_temperature, d_wear = _temperature_wear_terms(v, t, w, model)[4:]
-    if model.extension is not None:
-        _, slopes = model.extension.with_gradients(v, tl, t, w)
-        d_temperature = d_temperature + slopes['temperature']
-        d_wear = d_wear + slopes['wear']
-    return d_temperature, d_wear
 
 
 def marginal_covariance(speeds: ArrayLike, *, sigma: float, load_std: float,

@@ -88,20 +88,6 @@ def test_gradients_match_finite_differences(tmp_path):
     np.testing.assert_allclose(g.friction, fm.friction(v, load, t, w, model), rtol=1e-12)
 
 
-@pytest.mark.parametrize('extended', [False, True])
-def test_friction_gradients_are_those_of_friction_with_gradients(tmp_path, extended):
-    """The gradients-only evaluation gives d_temperature and d_wear bit for bit, w = 0 too."""
-    model = load_parameter_set(write_set(tmp_path)).model if extended else PARAMS.model
-    v = np.array([2.1, 8.7, 41.7, 133.5, 287.1])
-    t = np.array([[20.0], [37.3], [61.0]])
-    w = np.array([[0.0], [12.0], [140.0]])
-    g = fm.friction_with_gradients(v, 0.45, t, w, model)
-    d_temperature, d_wear = fm.friction_gradients(v, 0.45, t, w, model)
-    assert d_temperature.tobytes() == g.d_temperature.tobytes()
-    assert d_wear.tobytes() == g.d_wear.tobytes()
-    assert d_wear.shape == (3, 5) and np.all(np.isfinite(d_wear))
-
-
 def test_load_sensitivity_is_the_derivative_at_the_default_load(tmp_path):
     model = load_parameter_set(write_set(tmp_path)).model
     v = np.array([5.0, 50.0])
