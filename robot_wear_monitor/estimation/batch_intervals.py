@@ -107,7 +107,9 @@ class _StackedProfile:
             cube += q_w[s:s + chunk, :, None]
             prof_w[s:s + chunk] = one._parabola_min(cube, self.t_grid)[0]
             if prof_t is not None:
-                prof_t[s:s + chunk] = one._parabola_min(np.swapaxes(cube, 1, 2), self.grid)[0]
+                # over the wear grid: on a contiguous copy (argmin would copy it anyway)
+                prof_t[s:s + chunk] = one._parabola_min(
+                    np.ascontiguousarray(np.swapaxes(cube, 1, 2)), self.grid)[0]
         prof_w += d2[:, None]
         if prof_t is not None:
             prof_t += d2[:, None]
@@ -165,12 +167,17 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
     values = [v for _, v in checked]
     out: list[Optional[one.WearIntervals]] = [None] * len(speeds)
     groups: dict[tuple, list[int]] = {}
+    calibrations: dict[tuple, object] = {}  # by rounded speeds, the key of a calibration
     for i, (s, v) in enumerate(zip(speeds, values)):
         if s.size == 1 or v.shape[0] != 1 or len(estimates[i]) != 1:
             out[i] = one.wear_intervals(s, v, params=params, level=level,
                                         estimates=estimates[i])
             continue
-        calibration = one.calibrate_cutoffs(s, params=params, level=level)
+        rounded = one._rounded_speeds(s)
+        calibration = calibrations.get(rounded)
+        if calibration is None:
+            calibration = calibrations[rounded] = one.calibrate_cutoffs(s, params=params,
+                                                                        level=level)
         extended = _extended_grid(grid, float(estimates[i].wear[0]))
         groups.setdefault((s.size, id(calibration), extended.tobytes()), []).append(i)
     trend = None if trend_grid is None else one._validate_grid(trend_grid)

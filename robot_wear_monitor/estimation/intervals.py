@@ -195,6 +195,19 @@ def _validate_grid(grid: ArrayLike) -> FloatArray:
     return g
 
 
+def _take_last(values: FloatArray, index: NDArray[np.intp]) -> FloatArray:
+    """
+    Return ``np.take_along_axis(values, index, axis=-1)``: index (..., P) into values (..., M).
+
+    C-contiguous values (the profiles' costs and cost cubes) are gathered at once from their
+    flat memory, other values by numpy's ``take_along_axis``.
+    """
+    if not values.flags.c_contiguous:
+        return np.take_along_axis(values, index, axis=-1)
+    offsets = np.arange(0, values.size, values.shape[-1]).reshape(values.shape[:-1] + (1,))
+    return values.reshape(-1)[offsets + index]
+
+
 def _parabola_min(values: FloatArray, nodes: FloatArray) -> tuple[FloatArray, FloatArray]:
     """
     Return the minimum over the last axis refined by a parabola, and where it is.
@@ -207,7 +220,7 @@ def _parabola_min(values: FloatArray, nodes: FloatArray) -> tuple[FloatArray, Fl
     j = np.argmin(values, axis=-1)
     jc = np.minimum(np.maximum(j, 1), m - 2)  # the best point, or the inner neighbour of an end
     # the three samples of the parabola and the best one, in one gather
-    picked = np.take_along_axis(values, np.stack([jc - 1, jc, jc + 1, j], axis=-1), axis=-1)
+    picked = _take_last(values, np.stack([jc - 1, jc, jc + 1, j], axis=-1))
     y0, y1, y2, best = picked[..., 0], picked[..., 1], picked[..., 2], picked[..., 3]
     x0, x1, x2 = nodes[jc - 1], nodes[jc], nodes[jc + 1]
     f01 = (y1 - y0) / (x1 - x0)
