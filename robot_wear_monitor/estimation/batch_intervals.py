@@ -55,6 +55,7 @@ class _StackedProfile:
         self.wear = wear                                               # (B, G, N)
         self.nom2 = nom2                                               # (B, K)
         self.wear2 = wear2                                             # (B, G)
+        self._last_rows: dict[tuple[str, ...], tuple[bytes, list[FloatArray]]] = {}
 
     @classmethod
     def build(cls, speeds: FloatArray, params: ParameterSet, grid: FloatArray
@@ -115,25 +116,39 @@ class _StackedProfile:
             prof_t += d2[:, None]
         return prof_w, prof_t
 
+    def _of_rows(self, rows: NDArray[np.intp], *names: str) -> list[FloatArray]:
+        """
+        Return the arrays ``names`` of the rows ``rows``.
+
+        The last rows' are kept per ``names``: a root search asks for the same rows again and
+        again until one of them has converged.
+        """
+        key = rows.tobytes()
+        last = self._last_rows.get(names)
+        if last is None or last[0] != key:
+            last = self._last_rows[names] = (key, [getattr(self, n)[rows] for n in names])
+        return last[1]
+
     def cost_at_wear(self, data: FloatArray, w: FloatArray,
                      rows: NDArray[np.intp]) -> FloatArray:
         """Return min over T of the cost at one w per row of ``rows``, (R,)."""
-        c = self._times(fm.wear_friction(self.speeds[rows], w[:, None], self.params.model)
-                        [:, None, :], self.whiten[rows])[:, 0, :]
+        speeds, whiten, nom2, nom = self._of_rows(rows, 'speeds', 'whiten', 'nom2', 'nom')
+        c = self._times(fm.wear_friction(speeds, w[:, None], self.params.model)[:, None, :],
+                        whiten)[:, 0, :]
         e = data - c
-        cost = (np.einsum('bn,bn->b', e, e)[:, None] + self.nom2[rows]
-                - self._times(2.0 * e[:, None, :], self.nom[rows])[:, 0, :])
+        cost = (np.einsum('bn,bn->b', e, e)[:, None] + nom2
+                - self._times(2.0 * e[:, None, :], nom)[:, 0, :])
         return one._parabola_min(cost, self.t_grid)[0]
 
     def cost_at_temperature(self, data: FloatArray, t: FloatArray,
                             rows: NDArray[np.intp]) -> FloatArray:
         """Return min over the wear grid of the cost at one T per row of ``rows``, (R,)."""
-        f0 = fm.nominal_friction(self.speeds[rows], self.params.load_mean, t[:, None],
-                                 self.params.model)
-        a = self._times(f0[:, None, :], self.whiten[rows])[:, 0, :]
+        speeds, whiten, wear2, wear = self._of_rows(rows, 'speeds', 'whiten', 'wear2', 'wear')
+        f0 = fm.nominal_friction(speeds, self.params.load_mean, t[:, None], self.params.model)
+        a = self._times(f0[:, None, :], whiten)[:, 0, :]
         e = data - a
-        cost = (np.einsum('bn,bn->b', e, e)[:, None] + self.wear2[rows]
-                - self._times(2.0 * e[:, None, :], self.wear[rows])[:, 0, :])
+        cost = (np.einsum('bn,bn->b', e, e)[:, None] + wear2
+                - self._times(2.0 * e[:, None, :], wear)[:, 0, :])
         return one._parabola_min(cost, self.grid)[0]
 
 
