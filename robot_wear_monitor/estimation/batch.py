@@ -5,13 +5,15 @@ A monitor estimates one experiment at a time, and the measured speeds of its exp
 by a few mrad/s, so :func:`~robot_wear_monitor.estimation.estimator.estimate_wear` (one design
 per call) cannot batch them.  A replay has many completed experiments at hand at once:
 :func:`estimate_wear_rows` estimates them together, every row with its own speeds.  Each row's
-start grid is its own (it depends on the speeds), and the local refinement of all rows runs as
-one batched iteration on a stacked problem (the speeds and whitening matrix of every row), so
-the hundred numpy calls of an iteration are paid once for the batch, not once per experiment.
+start grid is its own (it depends on the speeds), but the grids of all rows and the costs on
+them are evaluated stacked, and the local refinement of all rows runs as one batched iteration
+on a stacked problem (the speeds and whitening matrix of every row), so the numpy calls of a
+grid or an iteration are paid once for the batch, not once per experiment.
 
-Every operation of the refinement is row by row (each row iterates until it converges, as
-alone), so row ``i`` of the result equals ``estimate_wear(speeds[i], friction[i])`` number for
-number (the tests assert it on simulated and foreign recordings).
+Every operation is row by row, as alone: elementwise ufuncs, reductions along the same axis,
+one LAPACK, BLAS or einsum kernel call per row with the same shapes and memory layout (each row
+iterates until it converges), so row ``i`` of the result equals ``estimate_wear(speeds[i],
+friction[i])`` number for number (the tests assert it on simulated and foreign recordings).
 """
 
 from __future__ import annotations

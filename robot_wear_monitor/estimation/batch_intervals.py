@@ -4,8 +4,8 @@ Intervals and likelihood rows of many experiments at once, each at its own measu
 The companion of :mod:`robot_wear_monitor.estimation.batch` for
 :func:`~robot_wear_monitor.estimation.intervals.wear_intervals` and
 :func:`~robot_wear_monitor.estimation.intervals.profile_log_likelihood`.  Each row keeps its own
-profile (whitening, model on the wear and temperature grids: built exactly as for one
-experiment), the profiles are stacked, and the grid profiles and the root searches of the
+profile (whitening, model on the wear and temperature grids: built for all rows at once with
+the operations of one experiment's), and the grid profiles and the root searches of the
 interval ends run once for all rows, every row with its own matrices.  The products are the
 same matrix products as for one experiment (one per row, same shapes and memory layout), so
 row ``i`` equals the one-experiment result number for number (tested).
@@ -27,8 +27,6 @@ from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
 FloatArray = NDArray[np.float64]
-#: at most this many cells of the (rows, G, K) cost cube at a time (cache-sized)
-_CUBE_CELLS = 1 << 20
 
 
 class _StackedProfile:
