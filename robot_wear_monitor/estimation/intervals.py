@@ -219,21 +219,24 @@ def _parabola_min(values: FloatArray, nodes: FloatArray) -> tuple[FloatArray, Fl
     m = nodes.size
     j = np.argmin(values, axis=-1)
     jc = np.minimum(np.maximum(j, 1), m - 2)  # the best point, or the inner neighbour of an end
-    # the three samples of the parabola and the best one, in one gather
-    picked = _take_last(values, np.stack([jc - 1, jc, jc + 1, j], axis=-1))
+    # the parabola's three samples and the best one, and the nodes of those and of the best
+    # point's neighbours (where the minimum may lie), each in one gather
+    index = np.stack([jc - 1, jc, jc + 1, j, np.maximum(j - 1, 0), np.minimum(j + 1, m - 1)],
+                     axis=-1)
+    picked = _take_last(values, index[..., :4])
     y0, y1, y2, best = picked[..., 0], picked[..., 1], picked[..., 2], picked[..., 3]
-    x0, x1, x2 = nodes[jc - 1], nodes[jc], nodes[jc + 1]
+    at = nodes[index]
+    x0, x1, x2, x_best, x_low, x_high = (at[..., i] for i in range(6))
     f01 = (y1 - y0) / (x1 - x0)
     f12 = (y2 - y1) / (x2 - x1)
     a = (f12 - f01) / (x2 - x0)
     with np.errstate(divide='ignore', invalid='ignore'):
         x = 0.5 * (x0 + x1) - f01 / (2.0 * a)
     # no vertex (NaN): the best point; an infinite one is clipped to the interval's end
-    x = np.where(np.isnan(x), nodes[j], x).clip(nodes[np.maximum(j - 1, 0)],
-                                                nodes[np.minimum(j + 1, m - 1)])
+    x = np.where(np.isnan(x), x_best, x).clip(x_low, x_high)
     value = y0 + f01 * (x - x0) + a * (x - x0) * (x - x1)
     better = (a > 0) & (value < best)
-    return np.where(better, value, best), np.where(better, x, nodes[j])
+    return np.where(better, value, best), np.where(better, x, x_best)
 
 
 class _Profile:
