@@ -50,6 +50,8 @@ _GRID_MAX_POINTS = 400  # per axis (a very small sigma would ask for more)
 _ARC_SAMPLES = 1001
 _GAUSS_NEWTON_ITERATIONS = 100
 _LINE_SEARCH_HALVINGS = 8
+#: the line search's step lengths: the full step, then 4^-1 .. 4^-(_LINE_SEARCH_HALVINGS - 1)
+_STEP_LENGTHS = (np.ones(1), np.ldexp(1.0, -2 * np.arange(1, _LINE_SEARCH_HALVINGS)))
 _BATCH_CHUNK = 64  # rows of the grid search at a time (cache-sized)
 _GRID_CHUNK_CELLS = 1 << 21  # at most this many (row, grid point) costs at a time
 _STARTS = 3
@@ -301,32 +303,35 @@ class _WhitenedProblem:
         jacobian = np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
         return residual, jacobian, np.einsum('bn,bn->b', residual, residual)
 
-    def hessian(self, data_w: FloatArray, t: FloatArray, w: FloatArray, residual: FloatArray,
-                jacobian: FloatArray) -> FloatArray:
+    def evaluate_with_hessian(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> tuple:
         """
-        Return the Hessian of cost/2, (B, 2, 2), J^T J - sum_n r_n d2f_n.
+        Return :meth:`evaluate`'s residuals, Jacobian and cost, and the Hessian of cost/2.
 
-        The model curvature is a central difference of the analytic gradients.  It matters: with
-        N = 2 levels and a residual left at the optimum, the optimum lies where J is nearly
-        singular and Gauss-Newton alone converges very slowly.
+        The Hessian (B, 2, 2) is J^T J - sum_n r_n d2f_n; the model curvature is a central
+        difference of the analytic gradients at (t +- h_t, w) and (t, w +- h_w), evaluated with
+        the point itself in one stacked model evaluation.  It matters: with N = 2 levels and a
+        residual left at the optimum, the optimum lies where J is nearly singular and
+        Gauss-Newton alone converges very slowly.
         """
+        count = t.shape[0]
         h_t, h_w = 1e-3, 1e-4 * np.maximum(1.0, np.abs(w))
-        columns = []
-        steps: tuple[tuple[Any, Any], ...] = ((h_t, 0.0), (0.0, h_w))
-        for dt, dw in steps:
-            plus = self._jacobian(t + dt, w + dw)
-            minus = self._jacobian(t - dt, w - dw)
-            columns.append((plus - minus) / (2.0 * (dt + dw))[..., None, None]
-                           if np.ndim(dw) else (plus - minus) / (2.0 * dt))
-        curvature = np.stack(columns, axis=-1)  # (B, N, 2, 2): d/d theta_j of column i
+        points = self.rows(np.tile(np.arange(count), 5))
+        g = fm.friction_with_gradients(
+            points.speed_rows, self.params.load_mean,
+            np.concatenate([t, t + h_t, t - h_t, t + 0.0, t - 0.0])[:, None],
+            np.concatenate([w, w + 0.0, w - 0.0, w + h_w, w - h_w])[:, None], self.params.model)
+        residual = data_w - self.apply(g.friction[:count])
+        gradients = np.stack([points.apply(g.d_temperature), points.apply(g.d_wear)], axis=-1)
+        jacobian = gradients[:count]
+        plus_t, minus_t, plus_w, minus_w = (gradients[(i + 1) * count:(i + 2) * count]
+                                            for i in range(4))
+        # (B, N, 2, 2): d/d theta_j of column i
+        curvature = np.stack([(plus_t - minus_t) / (2.0 * h_t),
+                              (plus_w - minus_w) / (2.0 * (0.0 + h_w))[..., None, None]], axis=-1)
         curvature = 0.5 * (curvature + np.swapaxes(curvature, -1, -2))
-        return (np.einsum('bni,bnj->bij', jacobian, jacobian)
-                - np.einsum('bn,bnij->bij', residual, curvature))
-
-    def _jacobian(self, t: FloatArray, w: FloatArray) -> FloatArray:
-        g = fm.friction_with_gradients(self.speed_rows, self.params.load_mean,
-                                       t[:, None], w[:, None], self.params.model)
-        return np.stack([self.apply(g.d_temperature), self.apply(g.d_wear)], axis=-1)
+        hessian = (np.einsum('bni,bnj->bij', jacobian, jacobian)
+                   - np.einsum('bn,bnij->bij', residual, curvature))
+        return residual, jacobian, np.einsum('bn,bn->b', residual, residual), hessian
 
     def cost(self, data_w: FloatArray, t: FloatArray, w: FloatArray) -> FloatArray:
         """Return the cost of (16), shape (B,), at the points (t, w)."""
@@ -475,8 +480,7 @@ def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: Flo
             break
         d, ti, wi, lam = data_w[idx], t[idx], w[idx], damping[idx]
         active_rows = problem.rows(idx)
-        residual, jacobian, cost = active_rows.evaluate(d, ti, wi)
-        hessian = active_rows.hessian(d, ti, wi, residual, jacobian)
+        residual, jacobian, cost, hessian = active_rows.evaluate_with_hessian(d, ti, wi)
         descent = np.einsum('bni,bn->bi', jacobian, residual)  # = -grad(cost)/2
         at_low_t = ti <= problem.t_min + 1e-12 * span_t
         at_high_t = ti >= problem.t_max - 1e-12 * span_t
@@ -492,28 +496,35 @@ def _refine(problem: _WhitenedProblem, data_w: FloatArray, t: FloatArray, w: Flo
             fixed = fixed | out
             step[redo] = _newton_step(jacobian[redo], hessian[redo], residual[redo],
                                       fixed[redo], lam[redo])
-        # backtracking line search along the projected path
-        alpha = np.ones(idx.size)
+        # backtracking line search along the projected path: the full step of every row, then
+        # the shorter steps 4^-k (k = 1 .. _LINE_SEARCH_HALVINGS - 1) of the rows it did not
+        # improve, all at once; a row takes its first (longest) step that lowers the cost
         accepted = np.zeros(idx.size, dtype=bool)
+        full_step = np.zeros(idx.size, dtype=bool)
         new_t, new_w, new_cost = ti.copy(), wi.copy(), cost.copy()
         pending = np.flatnonzero(np.any(step != 0, axis=1))
-        for _ in range(_LINE_SEARCH_HALVINGS):
+        for alphas in _STEP_LENGTHS:
             if pending.size == 0:
                 break
-            cand_t, cand_w = problem.project(ti[pending] + alpha[pending] * step[pending, 0],
-                                             wi[pending] + alpha[pending] * step[pending, 1])
-            cand_cost = active_rows.rows(pending).cost(d[pending], cand_t, cand_w)
-            ok = cand_cost < cost[pending]
-            good = pending[ok]
-            new_t[good], new_w[good], new_cost[good] = cand_t[ok], cand_w[ok], cand_cost[ok]
+            tries = np.repeat(pending, alphas.size)
+            alpha = np.tile(alphas, pending.size)
+            cand_t, cand_w = problem.project(ti[tries] + alpha * step[tries, 0],
+                                             wi[tries] + alpha * step[tries, 1])
+            cand_cost = active_rows.rows(tries).cost(d[tries], cand_t, cand_w)
+            ok = (cand_cost < cost[tries]).reshape(pending.size, alphas.size)
+            first = np.argmax(ok, axis=1)
+            hit = ok[np.arange(pending.size), first]
+            pick = np.flatnonzero(hit) * alphas.size + first[hit]
+            good = pending[hit]
+            new_t[good], new_w[good], new_cost[good] = cand_t[pick], cand_w[pick], cand_cost[pick]
             accepted[good] = True
-            pending = pending[~ok]
-            alpha[pending] *= 0.25
+            full_step[good] = alphas[0] == 1.0
+            pending = pending[~hit]
         small = ((np.abs(new_t - ti) <= 1e-10 * (1.0 + np.abs(ti)))
                  & (np.abs(new_w - wi) <= 1e-10 * (1.0 + np.abs(wi))))
         flat = cost - new_cost <= 1e-13 * (1.0 + cost)
         t[idx], w[idx] = new_t, new_w
-        damping[idx] = np.where(accepted & (alpha == 1.0), np.maximum(lam / 10.0, 1e-9),
+        damping[idx] = np.where(full_step, np.maximum(lam / 10.0, 1e-9),
                                 np.where(accepted, lam, lam * 100.0))
         gave_up = ~accepted & (lam * 100.0 > 1e8)
         converged = gave_up | (accepted & (small | flat)) | ~np.any(step != 0, axis=1)

@@ -195,6 +195,19 @@ def _validate_grid(grid: ArrayLike) -> FloatArray:
     return g
 
 
+def _take_last(values: FloatArray, index: NDArray[np.intp]) -> FloatArray:
+    """
+    Return ``np.take_along_axis(values, index, axis=-1)``: index (..., P) into values (..., M).
+
+    C-contiguous values (the profiles' costs and cost cubes) are gathered at once from their
+    flat memory, other values by numpy's ``take_along_axis``.
+    """
+    if not values.flags.c_contiguous:
+        return np.take_along_axis(values, index, axis=-1)
+    offsets = np.arange(0, values.size, values.shape[-1]).reshape(values.shape[:-1] + (1,))
+    return values.reshape(-1)[offsets + index]
+
+
 def _parabola_min(values: FloatArray, nodes: FloatArray) -> tuple[FloatArray, FloatArray]:
     """
     Return the minimum over the last axis refined by a parabola, and where it is.
@@ -205,22 +218,25 @@ def _parabola_min(values: FloatArray, nodes: FloatArray) -> tuple[FloatArray, Fl
     """
     m = nodes.size
     j = np.argmin(values, axis=-1)
-    jc = np.clip(j, 1, m - 2)
-    y0 = np.take_along_axis(values, (jc - 1)[..., None], axis=-1)[..., 0]
-    y1 = np.take_along_axis(values, jc[..., None], axis=-1)[..., 0]
-    y2 = np.take_along_axis(values, (jc + 1)[..., None], axis=-1)[..., 0]
-    best = np.take_along_axis(values, j[..., None], axis=-1)[..., 0]
-    x0, x1, x2 = nodes[jc - 1], nodes[jc], nodes[jc + 1]
+    jc = np.minimum(np.maximum(j, 1), m - 2)  # the best point, or the inner neighbour of an end
+    # the parabola's three samples and the best one, and the nodes of those and of the best
+    # point's neighbours (where the minimum may lie), each in one gather
+    index = np.stack([jc - 1, jc, jc + 1, j, np.maximum(j - 1, 0), np.minimum(j + 1, m - 1)],
+                     axis=-1)
+    picked = _take_last(values, index[..., :4])
+    y0, y1, y2, best = picked[..., 0], picked[..., 1], picked[..., 2], picked[..., 3]
+    at = nodes[index]
+    x0, x1, x2, x_best, x_low, x_high = (at[..., i] for i in range(6))
     f01 = (y1 - y0) / (x1 - x0)
     f12 = (y2 - y1) / (x2 - x1)
     a = (f12 - f01) / (x2 - x0)
     with np.errstate(divide='ignore', invalid='ignore'):
         x = 0.5 * (x0 + x1) - f01 / (2.0 * a)
-    x = np.clip(np.nan_to_num(x, nan=nodes[j]), nodes[np.maximum(j - 1, 0)],
-                nodes[np.minimum(j + 1, m - 1)])
+    # no vertex (NaN): the best point; an infinite one is clipped to the interval's end
+    x = np.where(np.isnan(x), x_best, x).clip(x_low, x_high)
     value = y0 + f01 * (x - x0) + a * (x - x0) * (x - x1)
     better = (a > 0) & (value < best)
-    return np.where(better, value, best), np.where(better, x, nodes[j])
+    return np.where(better, value, best), np.where(better, x, x_best)
 
 
 class _Profile:
@@ -577,12 +593,16 @@ def _illinois(func, x_in: FloatArray, f_in: FloatArray, x_out: FloatArray,
 
 
 def _hull(values: FloatArray, nodes: FloatArray, threshold: FloatArray, x_hat: FloatArray,
-          f_hat: FloatArray, func) -> tuple:
+          f_hat: FloatArray, func, *, together: bool = False) -> tuple:
     """
     Return the ends (low, high) of {x : values >= threshold} joined with x_hat, refined.
 
     ``values`` (B, M) at ``nodes`` (M,); x_hat (B,) is a point known to be inside (its
     log-likelihood f_hat).  An end on the first/last node stays there (flag returned).
+    ``together``: both ends in one root search, for a ``func`` whose value for a row does not
+    depend on the other rows evaluated with it (the batched rows: one product per row; one
+    experiment's profile evaluates its rows by one matrix product, whose rows BLAS may round
+    differently by how many rows it has, so its ends are searched one after the other).
     """
     b, m = values.shape
     inside = values >= threshold[:, None]
@@ -602,16 +622,23 @@ def _hull(values: FloatArray, nodes: FloatArray, threshold: FloatArray, x_hat: F
     low, high = lo_in.copy(), hi_in.copy()
     at_low_end = lo_out_idx < 0
     at_high_end = hi_out_idx >= m
-    r = np.flatnonzero(~at_low_end)
-    if r.size:
-        idx = lo_out_idx[r]
-        low[r] = _illinois(lambda x, act: func(x, r[act]) - threshold[r[act]], lo_in[r],
-                           f_lo_in[r], nodes[idx], values[r, idx] - threshold[r])
-    r = np.flatnonzero(~at_high_end)
-    if r.size:
-        idx = hi_out_idx[r]
-        high[r] = _illinois(lambda x, act: func(x, r[act]) - threshold[r[act]], hi_in[r],
-                            f_hi_in[r], nodes[idx], values[r, idx] - threshold[r])
+    r_low, r_high = np.flatnonzero(~at_low_end), np.flatnonzero(~at_high_end)
+
+    def search(r: NDArray[np.intp], x_in: FloatArray, f_in: FloatArray,
+               out_idx: NDArray[np.intp]) -> FloatArray:
+        return _illinois(lambda x, act: func(x, r[act]) - threshold[r[act]], x_in, f_in,
+                         nodes[out_idx], values[r, out_idx] - threshold[r])
+    if together and r_low.size + r_high.size:
+        ends = search(np.concatenate([r_low, r_high]),
+                      np.concatenate([lo_in[r_low], hi_in[r_high]]),
+                      np.concatenate([f_lo_in[r_low], f_hi_in[r_high]]),
+                      np.concatenate([lo_out_idx[r_low], hi_out_idx[r_high]]))
+        low[r_low], high[r_high] = ends[:r_low.size], ends[r_low.size:]
+    elif not together:
+        if r_low.size:
+            low[r_low] = search(r_low, lo_in[r_low], f_lo_in[r_low], lo_out_idx[r_low])
+        if r_high.size:
+            high[r_high] = search(r_high, hi_in[r_high], f_hi_in[r_high], hi_out_idx[r_high])
     low[at_low_end] = np.minimum(nodes[0], lo_in[at_low_end])
     high[at_high_end] = np.maximum(nodes[-1], hi_in[at_high_end])
     return low, high, at_high_end

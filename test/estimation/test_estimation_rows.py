@@ -76,3 +76,55 @@ def test_wear_intervals_rows_equal_wear_intervals_row_by_row(rows):
         assert row.shape == expected.shape and np.array_equal(row, expected)
         extended += bool(s.size > 1 and 1.5 * e.wear[0] > params.wear_max)
     assert extended >= 2  # rows whose temperature profile runs on an extended wear grid
+
+
+def _design_rows(params, rng, count, n):
+    """Return (speeds (count, n), frictions (count, n)): measured speeds, wear 0 .. 140."""
+    design = np.sort(rng.uniform(1.0, 60.0, n))
+    speeds = design + rng.uniform(-0.004, 0.004, (count, n))
+    wear = rng.uniform(0.0, 140.0, (count, 1))
+    temperature = rng.uniform(params.temperature_min_degc, params.temperature_max_degc,
+                              (count, 1))
+    level = core.fm.friction(speeds, params.load_mean, temperature, wear, params.model)
+    return speeds, level + rng.normal(0.0, params.sigma, (count, n))
+
+
+@pytest.mark.parametrize('n', [2, 4, 9, 20])
+def test_stacked_start_grids_equal_each_rows_own(n):
+    """The start points of rows at their own speeds equal each row's grid_starts, bit for bit."""
+    from robot_wear_monitor.estimation import batch
+    params = load_parameter_set(None)
+    speeds, frictions = _design_rows(params, np.random.default_rng(n), 21, n)
+    # some rows far off: start grids of other sizes in the same batch
+    speeds[::5] *= np.linspace(0.2, 1.8, n)
+    whiten, _ = batch.whitening_rows(speeds, params)
+    data_w = np.einsum('bn,bmn->bm', frictions, whiten)
+    t0, w0 = batch._grid_starts_rows(speeds, whiten, data_w, params)
+    sizes = set()
+    for i in range(speeds.shape[0]):
+        problem = core._WhitenedProblem(speeds[i].copy(), params)
+        assert problem.whiten.tobytes() == whiten[i].tobytes()
+        t_alone, w_alone = problem.grid_starts(data_w[i:i + 1])
+        assert t_alone.tobytes() == t0[i:i + 1].tobytes()
+        assert w_alone.tobytes() == w0[i:i + 1].tobytes()
+        sizes.add(problem._grid()[2:4])
+    assert len(sizes) >= 2  # rows of different start-grid sizes, grouped
+
+
+@pytest.mark.parametrize('n', [2, 4, 9, 20])
+def test_stacked_profiles_equal_each_rows_own(n):
+    """The stacked interval profiles hold each row's _Profile arrays, bit for bit."""
+    from robot_wear_monitor.estimation import batch_intervals, intervals
+    params = load_parameter_set(None)
+    speeds, _ = _design_rows(params, np.random.default_rng(n), 9, n)
+    grid = intervals.wear_grid(params.wear_max)
+    stacked = batch_intervals._StackedProfile.build(speeds, params, grid)
+    assert stacked.t_grid.shape == (intervals._T_POINTS,)
+    for i in range(speeds.shape[0]):
+        alone = intervals._Profile(speeds[i].copy(), params, grid.copy())
+        for name in ('whiten', 'nom', 'wear', 'nom2', 'wear2'):
+            assert getattr(alone, name).tobytes() == \
+                np.ascontiguousarray(getattr(stacked, name)[i]).tobytes(), name
+        assert alone.cross.tobytes() == stacked.cross(slice(i, i + 1))[0].tobytes()
+        assert np.float64(alone.const).tobytes() == stacked.const[i].tobytes()
+        assert alone.t_grid.tobytes() == stacked.t_grid.tobytes()
