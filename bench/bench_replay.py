@@ -74,7 +74,11 @@ _STARTUP = {
     'import numpy': 'import sys, numpy\n' + _PEAK,
     'import numpy, scipy.linalg, scipy.special': 'import sys, numpy, scipy.linalg, '
                                                  'scipy.special\n' + _PEAK,
+    # as the command line: one BLAS thread before numpy loads (blas_threads)
     "the replay's imports": ('import sys\n'
+                             'from robot_wear_monitor.blas_threads import '
+                             'use_single_blas_thread\n'
+                             'use_single_blas_thread()\n'
                              'import robot_wear_monitor.cli, robot_wear_monitor.cli.replay\n'
                              'import robot_wear_monitor.monitoring.replay\n'
                              'import robot_wear_monitor.estimation.batch_intervals\n'

@@ -46,3 +46,28 @@ def test_only_the_latest_texts_are_kept_and_errors_are_not(monkeypatch):
             yaml_files.load_yaml_text('a: &x [1]\nb: *x\n', source='bad.yaml')
     assert yaml_files.load_yaml_text('', source='empty') is None
     assert yaml_files.load_yaml_text('', source='empty') is None
+
+
+@pytest.mark.parametrize('loader', ['libyaml', 'pure Python'])
+def test_both_loaders_give_the_same_documents_and_refuse_aliases(monkeypatch, loader):
+    from pathlib import Path
+    if loader == 'pure Python':
+        monkeypatch.setattr(yaml_files, '_C_SAFE_LOADER', None)
+    else:
+        assert yaml_files._C_SAFE_LOADER is not None  # PyYAML's wheels bring libyaml
+    yaml_files._parsed.cache_clear()
+    config = Path(__file__).resolve().parents[1] / 'config'
+    files = sorted(config.glob('*.yaml'))
+    assert len(files) >= 3
+    for path in files:
+        text = path.read_text(encoding='utf-8')
+        assert yaml_files.load_yaml_text(text, source=str(path)) == yaml.load(
+            text, Loader=yaml.SafeLoader), path
+    text = 'speeds: [1, 2.5e1, .inf]\nname: "x"\nflag: yes\nwhen: 2026-11-26\n'
+    assert yaml_files.load_yaml_text(text, source='t') == yaml.load(text, Loader=yaml.SafeLoader)
+    for bad in ('a: &x [1]\nb: *x\n', 'a: [1, *unknown]\n'):
+        with pytest.raises(InputError, match=r'aliases \(\*name\) are not accepted \(line \d'):
+            yaml_files.load_yaml_text(bad, source='bad.yaml')
+    with pytest.raises(InputError, match=r'not valid YAML: .* \(line 3, column 1\)'):
+        yaml_files.load_yaml_text('name: x\nnoise: [\n', source='bad.yaml')
+    yaml_files._parsed.cache_clear()

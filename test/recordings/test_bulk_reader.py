@@ -141,15 +141,10 @@ def _bag_with_a_bad_chunk(simulated, folder):
     return bag
 
 
-@pytest.mark.parametrize('read_ahead', [0, 1, 2])
-def test_a_bad_chunk_raises_where_it_is_reached_with_or_without_read_ahead(
-        simulated, tmp_path, read_ahead):
-    import threading
+def test_a_bad_chunk_raises_where_it_is_reached(simulated, tmp_path):
     from robot_wear_monitor.recordings.bags import BagError
     bag = _bag_with_a_bad_chunk(simulated, tmp_path)
-    threads = threading.active_count()
-    stream = iter_joint_chunks(bag, joints=['joint_2'], chunk_messages=1000,
-                               read_ahead=read_ahead)
+    stream = iter_joint_chunks(bag, joints=['joint_2'], chunk_messages=1000)
     good, _ = _read(simulated, bulk=True, joints=['joint_2'])
     seen = []
     with pytest.raises(BagError, match='corrupt or truncated bag: .*chunk at byte'):
@@ -157,27 +152,6 @@ def test_a_bad_chunk_raises_where_it_is_reached_with_or_without_read_ahead(
             seen.append(chunk['joint_2'].time_s)
     assert 2000 <= sum(map(len, seen)) < good['joint_2'].shape[1]
     np.testing.assert_array_equal(np.concatenate(seen), good['joint_2'][0, :sum(map(len, seen))])
-    assert threading.active_count() == threads  # the reading thread has ended
-
-
-def test_leaving_the_loop_stops_the_reading_thread(simulated):
-    import threading
-    threads = threading.active_count()
-    stream = iter_joint_chunks(simulated, joints=['joint_2'], chunk_messages=500, read_ahead=2)
-    first = []
-    for chunk in stream:
-        first.append(chunk['joint_2'].time_s)
-        assert threading.active_count() == threads + 1
-        if len(first) == 3:
-            break
-    stream_iter = iter(stream)
-    next(stream_iter)
-    stream_iter.close()
-    assert threading.active_count() == threads
-    full = [chunk['joint_2'].time_s for chunk in iter_joint_chunks(
-        simulated, joints=['joint_2'], chunk_messages=500)]
-    for a, b in zip(first, full):
-        np.testing.assert_array_equal(a, b)
 
 
 def test_the_chunks_from_rosbags_index_are_those_of_the_mcap_summary(simulated, tmp_path):
@@ -205,16 +179,3 @@ def test_the_chunks_from_rosbags_index_are_those_of_the_mcap_summary(simulated, 
     finally:
         reader.close()
     assert bulk_source(sqlite, '/joint_states') is None
-
-
-def test_read_ahead_from_the_environment(simulated, monkeypatch):
-    for text, chunks in (('3', 3), ('0', 0), ('', 0), ('many', 0), ('-2', 0), ('1000', 0)):
-        monkeypatch.setenv('ROBOT_WEAR_MONITOR_READ_AHEAD', text)
-        assert iter_joint_chunks(simulated).read_ahead == chunks
-    assert iter_joint_chunks(simulated, read_ahead=2).read_ahead == 2
-    monkeypatch.setenv('ROBOT_WEAR_MONITOR_READ_AHEAD', '2')
-    ahead, _ = _read(simulated, bulk=True)
-    monkeypatch.delenv('ROBOT_WEAR_MONITOR_READ_AHEAD')
-    plain, _ = _read(simulated, bulk=True)
-    for joint in plain:
-        np.testing.assert_array_equal(ahead[joint], plain[joint])

@@ -5,9 +5,8 @@ One module per job: :mod:`.common` (the typestore, names, the error type, openin
 :mod:`.message_types` (the Jazzy types the monitor reads and writes),
 :mod:`.writer` (atomic bag writing, CDR encoding with numpy), :mod:`.cdr` (decoding JointState
 messages by layout, many at a time), :mod:`.recovery` (recordings cut off by a crash),
-:mod:`.mcap_chunks` (finished MCAP bags read a chunk at a time), :mod:`.read_ahead` (reading in a
-thread ahead of the consumer) and :mod:`.reader` (the chunked JointState stream and the other
-topic readers).  The names below
+:mod:`.mcap_chunks` (finished MCAP bags read a chunk at a time) and :mod:`.reader` (the
+chunked JointState stream and the other topic readers).  The names below
 are the package's API: ``from robot_wear_monitor.recordings.bags import X`` works for each.
 """
 

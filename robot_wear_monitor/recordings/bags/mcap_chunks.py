@@ -12,7 +12,6 @@ read when it opened the bag (:func:`bulk_source_of`), or from the ``mcap`` packa
   (the usual case: one JointState layout, one channel); otherwise record by record;
 * the messages of the topic's channels are returned in log-time order (ties: in file order),
   chunk after chunk, as one :class:`RawBatch` per chunk (views into the chunk's bytes);
-* a thread can read the chunk records ahead of the one split (:attr:`BulkSource.read_ahead`).
 
 :func:`bulk_source` says whether a bag qualifies: a finished rosbag2 folder of MCAP files (no
 file-level compression) whose files have a summary with a chunk index, and whose chunks do not
@@ -32,7 +31,6 @@ from typing import Any, Generator, Iterator, Optional
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.recordings.bags.read_ahead import read_ahead
 from robot_wear_monitor.yaml_files import load_yaml_file
 
 _MESSAGE = 0x05
@@ -100,21 +98,17 @@ class BulkSource:
         """Keep the chunks (sorted, non-overlapping) and each file's channel ids of the topic."""
         self.chunks = chunks
         self.channels = channels
-        #: chunk records a thread reads from the files ahead of the one split (0: no thread)
-        self.read_ahead = 0
 
     def __iter__(self) -> Iterator[RawBatch]:
         """Yield one :class:`RawBatch` per chunk that holds messages of the topic."""
         records = self._records()
-        if self.read_ahead > 0:
-            records = read_ahead(records, self.read_ahead, name='read chunks')
         try:
             for chunk, record in records:
                 batch = _split_chunk(record, chunk, self.channels[chunk.file])
                 if batch is not None:
                     yield batch
         finally:
-            records.close()  # a reading thread ends first, then the files are closed
+            records.close()  # the files are closed
 
     def _records(self) -> Generator[tuple[_Chunk, bytes], None, None]:
         """Yield each chunk with its record's bytes, read with one ``read``."""

@@ -195,12 +195,6 @@ def _bulk_batches(bulk: BulkSource, size: int) -> Generator[list, None, None]:
         yield pieces
 
 
-def _read_ahead_setting() -> int:
-    """Return ``ROBOT_WEAR_MONITOR_READ_AHEAD`` as chunks to read ahead (0 unless a count 1-64)."""
-    text = os.environ.get('ROBOT_WEAR_MONITOR_READ_AHEAD', '0').strip()
-    return int(text) if text.isdigit() and 1 <= int(text) <= 64 else 0
-
-
 class JointStream:
     """
     Chunks of the samples of several joints of a bag; see :func:`iter_joint_chunks`.
@@ -228,7 +222,7 @@ class JointStream:
     def __init__(self, path: str | os.PathLike, *, joints: Sequence[str] | None,
                  topic: str, chunk_messages: int,
                  progress: Callable[[int, int], None] | None, recover: bool,
-                 require_joints: bool, read_ahead: int | None = None) -> None:
+                 require_joints: bool) -> None:
         """Check the bag and the topic (BagError); nothing is read before iterating."""
         if isinstance(joints, str):
             joints = [joints]
@@ -247,8 +241,6 @@ class JointStream:
         self.bulk = os.environ.get('ROBOT_WEAR_MONITOR_BULK_READ', '1') != '0'
         #: whether the last iteration used the bulk reader
         self.bulk_read = False
-        #: MCAP chunk records a thread reads ahead of the one decoded (0: no thread)
-        self.read_ahead = _read_ahead_setting() if read_ahead is None else int(read_ahead)
         self.recovery: Recovery | None = None
         self.total_messages = 0
         bag = Path(path)
@@ -310,13 +302,7 @@ class JointStream:
     # -- reading
 
     def __iter__(self) -> Iterator[dict[str, JointChunk]]:
-        """
-        Read the bag from its start (a new iteration starts over).
-
-        With ``read_ahead`` > 0, a finished MCAP bag's chunk records are read from the file by a
-        thread, up to that many ahead of the one being split and decoded; a bad chunk raises
-        its BagError when the iteration reaches it, as without.
-        """
+        """Read the bag from its start (a new iteration starts over)."""
         self._decoder = MultiDecoder(self.joints)
         self.recovery = None
         path, topic = self.path, self.topic
@@ -333,7 +319,6 @@ class JointStream:
         batches: Generator[list, None, None] | None = None
         try:
             if bulk is not None:
-                bulk.read_ahead = self.read_ahead
                 batches = _bulk_batches(bulk, self.chunk_messages)
             elif reader is not None:
                 connections = joint_state_connections(reader, path, topic)
@@ -410,8 +395,7 @@ class JointStream:
 def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None = None,
                       topic: str = JOINT_STATES_TOPIC, chunk_messages: int = 32768,
                       progress: Callable[[int, int], None] | None = None,
-                      recover: bool = True, require_joints: bool = True,
-                      read_ahead: int | None = None) -> JointStream:
+                      recover: bool = True, require_joints: bool = True) -> JointStream:
     """
     Stream the samples of several joints of a bag chunk by chunk (flat memory).
 
@@ -432,11 +416,6 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
     :param recover: read an unfinished recording whose end is cut (False: refuse it).
     :param require_joints: raise when a requested joint is in no message (at the end of the
         iteration); False leaves it with no samples (see ``joints_missing``).
-    :param read_ahead: MCAP chunk records (about 1 MB each) a thread reads from the file ahead
-        of the one decoded, while the caller computes (0: none; None: the environment's
-        ``ROBOT_WEAR_MONITOR_READ_AHEAD``, default 0).  For wall time on an idle second core:
-        it costs CPU (about 0.05 s at 2 million messages, the records then reach the decoder
-        from another core's cache); a bag read with rosbags (sqlite3, unfinished) has none.
 
     :raises BagError: at the call, the bag is missing or unreadable, the topic is absent (the
         message lists the topics) or has another type; during the iteration, the bag is
@@ -446,8 +425,7 @@ def iter_joint_chunks(path: str | os.PathLike, *, joints: Sequence[str] | None =
 
     """
     return JointStream(path, joints=joints, topic=topic, chunk_messages=chunk_messages,
-                       progress=progress, recover=recover, require_joints=require_joints,
-                       read_ahead=read_ahead)
+                       progress=progress, recover=recover, require_joints=require_joints)
 
 
 def _concatenate(stream: JointStream, parts: list[JointChunk], joint: str) -> JointSamples:
