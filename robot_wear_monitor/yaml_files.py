@@ -87,8 +87,9 @@ def _refuse_aliases(text: str) -> None:
         elif isinstance(event, yaml.CollectionEndEvent):
             depth -= 1
         elif isinstance(event, yaml.AliasEvent):
+            mark: Any = event.start_mark  # libyaml's: the line and column of yaml.error.Mark
             raise yaml.composer.ComposerError(
-                None, None, 'YAML aliases (*name) are not accepted', event.start_mark)
+                None, None, 'YAML aliases (*name) are not accepted', mark)
 
 
 @lru_cache(maxsize=RECENT_TEXTS)
