@@ -52,6 +52,7 @@ def load_yaml_text(text: str, *, source: str, error: type[InputError] = InputErr
                     'file may have here')
     try:
         document = _parsed(text)
+        return copy.deepcopy(document)  # as deep as the document: within the except below
     except yaml.YAMLError as problem:
         mark = getattr(problem, 'problem_mark', None)
         where = f' (line {mark.line + 1}, column {mark.column + 1})' if mark else ''
@@ -59,19 +60,36 @@ def load_yaml_text(text: str, *, source: str, error: type[InputError] = InputErr
         raise error(f'{source}: not valid YAML: {shorten(what)}{where}') from None
     except RecursionError:
         raise error(f'{source}: YAML nested too deeply') from None
-    return copy.deepcopy(document)
 
 
 #: PyYAML's binding of libyaml (the same SafeLoader rules, parsed in C), when PyYAML has it
 _C_SAFE_LOADER: Any = getattr(yaml, 'CSafeLoader', None)
 
 
+#: The deepest nesting of collections read with libyaml (the pure-Python loader stops near 300:
+#: Python's recursion limit); libyaml composes recursively in C, where too deep a text would
+#: overflow the stack and end the process.
+MAX_YAML_DEPTH = 300
+
+
 def _refuse_aliases(text: str) -> None:
-    """Raise a ComposerError at the first alias of ``text`` (its events, nothing composed)."""
+    """
+    Raise a ComposerError at the first alias of ``text`` (its events, nothing composed).
+
+    :raises RecursionError: collections nested more than :data:`MAX_YAML_DEPTH` deep.
+    """
+    depth = 0
     for event in yaml.parse(text, Loader=_C_SAFE_LOADER):
-        if isinstance(event, yaml.AliasEvent):
+        if isinstance(event, yaml.CollectionStartEvent):
+            depth += 1
+            if depth > MAX_YAML_DEPTH:
+                raise RecursionError(f'YAML collections nested more than {MAX_YAML_DEPTH} deep')
+        elif isinstance(event, yaml.CollectionEndEvent):
+            depth -= 1
+        elif isinstance(event, yaml.AliasEvent):
+            mark: Any = event.start_mark  # libyaml's: the line and column of yaml.error.Mark
             raise yaml.composer.ComposerError(
-                None, None, 'YAML aliases (*name) are not accepted', event.start_mark)
+                None, None, 'YAML aliases (*name) are not accepted', mark)
 
 
 @lru_cache(maxsize=RECENT_TEXTS)
@@ -79,9 +97,10 @@ def _parsed(text: str) -> Any:
     """
     Return the document of ``text`` (shared: callers copy it).
 
-    With libyaml (PyYAML's wheels have it) the events are scanned for aliases first, then the
-    document is loaded by ``CSafeLoader``: some ten times faster than the pure-Python loader,
-    which is used without libyaml and refuses aliases as it composes (:class:`_NoAliasLoader`).
+    With libyaml (PyYAML's wheels have it) the events are scanned for aliases and for nesting
+    deeper than :data:`MAX_YAML_DEPTH` first, then the document is loaded by ``CSafeLoader``:
+    some ten times faster than the pure-Python loader, which is used without libyaml and
+    refuses aliases as it composes (:class:`_NoAliasLoader`).
     """
     if _C_SAFE_LOADER is None:
         return yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader

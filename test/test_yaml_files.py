@@ -71,3 +71,35 @@ def test_both_loaders_give_the_same_documents_and_refuse_aliases(monkeypatch, lo
     with pytest.raises(InputError, match=r'not valid YAML: .* \(line 3, column 1\)'):
         yaml_files.load_yaml_text('name: x\nnoise: [\n', source='bad.yaml')
     yaml_files._parsed.cache_clear()
+
+
+@pytest.mark.parametrize('loader', ['libyaml', 'pure Python'])
+def test_a_deeply_nested_text_is_a_clear_error_not_a_crash(monkeypatch, loader):
+    """Nesting past the loaders' reach (a 1 MB file of brackets) is an InputError, no crash."""
+    import subprocess
+    import sys
+    import textwrap
+    if loader == 'pure Python':
+        monkeypatch.setattr(yaml_files, '_C_SAFE_LOADER', None)
+    yaml_files._parsed.cache_clear()
+    assert yaml_files.load_yaml_text('[' * 200 + ']' * 200, source='t') == \
+        yaml.load('[' * 200 + ']' * 200, Loader=yaml.SafeLoader)
+    for depth in (500, 1000):  # composed in C, then copied: a RecursionError traceback
+        with pytest.raises(InputError, match='deep.yaml: YAML nested too deeply'):
+            yaml_files.load_yaml_text('[' * depth + ']' * depth, source='deep.yaml')
+    yaml_files._parsed.cache_clear()
+    # libyaml's composer recurses in C: a deep enough text overflows the stack (a segfault),
+    # so this one runs in its own process
+    script = textwrap.dedent(f"""
+        from robot_wear_monitor import yaml_files
+        from robot_wear_monitor.errors import InputError
+        if {loader == 'pure Python'}:
+            yaml_files._C_SAFE_LOADER = None
+        try:
+            yaml_files.load_yaml_text('[' * 400_000 + ']' * 400_000, source='deep.yaml')
+        except InputError as error:
+            print(error)
+    """)
+    done = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                          timeout=120)
+    assert (done.returncode, done.stdout.strip()) == (0, 'deep.yaml: YAML nested too deeply')

@@ -199,8 +199,8 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
         results, like_rows = _intervals_stacked(
             [speeds[i] for i in rows], [values[i] for i in rows],
             [estimates[i] for i in rows], params, grid, level)
-        # the trend row of a row whose profile is on the trend grid is its wear profile there
-        # (profile_log_likelihood and wear_intervals compute it alike)
+        # the trend row of a row whose profile is on the trend grid (its extended grid) is its
+        # wear profile there (profile_log_likelihood and wear_intervals compute it alike)
         same = trend is not None and extended == trend.tobytes()
         for j, (i, result) in enumerate(zip(rows, results)):
             out[i] = result
@@ -245,7 +245,8 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     """
     Return :func:`wear_intervals` of rows of equal N, calibration and extended grid.
 
-    Also the rows' profile log-likelihood on ``grid``, (B, G) (``like_rows``).
+    Also the rows' profile log-likelihood on their extended grid (:func:`_extended_grid`, the
+    same for all), (B, G') (its first G columns: on ``grid``).
     """
     speeds = [np.asarray(s, dtype=float) for s in speeds]
     vals = np.concatenate([np.asarray(v, dtype=float) for v in values])
@@ -258,7 +259,8 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     data = profile.whitened(vals, index)
     # _WearLikelihood, N >= 2
     cost_w, cost_t = profile.grid_profiles(data, want_t=True)
-    like_rows = profile.const[:, None] - 0.5 * cost_w[:, :grid.size]
+    profile_rows = profile.const[:, None] - 0.5 * cost_w  # on the extended grid
+    like_rows = profile_rows[:, :grid.size]
     model = fm.friction(profile.speeds, params.load_mean, t_hat[:, None], w_hat[:, None],
                         params.model)
     residual = data - profile.whitened(model, index)
@@ -289,4 +291,4 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
     return [one.WearIntervals(wear_low=wear_low[i:i + 1], wear_high=wear_high[i:i + 1],
                               temperature_low=t_low[i:i + 1], temperature_high=t_high[i:i + 1],
                               wear_high_at_grid_end=open_end[i:i + 1], level=float(level))
-            for i in index], like_rows
+            for i in index], profile_rows

@@ -128,3 +128,22 @@ def test_stacked_profiles_equal_each_rows_own(n):
         assert alone.cross.tobytes() == stacked.cross(slice(i, i + 1))[0].tobytes()
         assert np.float64(alone.const).tobytes() == stacked.const[i].tobytes()
         assert alone.t_grid.tobytes() == stacked.t_grid.tobytes()
+
+
+def test_a_trend_grid_equal_to_a_rows_extended_grid_gets_the_whole_trend_row(rows):
+    """A row whose interval profile runs on the trend grid itself, extended: its full row."""
+    from robot_wear_monitor.estimation import intervals
+    from robot_wear_monitor.estimation.batch_intervals import _extended_grid
+    params, speeds, frictions = rows
+    values = [np.asarray(f)[None, :] for f in frictions]
+    estimates = estimate_wear_rows(speeds, values, params=params)
+    base = intervals.wear_grid(params.wear_max)
+    i = next(i for i, (s, e) in enumerate(zip(speeds, estimates))
+             if s.size > 1 and 1.5 * e.wear[0] > base[-1])
+    grid = _extended_grid(base, float(estimates[i].wear[0]))
+    assert grid.size > base.size
+    _, trend_rows = wear_intervals_rows([speeds[i]], [values[i]], [estimates[i]],
+                                        params=params, trend_grid=grid)
+    expected = profile_log_likelihood(speeds[i], values[i], params=params, wear_grid=grid)
+    assert expected.shape == (1, grid.size)
+    assert trend_rows[0].shape == expected.shape and np.array_equal(trend_rows[0], expected)

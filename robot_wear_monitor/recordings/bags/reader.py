@@ -336,7 +336,7 @@ class JointStream:
                 yield chunk
         finally:
             if batches is not None:
-                batches.close()  # a reading thread ends first
+                batches.close()  # the bag files it opened are closed now, not when collected
             if reader is not None:
                 reader.close()
         self._finish(unfinished, state)
