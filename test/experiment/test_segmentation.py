@@ -31,6 +31,16 @@ def _stream(scenario, segmenter):
     return levels + segmenter.finish()
 
 
+def _stream_samples(config, t, q, v, e):
+    """Return the streaming segmenter's levels of the samples, one by one, and the segmenter."""
+    streaming = StreamingSegmenter(config)
+    levels = []
+    for sample in zip(t, q, v, e):
+        levels += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
+                                       velocity_rad_s=sample[2], effort=sample[3])
+    return levels + streaming.finish(), streaming
+
+
 def test_every_paper_speed_matches_truth(paper_grid):
     config = segmenter_config_for(paper_grid.config)
     t, q, v, e = paper_grid.joint_samples()
@@ -55,12 +65,7 @@ def test_streaming_equals_batch_with_bad_samples(paper_grid):
     q[bad[10:20]] = np.inf
     t[bad[20:30]] = t[bad[20:30]] - 0.5
     t[bad[30]:] += 1.0  # one gap
-    streaming = StreamingSegmenter(config)
-    levels = []
-    for sample in zip(t, q, v, e):
-        levels += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
-                                       velocity_rad_s=sample[2], effort=sample[3])
-    levels += streaming.finish()
+    levels, streaming = _stream_samples(config, t, q, v, e)
     batch = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
     assert levels == batch.levels
     assert streaming.rejections == batch.rejections
@@ -188,12 +193,7 @@ def test_chunks_of_any_size_give_the_streaming_levels(seed):
     t[bad[11]:] += 0.5  # a gap
     config = SegmenterConfig(joint=recording.joint, gear_ratio=recording.gear_ratio,
                              torque_scale=recording.torque_scale)
-    streaming = StreamingSegmenter(config)
-    expected = []
-    for sample in zip(t, q, v, e):
-        expected += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
-                                         velocity_rad_s=sample[2], effort=sample[3])
-    expected += streaming.finish()
+    expected, streaming = _stream_samples(config, t, q, v, e)
     assert len(expected) >= 6
     cuts = np.unique(np.concatenate([rng.integers(0, t.size, 40), bad[:8], bad[:8] + 1,
                                      [1, 2, 3, t.size - 1]]))
@@ -228,12 +228,7 @@ def test_moves_of_one_chunk_at_once_give_the_streaming_levels(settings):
     t[bad[11]:] += 0.5  # a gap
     config = SegmenterConfig(joint=recording.joint, gear_ratio=recording.gear_ratio,
                              torque_scale=recording.torque_scale, **settings)
-    streaming = StreamingSegmenter(config)
-    expected = []
-    for sample in zip(t, q, v, e):
-        expected += streaming.add_sample(time_s=sample[0], position_rad=sample[1],
-                                         velocity_rad_s=sample[2], effort=sample[3])
-    expected += streaming.finish()
+    expected, streaming = _stream_samples(config, t, q, v, e)
     batch = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
     assert batch.levels == expected  # every field of every level, exactly
     assert batch.rejections == streaming.rejections

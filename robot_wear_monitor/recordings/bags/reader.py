@@ -60,6 +60,12 @@ class JointSamples:
     notes: list[str] = field(default_factory=list)
 
 
+def _corrupt(path: str | os.PathLike, error: Exception) -> BagError:
+    """Return the BagError of a bag the storage library failed to read (its first line)."""
+    message = str(error).splitlines()[0] if str(error) else type(error).__name__
+    return BagError(f'{path}: corrupt or truncated bag: {message}')
+
+
 def iter_raw_messages(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPIC,
                       msgtype: str | None = JOINT_STATE_TYPE) -> Iterator[tuple[int, bytes]]:
     """Yield (bag time [ns], CDR bytes) of a topic, raising BagError for unreadable bags."""
@@ -77,8 +83,7 @@ def iter_raw_messages(path: str | os.PathLike, *, topic: str = JOINT_STATES_TOPI
         except BagError:
             raise
         except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
-            message = str(error).splitlines()[0] if str(error) else type(error).__name__
-            raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+            raise _corrupt(path, error) from None
     finally:
         reader.close()
 
@@ -107,8 +112,7 @@ def iter_recorded_messages(path: str | os.PathLike, *, topics: Sequence[str]
             for connection, timestamp, raw in reader.messages(connections=connections):
                 yield connection.topic, timestamp, raw
         except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
-            message = str(error).splitlines()[0] if str(error) else type(error).__name__
-            raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+            raise _corrupt(path, error) from None
     finally:
         reader.close()
 
@@ -352,8 +356,7 @@ class JointStream:
             except BagError:
                 raise
             except Exception as error:  # noqa: BLE001 - truncated/corrupt storage
-                message = str(error).splitlines()[0] if str(error) else type(error).__name__
-                raise BagError(f'{path}: corrupt or truncated bag: {message}') from None
+                raise _corrupt(path, error) from None
             finally:
                 if collecting:
                     gc.enable()
