@@ -104,7 +104,7 @@ def wear_grid(wear_max: float = WEAR_GRID_MAX, *, fine_step: float = _FINE_STEP,
     edge = min(max(fine_until, 0.0), wear_max)
     fine = np.linspace(0.0, edge, int(np.ceil(edge / fine_step - 1e-9)) + 1)
     coarse = np.linspace(edge, wear_max, int(np.ceil((wear_max - edge) / step - 1e-9)) + 1)
-    return np.unique(np.concatenate([fine, coarse]))
+    return np.concatenate([fine[:-1], coarse])  # the two parts share the point edge
 
 
 # --------------------------------------------------------------------------- results
