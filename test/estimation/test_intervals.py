@@ -120,8 +120,8 @@ def test_wear_grid_starts_at_zero_is_fine_near_zero_and_ends_at_the_maximum():
 @pytest.mark.parametrize('wear_max,fine_step,fine_until,step', [
     (150.0, 0.25, 10.0, 0.5), (10.0, 0.25, 10.0, 0.5), (7.3, 0.1, 10.0, 0.07),
     (150.0, 1.0, 0.0, 5.0), (150.0, 3.0, -1.0, 1000.0), (1e-3, 0.25, 0.3, 0.5)])
-def test_wear_grid_is_both_parts_sorted_without_the_shared_point(wear_max, fine_step,
-                                                                  fine_until, step):
+def test_wear_grid_is_both_parts_sorted_without_the_shared_point(
+        wear_max, fine_step, fine_until, step):
     grid = wear_grid(wear_max, fine_step=fine_step, fine_until=fine_until, step=step)
     edge = min(max(fine_until, 0.0), wear_max)
     fine = np.linspace(0.0, edge, int(np.ceil(edge / fine_step - 1e-9)) + 1)
