@@ -35,31 +35,29 @@ class BagWriter:
     def __init__(self, writer: Writer) -> None:
         """Wrap an open rosbags writer."""
         self._writer = writer
-        self._connections: dict[str, Any] = {}
-        self._types: dict[str, str] = {}
-        #: topic -> (connection, serializer of its type): one look-up per message written
-        self._serializers: dict[str, tuple[Any, Callable[[Any, str], Any], str]] = {}
+        #: topic -> (connection, serializer of its type, type): one look-up per message written
+        self._topics: dict[str, tuple[Any, Callable[[Any, str], Any], str]] = {}
         self.message_count = 0
         #: staging copies of killed writers of the same bag, removed before this one started
         self.removed_stale: list[Path] = []
 
     def add_topic(self, topic: str, msgtype: str) -> None:
         """Declare ``topic`` with the message type ``msgtype`` (a Jazzy type name)."""
-        if topic in self._connections:
-            if self._types[topic] != msgtype:
-                raise BagError(f'topic {topic} already has type {self._types[topic]}')
+        declared = self._topics.get(topic)
+        if declared is not None:
+            if declared[2] != msgtype:
+                raise BagError(f'topic {topic} already has type {declared[2]}')
             return
         store = typestore_of(msgtype)  # the monitor's types, else rosbags' whole Jazzy store
         if msgtype not in store.types:
             raise BagError(f'unknown message type {shorten(msgtype)!r} in the ROS 2 Jazzy '
                            'typestore')
-        self._connections[topic] = self._writer.add_connection(topic, msgtype, typestore=store)
-        self._types[topic] = msgtype
-        self._serializers[topic] = (self._connections[topic], store.serialize_cdr, msgtype)
+        connection = self._writer.add_connection(topic, msgtype, typestore=store)
+        self._topics[topic] = (connection, store.serialize_cdr, msgtype)
 
     def write(self, topic: str, msg: Any, timestamp_ns: int) -> None:
         """Write a typestore message object (or CDR bytes) on a declared topic."""
-        entry = self._serializers.get(topic)
+        entry = self._topics.get(topic)
         if entry is None:
             raise BagError(f'topic {topic} was not added before writing')
         connection, serialize, msgtype = entry
@@ -71,10 +69,10 @@ class BagWriter:
     def write_raw_many(self, topic: str, messages: Sequence[bytes],
                        timestamps_ns: Sequence[int]) -> None:
         """Write many CDR-encoded messages on a declared topic (bag times in ns)."""
-        connection = self._connections.get(topic)
-        if connection is None:
+        entry = self._topics.get(topic)
+        if entry is None:
             raise BagError(f'topic {topic} was not added before writing')
-        write = self._writer.write
+        connection, write = entry[0], self._writer.write
         for data, stamp in zip(messages, timestamps_ns):
             write(connection, int(stamp), data)
         self.message_count += len(messages)
