@@ -52,7 +52,8 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.history import (is_postgresql_url, open_history,
                                             write_levels_csv)
-    from robot_wear_monitor.monitoring.diagnostics import clean_text, json_number
+    from robot_wear_monitor.json_values import finite_or_none
+    from robot_wear_monitor.monitoring.diagnostics import clean_text
 
     if not is_postgresql_url(args.database) and not Path(args.database).is_file():
         raise InputError(f'{shown_location(args.database)}: no such wear history database')
@@ -93,10 +94,10 @@ def main(args: argparse.Namespace) -> int:
         'robot': robot, 'joint': joint, 'alarm_active': state.alarm_active, 'csv': args.csv,
         'estimates': [{'id': r.id, 'stamp_s': r.stamp_s, 'time': iso_time(r.stamp_s),
                        'speeds': list(r.speeds_rad_s), 'frictions': list(r.frictions),
-                       'wear': json_number(r.wear), 'wear_std': json_number(std),
-                       'wear_interval': [json_number(r.wear_low), json_number(r.wear_high)],
-                       'temperature_degc': json_number(r.temperature_degc),
-                       'p_value': json_number(r.p_value), 'alarm': r.alarm_active,
+                       'wear': finite_or_none(r.wear), 'wear_std': finite_or_none(std),
+                       'wear_interval': [finite_or_none(r.wear_low), finite_or_none(r.wear_high)],
+                       'temperature_degc': finite_or_none(r.temperature_degc),
+                       'p_value': finite_or_none(r.p_value), 'alarm': r.alarm_active,
                        'valid': r.valid, 'invalid_reason': r.invalid_reason or None}
                       for r, std in rows]}
     if emit_json(args, payload):
@@ -170,14 +171,14 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
     """
     from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.history.alarms import event_time_s, note_text
-    from robot_wear_monitor.monitoring.diagnostics import json_number
+    from robot_wear_monitor.json_values import finite_or_none
     return [{'id': e.id, 'time': iso_time(event_time_s(e), local=local), 'robot': e.robot,
              'joint': e.joint, 'event': e.event,
-             'wear': None if e.wear is None else json_number(e.wear), 'user': e.user,
+             'wear': None if e.wear is None else finite_or_none(e.wear), 'user': e.user,
              'owner': e.owner, 'planned_maintenance': e.planned_maintenance, 'note': e.note,
-             'note_text': note_text(e), 'event_time_s': json_number(event_time_s(e)),
+             'note_text': note_text(e), 'event_time_s': finite_or_none(event_time_s(e)),
              'work_order': e.work_order,
-             'stamp_s': json_number(e.stamp_s), 'wall_time_s': json_number(e.wall_time_s),
+             'stamp_s': finite_or_none(e.stamp_s), 'wall_time_s': finite_or_none(e.wall_time_s),
              'estimate_id': e.estimate_id} for e in events]
 
 

@@ -2,7 +2,8 @@
 Diagnostics of the monitoring services: the status type, number text and rejection reports.
 
 :class:`DiagnosticReport` is one DiagnosticStatus (level, message, key-values) as the services
-build it; :func:`fmt_number` and :func:`json_number` write numbers into key-values and JSON,
+build it; :func:`fmt_number` writes numbers into key-values (JSON takes
+:func:`~robot_wear_monitor.json_values.finite_or_none`),
 :func:`meaningful_std` (of :mod:`robot_wear_monitor.estimation.report`) decides whether a
 standard deviation is worth reporting;
 :func:`interval_text`, :func:`forecast_text` and :func:`trend_values` write an estimate's
@@ -41,11 +42,6 @@ class DiagnosticReport:
             if k == key:
                 return v
         raise KeyError(key)
-
-
-#: ``value`` as a float, or None when it is NaN or infinite (valid JSON): the package's one
-#: helper, :func:`robot_wear_monitor.json_values.finite_or_none`, under the name callers use.
-json_number = finite_or_none
 
 
 #: What a person reads for a number that is not known (never 'nan').

@@ -28,7 +28,8 @@ from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import WearHistory
-from robot_wear_monitor.monitoring.diagnostics import json_number, split_rejections
+from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.monitoring.diagnostics import split_rejections
 from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
                                                               FrictionExperimentService)
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
@@ -113,8 +114,8 @@ class ReplayResult:
             'samples': self.sample_count, 'experiments': experiments,
             'first_alarm': None if first is None else {
                 'index': first.index, 'stamp_s': first.stamp_s,
-                'wear': json_number(first.wear), 'wear_std': json_number(first.wear_std),
-                'wear_interval': [json_number(v) for v in first.wear_interval]},
+                'wear': finite_or_none(first.wear), 'wear_std': finite_or_none(first.wear_std),
+                'wear_interval': [finite_or_none(v) for v in first.wear_interval]},
             'forecast': (None if not self.updates or self.updates[-1].trend is None
                          else self.updates[-1].trend.to_json()),
             'rejections': dict(sorted(self.rejections.items())),
@@ -351,11 +352,11 @@ def joint_states(history: WearHistory, joints: Sequence[str]) -> list[dict[str, 
         row = rows.get(joint)
         states.append({
             'robot': history.robot, 'joint': joint, 'alarm': bool(row and row.alarm),
-            'alarm_since_stamp_s': json_number(row.alarm_since_stamp_s) if row else None,
+            'alarm_since_stamp_s': finite_or_none(row.alarm_since_stamp_s) if row else None,
             'estimates': row.experiments if row else 0,
             'last_estimate': None if row is None else {
-                'stamp_s': row.last_stamp_s, 'wear': json_number(row.wear),
-                'wear_interval': [json_number(row.wear_low), json_number(row.wear_high)],
+                'stamp_s': row.last_stamp_s, 'wear': finite_or_none(row.wear),
+                'wear_interval': [finite_or_none(row.wear_low), finite_or_none(row.wear_high)],
                 'valid': not row.invalid_reason,
                 'invalid_reason': row.invalid_reason or None}})
     return states
@@ -389,7 +390,7 @@ def joint_summary(service: FrictionExperimentService, stream: Any,
         summary['rejected'])
     summary['estimates'] = len(mine)
     summary['first_alarm'] = None if first is None else {
-        'index': first.index, 'stamp_s': first.stamp_s, 'wear': json_number(first.wear)}
+        'index': first.index, 'stamp_s': first.stamp_s, 'wear': finite_or_none(first.wear)}
     summary['no_experiment'] = (None if service.experiments
                                 else explain_joint(service, stream))
     return summary

@@ -16,9 +16,9 @@ from typing import Any, Mapping, Optional, TYPE_CHECKING
 from robot_wear_monitor.estimation.alarm import (AlarmPolicy, DEFAULT_ALARM_PROBABILITY,
                                                  DEFAULT_ALARM_RULE, WEAR_WARNING)
 from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE, Plausibility, VALID
+from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
-from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, json_number,
-                                                       meaningful_std)
+from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport, meaningful_std
 from robot_wear_monitor.recordings import messages
 
 if TYPE_CHECKING:
@@ -141,20 +141,20 @@ class WearUpdate:
             'index': self.index, 'joint': self.joint, 'stamp_s': self.stamp_s,
             'speeds_rad_s': [float(v) for v in self.speeds_rad_s],
             'frictions': [float(f) for f in self.frictions],
-            'temperature_degc': json_number(self.temperature_degc),
-            'temperature_std_degc': json_number(self.temperature_std_degc),
-            'wear': json_number(self.wear), 'wear_std': json_number(self.wear_std),
+            'temperature_degc': finite_or_none(self.temperature_degc),
+            'temperature_std_degc': finite_or_none(self.temperature_std_degc),
+            'wear': finite_or_none(self.wear), 'wear_std': finite_or_none(self.wear_std),
             'wear_determined': self.wear_determined,
-            'wear_interval': [json_number(v) for v in self.wear_interval],
+            'wear_interval': [finite_or_none(v) for v in self.wear_interval],
             'wear_interval_open_above': self.wear_interval_open_above,
-            'temperature_interval': [json_number(v) for v in self.temperature_interval],
+            'temperature_interval': [finite_or_none(v) for v in self.temperature_interval],
             'trend': None if self.trend is None else self.trend.to_json(),
-            'fit_p_value': json_number(self.estimate.p_value),
-            'chi2': json_number(self.estimate.chi2), 'dof': int(self.estimate.dof),
+            'fit_p_value': finite_or_none(self.estimate.p_value),
+            'chi2': finite_or_none(self.estimate.chi2), 'dof': int(self.estimate.dof),
             'temperature_at_bound': bool(self.estimate.temperature_at_bound),
             'wear_at_bound': bool(self.estimate.wear_at_bound),
             'alarm': self.alarm_active, 'alarm_raised': self.alarm_raised,
-            'alarm_evidence': json_number(self.alarm_evidence),
+            'alarm_evidence': finite_or_none(self.alarm_evidence),
             'status': messages.LEVEL_NAMES[self.status.level], 'message': self.status.message,
             **self.plausibility.to_json(),
         }

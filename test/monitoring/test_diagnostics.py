@@ -2,8 +2,8 @@
 
 import math
 
-from robot_wear_monitor.monitoring.diagnostics import (fmt_number, json_number, meaningful_std,
-                                                       RejectionLog)
+from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.monitoring.diagnostics import fmt_number, meaningful_std, RejectionLog
 
 
 def test_rejection_log_reports_each_rejection_once_and_at_most_once_per_period():
@@ -26,7 +26,7 @@ def test_numbers_in_key_values_and_json():
     assert fmt_number(35.0) == '35' and fmt_number(math.nan) == 'unknown'
     assert fmt_number(math.inf, missing='beyond') == 'beyond'
     assert fmt_number(1 / 3, 6) == '0.333333'
-    assert json_number(math.inf) is None and json_number(2) == 2.0
+    assert finite_or_none(math.inf) is None and finite_or_none(2) == 2.0
 
 
 def test_the_std_is_reported_only_where_it_agrees_with_the_interval():
