@@ -8,7 +8,7 @@ get a leading apostrophe (OWASP's advice on CSV injection); numbers are written 
 as numbers and never pass through here, so ``-0.5`` stays a number.
 """
 
-from robot_wear_monitor.errors import escaped
+from robot_wear_monitor.text import escaped
 
 #: First characters that make a spreadsheet read a cell as a formula.
 FORMULA_STARTS = frozenset('=+-@\t\r\uff1d\uff0b\uff0d\uff20')
@@ -24,7 +24,7 @@ def csv_text(text: str, *, terminal: bool = False) -> str:
     Return a text cell of a CSV the command line writes: :func:`spreadsheet_text`.
 
     ``terminal``: the CSV goes to a terminal (stdout is one): control characters are escaped
-    first (:func:`~robot_wear_monitor.errors.escaped`), as in every other text output, so a
+    first (:func:`~robot_wear_monitor.text.escaped`), as in every other text output, so a
     robot's or joint's name with an escape sequence or a newline cannot forge a line there.  A
     file or a pipe gets the text as stored (the CSV quotes it), as JSON does.
     """

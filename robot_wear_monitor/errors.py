@@ -1,11 +1,9 @@
-"""Exception types shared by the core: a user-facing input error, and how it echoes values."""
+"""Exception types shared by the core: a user-facing input error, a missing path's message."""
 
 import os
 from pathlib import Path
-from typing import Any
 
-#: The most characters of a value an error message echoes.
-ECHO_LIMIT = 80
+from robot_wear_monitor.text import shorten
 
 
 class InputError(ValueError):
@@ -14,19 +12,6 @@ class InputError(ValueError):
 
     The CLI prints it and exits with code 2; the nodes log it and keep running.
     """
-
-
-def escaped(value: Any) -> str:
-    """Return the text of ``value``, each unprintable character escaped as Python writes it."""
-    text = str(value)
-    return text if text.isprintable() else ''.join(
-        c if c.isprintable() else repr(c)[1:-1] for c in text)
-
-
-def shorten(value: Any, limit: int = ECHO_LIMIT) -> str:
-    """Return ``repr``-free text of ``value`` cut to ``limit`` characters with an ellipsis."""
-    text = escaped(str(value)[:limit + 1])
-    return text if len(text) <= limit else text[:limit - 1] + '\u2026'
 
 
 #: What ``../shared`` is, said when a path under it is missing (the README's commands use it).

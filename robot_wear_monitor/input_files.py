@@ -24,7 +24,8 @@ import stat
 from typing import Any, Iterator
 import zlib
 
-from robot_wear_monitor.errors import InputError, shorten
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import shorten
 
 #: Bytes read at a time.
 _CHUNK_BYTES = 1 << 16

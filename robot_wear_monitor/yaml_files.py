@@ -22,8 +22,9 @@ import os
 from pathlib import Path
 from typing import Any
 
-from robot_wear_monitor.errors import ECHO_LIMIT, InputError, shorten
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.input_files import read_text_file
+from robot_wear_monitor.text import ECHO_LIMIT, shorten
 import yaml
 
 __all__ = ['ECHO_LIMIT', 'load_yaml_file', 'load_yaml_text', 'MAX_YAML_BYTES', 'shorten']

@@ -16,9 +16,10 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.audit.fitting import AuditTable
-from robot_wear_monitor.errors import escaped, InputError, no_such_path_text, shorten
+from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.input_files import (csv_file_rows, MAX_LEVEL_TABLE_BYTES,
                                             MAX_TABLE_LINE_CHARS, TextLines)
+from robot_wear_monitor.text import escaped, shorten
 
 FloatArray = NDArray[np.float64]
 
@@ -36,7 +37,7 @@ def table_from_columns(columns: Mapping[str, Sequence], *, source: str = '<table
 
     Numeric columns become float arrays; a column whose values are not all numbers is a text
     (categorical) column.  Column names and text values have their control characters escaped
-    here, where they enter (:func:`~robot_wear_monitor.errors.escaped`): they are printed in
+    here, where they enter (:func:`~robot_wear_monitor.text.escaped`): they are printed in
     the audit's report.  Raises :class:`InputError` for an empty table, unequal lengths,
     missing required columns, NaN/inf or non-positive speeds.
     """

@@ -23,7 +23,8 @@ from robot_wear_monitor import __version__
 from robot_wear_monitor.cli.options import (loading_modules, parse_float_list, parse_range,
                                             PROG, resolve_json, secrets_kept_out)
 from robot_wear_monitor.cli.outputs import check_outputs
-from robot_wear_monitor.errors import escaped, InputError, shorten
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import escaped, shorten
 
 __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'verb_module',
            'VERBS']

@@ -130,7 +130,7 @@ def _users(args: argparse.Namespace) -> int:
             history.remove_user(name=args.name)
             print(f'user {args.name} removed; their sessions and API tokens ended')
         else:
-            from robot_wear_monitor.fleet.ranking import iso_time
+            from robot_wear_monitor.text import iso_time
             found = history.users()
             for user in found:
                 print(f'{user.name}  {user.role}  created {iso_time(user.created_wall_time_s)}')
@@ -141,9 +141,8 @@ def _users(args: argparse.Namespace) -> int:
 
 
 def _tokens(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    from robot_wear_monitor.text import iso_time, shorten
     with open_history(args.history, init=False) as history:
         if args.token_action == 'add':
             listed, token = history.add_token(user=args.user, label=args.label)
@@ -161,7 +160,7 @@ def _tokens(args: argparse.Namespace) -> int:
                 used = iso_time(item.last_used_wall_time_s) \
                     if item.last_used_wall_time_s is not None else 'never'
                 print(f'{item.id}  {item.user}  created {iso_time(item.created_wall_time_s)}  '
-                      f'last used {used}  {clean_text(item.label, limit=60)}'.rstrip())
+                      f'last used {used}  {shorten(item.label, 60)}'.rstrip())
             if not found:
                 print('no API tokens' + (f' of {args.user}' if args.user else ''))
     return 0

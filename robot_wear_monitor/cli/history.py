@@ -49,11 +49,10 @@ def main(args: argparse.Namespace) -> int:
     import math
     from pathlib import Path
 
-    from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.history import (is_postgresql_url, open_history,
                                             write_levels_csv)
     from robot_wear_monitor.json_values import finite_or_none
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    from robot_wear_monitor.text import iso_time, LINE_LIMIT, shorten
 
     if not is_postgresql_url(args.database) and not Path(args.database).is_file():
         raise InputError(f'{shown_location(args.database)}: no such wear history database')
@@ -102,7 +101,8 @@ def main(args: argparse.Namespace) -> int:
                       for r, std in rows]}
     if emit_json(args, payload):
         return 0
-    print(f'robot {clean_text(robot)}, joint {clean_text(joint)}: {len(records)} estimate(s) '
+    print(f'robot {shorten(robot, LINE_LIMIT)}, joint {shorten(joint, LINE_LIMIT)}: '
+          f'{len(records)} estimate(s) '
           f'shown; alarm {"LATCHED" if state.alarm_active else "clear"}; times '
           f'{"local" if args.local else "UTC"}')
     header = ('id', 'time', 'w', '95 % interval of w', 'std w', 'T [degC]', 'p-value')
@@ -113,7 +113,7 @@ def main(args: argparse.Namespace) -> int:
               f'[{cell(r.wear_low, ".1f")}, {cell(r.wear_high, ".1f")}]'
               if math.isfinite(r.wear_low) else '-',
               cell(std, '.2f'), cell(r.temperature_degc, '.2f'), cell(r.p_value, '.3g'),
-              'INVALID: ' + clean_text(r.invalid_reason) if not r.valid
+              'INVALID: ' + shorten(r.invalid_reason, LINE_LIMIT) if not r.valid
               else 'yes' if r.alarm_active else '') for r, std in rows]
     print(estimate_table(header, lines))
     if args.csv:
@@ -169,9 +169,9 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
     ``time``/``event_time_s``: the event's time in the log (a raise's experiment stamp, an
     acknowledgement's or a reset's wall time); ``note_text``: the note in words.
     """
-    from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.history.alarms import event_time_s, note_text
     from robot_wear_monitor.json_values import finite_or_none
+    from robot_wear_monitor.text import iso_time
     return [{'id': e.id, 'time': iso_time(event_time_s(e), local=local), 'robot': e.robot,
              'joint': e.joint, 'event': e.event,
              'wear': None if e.wear is None else finite_or_none(e.wear), 'user': e.user,
@@ -188,7 +188,7 @@ def alarm_log_main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.cli.outputs import to_terminal
     from robot_wear_monitor.csv_cells import csv_text
     from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    from robot_wear_monitor.text import shorten
 
     if args.csv and (args.json or args.json_out):
         raise InputError('--alarms: give --csv or --json, not both')
@@ -215,12 +215,12 @@ def alarm_log_main(args: argparse.Namespace) -> int:
           f'{"local" if args.local else "UTC"}')
     header = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner', 'planned',
               'work_order', 'note')
-    lines = [(str(r['id']), r['time'], clean_text(r['robot'], limit=40),
-              clean_text(r['joint'], limit=40), r['event'],
-              '-' if r['wear'] is None else f'{r["wear"]:.1f}', clean_text(r['user'], limit=40),
-              clean_text(r['owner'], limit=40), r['planned_maintenance'] or '-',
-              clean_text(r['work_order'], limit=40) or '-',
-              clean_text(r['note_text'], limit=160)) for r in rows]
+    lines = [(str(r['id']), r['time'], shorten(r['robot'], 40),
+              shorten(r['joint'], 40), r['event'],
+              '-' if r['wear'] is None else f'{r["wear"]:.1f}', shorten(r['user'], 40),
+              shorten(r['owner'], 40), r['planned_maintenance'] or '-',
+              shorten(r['work_order'], 40) or '-',
+              shorten(r['note_text'], 160)) for r in rows]
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]
     print('  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip())

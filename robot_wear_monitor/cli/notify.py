@@ -55,9 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _line(sent: SentNotification) -> str:
-    from robot_wear_monitor.fleet.ranking import iso_time
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
-    what = f'{sent.kind} {clean_text(sent.robot, limit=60)} {clean_text(sent.joint, limit=60)}'
+    from robot_wear_monitor.text import iso_time, shorten
+    what = f'{sent.kind} {shorten(sent.robot, 60)} {shorten(sent.joint, 60)}'
     when = iso_time(time.time())
     if sent.delivered:
         return f'{when} sent {what} via {sent.channel}'
@@ -78,8 +77,7 @@ def _log_status(row: dict[str, Any], keys: set[str]) -> str:
 
 
 def _log_line(row: dict[str, Any]) -> str:
-    from robot_wear_monitor.fleet.ranking import iso_time
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    from robot_wear_monitor.text import iso_time, shorten
     payload = row.get('payload') or {}
     status = row['status']
     if status == 'failure':
@@ -87,10 +85,10 @@ def _log_line(row: dict[str, Any]) -> str:
                   f'after {payload.get("attempts", "?")} tries: {payload.get("error", "")}')
     wall = row.get('wall_time_s')
     return '  '.join((iso_time(float(wall) if wall is not None else None),
-                      clean_text(str(row.get('channel')), limit=40), str(row.get('kind')),
-                      clean_text(str(row.get('robot')), limit=60),
-                      clean_text(str(row.get('joint')), limit=60),
-                      clean_text(status, limit=300)))
+                      shorten(str(row.get('channel')), 40), str(row.get('kind')),
+                      shorten(str(row.get('robot')), 60),
+                      shorten(str(row.get('joint')), 60),
+                      shorten(status, 300)))
 
 
 def main(args: argparse.Namespace) -> int:

@@ -418,8 +418,8 @@ def level_source_scales(args: argparse.Namespace) -> tuple[float, float]:
 def shown_location(location: str) -> str:
     """Return a history location as it may be printed: no password, control characters escaped."""
     from robot_wear_monitor.history.passwords import redact_location
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
-    return clean_text(redact_location(location))
+    from robot_wear_monitor.text import LINE_LIMIT, shorten
+    return shorten(redact_location(location), LINE_LIMIT)
 
 
 class _RedactingStream:

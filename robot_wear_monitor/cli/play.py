@@ -9,7 +9,8 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import FINITE, rclpy_missing, ros_args
-from robot_wear_monitor.errors import escaped, InputError
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import escaped
 
 HELP = 'play a recorded bag on the live ROS 2 graph, like ros2 bag play (needs rclpy)'
 

@@ -19,7 +19,8 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             add_progress, add_robot, emit_json,
                                             joint_selection, loading_modules, print_json,
                                             progress_wanted, shown_location, write_json_out)
-from robot_wear_monitor.errors import escaped, InputError, shorten
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import escaped, iso_time, LINE_LIMIT, shorten
 
 HELP = 'replay a recorded bag through the monitoring service'
 
@@ -144,9 +145,6 @@ def summary_line(result: Any, summary: dict) -> str:
     """
     from robot_wear_monitor.monitoring.diagnostics import is_routine, rejection_text
 
-    def iso_time(stamp_s: Any) -> str:  # the fleet module is loaded for a state only
-        from robot_wear_monitor.fleet.ranking import iso_time
-        return iso_time(stamp_s)
     first = summary['first_alarm']
     defects = {r: n for r, n in result.rejections.items() if not is_routine(r)}
     skipped = result.rejections.get('friction_levels_already_in_history', 0)
@@ -245,7 +243,6 @@ def main_batch(args: argparse.Namespace) -> int:
 
     from robot_wear_monitor.fleet.batch import (BagOutcome, collect_bags, ReplaySettings,
                                                 run_batch)
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
     from tqdm import tqdm
     for option, given in (('--truth', args.truth), ('--plot', args.plot)):
         if given:
@@ -272,8 +269,9 @@ def main_batch(args: argparse.Namespace) -> int:
     def report(outcome: BagOutcome) -> None:  # a failure as it happens, above the bar
         if outcome.status == 'failed':
             # bag folder names and reasons come from other people's files: escaped
-            tqdm.write(f'failed: {clean_text(outcome.bag)} (robot {clean_text(outcome.robot)}):'
-                       f' {clean_text(outcome.reason, limit=400)}', file=sys.stderr)
+            tqdm.write(f'failed: {shorten(outcome.bag, LINE_LIMIT)} '
+                       f'(robot {shorten(outcome.robot, LINE_LIMIT)}):'
+                       f' {shorten(outcome.reason, 400)}', file=sys.stderr)
 
     result = run_batch(tasks, settings=settings, workers=args.workers or 1,
                        dask_address=args.dask, progress=progress_wanted(args),

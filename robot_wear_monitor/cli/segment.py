@@ -15,7 +15,8 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             parse_float_list, RAW_STANDSTILL_DEFAULT,
                                             STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
-from robot_wear_monitor.errors import escaped, InputError
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import escaped
 
 HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
 

@@ -15,9 +15,9 @@ from typing import Any, Callable
 from fastapi import APIRouter, Depends, Form, Request
 from robot_wear_monitor.dashboard.deps import AdminUser, check_csrf, HistoryDep
 from robot_wear_monitor.dashboard.pages import render
-from robot_wear_monitor.fleet.ranking import iso_time
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
+from robot_wear_monitor.text import iso_time
 from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 router = APIRouter(include_in_schema=False)

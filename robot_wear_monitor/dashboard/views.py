@@ -21,12 +21,12 @@ from urllib.parse import quote, urlencode
 from markupsafe import escape, Markup
 import numpy as np
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
-                                              fleet_view, FleetView, iso_time)
+                                              fleet_view, FleetView)
 from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
                                              ParameterSet)
-from robot_wear_monitor.monitoring.diagnostics import clean_text
+from robot_wear_monitor.text import iso_time, shorten
 
 #: The fleet states, worst first, as the filter and the counts name them.
 STATES = ('alarm', 'acknowledged', 'cannot judge', 'stale', 'ok')
@@ -219,7 +219,7 @@ def utc_text(stamp_s: Optional[float]) -> str:
     """
     Return a stamp [s since the epoch] as ISO 8601 UTC to the second ('-' when unknown).
 
-    The text of :func:`robot_wear_monitor.fleet.ranking.iso_time`, made faster (the fleet page
+    The text of :func:`robot_wear_monitor.text.iso_time`, made faster (the fleet page
     writes thousands).
     """
     if stamp_s is None or not math.isfinite(stamp_s) or not -1e11 < stamp_s < 2.5e11:
@@ -336,8 +336,8 @@ def life_text(state: Any) -> str:
     """
     if not math.isfinite(state.life_started_s):
         return ''
-    who = f' by {clean_text(state.reset_by, limit=60)}' if state.reset_by else ''
-    why = f' ({clean_text(state.reset_reason, limit=120)})' if state.reset_reason else ''
+    who = f' by {shorten(state.reset_by, 60)}' if state.reset_by else ''
+    why = f' ({shorten(state.reset_reason, 120)})' if state.reset_reason else ''
     if state.awaiting_first_experiment:
         return f'reset {utc_text(state.life_started_s)}{who}{why}: awaiting the first experiment'
     return f'new life since the reset {utc_text(state.life_started_s)}{who}{why}'

@@ -38,7 +38,7 @@ from typing import Any, Iterator, Optional, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.atomic_files import write_json_atomic
-from robot_wear_monitor.errors import InputError, shorten
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig
 from robot_wear_monitor.experiment.segmentation_settings import (SegmenterConfig,
                                                                  stream_segmenter_config,
@@ -46,6 +46,7 @@ from robot_wear_monitor.experiment.segmentation_settings import (SegmenterConfig
 from robot_wear_monitor.input_files import MAX_JSON_BYTES, read_text_file
 from robot_wear_monitor.model.friction import friction as friction_model
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
+from robot_wear_monitor.text import shorten
 
 FloatArray = NDArray[np.float64]
 

@@ -28,9 +28,10 @@ from pathlib import Path
 import time
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 
-from robot_wear_monitor.errors import InputError, no_such_path_text, shorten
+from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.input_files import check_robot_name, csv_rows, read_text_file
 from robot_wear_monitor.recordings import is_bag
+from robot_wear_monitor.text import shorten
 from robot_wear_monitor.yaml_files import load_yaml_file
 
 #: The robot of bags given without a manifest and without ``--robot``.

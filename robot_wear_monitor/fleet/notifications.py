@@ -59,8 +59,9 @@ from robot_wear_monitor.fleet.notify_channels import (
 from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
-from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, iso_time, STALE_FACTOR
+from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR
 from robot_wear_monitor.history import WearHistory
+from robot_wear_monitor.text import iso_time
 
 __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
            'load_notification_config', 'NotificationConfig', 'NotificationConfigError',

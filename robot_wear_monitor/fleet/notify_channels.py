@@ -28,8 +28,8 @@ from urllib.parse import quote
 from robot_wear_monitor import __version__
 from robot_wear_monitor.fleet.notify_config import (EmailConfig, NotificationConfig,
                                                     RetryPolicy, WebhookConfig)
-from robot_wear_monitor.fleet.ranking import FleetView, iso_time
-from robot_wear_monitor.monitoring.diagnostics import clean_text
+from robot_wear_monitor.fleet.ranking import FleetView
+from robot_wear_monitor.text import iso_time, shorten
 
 #: Alertmanager's ``endsAt`` of an alert that is still firing.
 NO_END = '0001-01-01T00:00:00Z'
@@ -124,8 +124,8 @@ def webhook_payload(event: DueEvent, *, config: NotificationConfig,
 def email_subject(event: DueEvent) -> str:
     """Return the subject line: the robot, the joint and the event (one line, cut short)."""
     title = KINDS[event.kind][2]
-    return (f'[robot-wear-monitor] {clean_text(event.robot, limit=60)} '
-            f'{clean_text(event.joint, limit=60)}: {title}')
+    return (f'[robot-wear-monitor] {shorten(event.robot, 60)} '
+            f'{shorten(event.joint, 60)}: {title}')
 
 
 def email_message(event: DueEvent, *, config: NotificationConfig,
@@ -204,13 +204,13 @@ def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPo
         except TimeoutError:
             return False, True, f'no whole answer within {limit_s:.3g} s'
         except httpx.TransportError as problem:
-            text = clean_text(str(problem), limit=200)
+            text = shorten(str(problem), 200)
             return False, True, f'{type(problem).__name__}: {text}'
         if 200 <= response.status_code < 300:
             return True, False, ''
         retryable = response.status_code >= 500 or response.status_code == 429
         return False, retryable, (f'HTTP {response.status_code} '
-                                  f'{clean_text(response.reason_phrase, limit=80)}')
+                                  f'{shorten(response.reason_phrase, 80)}')
     return _retrying(attempt_once, retry, sleep=sleep, clock=clock)
 
 
@@ -241,13 +241,13 @@ def send_email(mail: EmailConfig, message: EmailMessage, *, retry: RetryPolicy,
             text = problem.smtp_error
             text = text.decode('utf-8', 'replace') if isinstance(text, bytes) else str(text)
             return False, 400 <= problem.smtp_code < 500, \
-                f'SMTP {problem.smtp_code} {clean_text(text, limit=200)}'
+                f'SMTP {problem.smtp_code} {shorten(text, 200)}'
         except smtplib.SMTPRecipientsRefused as problem:
             codes = sorted({code for code, _ in problem.recipients.values()})
             return False, all(400 <= c < 500 for c in codes), \
                 f'SMTP recipients refused ({", ".join(map(str, codes))})'
         except (OSError, smtplib.SMTPException) as problem:
-            return False, True, f'{type(problem).__name__}: {clean_text(str(problem), limit=200)}'
+            return False, True, f'{type(problem).__name__}: {shorten(str(problem), 200)}'
         if refused:
             return False, False, f'SMTP refused {len(refused)} of {len(mail.to)} recipients'
         return True, False, ''

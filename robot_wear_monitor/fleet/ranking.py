@@ -25,7 +25,7 @@ from typing import Any, Iterable, Optional, Sequence
 from robot_wear_monitor.csv_cells import csv_text
 from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.monitoring.diagnostics import clean_text
+from robot_wear_monitor.text import iso_time, shorten
 
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
 STALE_FACTOR = 3.0
@@ -135,16 +135,6 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
     return sorted(rows, key=FleetView.rank_key)
 
 
-def iso_time(stamp_s: Optional[float], *, local: bool = False) -> str:
-    """Return a stamp [s since the epoch] as ISO 8601 to the second (UTC unless ``local``)."""
-    if stamp_s is None or not math.isfinite(stamp_s):
-        return '-'
-    moment = datetime.datetime.fromtimestamp(stamp_s, tz=datetime.timezone.utc)
-    if local:
-        moment = moment.astimezone()
-    return moment.isoformat(timespec='seconds').replace('+00:00', 'Z')
-
-
 def crossing_text(row: FleetView, *, local: bool = False) -> str:
     """Return the forecast crossing in words: experiments to go and the date it falls on."""
     crossing = row.state.crossing_experiments
@@ -188,7 +178,7 @@ def _alarm_text(row: FleetView, local: bool) -> str:
         return 'no'
     text = f'LATCHED since {iso_time(state.alarm_since_stamp_s, local=local)}'
     if state.acknowledged:
-        text += f', acknowledged by {clean_text(state.acknowledged_by, limit=40)}'
+        text += f', acknowledged by {shorten(state.acknowledged_by, 40)}'
         if state.planned_maintenance:
             text += f', service planned {state.planned_maintenance}'
         if row.reescalated:
@@ -204,7 +194,7 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     for row in rows:
         s = row.state
         alarm = _alarm_text(row, local)
-        lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
+        lines.append((shorten(s.robot, 40), shorten(s.joint, 40),
                       _wear_text(s), _trend_text(s), alarm, crossing_text(row, local=local),
                       str(s.experiments),
                       iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))

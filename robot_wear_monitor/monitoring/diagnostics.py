@@ -19,9 +19,8 @@ from dataclasses import dataclass
 import math
 from typing import Mapping, Optional, TYPE_CHECKING
 
-from robot_wear_monitor.errors import shorten
 from robot_wear_monitor.estimation.report import meaningful_std  # noqa: F401 (re-export)
-from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.text import BEYOND_HORIZON, fmt_number, UNKNOWN
 
 if TYPE_CHECKING:
     from robot_wear_monitor.estimation.intervals import WearInterval
@@ -42,34 +41,6 @@ class DiagnosticReport:
             if k == key:
                 return v
         raise KeyError(key)
-
-
-#: What a person reads for a number that is not known (never 'nan').
-UNKNOWN = 'unknown'
-#: What a person reads for a std the estimate does not report (the interval says it).
-STD_NOT_REPORTED = 'not reported (see the interval)'
-#: What a person reads for an open end of a forecast (never 'inf' or 'nan').
-BEYOND_HORIZON = 'beyond the forecast horizon'
-
-
-def clean_text(text: str, *, limit: int = 200) -> str:
-    """
-    Return ``text`` safe for a terminal line: control characters escaped, cut at ``limit``.
-
-    Names come from recordings and histories other people wrote: a newline, an escape
-    sequence or a carriage return in a joint's name must not forge or hide a line of output.
-    """
-    return shorten(text, limit)
-
-
-def fmt_number(value: float, digits: int = 4, *, missing: str = UNKNOWN) -> str:
-    """
-    Return ``value`` with ``digits`` significant digits; ``missing`` when not finite.
-
-    Text a person reads never says 'nan' or 'inf' (JSON says null instead).
-    """
-    value = float(value)
-    return f'{value:.{digits}g}' if math.isfinite(value) else missing
 
 
 #: Rejections that the friction experiment itself produces (ramps too short to be a pass, a

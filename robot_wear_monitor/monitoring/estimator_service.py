@@ -28,10 +28,8 @@ from robot_wear_monitor.estimation.plausibility import check_levels, Plausibilit
 from robot_wear_monitor.experiment.levels import FrictionExperiment
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, LatchMoved, WearHistory
 from robot_wear_monitor.model.params import ParameterSet
-from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,
-                                                       forecast_text, interval_text,
-                                                       meaningful_std, STD_NOT_REPORTED,
-                                                       trend_values)
+from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, forecast_text,
+                                                       interval_text, meaningful_std, trend_values)
 from robot_wear_monitor.monitoring.prepared import Prepared, PreparedEstimates
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC)
@@ -41,6 +39,7 @@ from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK,
                                                     DIAGNOSTIC_WARN, FrictionLevelsMessage,
                                                     MessageError, MessageKit)
+from robot_wear_monitor.text import fmt_number, STD_NOT_REPORTED
 
 if TYPE_CHECKING:
     from robot_wear_monitor.estimation.estimator import WearEstimate, WearEstimates

@@ -22,12 +22,12 @@ import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
-from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, fmt_number,
-                                                       ROUTINE_REJECTIONS)
+from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport, ROUTINE_REJECTIONS
 from robot_wear_monitor.monitoring.node_config import IDLE_GAP_S, SEGMENTER_FIELDS
 from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
                                                     MessageError, MessageKit)
+from robot_wear_monitor.text import fmt_number
 
 if TYPE_CHECKING:
     from robot_wear_monitor.experiment.segmentation import ChunkSegmenter, SegmenterConfig

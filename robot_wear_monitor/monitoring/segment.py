@@ -17,8 +17,9 @@ import io
 import os
 from typing import Any, Mapping, Optional, Sequence
 
-from robot_wear_monitor.errors import escaped, InputError
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.text import escaped
 
 #: Columns of the level CSV, in order.
 LEVEL_COLUMNS = ('speed', 'friction', 'friction_std_error', 'tau_forward', 'tau_backward',
@@ -201,7 +202,7 @@ def levels_csv_text(rows: Sequence[tuple[FrictionLevel, Any, str]], *,
     ``robot``: a last column ``robot`` with this name (none when None); ``extra``: more
     columns after it, name -> one value per row (a float written with 6 significant digits).
     ``terminal``: the text goes to a terminal; the text cells (experiment, joint, robot, extra
-    text) have their control characters escaped (:func:`~robot_wear_monitor.errors.escaped`),
+    text) have their control characters escaped (:func:`~robot_wear_monitor.text.escaped`),
     so that a joint's name from a recording reaches no terminal raw (a file keeps the text).
     """
     text = io.StringIO()

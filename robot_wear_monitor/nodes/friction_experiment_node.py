@@ -19,7 +19,6 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from robot_wear_monitor.errors import escaped
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
 from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, rejections_by_joint
@@ -34,6 +33,7 @@ from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS
                                           FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
 from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import stamp_to_seconds
+from robot_wear_monitor.text import escaped
 from sensor_msgs.msg import JointState
 
 DIAGNOSTICS_PERIOD_S = 1.0

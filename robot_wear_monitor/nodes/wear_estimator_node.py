@@ -16,7 +16,7 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from robot_wear_monitor.errors import escaped, InputError
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
@@ -35,6 +35,7 @@ from robot_wear_monitor.nodes.qos import (ALARM_QOS, DIAGNOSTICS_QOS, ESTIMATE_Q
                                           FRICTION_LEVELS_QOS)
 from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import alarm_to_msg
+from robot_wear_monitor.text import escaped
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Bool, Float64, Float64MultiArray
 from std_srvs.srv import Trigger

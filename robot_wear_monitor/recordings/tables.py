@@ -24,12 +24,13 @@ import warnings
 
 import numpy as np
 from numpy.typing import NDArray
-from robot_wear_monitor.errors import InputError, shorten
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import (raw_run_segmenter_config,
                                                                  SegmenterConfig)
 from robot_wear_monitor.input_files import (MAX_LEVEL_TABLE_BYTES, MAX_RAW_RUN_BYTES,
                                             MAX_RAW_RUN_SAMPLES, MAX_TABLE_LINE_CHARS,
                                             read_text_file, TextLines)
+from robot_wear_monitor.text import shorten
 
 FloatArray = NDArray[np.float64]
 

@@ -7,8 +7,8 @@ import json
 import pytest
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.cli.history import ALARM_LOG_COLUMNS
-from robot_wear_monitor.fleet.ranking import iso_time
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.text import iso_time
 
 #: the experiments' stamps, in the past: the alarm log orders a raise by its experiment's time
 #: and an acknowledgement or a reset by its wall time (now)

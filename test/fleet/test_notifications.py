@@ -30,8 +30,8 @@ from robot_wear_monitor.fleet.notifications import (load_notification_config,
                                                     NotificationConfigError, notify_forever,
                                                     notify_once)
 from robot_wear_monitor.fleet.notify_config import notification_config_from_mapping
-from robot_wear_monitor.fleet.ranking import iso_time
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.text import iso_time
 from robot_wear_monitor.yaml_files import load_yaml_file
 from wear_testing.paths import REPO_ROOT
 import yaml

@@ -3,9 +3,9 @@
 import json
 import math
 
-from robot_wear_monitor.fleet.ranking import (fleet_csv_rows, fleet_table, fleet_view, iso_time,
-                                              STALE_FACTOR)
+from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view, STALE_FACTOR
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
+from robot_wear_monitor.text import iso_time
 
 HOUR_S = 3600.0
 T0_S = 1.75e9

@@ -3,7 +3,8 @@
 import math
 
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.monitoring.diagnostics import fmt_number, meaningful_std, RejectionLog
+from robot_wear_monitor.monitoring.diagnostics import meaningful_std, RejectionLog
+from robot_wear_monitor.text import fmt_number
 
 
 def test_rejection_log_reports_each_rejection_once_and_at_most_once_per_period():
