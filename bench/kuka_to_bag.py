@@ -25,7 +25,7 @@ Usage::
     python3 bench/kuka_to_bag.py OUT_BAG [--kuka-dir DIR] [--storage mcap|sqlite3]
         [--test-set joint3 ...] [--runs-per-set N]
 
-Segment a joint of the bag with ``kuka_segmenter_config(joint='iiwa_joint_N')``: it finds the
+Segment a joint of the bag with ``raw_run_segmenter_config(joint='iiwa_joint_N')``: it finds the
 same passes as the raw-run path (test/recordings/test_kuka_bag.py).
 """
 

@@ -186,7 +186,8 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
 
     Every forward/backward pair of a run gives one level (segmentation of
     :mod:`robot_wear_monitor.segmentation`, settings of
-    :func:`robot_wear_monitor.recordings.tables.kuka_segmenter_config`); link-side rad/s and N.m.
+    :func:`~robot_wear_monitor.experiment.segmentation_settings.raw_run_segmenter_config`);
+    link-side rad/s and N.m.
 
     Columns: ``speed``, ``friction`` (sign flipped when ``flip_sign``, as the data's author did,
     so that friction is positive), ``friction_std_error``, ``experiment`` (the run),
@@ -209,10 +210,11 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     """
     from robot_wear_monitor.experiment.position_bins import low_rate_reason
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
-    from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_kuka_run,
-                                                      slow_run_config, with_standstill_speed)
+    from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
+    from robot_wear_monitor.recordings.tables import (read_kuka_run, slow_run_config,
+                                                      with_standstill_speed)
 
-    settings = config if config is not None else kuka_segmenter_config()
+    settings = config if config is not None else raw_run_segmenter_config()
     if standstill_speed_rad_s is not None:  # the user's threshold, also for slow runs
         settings = with_standstill_speed(settings, standstill_speed_rad_s)
     sign = -1.0 if flip_sign else 1.0

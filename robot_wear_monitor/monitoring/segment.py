@@ -68,12 +68,13 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     from robot_wear_monitor.experiment.position_bins import (low_rate_reason,
                                                              position_binned_levels)
     from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
-    from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, read_raw_csv,
-                                                      slow_run_config, with_standstill_speed)
+    from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
+    from robot_wear_monitor.recordings.tables import (read_raw_csv, slow_run_config,
+                                                      with_standstill_speed)
     t, q, v, e = read_raw_csv(path)
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
                                        ('torque_scale', torque_scale)) if val is not None}
-    config = kuka_segmenter_config(**overrides)
+    config = raw_run_segmenter_config(**overrides)
     if standstill_speed_rad_s is not None:  # the user's threshold, also for a slow run
         config = with_standstill_speed(config, standstill_speed_rad_s)
     if position_bins is not None:

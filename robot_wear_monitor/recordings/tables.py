@@ -8,7 +8,8 @@ sensor [N m], raw sign).  The author's processed tables (``processed_original/*.
 row per speed: mean joint velocity [rad/s] and mean torque [N m].
 
 For the segmenter, the iiwa's sensors are on the link side, so ``gear_ratio`` is 1 and
-``torque_scale`` is 1 (levels in N m and link-side rad/s): see :func:`kuka_segmenter_config`.
+``torque_scale`` is 1 (levels in N m and link-side rad/s): see
+:func:`~robot_wear_monitor.experiment.segmentation_settings.raw_run_segmenter_config`.
 """
 
 from __future__ import annotations
@@ -216,15 +217,16 @@ def read_author_table(path: str | os.PathLike) -> tuple[FloatArray, FloatArray]:
     return data[order, 0].copy(), data[order, 1].copy()
 
 
-def kuka_segmenter_config(**overrides) -> SegmenterConfig:
+def kuka_segmenter_config(**overrides: Any) -> SegmenterConfig:
     """
-    Return the segmenter settings for the KUKA iiwa runs (link-side sensors, N m).
+    Return :func:`~robot_wear_monitor.experiment.segmentation_settings.raw_run_segmenter_config`.
 
-    The raw-run set of the settings' owner,
-    :data:`~robot_wear_monitor.experiment.segmentation_settings.RAW_RUN_SETTINGS` (gear ratio
-    and torque scale 1, levels in link-side rad/s and N m; standstill 0.03 rad/s).  Keyword
-    arguments override any field.
+    Deprecated (a :class:`DeprecationWarning`; removed in the release after next): the same
+    settings under their one name, ``raw_run_segmenter_config``.
     """
+    warnings.warn('robot_wear_monitor.recordings.tables.kuka_segmenter_config is deprecated and '
+                  'will be removed: use robot_wear_monitor.experiment.segmentation_settings.'
+                  'raw_run_segmenter_config', DeprecationWarning, stacklevel=2)
     return raw_run_segmenter_config(**overrides)
 
 

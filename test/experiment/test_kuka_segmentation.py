@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 from robot_wear_monitor.experiment.segmentation import segment_batch, StreamingSegmenter
-from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, list_kuka_runs,
-                                                  read_author_table, read_kuka_run)
+from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
+from robot_wear_monitor.recordings.tables import list_kuka_runs, read_author_table, read_kuka_run
 
 TABLES = {1: 'JOINT1', 5: 'JOINT5', 6: 'JOINT6', 7: 'JOINT7'}
 
@@ -12,7 +12,7 @@ TABLES = {1: 'JOINT1', 5: 'JOINT5', 6: 'JOINT6', 7: 'JOINT7'}
 def _levels(path):
     run = read_kuka_run(path)
     return segment_batch(time_s=run.t_s, position_rad=run.q_rad, velocity_rad_s=run.dq_rad_s,
-                         effort=run.tau_measured_Nm, config=kuka_segmenter_config())
+                         effort=run.tau_measured_Nm, config=raw_run_segmenter_config())
 
 
 def _curve(kuka_dir, joint):
@@ -50,7 +50,7 @@ def test_friction_matches_author_tables(kuka_dir, joint):
 def test_streaming_equals_batch_on_measured_run(kuka_dir):
     path = list_kuka_runs(kuka_dir, test_set='joint7')[0]
     run = read_kuka_run(path)
-    segmenter = StreamingSegmenter(kuka_segmenter_config())
+    segmenter = StreamingSegmenter(raw_run_segmenter_config())
     levels = []
     for t, q, v, e in zip(*run):
         levels += segmenter.add_sample(time_s=t, position_rad=q, velocity_rad_s=v, effort=e)

@@ -10,8 +10,8 @@ import pytest
 from robot_wear_monitor.cli import main
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.position_bins import position_binned_levels
+from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
 from robot_wear_monitor.monitoring.segment import segment_raw_csv
-from robot_wear_monitor.recordings.tables import kuka_segmenter_config
 from wear_testing.direct_drive_arm import magnitude, raw_run
 
 SPEEDS = np.linspace(0.35, 1.05, 13)  # rad/s, 13 set-points as the lab's arm
@@ -90,4 +90,4 @@ def test_position_bins_refuse_a_bag_and_a_bad_count(tmp_path, capsys):
     assert '--position-bins is for a raw CSV' in capsys.readouterr().err
     with pytest.raises(InputError, match='expected an integer >= 1, got 0'):
         position_binned_levels(time_s=[0.0], position_rad=[0.0], velocity_rad_s=[0.0],
-                               effort=[0.0], config=kuka_segmenter_config(), n_bins=0)
+                               effort=[0.0], config=raw_run_segmenter_config(), n_bins=0)

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 from robot_wear_monitor.experiment import segmentation
-from robot_wear_monitor.experiment.segmentation_settings import (RAW_RUN_SETTINGS,
-                                                                 SegmenterConfig,
+from robot_wear_monitor.experiment.segmentation_settings import (raw_run_segmenter_config,
+                                                                 RAW_RUN_SETTINGS, SegmenterConfig,
                                                                  stream_segmenter_config,
                                                                  STREAM_SETTINGS)
 from robot_wear_monitor.experiment.simulation import JointSimConfig, segmenter_config_for
@@ -56,7 +56,7 @@ def test_every_constructor_takes_its_set_from_the_owner():
         if name != 'max_gap_s':  # 5 samples at the simulated rate
             assert getattr(simulated, name) == value, name
     assert simulated.max_gap_s == pytest.approx(5.0 / sim.sample_rate_hz)
-    raw = kuka_segmenter_config()
+    raw = raw_run_segmenter_config()
     for name, value in RAW_RUN_SETTINGS.items():
         assert getattr(raw, name) == value, name
     assert raw.standstill_speed_rad_s == 0.03  # measured raw runs' results do not move
@@ -69,3 +69,10 @@ def test_the_split_modules_are_handed_on_by_segmentation():
     assert segmentation.SegmenterConfig is segmentation_settings.SegmenterConfig
     for module in (assembly, passes, segmentation_settings, segmentation):
         assert len(Path(module.__file__).read_text().splitlines()) < 800
+
+
+def test_the_old_name_of_the_raw_run_settings_warns_and_gives_the_same_settings():
+    with pytest.warns(DeprecationWarning, match='raw_run_segmenter_config'):
+        old = kuka_segmenter_config(joint='iiwa_joint_2', gear_ratio=3.0)
+    assert old == raw_run_segmenter_config(joint='iiwa_joint_2', gear_ratio=3.0)
+    assert old != raw_run_segmenter_config(joint='iiwa_joint_2')

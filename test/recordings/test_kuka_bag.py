@@ -3,7 +3,7 @@ The KUKA iiwa raw runs as one MCAP bag of all 7 joints: the same passes as the r
 
 ``bench/kuka_to_bag.py`` lays the 80 raw runs on one time line in one bag; each joint's stream
 of that bag, read with :func:`iter_joint_chunks` and segmented with the same
-``kuka_segmenter_config`` as the raw-run path, must give the levels of the raw runs of that
+``raw_run_segmenter_config`` as the raw-run path, must give the levels of the raw runs of that
 joint, run after run.
 
 The conversion shifts each run's time axis by a whole number of nanoseconds (``offset_ns``) to
@@ -25,9 +25,9 @@ import sys
 import numpy as np
 import pytest
 from robot_wear_monitor.experiment.segmentation import segment_batch
+from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
 from robot_wear_monitor.recordings.bags import iter_joint_chunks, JOINT_STATE_TYPE, TYPESTORE
-from robot_wear_monitor.recordings.tables import (kuka_segmenter_config, list_kuka_runs,
-                                                  read_kuka_run)
+from robot_wear_monitor.recordings.tables import list_kuka_runs, read_kuka_run
 from wear_testing.paths import REPO_ROOT
 
 FIELDS = ('time_s', 'position_rad', 'velocity_rad_s', 'effort')
@@ -66,7 +66,7 @@ def _raw_levels(kuka_dir, run, offset_ns=None):
                                  1_000_000_000)
         time_s = sec + nanosec * 1e-9
     return segment_batch(time_s=time_s, position_rad=data.q_rad, velocity_rad_s=data.dq_rad_s,
-                         effort=data.tau_measured_Nm, config=kuka_segmenter_config()).levels
+                         effort=data.tau_measured_Nm, config=raw_run_segmenter_config()).levels
 
 
 def test_the_bag_holds_every_run_and_all_seven_joints(kuka_dir, converted):
@@ -105,7 +105,7 @@ def test_each_joint_of_the_bag_gives_the_passes_of_its_raw_runs(kuka_dir, conver
     script, bag, placed, stream, joints = converted
     compared = 0
     for joint in script.JOINT_NAMES:
-        found = segment_batch(**joints[joint], config=kuka_segmenter_config(joint=joint)).levels
+        found = segment_batch(**joints[joint], config=raw_run_segmenter_config(joint=joint)).levels
         runs = [run for run in placed if run.joint == joint]
         exact = [level for run in runs for level in _raw_levels(kuka_dir, run, run.offset_ns)]
         own = [level for run in runs for level in _raw_levels(kuka_dir, run)]
@@ -131,7 +131,7 @@ def test_each_joint_of_the_bag_gives_the_passes_of_its_raw_runs(kuka_dir, conver
 
 def _kuka_node_config(path):
     """Write a node config: every joint, the raw-run segmenter settings, speeds discovered."""
-    config = kuka_segmenter_config()
+    config = raw_run_segmenter_config()
     names = ('gear_ratio', 'torque_scale', 'standstill_speed_rad_s', 'speed_tolerance_fraction',
              'speed_tolerance_rad_s', 'min_duration_s', 'trim_s', 'min_samples',
              'min_window_rad', 'max_gap_s')
