@@ -22,11 +22,10 @@ import re
 from typing import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.model.extensions import Factor, tensor_basis
 
-FloatArray = NDArray[np.float64]
 
 #: Columns that are never candidates (the response and its standard error).
 NOT_CANDIDATES = ('friction', 'friction_std_error')

@@ -13,9 +13,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import as_text, AuditTable, Base, design_matrix, fit_model
-
-FloatArray = NDArray[np.float64]
 
 
 def fold_indices(table: AuditTable, n_folds: int, seed: int) -> tuple[NDArray[np.int_], str]:

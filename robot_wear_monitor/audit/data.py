@@ -15,13 +15,13 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.input_files import (csv_file_rows, MAX_LEVEL_TABLE_BYTES,
                                             MAX_TABLE_LINE_CHARS, TextLines)
 from robot_wear_monitor.text import escaped, shorten
 
-FloatArray = NDArray[np.float64]
 
 #: The models an audit identifies: (4) per group, (5), (8).
 MODELS = ('speed', 'nominal', 'complete')

@@ -17,11 +17,11 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.cross_validation import cv_rms
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, Fit, fit_model,
                                               speed_base)
 
-FloatArray = NDArray[np.float64]
 
 #: The derived group column of the per-direction model: the group's value and the direction.
 DIRECTION_GROUP = 'group_direction'

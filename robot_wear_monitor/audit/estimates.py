@@ -18,10 +18,9 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.model.params import ParameterSet
-
-FloatArray = NDArray[np.float64]
 
 
 def _rms(x: FloatArray) -> float:

@@ -19,10 +19,9 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.model.params import FrictionModel
 from scipy import optimize
-
-FloatArray = NDArray[np.float64]
 
 
 # --------------------------------------------------------------------------- the table

@@ -33,7 +33,7 @@ import math
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.export import parameter_set_yaml
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, fit_model, multistart_fit,
@@ -52,8 +52,6 @@ from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, parameter_set_from_mapping,
                                              ParameterSet)
 from scipy import optimize
-
-FloatArray = NDArray[np.float64]
 
 
 _MEASURE_MORE = {

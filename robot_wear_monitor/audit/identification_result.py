@@ -13,10 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.json_values import finite_or_none, json_clean
 from robot_wear_monitor.model.params import (ParameterSet)
-
-FloatArray = NDArray[np.float64]
 
 
 #: The twelve parameters of the nominal model (5), in the order of the parameter-set YAML.

@@ -17,14 +17,13 @@ import re
 from typing import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.data import is_bag, load_audit_data
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.audit.identification_result import (GOOD_SPEEDS, MIN_SPEEDS,
                                                             MIN_WEAR_SPEEDS, NOMINAL_PARAMETERS)
 from robot_wear_monitor.errors import InputError
-
-FloatArray = NDArray[np.float64]
 
 
 def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | None = None,

@@ -13,10 +13,9 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from scipy import spatial
-
-FloatArray = NDArray[np.float64]
 
 
 def noise_floor(*, table: AuditTable, residual: FloatArray, n_parameters: int,

@@ -17,11 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import FrictionModel, ParameterSet
 
-FloatArray = NDArray[np.float64]
 
 #: Speeds equal within this relative step are one speed (as ``distinct_count`` counts them).
 SPEED_RESOLUTION = 0.02

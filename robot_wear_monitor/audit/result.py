@@ -10,14 +10,11 @@ from dataclasses import dataclass, field
 import math
 from typing import Mapping
 
-import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.noise import LackOfFit
 from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import extension_to_mapping
 from robot_wear_monitor.model.params import ParameterSet
-
-FloatArray = NDArray[np.float64]
 
 
 #: What the audit's friction numbers are in (the table's own unit; nothing converts it).

@@ -21,7 +21,7 @@ import math
 from typing import Any, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.candidates import (candidate_columns, families, make_variable,
                                                  make_variables, periodic_frequencies, Variable,
                                                  with_experiment_order, with_position_window)
@@ -46,7 +46,6 @@ from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import Factor
 from robot_wear_monitor.model.params import ParameterSet
 
-FloatArray = NDArray[np.float64]
 
 #: Fewest distinct speeds per group for the five-parameter speed model (4).
 MIN_SPEEDS = 6

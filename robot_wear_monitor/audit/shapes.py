@@ -16,12 +16,10 @@ import math
 from typing import Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.candidates import factor_columns, speed_factor, Variable
 from robot_wear_monitor.audit.fitting import AuditTable, Base, orthonormal
 from robot_wear_monitor.model.extensions import AddedTerm, Factor
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -18,10 +18,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import orthonormal
 from scipy import optimize, stats
-
-FloatArray = NDArray[np.float64]
 
 
 def nested_test(q0: FloatArray, residual: FloatArray, basis: FloatArray,

@@ -14,7 +14,6 @@ import math
 from typing import Mapping, Optional
 
 import numpy as np
-from numpy.typing import NDArray
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, multistart_fit,
                                               parameter_errors, speed_base)
@@ -22,8 +21,6 @@ from robot_wear_monitor.audit.identification_result import Parameter
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.params import DirectionTerms, ParameterSet, SIGMA_MIN
-
-FloatArray = NDArray[np.float64]
 
 
 # --------------------------------------------------------------------------- model (4)

@@ -22,11 +22,10 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.estimation import estimator as core
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
-
-FloatArray = NDArray[np.float64]
 
 
 class _StackedProblem(core._WhitenedProblem):

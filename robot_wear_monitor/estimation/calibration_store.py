@@ -22,12 +22,12 @@ import os
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.input_files import MAX_JSON_BYTES, read_text_file
 from robot_wear_monitor.model.params import ParameterSet
 
-FloatArray = NDArray[np.float64]
 
 #: Wear values [-] at which the cutoff of the likelihood-ratio statistic is calibrated.
 CALIBRATION_WEAR = (0.0, 3.0, 7.0, 11.0, 15.0, 20.0, 27.0, 35.0, 50.0, 75.0, 110.0, 150.0)

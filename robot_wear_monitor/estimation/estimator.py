@@ -32,13 +32,13 @@ from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.special_functions import chi2_survival, log_sum_exp
 from robot_wear_monitor.estimation.temperature_only import estimate_temperature
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
-FloatArray = NDArray[np.float64]
 
 # Starting grids: equidistant in the whitened model (steps of at most _GRID_SPACING_SIGMA noise
 # standard deviations) and at most the given steps of T [degC] and w [-].

@@ -42,6 +42,7 @@ from typing import Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.calibration_store import (
     CACHE_ENV, calibration_cache_dir, calibration_key, CALIBRATION_RUNS, CALIBRATION_SEED,
@@ -64,7 +65,6 @@ __all__ = ['CACHE_ENV', 'calibrate_cutoffs', 'calibration_cache_dir', 'calibrati
            'WEAR_GRID_MAX', 'wear_intervals', 'WearInterval', 'WearIntervals',
            'write_shipped_calibrations']
 
-FloatArray = NDArray[np.float64]
 
 #: Default upper end of the wear grid [-] (the estimator's starting grid ends there too).
 WEAR_GRID_MAX = 150.0

@@ -25,9 +25,9 @@ import math
 from statistics import NormalDist
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+from robot_wear_monitor.array_types import FloatArray
 
-FloatArray = NDArray[np.float64]
 
 #: erf(x) is +-1 to double precision from here on (math.erf(6.0) == 1.0)
 _ERF_SATURATED = 6.0

@@ -16,7 +16,8 @@ import sys
 from typing import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.atomic_files import save_figure
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import design_cost
@@ -24,7 +25,6 @@ from robot_wear_monitor.estimation.estimator import estimate_wear, validate_spee
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
-FloatArray = NDArray[np.float64]
 
 _ROWS_PER_CALL = 4000  # estimates per call of the estimator (progress granularity)
 

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.estimation.special_functions import chi2_survival
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
-FloatArray = NDArray[np.float64]
 
 #: Temperatures of the start grid over the set's bounds.
 GRID_POINTS = 1001

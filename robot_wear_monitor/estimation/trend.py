@@ -64,13 +64,13 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
 from robot_wear_monitor.estimation.intervals import wear_grid
 from robot_wear_monitor.estimation.special_functions import erf
 from robot_wear_monitor.json_values import finite_or_none
 
-FloatArray = NDArray[np.float64]
 
 _LOG_FLOOR = -1e30  # stands for log 0 (-inf) in the interpolation of the rows
 #: rate transition tables kept per filter, one per distinct elapsed value (18 kB each)

@@ -66,11 +66,11 @@ from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation_settings import SegmenterConfig
 
-FloatArray = NDArray[np.float64]
 
 #: Sample and message rejection reasons, in the order they are checked.
 SAMPLE_REASONS = ('joint_missing', 'missing_position', 'missing_velocity', 'missing_effort',

@@ -32,9 +32,8 @@ from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
-
-FloatArray = NDArray[np.float64]
 
 
 class PlanError(InputError):

@@ -32,11 +32,11 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation import SegmenterConfig
 
-FloatArray = NDArray[np.float64]
 
 #: Fewest samples per direction in a bin for the bin to count.
 MIN_PER_BIN = 2

@@ -37,6 +37,7 @@ from typing import Any, Iterator, Optional, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.planning import plan_experiment, PlanConfig
@@ -48,7 +49,6 @@ from robot_wear_monitor.model.friction import friction as friction_model
 from robot_wear_monitor.model.params import FrictionModel, load_parameter_set, ParameterSet
 from robot_wear_monitor.text import shorten
 
-FloatArray = NDArray[np.float64]
 
 #: Speed grid of the real data, eq. (27) of the paper [rad/s, motor side].
 PAPER_SPEEDS_RAD_S = (2.1, 8.7, 15.3, 21.9, 28.5, 35.1, 41.7, 82.2, 133.5, 184.7, 236.2, 287.1)

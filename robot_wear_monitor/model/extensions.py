@@ -31,8 +31,8 @@ from typing import Any, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from robot_wear_monitor.array_types import FloatArray
 
-FloatArray = NDArray[np.float64]
 
 #: The variables the wear monitor measures or estimates online.
 ONLINE_VARIABLES = ('speed', 'temperature', 'load', 'wear')

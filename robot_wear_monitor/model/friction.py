@@ -13,10 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.model.params import DirectionTerms, FrictionModel
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ import math
 from typing import Any, Mapping, Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport, ROUTINE_REJECTIONS
@@ -35,8 +35,6 @@ if TYPE_CHECKING:
 #: A standstill at least this long [s] is a pause between experiments, not a turn inside one
 #: (the planned experiment dwells 0.1-0.2 s at its turns); used at the cut of a recording.
 _PAUSE_S = 0.5
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass

@@ -24,7 +24,7 @@ from typing import Any
 import warnings
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import (raw_run_segmenter_config,
                                                                  SegmenterConfig)
@@ -33,7 +33,6 @@ from robot_wear_monitor.input_files import (MAX_LEVEL_TABLE_BYTES, MAX_RAW_RUN_B
                                             read_text_file, TextLines)
 from robot_wear_monitor.text import shorten
 
-FloatArray = NDArray[np.float64]
 
 KUKA_COLUMNS = ('t_s', 'q_rad', 'dq_rad_s', 'tau_measured_Nm')
 _RUN_NAME = re.compile(r'^(?P<set>joint(?P<joint>\d)(?:_[a-z_]+?)?)_vel_(?P<label>[0-9p]+)$')

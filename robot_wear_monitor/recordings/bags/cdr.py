@@ -24,9 +24,8 @@ from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.recordings.bags.common import BagError
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

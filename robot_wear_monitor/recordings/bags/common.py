@@ -12,8 +12,6 @@ import os
 from pathlib import Path
 from typing import Any, Literal, TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import NDArray
 from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.recordings.bags.message_types import monitor_typestore
 from robot_wear_monitor.yaml_files import load_yaml_file
@@ -24,8 +22,6 @@ if TYPE_CHECKING:
 
     #: rosbags' whole ROS 2 Jazzy typestore (module ``__getattr__``: loaded on first use)
     TYPESTORE: Typestore
-
-FloatArray = NDArray[np.float64]
 
 
 #: rosbags typestore of the ROS 2 Jazzy types the monitor reads and writes

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Callable, Generator, Iterator, Optional, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.recordings.bags.cdr import decode_joint_state, JointChunk, MultiDecoder
 from robot_wear_monitor.recordings.bags.common import (BagError, joint_state_connections,
                                                        JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
@@ -28,8 +28,6 @@ from robot_wear_monitor.recordings.bags.mcap_chunks import (bulk_source, bulk_so
                                                             BulkSource)
 from robot_wear_monitor.recordings.bags.recovery import (iter_unfinished_mcap, Recovery,
                                                          unfinished_mcap_files)
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass

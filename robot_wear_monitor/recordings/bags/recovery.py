@@ -12,11 +12,7 @@ from pathlib import Path
 import struct
 from typing import Iterator, Sequence
 
-import numpy as np
-from numpy.typing import NDArray
 from robot_wear_monitor.recordings.bags.common import BagError, JOINT_STATE_TYPE
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

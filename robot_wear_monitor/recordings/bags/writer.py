@@ -17,6 +17,7 @@ from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.atomic_files import (output_lock, remove_stale_partials,
                                              staging_folder)
 from robot_wear_monitor.recordings.bags.cdr import Layout, parse_layout
@@ -25,8 +26,6 @@ from robot_wear_monitor.recordings.bags.common import (BAG_VERSION, BagError, JO
                                                        storage_plugin, typestore_of)
 from robot_wear_monitor.yaml_files import shorten
 from rosbags.rosbag2 import Writer
-
-FloatArray = NDArray[np.float64]
 
 
 class BagWriter:
