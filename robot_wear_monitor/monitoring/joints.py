@@ -84,7 +84,7 @@ def merge_diagnostics(arrays: Sequence[Any]) -> Any:
     return merged
 
 
-class FrictionExperimentFleet:
+class JointExperiments:
     """
     The friction-experiment services of the monitored joints (see the module docstring).
 
@@ -181,7 +181,7 @@ class FrictionExperimentFleet:
         return merge_diagnostics(arrays) if arrays else None
 
 
-class WearEstimatorFleet:
+class JointEstimators:
     """
     The wear estimators of the monitored joints, sharing one history.
 

@@ -32,7 +32,7 @@ from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.diagnostics import split_rejections
 from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
                                                               FrictionExperimentService)
-from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, WearEstimatorFleet
+from robot_wear_monitor.monitoring.joints import JointEstimators, JointExperiments
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        load_node_parameters, WEAR_ESTIMATOR_NODE)
 from robot_wear_monitor.monitoring.topics import FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS
@@ -182,7 +182,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     estimated.
 
     Completed experiments are estimated ``batch_experiments`` at a time (one batched
-    refinement, :meth:`WearEstimatorFleet.prepare`), then handed to the estimators one by one
+    refinement, :meth:`JointEstimators.prepare`), then handed to the estimators one by one
     in time order: the trend, alarm, history and outputs are those of one-by-one estimation,
     number for number (1: no batching).
 
@@ -194,7 +194,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     :raises ParameterError: invalid parameters or parameter set.
 
     """
-    experiments = FrictionExperimentFleet(experiment_parameters, source='replay parameters')
+    experiments = JointExperiments(experiment_parameters, source='replay parameters')
     bar: Any = nullcontext()  # tqdm is loaded for a progress bar only
     if progress:
         from tqdm import tqdm
@@ -217,8 +217,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     try:
         if history_file is not None and str(history_file) != ':memory:':
             lock.enter_context(history.writer_lock(joint=ROBOT_LOCK))
-        estimators = WearEstimatorFleet(estimator_parameters, history=history,
-                                        source='replay parameters')
+        estimators = JointEstimators(estimator_parameters, history=history,
+                                     source='replay parameters')
     except BaseException:
         lock.close()
         history.close()
@@ -316,7 +316,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     return result
 
 
-def _rejections(experiments: FrictionExperimentFleet, estimators: WearEstimatorFleet,
+def _rejections(experiments: JointExperiments, estimators: JointEstimators,
                 stream: Any) -> dict[str, int]:
     """Return every rejection of the replay by reason, summed over the joints."""
     total: dict[str, int] = {}
@@ -396,7 +396,7 @@ def joint_summary(service: FrictionExperimentService, stream: Any,
     return summary
 
 
-def explain_recording(experiments: FrictionExperimentFleet, stream: Any) -> str:
+def explain_recording(experiments: JointExperiments, stream: Any) -> str:
     """Return why a read bag gave nothing: one sentence per monitored joint."""
     if not experiments.services:
         return (f'no joint in the JointState messages of {stream.path} '
@@ -404,8 +404,8 @@ def explain_recording(experiments: FrictionExperimentFleet, stream: Any) -> str:
     return '; '.join(explain_joint(s, stream) for s in experiments.services.values())
 
 
-def _require_experiments(updates: list, estimators: WearEstimatorFleet,
-                         experiments: FrictionExperimentFleet, stream: Any) -> None:
+def _require_experiments(updates: list, estimators: JointEstimators,
+                         experiments: JointExperiments, stream: Any) -> None:
     """Raise NoExperimentError when the recording gave nothing (and nothing was skipped)."""
     if updates or estimators.rejections or any(s.rejections for s in
                                                estimators.services.values()):

@@ -156,7 +156,7 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
     :func:`~robot_wear_monitor.monitoring.replay.replay_parameters`); ``speeds_rad_s``: keep
     only experiments at these motor speeds [rad/s] (``experiment_speeds_rad_s``).
     """
-    from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
+    from robot_wear_monitor.monitoring.joints import JointExperiments
     from robot_wear_monitor.monitoring.replay import (explain_recording, joint_summary,
                                                       NoExperimentError)
     from robot_wear_monitor.recordings.bags import iter_joint_chunks
@@ -167,20 +167,20 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
         experiment = validate_parameters(
             FRICTION_EXPERIMENT_NODE, {**experiment, 'experiment_speeds_rad_s': speeds_rad_s},
             source='--speeds')
-    fleet = FrictionExperimentFleet(experiment, source='segment parameters')
-    stream = iter_joint_chunks(path, joints=fleet.selection, topic=topic,
+    by_joint = JointExperiments(experiment, source='segment parameters')
+    stream = iter_joint_chunks(path, joints=by_joint.selection, topic=topic,
                                require_joints=False)
     found: dict[str, list] = {}
     for chunk in stream:
         for name, samples in chunk.items():
-            service = fleet.service(name)
+            service = by_joint.service(name)
             found.setdefault(name, []).extend(service.add_recording(
                 time_s=samples.time_s, position_rad=samples.position_rad,
                 velocity_rad_s=samples.velocity_rad_s, effort=samples.effort))
-    for service, done in fleet.finish():
+    for service, done in by_joint.finish():
         found.setdefault(service.joint, []).append(done)
     result = SegmentedLevels(rows=[], notes=list(stream.notes))
-    for name, service in fleet.services.items():
+    for name, service in by_joint.services.items():
         experiments = found.get(name, [])
         for level in service.levels:
             k = next((i for i, x in enumerate(experiments)
@@ -189,7 +189,7 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
             result.rows.append((level, k, name))
         result.joints.append(joint_summary(service, stream))
     if not result.rows:
-        raise NoExperimentError(f'no friction level: {explain_recording(fleet, stream)}')
+        raise NoExperimentError(f'no friction level: {explain_recording(by_joint, stream)}')
     return result
 
 

@@ -3,7 +3,7 @@ friction_experiment_node: /joint_states -> friction_levels, one message per expe
 
 Segments the monitored joint(s) into constant-speed friction levels (eq. (3)) and experiments
 with one :class:`robot_wear_monitor.monitoring.experiment_service.FrictionExperimentService` per
-joint (:class:`~robot_wear_monitor.monitoring.joints.FrictionExperimentFleet`: ``joint``, or
+joint (:class:`~robot_wear_monitor.monitoring.joints.JointExperiments`: ``joint``, or
 ``joints``, or ``joints: [all]`` for every joint that appears; per-joint values as
 ``<joint>.<name>`` parameters), and publishes each completed experiment on ``friction_levels``
 (sensor_msgs/JointState: ``velocity`` = speed levels [rad/s], ``effort`` = friction levels,
@@ -21,7 +21,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
-from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet, rejections_by_joint
+from robot_wear_monitor.monitoring.joints import JointExperiments, rejections_by_joint
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
                                                        validate_parameters)
@@ -58,7 +58,7 @@ class FrictionExperimentNode(Node):
         raw = declare_parameters(self, FRICTION_EXPERIMENT_PARAMETERS)
         self.parameters = validate_parameters(FRICTION_EXPERIMENT_NODE, raw,
                                               source=f'{self.get_name()} parameters')
-        self.fleet = FrictionExperimentFleet(
+        self.joints = JointExperiments(
             self.parameters, parameters_for=lambda joint: declare_joint_parameters(
                 self, FRICTION_EXPERIMENT_NODE, FRICTION_EXPERIMENT_PARAMETERS, self.parameters,
                 joint))
@@ -82,11 +82,11 @@ class FrictionExperimentNode(Node):
         self._last_error = ''
         self._last_message_monotonic = None
         self._last_tick_monotonic = None
-        joints = ('every joint of /joint_states' if self.fleet.selection is None else
+        joints = ('every joint of /joint_states' if self.joints.selection is None else
                   ', '.join(f'{s.joint!r} (gear ratio {s.segmenter_config.gear_ratio:g}, '
                             f'torque scale {s.segmenter_config.torque_scale:g}, speeds '
                             f'{_rounded(s.experiment_speeds_rad_s, 3) or "found in the data"})'
-                            for s in self.fleet.services.values()))
+                            for s in self.joints.services.values()))
         self.get_logger().info(
             f'segmenting {joints} of {self.subscription.topic_name}; publishing on '
             f'{self.publisher.topic_name}; '
@@ -96,12 +96,12 @@ class FrictionExperimentNode(Node):
     @property
     def service(self) -> FrictionExperimentService:
         """Return the service of the first monitored joint (the only one without joints)."""
-        return next(iter(self.fleet.services.values()))
+        return next(iter(self.joints.services.values()))
 
     def _all_rejections(self):
         """Return the rejections of every joint by reason (prefixed by the joint if several)."""
         total = rejections_by_joint({joint: service.all_rejections()
-                                     for joint, service in self.fleet.services.items()})
+                                     for joint, service in self.joints.services.items()})
         if self._internal_errors:
             total['internal_error'] = self._internal_errors
         return total
@@ -112,12 +112,12 @@ class FrictionExperimentNode(Node):
         stamp_s = stamp_to_seconds(msg.header.stamp)
         if stamp_s == 0.0:  # unstamped publisher: use the reception time
             stamp_s = node_time_s(self)
-        refused = len(self.fleet.refused)
+        refused = len(self.joints.refused)
         self._publish_all(self._guarded(
-            self.fleet.add_joint_state, stamp_s=stamp_s, name=msg.name,
+            self.joints.add_joint_state, stamp_s=stamp_s, name=msg.name,
             position=msg.position, velocity=msg.velocity, effort=msg.effort))
-        if len(self.fleet.refused) > refused:  # said once per joint; the others go on
-            for joint, error in list(self.fleet.refused.items())[refused:]:
+        if len(self.joints.refused) > refused:  # said once per joint; the others go on
+            for joint, error in list(self.joints.refused.items())[refused:]:
                 self.get_logger().error(f'joint {joint!r} not monitored: {escaped(error)}')
         self._log_new_rejections()
 
@@ -127,7 +127,7 @@ class FrictionExperimentNode(Node):
             return call(*args, **kwargs)
         except Exception as error:  # noqa: BLE001 - the node must outlive any one input
             text = f'{type(error).__name__}: {error}'
-            if self.fleet.services:  # shown in the first joint's diagnostics
+            if self.joints.services:  # shown in the first joint's diagnostics
                 self.service.rejections['internal_error'] += 1
                 self.service.last_error = text
             else:
@@ -141,7 +141,7 @@ class FrictionExperimentNode(Node):
 
     def _rejected_total(self):
         return self._internal_errors + sum(s.rejected_total
-                                           for s in self.fleet.services.values())
+                                           for s in self.joints.services.values())
 
     def _log_new_rejections(self):
         total = self._rejected_total()
@@ -151,10 +151,10 @@ class FrictionExperimentNode(Node):
 
     def on_experiment_event(self, msg):
         """Apply one friction_experiment_runner event; publish the experiment it ends."""
-        services = list(self.fleet.services.values())
+        services = list(self.joints.services.values())
         open_before = [s.open_experiment_id for s in services]
         aborted_before = [s.rejections['aborted_experiment'] for s in services]
-        self._publish_all(self._guarded(self.fleet.handle_experiment_event_msg, msg))
+        self._publish_all(self._guarded(self.joints.handle_experiment_event_msg, msg))
         for service, was_open, aborted in zip(services, open_before, aborted_before):
             open_after = service.open_experiment_id
             if open_after is not None and open_after != was_open:
@@ -177,7 +177,7 @@ class FrictionExperimentNode(Node):
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
         detail = self._last_error or next(
-            (s.last_error for s in self.fleet.services.values() if s.last_error), '')
+            (s.last_error for s in self.joints.services.values() if s.last_error), '')
         log_rejection_report(self.get_logger(), self.rejection_log.report(
             self._all_rejections(), now_s=node_time_s(self), detail=detail))
 
@@ -196,7 +196,7 @@ class FrictionExperimentNode(Node):
         if self._last_message_monotonic is None or blocked:
             return  # after a blocked executor the queued messages come first
         silent_s = now - self._last_message_monotonic
-        for service in self.fleet.services.values():
+        for service in self.joints.services.values():
             if silent_s > service.idle_gap_s:
                 self._publish_all(self._guarded(
                     lambda s=service: [(s, e) for e in s.close_idle()]))
@@ -204,7 +204,7 @@ class FrictionExperimentNode(Node):
     def publish_diagnostics(self):
         """Publish the counts and rejections on /diagnostics, one status per joint."""
         self.close_if_stream_stopped()
-        msg = self.fleet.diagnostics_message(self.kit, stamp_s=node_time_s(self))
+        msg = self.joints.diagnostics_message(self.kit, stamp_s=node_time_s(self))
         if msg is not None:
             self.diagnostics_publisher.publish(msg)
         self.log_rejections()

@@ -3,7 +3,7 @@ wear_estimator_node: friction_levels -> temperature, wear, wear_alarm and /diagn
 
 A thin shell over
 :class:`robot_wear_monitor.monitoring.estimator_service.WearEstimatorService`, one per monitored
-joint (:class:`~robot_wear_monitor.monitoring.joints.WearEstimatorFleet`; the
+joint (:class:`~robot_wear_monitor.monitoring.joints.JointEstimators`; the
 ``friction_levels`` of a joint go to its estimator by ``header.frame_id``): every completed
 experiment gives an estimate of (T, w); the alarm is latched (reliable + transient-local, so a
 late subscriber sees the current state) until ``~/reset_alarm`` (std_srvs/Trigger; with
@@ -20,8 +20,8 @@ from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.estimator_service import WearEstimatorService
-from robot_wear_monitor.monitoring.joints import (output_topic, rejections_by_joint,
-                                                  reset_service_name, WearEstimatorFleet)
+from robot_wear_monitor.monitoring.joints import (JointEstimators, output_topic,
+                                                  rejections_by_joint, reset_service_name)
 from robot_wear_monitor.monitoring.node_config import (expand_history_path, per_joint_outputs,
                                                        validate_parameters, WEAR_ESTIMATOR_NODE,
                                                        WEAR_ESTIMATOR_PARAMETERS)
@@ -72,7 +72,7 @@ class WearEstimatorNode(Node):
         # the shared diagnostics topic first: a joint's advertisement may publish on it
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC,
                                                            _QOS[DIAGNOSTICS_TOPIC])
-        self.fleet = WearEstimatorFleet(
+        self.joints = JointEstimators(
             self.parameters, history=self.history, warm_up=True,
             parameters_for=lambda joint: declare_joint_parameters(
                 self, WEAR_ESTIMATOR_NODE, WEAR_ESTIMATOR_PARAMETERS, self.parameters, joint),
@@ -81,7 +81,7 @@ class WearEstimatorNode(Node):
                                                      self.on_friction_levels,
                                                      FRICTION_LEVELS_QOS)
         self.timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
-        if self.fleet.selection is None:
+        if self.joints.selection is None:
             self.get_logger().info(f'estimating every joint that comes on '
                                    f'{self.subscription.topic_name}; history '
                                    f'{self.history.path}')
@@ -89,7 +89,7 @@ class WearEstimatorNode(Node):
     @property
     def service(self) -> WearEstimatorService:
         """Return the estimator of the first monitored joint (the only one without joints)."""
-        return next(iter(self.fleet.services.values()))
+        return next(iter(self.joints.services.values()))
 
     @property
     def publishers_by_topic(self):
@@ -121,9 +121,9 @@ class WearEstimatorNode(Node):
 
     def publish_alarm(self, joint=None):
         """Publish the latched alarm state of a joint (default: every joint)."""
-        for name in ([joint] if joint is not None else list(self.fleet.services)):
+        for name in ([joint] if joint is not None else list(self.joints.services)):
             self.publishers_by_joint[name][ALARM_TOPIC].publish(
-                alarm_to_msg(self.kit, active=self.fleet.services[name].latch.active))
+                alarm_to_msg(self.kit, active=self.joints.services[name].latch.active))
 
     def publish_diagnostics(self):
         """
@@ -132,7 +132,7 @@ class WearEstimatorNode(Node):
         First take over the resets stored in the history meanwhile (the dashboard's): the
         joint's alarm is published clear at once.
         """
-        for joint, service in self.fleet.services.items():
+        for joint, service in self.joints.services.items():
             try:
                 event = service.follow_history_reset()
             except InputError as error:  # a lost history server: said once per period
@@ -143,7 +143,7 @@ class WearEstimatorNode(Node):
                     f'reset_alarm of {joint!r} stored in the history by '
                     f'{event.user or "the ROS service"!r}: {event.note[:200]!r}')
                 self.publish_alarm(joint)
-        msg = self.fleet.diagnostics_message(self.kit, stamp_s=node_time_s(self))
+        msg = self.joints.diagnostics_message(self.kit, stamp_s=node_time_s(self))
         if msg is not None:
             self.diagnostics_publisher.publish(msg)
         self.log_rejections()
@@ -151,20 +151,20 @@ class WearEstimatorNode(Node):
     def log_rejections(self):
         """Log the inputs rejected since the last report (at most once per 10 s)."""
         counts = rejections_by_joint({joint: service.rejections
-                                      for joint, service in self.fleet.services.items()})
-        for reason, count in self.fleet.rejections.items():
+                                      for joint, service in self.joints.services.items()})
+        for reason, count in self.joints.rejections.items():
             counts[reason] = counts.get(reason, 0) + count
-        detail = next((s.last_rejection for s in reversed(self.fleet.services.values())
-                       if s.last_rejection), self.fleet.last_rejection)
+        detail = next((s.last_rejection for s in reversed(self.joints.services.values())
+                       if s.last_rejection), self.joints.last_rejection)
         log_rejection_report(self.get_logger(), self.rejection_log.report(
             counts, now_s=node_time_s(self), detail=detail))
 
     def on_friction_levels(self, msg):
         """Estimate from one experiment and publish every output."""
         try:
-            service, update = self.fleet.handle_friction_levels(msg)
+            service, update = self.joints.handle_friction_levels(msg)
         except Exception as error:  # noqa: BLE001 - the node must outlive any one input
-            target = self.service if self.fleet.services else None
+            target = self.service if self.joints.services else None
             if target is not None:
                 target.reject('internal_error', f'{type(error).__name__}: {error}')
             self.get_logger().error(f'friction_levels not processed: {type(error).__name__}: '
@@ -187,7 +187,7 @@ class WearEstimatorNode(Node):
     def on_reset_alarm(self, request, response, *, joint=None):
         """Clear the latched alarm of a joint after maintenance (std_srvs/Trigger)."""
         joint = joint if joint is not None else self.service.config.joint
-        service = self.fleet.services[joint]
+        service = self.joints.services[joint]
         response.success, response.message = service.reset_alarm(stamp_s=node_time_s(self))
         self.get_logger().warning(f'reset_alarm of {joint!r}: {escaped(response.message)}')
         self.publish_alarm(joint)

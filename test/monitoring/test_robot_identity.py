@@ -48,12 +48,12 @@ def test_two_robots_with_the_same_recording_keep_their_own_rows(small_bag, tmp_p
 
 
 def test_diagnostics_name_the_robot_in_hardware_id(small_bag):
-    from robot_wear_monitor.monitoring.joints import WearEstimatorFleet
+    from robot_wear_monitor.monitoring.joints import JointEstimators
     kit = rosbags_kit(TYPESTORE)
     for robot, hardware_id in (('r7', 'r7/joint_2'), (None, 'joint_2')):
         _, parameters = replay_parameters(robot=robot)
-        fleet = WearEstimatorFleet(parameters, history=WearHistory(':memory:'), source='test')
-        service = fleet.service('joint_2')
+        estimators = JointEstimators(parameters, history=WearHistory(':memory:'), source='test')
+        service = estimators.service('joint_2')
         message = service.diagnostics_message(kit, stamp_s=1.0)
         assert [status.hardware_id for status in message.status] == [hardware_id]
         [(_, _, _, values)] = diagnostics_from_msg(message)

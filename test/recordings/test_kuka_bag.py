@@ -146,21 +146,21 @@ def _kuka_node_config(path):
 def test_the_replay_path_with_discovery_gives_the_raw_run_levels(kuka_dir, converted,
                                                                  tmp_path):
     """Every joint, speeds found in the data, the bag read in chunks: the raw runs' levels."""
-    from robot_wear_monitor.monitoring.joints import FrictionExperimentFleet
+    from robot_wear_monitor.monitoring.joints import JointExperiments
     from robot_wear_monitor.monitoring.replay import replay_parameters
     script, bag, placed, _, _ = converted
     experiment, _ = replay_parameters(config_file=_kuka_node_config(tmp_path / 'kuka.yaml'))
     assert experiment['experiment_speeds_rad_s'] == ()
-    fleet = FrictionExperimentFleet(experiment)
-    stream = iter_joint_chunks(bag, joints=fleet.selection, chunk_messages=5000)
+    experiments = JointExperiments(experiment)
+    stream = iter_joint_chunks(bag, joints=experiments.selection, chunk_messages=5000)
     for chunk in stream:
         for joint, samples in chunk.items():
-            fleet.service(joint).add_recording(
+            experiments.service(joint).add_recording(
                 time_s=samples.time_s, position_rad=samples.position_rad,
                 velocity_rad_s=samples.velocity_rad_s, effort=samples.effort)
-    fleet.finish()
-    assert list(fleet.services) == list(script.JOINT_NAMES)
-    for joint, service in fleet.services.items():
+    experiments.finish()
+    assert list(experiments.services) == list(script.JOINT_NAMES)
+    for joint, service in experiments.services.items():
         raw = [level for run in placed if run.joint == joint
                for level in _raw_levels(kuka_dir, run)]
         assert len(service.levels) == len(raw) > 0, joint
