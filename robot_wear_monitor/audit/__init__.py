@@ -11,7 +11,7 @@ Modules, by what a newcomer looks for:
 * :mod:`.shapes`: naming the shape of an effect (the term that is added);
 * :mod:`.noise`: the noise floor;
 * :mod:`.run`: the audit loop (:func:`~robot_wear_monitor.audit.run.run_audit`);
-* :mod:`.result`: the result and its JSON/text report; :mod:`.report`: the figures;
+* :mod:`.result`: the result and its JSON/text report; :mod:`.figures`: the figures;
 * :mod:`.export`: the parameter set with the added terms (``audit --out-params``);
 * :mod:`.estimates`: the T and w estimates before and after the extension;
 * :mod:`.identification`: ``identify`` (a parameter set from a robot's own levels).

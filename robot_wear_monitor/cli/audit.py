@@ -85,7 +85,7 @@ def main(args: argparse.Namespace) -> int:
     if levels_out:
         report['levels_out'] = levels_out
     if args.plots:
-        from robot_wear_monitor.audit.report import plot_audit
+        from robot_wear_monitor.audit.figures import plot_audit
         report['figures'] = [str(p) for p in plot_audit(result=result, table=table,
                                                         out_dir=args.plots)]
     if emit_json(args, report):

@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``estimate``: print T-hat [degC] and w-hat with 95 % intervals and the alarm."""
-    from robot_wear_monitor.estimation.report import wear_report
+    from robot_wear_monitor.estimation.wear_report import wear_report
     params = params_from(args)
     if len(args.speeds) != len(args.friction):
         raise InputError(f'--speeds has {len(args.speeds)} values but --friction has '

@@ -145,7 +145,7 @@ def estimate_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> str
 
 def _row(record: Any) -> tuple[Any, float]:
     """Return (record, the std of w-hat the estimate reported: NaN where it reports none)."""
-    from robot_wear_monitor.estimation.report import meaningful_std
+    from robot_wear_monitor.estimation.wear_report import meaningful_std
     return record, meaningful_std(std=record.wear_std, value=record.wear, low=record.wear_low,
                                   high=record.wear_high, open_above=False)
 

@@ -98,7 +98,7 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.audit.export import write_identified_parameter_set
     from robot_wear_monitor.audit.identification import identify
     from robot_wear_monitor.audit.identify_inputs import default_set_name, load_identify_levels
-    from robot_wear_monitor.audit.report import plot_identification
+    from robot_wear_monitor.audit.figures import plot_identification
     from robot_wear_monitor.model.params import load_parameter_set
 
     if (args.wear_test is None) != (args.critical_experiment is None):

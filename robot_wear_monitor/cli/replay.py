@@ -3,7 +3,7 @@
 
 One bag: :func:`robot_wear_monitor.monitoring.replay.replay_bag`; this verb reads the options,
 prints the summary line (one per joint with several joints) or the summary JSON, and draws the
-wear trend (:func:`robot_wear_monitor.reporting.report.plot_replay`).  Many bags (several
+wear trend (:func:`robot_wear_monitor.reporting.replay_report.plot_replay`).  Many bags (several
 paths, a folder of bags, ``--manifest``, or ``--workers``/``--dask``):
 :func:`robot_wear_monitor.fleet.batch.run_batch`, one task per bag, the history as the output.
 """
@@ -121,7 +121,7 @@ def main(args: argparse.Namespace) -> int:
     warn_if_emptier(args.json_out, summary)
     write_json_out(args.json_out, summary)
     if args.plot:
-        from robot_wear_monitor.reporting.report import plot_replay
+        from robot_wear_monitor.reporting.replay_report import plot_replay
         plot_replay(result, args.plot, bag=args.bag, threshold=estimator['wear_threshold'])
     if args.json:
         print_json(summary)

@@ -4,8 +4,6 @@ Diagnostics of the monitoring services: the status type, number text and rejecti
 :class:`DiagnosticReport` is one DiagnosticStatus (level, message, key-values) as the services
 build it; :func:`fmt_number` writes numbers into key-values (JSON takes
 :func:`~robot_wear_monitor.json_values.finite_or_none`),
-:func:`meaningful_std` (of :mod:`robot_wear_monitor.estimation.report`) decides whether a
-standard deviation is worth reporting;
 :func:`interval_text`, :func:`forecast_text` and :func:`trend_values` write an estimate's
 interval and trend into the estimator's status; :data:`ROUTINE_REJECTIONS` and
 :class:`RejectionLog` decide which rejected inputs are defects and say so in the nodes' logs at
@@ -19,7 +17,6 @@ from dataclasses import dataclass
 import math
 from typing import Mapping, Optional, TYPE_CHECKING
 
-from robot_wear_monitor.estimation.report import meaningful_std  # noqa: F401 (re-export)
 from robot_wear_monitor.text import BEYOND_HORIZON, fmt_number, UNKNOWN
 
 if TYPE_CHECKING:

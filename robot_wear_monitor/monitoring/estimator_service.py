@@ -25,11 +25,12 @@ import numpy as np
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import AlarmLatch
 from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
+from robot_wear_monitor.estimation.wear_report import meaningful_std
 from robot_wear_monitor.experiment.levels import FrictionExperiment
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, LatchMoved, WearHistory
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, forecast_text,
-                                                       interval_text, meaningful_std, trend_values)
+                                                       interval_text, trend_values)
 from robot_wear_monitor.monitoring.prepared import Prepared, PreparedEstimates
 from robot_wear_monitor.monitoring.topics import (ALARM_TOPIC, DIAGNOSTICS_TOPIC,
                                                   TEMPERATURE_TOPIC, TREND_TOPIC, WEAR_TOPIC)

@@ -16,9 +16,10 @@ from typing import Any, Mapping, Optional, TYPE_CHECKING
 from robot_wear_monitor.estimation.alarm import (AlarmPolicy, DEFAULT_ALARM_PROBABILITY,
                                                  DEFAULT_ALARM_RULE, WEAR_WARNING)
 from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE, Plausibility, VALID
+from robot_wear_monitor.estimation.wear_report import meaningful_std
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
-from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport, meaningful_std
+from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
 from robot_wear_monitor.recordings import messages
 
 if TYPE_CHECKING:

@@ -23,7 +23,8 @@ from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                       truth_path_for, write_truth_json)
 from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
-from robot_wear_monitor.reporting.report import plot_friction_curves, plot_wear_trend, write_report
+from robot_wear_monitor.reporting.replay_report import (plot_friction_curves, plot_wear_trend,
+                                                        write_report)
 
 
 def run_demo(*, out_dir: str | os.PathLike = 'wear_demo', n_experiments: int = 100,

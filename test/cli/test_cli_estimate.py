@@ -5,7 +5,7 @@ import math
 
 import pytest
 from robot_wear_monitor.cli import main
-from robot_wear_monitor.estimation.report import meaningful_std, wear_report
+from robot_wear_monitor.estimation.wear_report import meaningful_std, wear_report
 from robot_wear_monitor.model.params import load_parameter_set
 
 GRID_27 = '2.1,8.7,15.3,21.9,28.5,35.1,41.7,82.2,133.5,184.7,236.2,287.1'

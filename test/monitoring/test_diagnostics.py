@@ -2,8 +2,9 @@
 
 import math
 
+from robot_wear_monitor.estimation.wear_report import meaningful_std
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.monitoring.diagnostics import meaningful_std, RejectionLog
+from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.text import fmt_number
 
 
