@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.estimation import trend as trend_module
+from robot_wear_monitor.estimation import trend as trend_module, trend_filter, trend_forecast
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.intervals import profile_log_likelihood
 from robot_wear_monitor.estimation.trend import filter_batch, TrendConfig, WearTrend
@@ -234,7 +234,7 @@ def _crossing(series, level):
 
 def _whole_product_crossings(trend):
     """Return the crossings from one product of the whole forecast basis (as before blocks)."""
-    basis = trend_module._forecast_tables(trend._filter).basis
+    basis = trend_forecast.forecast_tables(trend._filter).basis
     series = np.maximum.accumulate(np.clip(basis @ trend._filter.prob[0].ravel(), 0.0, 1.0))
     return [_crossing(series, q) for q in trend_module._FORECAST_LEVELS]
 
@@ -280,9 +280,9 @@ def test_forecast_bound_holds_for_every_row():
     """<p, ceiling> bounds every row's product: a level above it is never reached."""
     with threadpool_limits(limits=1, user_api='blas'):
         for trend in _posteriors(slopes=(0.0, 1.5)):
-            tables = trend_module._forecast_tables(trend._filter)
+            tables = trend_forecast.forecast_tables(trend._filter)
             p = trend._filter.prob[0].ravel()
-            series = trend_module._ForecastSeries(tables, p)
+            series = trend_forecast.ForecastSeries(tables, p)
             assert np.max(tables.basis @ p) <= series.bound
             rises = np.maximum.accumulate(tables.basis, axis=0) - tables.basis
             assert 0.0 <= np.max(rises) == tables.excess < 1e-12
@@ -305,7 +305,7 @@ def test_forecast_basis_is_bit_for_bit_the_row_by_row_adjoint():
         v = transition @ ((1.0 - frac) * np.take_along_axis(v, low, axis=1)
                           + frac * np.take_along_axis(v, high, axis=1))
         rows.append(v)
-    assert trend_module._forecast_basis(flt).tobytes() == np.stack(rows).tobytes()
+    assert trend_forecast.forecast_basis(flt).tobytes() == np.stack(rows).tobytes()
 
 
 def test_rate_transitions_are_kept_per_interval_and_equal_fresh_ones():
@@ -322,7 +322,7 @@ def test_rate_transitions_are_kept_per_interval_and_equal_fresh_ones():
     assert not kept.flags.writeable
     for value in np.linspace(3.0, 9.0, 40):  # the oldest go first
         flt._transition_of(float(value))
-    assert len(flt._transitions) == trend_module._TRANSITIONS_KEPT
+    assert len(flt._transitions) == trend_filter.TRANSITIONS_KEPT
 
 
 def _plain_predict(flt, prob, elapsed):
@@ -347,7 +347,7 @@ def _plain_predict(flt, prob, elapsed):
 def test_predict_is_bit_for_bit_the_plain_propagation(batch):
     """The kept shifts and the product give the bits of einsum and a padded shift."""
     rng = np.random.default_rng(11)
-    flt = trend_module._GridFilter(CONFIG, batch)
+    flt = trend_filter.GridFilter(CONFIG, batch)
     for _ in range(30):
         prob = rng.random(flt.prob.shape) ** 6
         prob /= prob.sum(axis=(1, 2), keepdims=True)
@@ -360,7 +360,7 @@ def test_predict_is_bit_for_bit_the_plain_propagation(batch):
         flt.predict(elapsed)
         assert flt.prob.tobytes() == expected.tobytes()
         np.testing.assert_allclose(flt.prob.sum(axis=(1, 2)), 1.0, atol=1e-12)  # mass kept
-    assert len(flt._moves) <= trend_module._TRANSITIONS_KEPT
+    assert len(flt._moves) <= trend_filter.TRANSITIONS_KEPT
 
 
 def test_spacing_is_numpys_median_of_the_last_intervals():
