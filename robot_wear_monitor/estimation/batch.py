@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
-from robot_wear_monitor.estimation import estimator as core
+from robot_wear_monitor.estimation import estimator as core, start_grid, wear_estimates
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -51,7 +51,7 @@ class _StackedProblem(core._WhitenedProblem):
 
 
 def estimate_wear_rows(speeds_rad_s: Sequence[ArrayLike], friction: Sequence[ArrayLike], *,
-                       params: ParameterSet) -> list[core.WearEstimates]:
+                       params: ParameterSet) -> list[wear_estimates.WearEstimates]:
     """
     Estimate (T, w) of B experiments, each with its own speeds; one batch of 1 per row.
 
@@ -64,9 +64,9 @@ def estimate_wear_rows(speeds_rad_s: Sequence[ArrayLike], friction: Sequence[Arr
     """
     if len(speeds_rad_s) != len(friction):
         raise ValueError('speeds_rad_s and friction: one entry per experiment')
-    speeds = [core.validate_speeds(s) for s in speeds_rad_s]
-    values = [core._validate_friction(f, s.size) for s, f in zip(speeds, friction)]
-    results: list[core.WearEstimates | None] = [None] * len(speeds)
+    speeds = [wear_estimates.validate_speeds(s) for s in speeds_rad_s]
+    values = [wear_estimates.validate_friction(f, s.size) for s, f in zip(speeds, friction)]
+    results: list[wear_estimates.WearEstimates | None] = [None] * len(speeds)
     by_size: dict[int, list[int]] = {}
     for i, (s, v) in enumerate(zip(speeds, values)):
         if s.size == 1 or v.shape[0] != 1:
@@ -102,7 +102,7 @@ def whitening_rows(speeds: FloatArray, params: ParameterSet) -> tuple[FloatArray
 def _arc_length_grids(points: FloatArray, fine: FloatArray, lower: float, *, spacing: float,
                       max_step: float) -> list[FloatArray]:
     """
-    Return :func:`~robot_wear_monitor.estimation.estimator._arc_length_grid` of every row.
+    Return :func:`~robot_wear_monitor.estimation.start_grid.arc_length_grid` of every row.
 
     ``points`` (B, M, N): every row's whitened model curve at the ``fine`` samples (M,).  The
     arc lengths of all rows are one stacked evaluation (the same elementwise operations and
@@ -113,7 +113,7 @@ def _arc_length_grids(points: FloatArray, fine: FloatArray, lower: float, *, spa
     arc = arc + (fine - lower) * (spacing / max_step)  # the parameter step bound
     grids = []
     for row in arc:
-        count = min(int(np.ceil(row[-1] / spacing)) + 1, core._GRID_MAX_POINTS)
+        count = min(int(np.ceil(row[-1] / spacing)) + 1, start_grid.GRID_MAX_POINTS)
         grids.append(np.interp(np.linspace(0.0, row[-1], max(count, 2)), row, fine))
     return grids
 
@@ -145,7 +145,7 @@ def _grid_starts_rows(speeds: FloatArray, whiten: FloatArray, data_w: FloatArray
     count, n = speeds.shape
     t_out = np.empty((count, core._STARTS))
     w_out = np.empty((count, core._STARTS))
-    chunk = max(1, _GRID_ROW_CELLS // (core._ARC_SAMPLES * n))
+    chunk = max(1, _GRID_ROW_CELLS // (start_grid.ARC_SAMPLES * n))
     for start in range(0, count, chunk):
         part = slice(start, start + chunk)
         t_out[part], w_out[part] = _grid_starts_chunk(speeds[part], whiten[part], data_w[part],
@@ -163,14 +163,14 @@ def _grid_starts_chunk(speeds: FloatArray, whiten: FloatArray, data_w: FloatArra
     # the model is evaluated levels-first, (N, B, samples): the same elementwise operations
     # as one row's (samples, N), on long rows of memory
     v = speeds.T[:, :, None]
-    fine_t = np.linspace(t_min, t_max, core._ARC_SAMPLES)
-    fine_w = np.linspace(0.0, params.wear_max, core._ARC_SAMPLES)
+    fine_t = np.linspace(t_min, t_max, start_grid.ARC_SAMPLES)
+    fine_w = np.linspace(0.0, params.wear_max, start_grid.ARC_SAMPLES)
     grids_t = _arc_length_grids(
         np.matmul(_levels_last(fm.friction(v, load, fine_t, 0.0, model)), whiten_t), fine_t,
-        t_min, spacing=core._GRID_SPACING_SIGMA, max_step=core._GRID_MAX_STEP_DEGC)
+        t_min, spacing=start_grid.GRID_SPACING_SIGMA, max_step=start_grid.GRID_MAX_STEP_DEGC)
     grids_w = _arc_length_grids(
         np.matmul(_levels_last(fm.friction(v, load, mid_t, fine_w, model)), whiten_t), fine_w,
-        0.0, spacing=core._GRID_SPACING_SIGMA, max_step=core._GRID_MAX_STEP_WEAR)
+        0.0, spacing=start_grid.GRID_SPACING_SIGMA, max_step=start_grid.GRID_MAX_STEP_WEAR)
     t0 = np.empty((speeds.shape[0], core._STARTS))
     w0 = np.empty((speeds.shape[0], core._STARTS))
     groups: dict[tuple[int, int], list[int]] = {}
@@ -205,7 +205,7 @@ def _grid_starts_chunk(speeds: FloatArray, whiten: FloatArray, data_w: FloatArra
 
 
 def _estimate_stacked(speeds: list[FloatArray], values: list[FloatArray],
-                      params: ParameterSet) -> list[core.WearEstimates]:
+                      params: ParameterSet) -> list[wear_estimates.WearEstimates]:
     """Return the N >= 2 estimates of :func:`estimate_wear` for rows of equal N (one row each)."""
     speed_rows = np.stack(speeds)
     stacked = _StackedProblem(speed_rows, whitening_rows(speed_rows, params)[0], params)
@@ -227,8 +227,8 @@ def _estimate_stacked(speeds: list[FloatArray], values: list[FloatArray],
     w_at_bound = w <= 0.0
     n_levels = speeds[0].size
     dof = (n_levels - (~t_at_bound).astype(np.int64) - (~w_at_bound).astype(np.int64))
-    p_value = core._p_value(chi2, dof)
-    return [core.WearEstimates(
+    p_value = wear_estimates.fit_p_value(chi2, dof)
+    return [wear_estimates.WearEstimates(
         temperature_degc=t[i:i + 1], wear=w[i:i + 1], covariance=covariance[i:i + 1],
         temperature_at_bound=t_at_bound[i:i + 1], wear_at_bound=w_at_bound[i:i + 1],
         chi2=chi2[i:i + 1], dof=dof[i:i + 1], p_value=p_value[i:i + 1], n_levels=n_levels,

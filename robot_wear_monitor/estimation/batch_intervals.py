@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.estimation import intervals as one
 from robot_wear_monitor.estimation.batch import _levels_last, whitening_rows
-from robot_wear_monitor.estimation.estimator import WearEstimates
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
+from robot_wear_monitor.estimation.wear_estimates import WearEstimates
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 

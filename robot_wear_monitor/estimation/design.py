@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.estimation.estimator import marginal_fisher_information
+from robot_wear_monitor.estimation.single_level import marginal_fisher_information
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 from scipy import optimize

@@ -27,27 +27,20 @@ g, computed by a second Gauss-Legendre quadrature over z.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
-from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.estimation.special_functions import chi2_survival, log_sum_exp
+from robot_wear_monitor.estimation.single_level import estimate_single_level
+from robot_wear_monitor.estimation.start_grid import (arc_length_grid, GRID_MAX_STEP_DEGC,
+                                                      GRID_MAX_STEP_WEAR, GRID_SPACING_SIGMA)
 from robot_wear_monitor.estimation.temperature_only import estimate_temperature
+from robot_wear_monitor.estimation.wear_estimates import (fit_p_value, validate_friction,
+                                                          validate_speeds, WearEstimates)
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
-
-# Starting grids: equidistant in the whitened model (steps of at most _GRID_SPACING_SIGMA noise
-# standard deviations) and at most the given steps of T [degC] and w [-].
-_GRID_SPACING_SIGMA = 0.5
-_GRID_MAX_STEP_DEGC = 2.0
-_GRID_MAX_STEP_WEAR = 2.0
-_GRID_MAX_POINTS = 400  # per axis (a very small sigma would ask for more)
-# samples of the model curve whose arc length places the grid (2.5 per grid point at the most)
-_ARC_SAMPLES = 1001
 _GAUSS_NEWTON_ITERATIONS = 100
 _LINE_SEARCH_HALVINGS = 8
 #: the line search's step lengths: the full step, then 4^-1 .. 4^-(_LINE_SEARCH_HALVINGS - 1)
@@ -56,153 +49,6 @@ _BATCH_CHUNK = 64  # rows of the grid search at a time (cache-sized)
 _GRID_CHUNK_CELLS = 1 << 21  # at most this many (row, grid point) costs at a time
 _STARTS = 3
 _TRACE: list[Any] = []
-# Composite Gauss-Legendre rules of the N = 1 marginal likelihood (T) and information (z).
-_T_PANELS, _T_NODES = 8, 8
-_Z_PANELS, _Z_NODES = 96, 8
-_Z_TAIL_SIGMAS = 12.0
-_GOLDEN_ITERATIONS = 36
-#: The most friction levels one experiment may have (the designs use 1-20; the cost of an
-#: estimate grows with N^2 and its interval's calibration with N).
-MAX_LEVELS = 100
-
-
-@dataclass(frozen=True)
-class WearEstimate:
-    """
-    One estimate of (T, w) with its uncertainty and goodness of fit.
-
-    :ivar temperature_degc: estimated joint temperature [degC] (N = 1: posterior mean of T under
-        the uniform prior at the estimated w).
-    :ivar wear: estimated wear level w [-].
-    :ivar covariance: 2x2 covariance of (T, w), inverse Fisher information at the estimate
-        (N = 1: w from the marginal Fisher information, T from the posterior).
-    :ivar temperature_at_bound: the estimate of T lies on a temperature bound.
-    :ivar wear_at_bound: the estimate of w lies on w = 0.
-    :ivar chi2: weighted residual sum of squares r^T Sigma^-1 r at the estimate.
-    :ivar dof: degrees of freedom of chi2 (N minus the parameters estimated in the interior).
-    :ivar p_value: P(chi2_dof >= chi2); NaN when dof = 0 (no redundancy to test the fit).
-    :ivar n_levels: number N of friction levels used.
-    :ivar speeds_rad_s: the motor-side speeds [rad/s] of the levels, shape (N,).
-
-    """
-
-    temperature_degc: float
-    wear: float
-    covariance: np.ndarray
-    temperature_at_bound: bool
-    wear_at_bound: bool
-    chi2: float
-    dof: int
-    p_value: float
-    n_levels: int
-    speeds_rad_s: np.ndarray
-
-    @property
-    def wear_std(self) -> float:
-        """Return the standard deviation of the wear estimate [-]."""
-        return float(np.sqrt(self.covariance[1, 1]))
-
-    @property
-    def temperature_std_degc(self) -> float:
-        """Return the standard deviation of the temperature estimate [degC]."""
-        return float(np.sqrt(self.covariance[0, 0]))
-
-
-@dataclass(frozen=True)
-class WearEstimates:
-    """
-    A batch of B estimates at the same N speeds; ``estimates[i]`` is a :class:`WearEstimate`.
-
-    :ivar temperature_degc: shape (B,) [degC].
-    :ivar wear: shape (B,) [-].
-    :ivar covariance: shape (B, 2, 2), covariance of (T, w).
-    :ivar temperature_at_bound: shape (B,), bool.
-    :ivar wear_at_bound: shape (B,), bool.
-    :ivar chi2: shape (B,).
-    :ivar dof: shape (B,), int.
-    :ivar p_value: shape (B,), NaN where dof = 0.
-    :ivar n_levels: N.
-    :ivar speeds_rad_s: shape (N,) [rad/s].
-
-    """
-
-    temperature_degc: FloatArray
-    wear: FloatArray
-    covariance: FloatArray
-    temperature_at_bound: NDArray[np.bool_]
-    wear_at_bound: NDArray[np.bool_]
-    chi2: FloatArray
-    dof: NDArray[np.int64]
-    p_value: FloatArray
-    n_levels: int
-    speeds_rad_s: FloatArray
-
-    def __len__(self) -> int:
-        """Return the batch size B."""
-        return int(self.wear.shape[0])
-
-    def __getitem__(self, index: int) -> WearEstimate:
-        """Return estimate ``index`` (negative indices count from the end)."""
-        i = range(len(self))[index]
-        return WearEstimate(
-            temperature_degc=float(self.temperature_degc[i]), wear=float(self.wear[i]),
-            covariance=self.covariance[i].copy(),
-            temperature_at_bound=bool(self.temperature_at_bound[i]),
-            wear_at_bound=bool(self.wear_at_bound[i]), chi2=float(self.chi2[i]),
-            dof=int(self.dof[i]), p_value=float(self.p_value[i]), n_levels=self.n_levels,
-            speeds_rad_s=self.speeds_rad_s.copy())
-
-    def __iter__(self) -> Iterator[WearEstimate]:
-        """Iterate over the estimates of the batch."""
-        return (self[i] for i in range(len(self)))
-
-    @property
-    def wear_std(self) -> FloatArray:
-        """Return the standard deviations of the wear estimates, shape (B,)."""
-        return np.sqrt(self.covariance[:, 1, 1])
-
-    @property
-    def temperature_std_degc(self) -> FloatArray:
-        """Return the standard deviations of the temperature estimates [degC], shape (B,)."""
-        return np.sqrt(self.covariance[:, 0, 0])
-
-
-# --------------------------------------------------------------------------- input validation
-
-def validate_speeds(speeds_rad_s: ArrayLike) -> FloatArray:
-    """Return the speeds as a 1-D float array; raise InputError unless finite, > 0, N >= 1."""
-    try:
-        speeds = np.asarray(speeds_rad_s, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'speeds: not numbers: {speeds_rad_s!r}') from None
-    if speeds.ndim != 1:
-        raise InputError(f'speeds: expected a 1-D list of speeds, got shape {speeds.shape}')
-    if speeds.size == 0:
-        raise InputError('speeds: no speed levels given (N = 0)')
-    if speeds.size > MAX_LEVELS:
-        raise InputError(f'speeds: {speeds.size} levels, more than the {MAX_LEVELS} one '
-                         'experiment may have')
-    if not np.all(np.isfinite(speeds)):
-        raise InputError(f'speeds: must be finite, got {str(speeds.tolist())[:80]}')
-    if np.any(speeds <= 0):
-        raise InputError(f'speeds: must be > 0 rad/s (motor side), got '
-                         f'{str(speeds.tolist())[:80]}')
-    return speeds
-
-
-def _validate_friction(friction: ArrayLike, n_levels: int) -> FloatArray:
-    try:
-        values = np.asarray(friction, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError('friction: not numbers') from None
-    if values.ndim == 1:
-        values = values[None, :]
-    if values.ndim != 2 or values.shape[1] != n_levels:
-        raise InputError(f'friction: expected shape ({n_levels},) or (B, {n_levels}) to match '
-                         f'{n_levels} speed(s), got shape {np.shape(friction)}')
-    if not np.all(np.isfinite(values)):
-        raise InputError('friction: contains NaN or infinite values')
-    return values
 
 
 # --------------------------------------------------------------------------- public entry point
@@ -229,7 +75,7 @@ def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
 
     """
     speeds = validate_speeds(speeds_rad_s)
-    values = _validate_friction(friction, speeds.size)
+    values = validate_friction(friction, speeds.size)
     if not params.estimates_wear:  # a set without a wear model: T-hat only, w not determined
         t = estimate_temperature(speeds, values, params)
         covariance = np.zeros((values.shape[0], 2, 2))
@@ -240,29 +86,11 @@ def estimate_wear(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
             wear_at_bound=np.zeros(values.shape[0], dtype=bool), chi2=t.chi2, dof=t.dof,
             p_value=t.p_value, n_levels=speeds.size, speeds_rad_s=speeds.copy())
     if speeds.size == 1:
-        return _estimate_single_level(speeds, values[:, 0], params)
+        return estimate_single_level(speeds, values[:, 0], params)
     return _estimate_multi_level(speeds, values, params)
 
 
 # --------------------------------------------------------------------------- N >= 2
-
-def _arc_length_grid(curve, lower: float, upper: float, *, spacing: float,
-                     max_step: float) -> FloatArray:
-    """
-    Return a grid on [lower, upper] whose image under ``curve`` has steps <= ``spacing``.
-
-    ``curve(x)`` (shape (K,) -> (K, N)) is the whitened model along one parameter; the grid is
-    equidistant in the arc length of the curve, so that every model point is within about
-    spacing/2 noise standard deviations of a grid point however steep the model is.  Steps in
-    the parameter are also at most ``max_step``.
-    """
-    fine = np.linspace(lower, upper, _ARC_SAMPLES)
-    points = curve(fine)
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    arc = arc + (fine - lower) * (spacing / max_step)  # the parameter step bound
-    count = min(int(np.ceil(arc[-1] / spacing)) + 1, _GRID_MAX_POINTS)
-    return np.interp(np.linspace(0.0, arc[-1], max(count, 2)), arc, fine)
-
 
 class _WhitenedProblem:
     """The weighted least squares (16) at fixed speeds, whitened by the Cholesky factor of (14)."""
@@ -359,10 +187,10 @@ class _WhitenedProblem:
             return fm.friction(self.speeds, self.params.load_mean, mid_t, w[:, None],
                                model) @ whiten_t
 
-        grid_t = _arc_length_grid(along_t, self.t_min, self.t_max,
-                                  spacing=_GRID_SPACING_SIGMA, max_step=_GRID_MAX_STEP_DEGC)
-        grid_w = _arc_length_grid(along_w, 0.0, self.params.wear_max,
-                                  spacing=_GRID_SPACING_SIGMA, max_step=_GRID_MAX_STEP_WEAR)
+        grid_t = arc_length_grid(along_t, self.t_min, self.t_max,
+                                 spacing=GRID_SPACING_SIGMA, max_step=GRID_MAX_STEP_DEGC)
+        grid_w = arc_length_grid(along_w, 0.0, self.params.wear_max,
+                                 spacing=GRID_SPACING_SIGMA, max_step=GRID_MAX_STEP_WEAR)
         n_t, n_w = grid_t.size, grid_w.size
         # w-major order, so that the minimum over T runs along contiguous memory
         ww, tt = (a.ravel() for a in np.meshgrid(grid_w, grid_t, indexing='ij'))
@@ -560,11 +388,6 @@ def _inverse_2x2(matrix: FloatArray) -> FloatArray:
     return result
 
 
-def _p_value(chi2: FloatArray, dof: NDArray[np.int64]) -> FloatArray:
-    with np.errstate(invalid='ignore'):
-        return np.where(dof > 0, chi2_survival(chi2, np.maximum(dof, 1)), np.nan)
-
-
 def _estimate_multi_level(speeds: FloatArray, values: FloatArray,
                           params: ParameterSet) -> WearEstimates:
     problem = _problem(speeds, params)
@@ -577,211 +400,5 @@ def _estimate_multi_level(speeds: FloatArray, values: FloatArray,
     dof = (speeds.size - (~t_at_bound).astype(np.int64) - (~w_at_bound).astype(np.int64))
     return WearEstimates(temperature_degc=t, wear=w, covariance=covariance,
                          temperature_at_bound=t_at_bound, wear_at_bound=w_at_bound, chi2=chi2,
-                         dof=dof, p_value=_p_value(chi2, dof), n_levels=speeds.size,
+                         dof=dof, p_value=fit_p_value(chi2, dof), n_levels=speeds.size,
                          speeds_rad_s=speeds.copy())
-
-
-# --------------------------------------------------------------------------- N = 1
-
-def _composite_gauss_legendre(lower: ArrayLike, upper: ArrayLike, panels: int, nodes: int
-                              ) -> tuple[FloatArray, FloatArray]:
-    """Return nodes and weights (..., panels*nodes) of a composite Gauss-Legendre rule."""
-    x, wts = np.polynomial.legendre.leggauss(nodes)
-    lo = np.asarray(lower, dtype=float)[..., None]
-    hi = np.asarray(upper, dtype=float)[..., None]
-    edges = np.linspace(0.0, 1.0, panels + 1)
-    centres = 0.5 * (edges[:-1] + edges[1:])
-    unit = (centres[:, None] + 0.5 * x[None, :] / panels).ravel()
-    unit_w = np.tile(wts, panels) * 0.5 / panels
-    return lo + (hi - lo) * unit, (hi - lo) * unit_w
-
-
-@dataclass(frozen=True)
-class MarginalModel:
-    """
-    The marginal density g(z) of z = y - tilde tau_f(v, w) at one or more speeds, eq. (17).
-
-    g(z) = 1/(T_max - T_min) int_T N(z; tau_f0(v, mu_tl, T), s^2) dT, with the load marginalised
-    (s^2 = sigma^2 + sigma_tl^2 m(v)^2).  Arrays have a leading speed shape S (from the speeds).
-
-    :ivar speeds_rad_s: shape S [rad/s].
-    :ivar nodes_degc: quadrature nodes in T, shape S + (K,).
-    :ivar log_weights: log of the normalised quadrature weights (sum to 1), shape S + (K,).
-    :ivar nominal: tau_f0 at the nodes, shape S + (K,).
-    :ivar std: s, shape S.
-
-    """
-
-    speeds_rad_s: FloatArray
-    nodes_degc: FloatArray
-    log_weights: FloatArray
-    nominal: FloatArray
-    std: FloatArray
-
-    @classmethod
-    def build(cls, *, speeds_rad_s: ArrayLike, params: ParameterSet,
-              panels: int = _T_PANELS, nodes: int = _T_NODES) -> 'MarginalModel':
-        """Tabulate the quadrature of g at the given speeds (any shape S) [rad/s]."""
-        speeds = np.asarray(speeds_rad_s, dtype=float)
-        t, wt = _composite_gauss_legendre(params.temperature_min_degc,
-                                          params.temperature_max_degc, panels, nodes)
-        span = params.temperature_max_degc - params.temperature_min_degc
-        nominal = fm.nominal_friction(speeds[..., None], params.load_mean, t, params.model)
-        m = fm.load_sensitivity(speeds, params.model)
-        std = np.sqrt(params.sigma ** 2 + params.load_std ** 2 * m ** 2)
-        log_w = np.broadcast_to(np.log(wt / span), nominal.shape)
-        return cls(speeds_rad_s=speeds, nodes_degc=np.broadcast_to(t, nominal.shape),
-                   log_weights=np.array(log_w), nominal=nominal, std=np.asarray(std))
-
-    def _log_terms(self, z: FloatArray) -> FloatArray:
-        s = self.std[..., None]
-        u = (z[..., None] - self.nominal) / s
-        return self.log_weights - 0.5 * u * u - np.log(np.sqrt(2.0 * np.pi) * s)
-
-    def log_density(self, z: ArrayLike) -> FloatArray:
-        """Return log g(z); z broadcasts against the speed shape S."""
-        return log_sum_exp(self._log_terms(np.asarray(z, dtype=float)), axis=-1)
-
-    def score_and_log_density(self, z: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """Return g'(z)/g(z) and log g(z) (stable in the tails)."""
-        z = np.asarray(z, dtype=float)
-        terms = self._log_terms(z)
-        log_g = log_sum_exp(terms, axis=-1)
-        post = np.exp(terms - log_g[..., None])
-        mean_nominal = np.sum(post * self.nominal, axis=-1)
-        return -(z - mean_nominal) / self.std ** 2, log_g
-
-    def posterior_temperature(self, z: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """Return the posterior mean [degC] and variance [degC^2] of T given z."""
-        z = np.asarray(z, dtype=float)
-        terms = self._log_terms(z)
-        post = np.exp(terms - log_sum_exp(terms, axis=-1)[..., None])
-        mean = np.sum(post * self.nodes_degc, axis=-1)
-        var = np.sum(post * (self.nodes_degc - mean[..., None]) ** 2, axis=-1)
-        return mean, var
-
-    def location_information(self) -> FloatArray:
-        """Return J = int g'(z)^2 / g(z) dz (shape S), the Fisher information of a z shift."""
-        lo = self.nominal.min(axis=-1) - _Z_TAIL_SIGMAS * self.std
-        hi = self.nominal.max(axis=-1) + _Z_TAIL_SIGMAS * self.std
-        z, wz = _composite_gauss_legendre(lo, hi, _Z_PANELS, _Z_NODES)  # S + (Kz,)
-        terms = self._log_terms_grid(z)
-        log_g = log_sum_exp(terms, axis=-1)
-        post = np.exp(terms - log_g[..., None])
-        mean_nominal = np.sum(post * self.nominal[..., None, :], axis=-1)
-        score = -(z - mean_nominal) / self.std[..., None] ** 2
-        return np.sum(wz * np.exp(log_g) * score ** 2, axis=-1)
-
-    def _log_terms_grid(self, z: FloatArray) -> FloatArray:
-        s = self.std[..., None, None]
-        u = (z[..., :, None] - self.nominal[..., None, :]) / s
-        return self.log_weights[..., None, :] - 0.5 * u * u - np.log(np.sqrt(2.0 * np.pi) * s)
-
-
-def marginal_fisher_information(*, speeds_rad_s: ArrayLike, wear: ArrayLike,
-                                params: ParameterSet) -> FloatArray:
-    """
-    Return the exact Fisher information of w from one friction level, eqs. (17) and (25).
-
-    F(v, w) = (d tilde tau_f(v, w) / dw)^2 * J(v), J(v) = int g'(z)^2 / g(z) dz; T is
-    integrated out under its uniform prior (no dependence on a true T).
-
-    :param speeds_rad_s: speed [rad/s], any shape S, > 0.
-    :param wear: wear level(s) w, broadcast against S.
-    :param params: the parameter set.
-
-    :return: F, the broadcast shape of speeds and wear [1/w^2].
-
-    """
-    speeds = np.asarray(speeds_rad_s, dtype=float)
-    marginal = MarginalModel.build(speeds_rad_s=speeds, params=params)
-    info = marginal.location_information()
-    d_wear = fm.friction_with_gradients(speeds, params.load_mean, params.design_temperature_degc,
-                                        wear, params.model).d_wear
-    return d_wear ** 2 * info
-
-
-def _golden_maximise(objective, lower: FloatArray, upper: FloatArray) -> FloatArray:
-    """Batched golden-section search of the maximiser of objective(x) (B,) on [lower, upper]."""
-    ratio = (np.sqrt(5.0) - 1.0) / 2.0
-    a, b = lower.copy(), upper.copy()
-    c = b - ratio * (b - a)
-    d = a + ratio * (b - a)
-    fc, fd = objective(c), objective(d)
-    for _ in range(_GOLDEN_ITERATIONS):
-        left = fc >= fd  # the maximiser is in [a, d]
-        b = np.where(left, d, b)
-        a = np.where(left, a, c)
-        new_c = np.where(left, b - ratio * (b - a), d)
-        new_d = np.where(left, c, a + ratio * (b - a))
-        x_new = np.where(left, new_c, new_d)
-        f_new = objective(x_new)
-        fc, fd = np.where(left, f_new, fd), np.where(left, fc, f_new)
-        c, d = new_c, new_d
-    return 0.5 * (a + b)
-
-
-def _estimate_single_level(speeds: FloatArray, values: FloatArray,
-                           params: ParameterSet) -> WearEstimates:
-    speed = float(speeds[0])
-    marginal = MarginalModel.build(speeds_rad_s=speed, params=params)
-    s = float(marginal.std)
-    model = params.model
-
-    # coarse search in w on a table of log g (exact quadrature at table points, linear
-    # interpolation between them, a Gaussian tail beyond them)
-    grid_w = _arc_length_grid(lambda w: fm.wear_friction(speed, w, model)[:, None] / s, 0.0,
-                              params.wear_max, spacing=_GRID_SPACING_SIGMA,
-                              max_step=_GRID_MAX_STEP_WEAR)
-    f_lo, f_hi = float(marginal.nominal.min()), float(marginal.nominal.max())
-    z_lo, z_hi = f_lo - 30.0 * s, f_hi + 30.0 * s
-    table_z = np.arange(z_lo, z_hi + s / 8.0, s / 8.0)
-    table = marginal.log_density(table_z)
-
-    def surrogate(z: FloatArray) -> FloatArray:
-        zc = np.clip(z, z_lo, table_z[-1])
-        return np.interp(zc, table_z, table) - 0.5 * ((z - zc) / s) ** 2
-
-    best_w = np.empty(values.shape[0])
-    lower = np.empty(values.shape[0])
-    upper = np.empty(values.shape[0])
-    pending = np.arange(values.shape[0])
-    grid = grid_w
-    while pending.size:
-        wear_part = fm.wear_friction(speed, grid, model)
-        scores = surrogate(values[pending, None] - wear_part[None, :])
-        j = np.argmax(scores, axis=1)
-        best_w[pending] = grid[j]
-        lower[pending] = grid[np.maximum(j - 1, 0)]
-        upper[pending] = grid[np.minimum(j + 1, grid.size - 1)]
-        at_end = j == grid.size - 1
-        if not np.any(at_end) or grid[-1] > 1e6:
-            break
-        pending = pending[at_end]
-        grid = np.linspace(grid[-1], 4.0 * grid[-1], grid.size)
-
-    def objective(w: FloatArray) -> FloatArray:
-        return marginal.log_density(values - fm.wear_friction(speed, w, model))
-
-    w_hat = _golden_maximise(objective, lower, upper)
-    # w = 0 exactly when the left end of the bracket at 0 is at least as good
-    at_zero = (lower == 0.0) & (objective(np.zeros_like(w_hat)) >= objective(w_hat))
-    w_hat = np.where(at_zero, 0.0, w_hat)
-
-    z_hat = values - fm.wear_friction(speed, w_hat, model)
-    t_mean, t_var = marginal.posterior_temperature(z_hat)
-    info = float(marginal.location_information())
-    d_wear = fm.friction_with_gradients(speed, params.load_mean, t_mean, w_hat, model).d_wear
-    fisher = d_wear ** 2 * info
-    with np.errstate(divide='ignore'):
-        var_w = np.where(fisher > 0, 1.0 / fisher, np.inf)
-    covariance = np.zeros((values.shape[0], 2, 2))
-    covariance[:, 0, 0] = t_var
-    covariance[:, 1, 1] = var_w
-    residual = values - fm.friction(speed, params.load_mean, t_mean, w_hat, model)
-    chi2 = (residual / s) ** 2
-    dof = np.where(at_zero, 1, 0).astype(np.int64)
-    return WearEstimates(temperature_degc=t_mean, wear=w_hat, covariance=covariance,
-                         temperature_at_bound=np.zeros(values.shape[0], dtype=bool),
-                         wear_at_bound=at_zero, chi2=chi2, dof=dof, p_value=_p_value(chi2, dof),
-                         n_levels=1, speeds_rad_s=speeds.copy())

@@ -19,7 +19,7 @@ Log-likelihoods, natural log, true values (no per-row constant dropped):
   enters (8) linearly, so marginalising the Gaussian load into Sigma is exact, not an
   approximation).  The profile l_p(w) = max over T in [T_min, T_max] of l(T, w).
 * N = 1, eq. (17): l(w) = log p(y | w) = log g(y - tilde tau_f(v, w)) with T integrated out
-  under its uniform prior (:class:`~robot_wear_monitor.estimation.estimator.MarginalModel`).
+  under its uniform prior (:class:`~robot_wear_monitor.estimation.single_level.MarginalModel`).
 
 Numerical method.  The model (8) is additive, f = tau_f0(v, mu, T) + tilde tau_f(v, w), and
 Sigma does not depend on (T, w), so after whitening by the Cholesky factor of Sigma the cost of
@@ -50,9 +50,10 @@ from robot_wear_monitor.estimation.calibration_store import (
     rounded_speeds as _rounded_speeds, SHIPPED_CALIBRATIONS, SHIPPED_DESIGNS,
     store_calibration as _store_calibration, stored_calibration as _stored_calibration,
     write_calibration_table)
-from robot_wear_monitor.estimation.estimator import (estimate_wear, MarginalModel,
-                                                     validate_speeds, WearEstimates)
+from robot_wear_monitor.estimation.estimator import estimate_wear
+from robot_wear_monitor.estimation.single_level import MarginalModel
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
+from robot_wear_monitor.estimation.wear_estimates import validate_speeds, WearEstimates
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -539,7 +540,7 @@ def profile_log_likelihood(speeds_rad_s: ArrayLike, friction: ArrayLike, *,
     parabola (error below 1e-3 nats in the tests).
     N = 1: the marginal log-likelihood (17), log p(y | w) with T integrated out under its uniform
     prior, from a table of log g (step s/64; within 1e-4 nats of the quadrature of
-    :class:`~robot_wear_monitor.estimation.estimator.MarginalModel`).
+    :class:`~robot_wear_monitor.estimation.single_level.MarginalModel`).
 
     Both are true log-likelihoods (natural log, all normalising constants included), so rows of
     experiments at different speeds can be added on a common wear grid.

@@ -37,7 +37,7 @@ from robot_wear_monitor.model.friction import friction
 from robot_wear_monitor.model.params import ParameterSet
 
 if TYPE_CHECKING:
-    from robot_wear_monitor.estimation.estimator import WearEstimate
+    from robot_wear_monitor.estimation.wear_estimates import WearEstimate
 
 #: Default p-value of the model check below which an estimate is invalid (the diagnostics warn
 #: already below ``min_fit_p_value``, 0.01: one healthy experiment in 100 does that by chance).

@@ -21,7 +21,8 @@ from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.atomic_files import save_figure
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import design_cost
-from robot_wear_monitor.estimation.estimator import estimate_wear, validate_speeds
+from robot_wear_monitor.estimation.estimator import estimate_wear
+from robot_wear_monitor.estimation.wear_estimates import validate_speeds
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 

@@ -19,8 +19,8 @@ from robot_wear_monitor.estimation.plausibility import check_levels, Plausibilit
 from robot_wear_monitor.json_values import finite_or_none
 
 if TYPE_CHECKING:  # the estimator and intervals: imported where used (numpy work at import)
-    from robot_wear_monitor.estimation.estimator import WearEstimate
     from robot_wear_monitor.estimation.intervals import WearInterval
+    from robot_wear_monitor.estimation.wear_estimates import WearEstimate
     from robot_wear_monitor.model.params import ParameterSet
 
 
@@ -109,8 +109,9 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
         gives T-hat with its interval only (``wear_determined`` False).
 
     """
-    from robot_wear_monitor.estimation.estimator import estimate_wear, validate_speeds
+    from robot_wear_monitor.estimation.estimator import estimate_wear
     from robot_wear_monitor.estimation.intervals import wear_intervals, WearInterval
+    from robot_wear_monitor.estimation.wear_estimates import validate_speeds
     params.require_estimator(purpose='estimating wear (16)')
     estimates = estimate_wear(speeds_rad_s, frictions, params=params)
     est = estimates[0]

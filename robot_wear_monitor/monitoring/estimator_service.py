@@ -43,9 +43,9 @@ from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_ERROR, DIAGNOSTIC
 from robot_wear_monitor.text import fmt_number, STD_NOT_REPORTED
 
 if TYPE_CHECKING:
-    from robot_wear_monitor.estimation.estimator import WearEstimate, WearEstimates
     from robot_wear_monitor.estimation.intervals import WearInterval
     from robot_wear_monitor.estimation.trend import TrendEstimate, WearTrend
+    from robot_wear_monitor.estimation.wear_estimates import WearEstimate, WearEstimates
 
 
 __all__ = ['EstimateFunction', 'EstimatorConfig', 'WearEstimatorService', 'WearUpdate']

@@ -23,9 +23,9 @@ from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
 from robot_wear_monitor.recordings import messages
 
 if TYPE_CHECKING:
-    from robot_wear_monitor.estimation.estimator import WearEstimate
     from robot_wear_monitor.estimation.intervals import WearInterval
     from robot_wear_monitor.estimation.trend import TrendEstimate
+    from robot_wear_monitor.estimation.wear_estimates import WearEstimate
 
 
 @dataclass(frozen=True)

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.design import design_cost, fisher_information
-from robot_wear_monitor.estimation.estimator import (estimate_wear, marginal_fisher_information,
-                                                     MarginalModel, WearEstimate, WearEstimates)
+from robot_wear_monitor.estimation.estimator import estimate_wear
+from robot_wear_monitor.estimation.single_level import marginal_fisher_information, MarginalModel
 from robot_wear_monitor.estimation.study import simulate_friction
+from robot_wear_monitor.estimation.wear_estimates import WearEstimate, WearEstimates
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import load_parameter_set
 from scipy import integrate, optimize, stats
