@@ -92,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # a command names its verb first; anything else (--help, --version, a mistake) gets all
     parser = build_parser(argv[:1] if argv[:1] and argv[0] in VERBS else VERBS)
     ros_args: list[str] = []
-    if '--ros-args' in argv:  # ROS arguments go to rclpy untouched (live, play)
+    if '--ros-args' in argv:  # ROS arguments go to rclpy untouched (live, play, call)
         cut = argv.index('--ros-args')
         argv, ros_args = argv[:cut], argv[cut:]
     try:
@@ -100,7 +100,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as done:  # also --help and --version (exit 0)
         return done.code if isinstance(done.code, int) else 2
     if ros_args and args.command not in _ROS_VERBS:
-        parser.error(f'--ros-args is only for live and play, not {args.command}')
+        parser.error(f'--ros-args is only for {", ".join(_ROS_VERBS[:-1])} and '
+                     f'{_ROS_VERBS[-1]}, not {args.command}')
     args.ros_args = ros_args
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     freeze_objects_at_exit()

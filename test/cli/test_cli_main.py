@@ -38,14 +38,14 @@ def test_python_m_runs_the_command_line():
         assert verb in run.stdout
 
 
-def test_ros_args_are_only_for_live_and_play(capsys):
+def test_ros_args_are_only_for_live_play_and_call(capsys):
     try:
         cli.main(['design', '--n', '2', '--ros-args', '-p', 'x:=1'])
     except SystemExit as error:
         assert error.code == 2
     else:
         raise AssertionError('--ros-args accepted by design')
-    assert '--ros-args is only for live and play' in capsys.readouterr().err
+    assert '--ros-args is only for live, play and call, not design' in capsys.readouterr().err
 
 
 def test_the_command_line_loads_numpy_after_setting_one_openblas_thread():
