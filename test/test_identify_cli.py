@@ -1,8 +1,8 @@
 """
 ``robot-wear-monitor identify``: files in, a loadable parameter set out; mistakes exit 2.
 
-The friction levels are written by ``test/independent_robot.py``'s model functions (not the
-package's simulation) for a joint whose parameters differ from the packaged set.
+The friction levels are written by ``test/wear_testing/independent_robot.py``'s model functions
+(not the package's simulation) for a joint whose parameters differ from the packaged set.
 """
 
 import json

@@ -1,12 +1,12 @@
 """
 Identification of parameter sets (``identify``) on robots simulated independently.
 
-The friction levels come from ``test/independent_robot.py``'s model functions (written from the
-paper, sharing no code with the package) with parameter dicts that differ from the packaged
-set: a direct-drive-like joint with no Stribeck dip, a joint with a strong load effect, and the
-paper's own joint (Tables I and II).  Each robot gets a baseline (healthy joint: every experiment
-runs the 12 speeds of eq. (27) at one temperature and load) and an accelerated wear test whose
-experiment K has w = 35 by construction (the paper's convention).
+The friction levels come from ``test/wear_testing/independent_robot.py``'s model functions (written
+from the paper, sharing no code with the package) with parameter dicts that differ from the
+packaged set: a direct-drive-like joint with no Stribeck dip, a joint with a strong load effect,
+and the paper's own joint (Tables I and II).  Each robot gets a baseline (healthy joint: every
+experiment runs the 12 speeds of eq. (27) at one temperature and load) and an accelerated wear test
+whose experiment K has w = 35 by construction (the paper's convention).
 """
 
 import json

@@ -1,8 +1,8 @@
 """
 ``identify`` on a recorded bag: temperature and load from topics the user names.
 
-The recording comes from the independent generator (``test/independent_robot.py``, its own
-trajectory and noise); the bag, with ``/joint_temperature`` (sensor_msgs/Temperature) and
+The recording comes from the independent generator (``test/wear_testing/independent_robot.py``, its
+own trajectory and noise); the bag, with ``/joint_temperature`` (sensor_msgs/Temperature) and
 ``/load_estimate`` (std_msgs/Float64) beside ``/joint_states``, is written here with rosbags.
 """
 

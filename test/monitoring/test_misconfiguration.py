@@ -1,8 +1,8 @@
 """
 A misconfigured monitor never says "no alarm": it says it cannot judge, and names the cause.
 
-The recordings come from the independent generator (``test/independent_robot.py``: its own
-trajectory, noise and protocol) of a joint that wears from w = 20 to w = 70, so that the right
+The recordings come from the independent generator (``test/wear_testing/independent_robot.py``: its
+own trajectory, noise and protocol) of a joint that wears from w = 20 to w = 70, so that the right
 configuration raises the wear alarm.  Replayed with a wrong gear ratio, a wrong torque scale,
 another joint's friction or a saturated drive torque, every estimate must be invalid, the
 summary must say so in words with the likely cause, and nothing may read "no alarm".

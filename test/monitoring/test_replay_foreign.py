@@ -1,8 +1,9 @@
 """
 Replay of foreign recordings through the CLI, against the independent generator's truth.
 
-Issue 8: recordings made by another tool on another arm (``test/foreign_recordings.py``: its own
-trajectory, noise, protocol and bag writing).  Replay runs with no configuration other than the
+Issue 8: recordings made by another tool on another arm
+(``test/wear_testing/foreign_recordings.py``: its own trajectory, noise, protocol and bag
+writing).  Replay runs with no configuration other than the
 joint names, gear ratios and torque scales (per joint in a small node-config YAML when several
 joints differ), so the speeds and experiments are discovered in the data.  Every figure asserted
 here comes from the generator's truth: the experiments (count, speeds, friction levels), the

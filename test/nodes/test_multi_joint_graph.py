@@ -5,9 +5,9 @@ Two joints on a live ROS 2 graph, as processes: per-joint topics, alarm, reset a
 ``<joint>.*`` parameters declared when first seen) and ``wear_estimator_node`` (``joints:
 [shoulder, wrist_3]``) start from their console scripts with a params file written here
 (per-joint gear ratio and torque scale); ``robot-wear-monitor play`` plays a bag of the
-independent generator ``test/foreign_recordings.py`` in which ``shoulder`` (gear 120) and the
-direct-drive ``wrist_3`` (gear 1) run friction experiments in turn, the shoulder wearing out
-(its alarm is raised) and the wrist staying healthy; the bag ends before the last experiment's
+independent generator ``test/wear_testing/foreign_recordings.py`` in which ``shoulder`` (gear 120)
+and the direct-drive ``wrist_3`` (gear 1) run friction experiments in turn, the shoulder wearing
+out (its alarm is raised) and the wrist staying healthy; the bag ends before the last experiment's
 idle gap, so that experiment is published after the wall-clock silence of /joint_states.
 A subscriber checks: one ``<joint>/wear`` per experiment of that joint (none on the other
 joint's topic, nothing on the plain topics), values equal to the offline ``robot-wear-monitor

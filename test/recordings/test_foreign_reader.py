@@ -1,7 +1,7 @@
 """
 The multi-joint bag reader on foreign recordings, item by item of issue 8 point 5.
 
-Recordings come from ``test/foreign_recordings.py`` (an independent generator: its own
+Recordings come from ``test/wear_testing/foreign_recordings.py`` (an independent generator: its own
 trajectory, noise, protocol and rosbags writing).  Every test compares what the reader returns
 with what the generator wrote: the samples per joint (bit for bit), the stamps, the message
 count and the rejections per joint and reason.

@@ -1,8 +1,8 @@
 """
 Recordings cut off by a crash: MCAP files without metadata.yaml, summary or footer.
 
-The recording comes from the independent generator (``test/independent_robot.py``: its own
-trajectory, noise and rosbags writer); the cut is made here by truncating the MCAP file at
+The recording comes from the independent generator (``test/wear_testing/independent_robot.py``: its
+own trajectory, noise and rosbags writer); the cut is made here by truncating the MCAP file at
 several byte offsets and removing ``metadata.yaml``, which is what a killed ``ros2 bag record``
 leaves behind.
 """

@@ -3,9 +3,9 @@ Foreign recordings: multi-joint JointState bags of friction experiments made by 
 
 An independent generator of test recordings.  It shares no trajectory, noise, protocol or bag
 code with ``robot_wear_monitor`` (it does not use ``experiment/simulation.py``, the package's
-bag writer or ``test/independent_robot.py``); only the friction values come from the package's
-model (:func:`robot_wear_monitor.model.friction.friction`).  Bags are written with rosbags'
-``Writer`` and the typestore's ``serialize_cdr``.
+bag writer or ``test/wear_testing/independent_robot.py``); only the friction values come from the
+package's model (:func:`robot_wear_monitor.model.friction.friction`).  Bags are written with
+rosbags' ``Writer`` and the typestore's ``serialize_cdr``.
 
 Arm and protocol
 ----------------

@@ -2,10 +2,10 @@
 Independent test data: a 6-axis arm running the friction experiment while its joint wears.
 
 This generator shares no code with ``robot_wear_monitor`` (it does not import or copy
-``simulation.py`` or ``model.py``): the friction model, the trajectories, the noise and the
-protocol are written here from the paper (Bittencourt and Axelsson, eqs. (3), (5), (7), (8),
-(9)) and ``../shared/seed/PARAMETERS.md``, so that the package's segmentation, estimation,
-replay and bag reading can be checked against a truth they did not produce.
+``experiment/simulation.py`` or ``model/friction.py``): the friction model, the trajectories, the
+noise and the protocol are written here from the paper (Bittencourt and Axelsson, eqs. (3), (5),
+(7), (8), (9)) and ``../shared/seed/PARAMETERS.md``, so that the package's segmentation,
+estimation, replay and bag reading can be checked against a truth they did not produce.
 
 Protocol of one experiment, for every motor-side speed v in the given order (joint speed =
 v / gear_ratio):

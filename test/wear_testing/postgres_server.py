@@ -8,14 +8,12 @@ of 127.0.0.1 (its unix socket in the same folder), makes databases on demand and
 everything at the end.  PostgreSQL refuses to run as root: as root, the server runs as the
 ``postgres`` user (``runuser -u postgres --``), who is given the folder.
 
-This module is also a pytest plugin (``pytest_plugins = ('postgres_server',)`` in a test module
-or in ``test/conftest.py``) with the fixtures ``postgresql_server`` (one server for the test
+This module is also a pytest plugin (``pytest_plugins = ('wear_testing.postgres_server',)`` in
+``test/conftest.py``) with the fixtures ``postgresql_server`` (one server for the test
 session), ``postgresql_url`` (a new empty database) and ``history_location`` (a new history,
 parametrised on 'sqlite' (a file path) and 'postgresql' (a URL)).  Without PostgreSQL (or
 psycopg) the PostgreSQL tests are skipped with the reason, except in CI (environment variable
-``CI`` set and not empty), where they fail: a PostgreSQL test never skips in CI.  (Not a
-``test/monitoring/conftest.py``: conftest files without packages share the module name
-``conftest``, and ``test/nodes`` imports helpers from the top one by that name.)
+``CI`` set and not empty), where they fail: a PostgreSQL test never skips in CI.
 """
 
 from __future__ import annotations
