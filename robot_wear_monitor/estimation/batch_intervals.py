@@ -20,7 +20,7 @@ from typing import Optional, Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.array_types import FloatArray
-from robot_wear_monitor.estimation import intervals as one
+from robot_wear_monitor.estimation import intervals as one, profile_likelihood as pl
 from robot_wear_monitor.estimation.batch import _levels_last, whitening_rows
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
 from robot_wear_monitor.estimation.wear_estimates import WearEstimates
@@ -30,11 +30,11 @@ from robot_wear_monitor.model.params import ParameterSet
 
 class _StackedProfile:
     """
-    The :class:`~robot_wear_monitor.estimation.intervals._Profile` of B rows, stacked.
+    The :class:`~robot_wear_monitor.estimation.profile_likelihood.Profile` of B rows, stacked.
 
     Built for all rows at once (:meth:`build`), with the operations of one row's profile: the
     model on the grids elementwise (evaluated levels-first, on long rows of memory), then one
-    BLAS product and one einsum kernel per row, so row ``i`` holds the arrays of ``_Profile(
+    BLAS product and one einsum kernel per row, so row ``i`` holds the arrays of ``Profile(
     speeds[i], params, grid)`` number for number (tested).
     """
 
@@ -44,7 +44,7 @@ class _StackedProfile:
         self.params, self.grid = params, grid
         self.t_min = float(params.temperature_min_degc)
         self.t_max = float(params.temperature_max_degc)
-        self.t_grid = np.linspace(self.t_min, self.t_max, one._T_POINTS)
+        self.t_grid = np.linspace(self.t_min, self.t_max, pl.T_POINTS)
         self.speeds = speeds                                           # (B, N)
         self.whiten = whiten                                           # (B, N, N)
         self.const = const                                             # (B,)
@@ -62,7 +62,7 @@ class _StackedProfile:
         const = (-0.5 * speeds.shape[1] * np.log(2.0 * np.pi)
                  - np.sum(np.log(np.diagonal(factor, axis1=1, axis2=2)), axis=1))
         t_grid = np.linspace(float(params.temperature_min_degc),
-                             float(params.temperature_max_degc), one._T_POINTS)
+                             float(params.temperature_max_degc), pl.T_POINTS)
         levels_first = speeds.T[:, :, None]  # (N, B, 1)
         whiten_t = cls._t(whiten)
         nom = np.matmul(_levels_last(fm.nominal_friction(levels_first, params.load_mean, t_grid,
@@ -86,7 +86,7 @@ class _StackedProfile:
         return self._times(values[:, None, :], self.whiten[rows])[:, 0, :]
 
     def cross(self, part: slice) -> FloatArray:
-        """Return the ``_Profile.cross`` 2 a_k.c_g of the rows ``part``, (R, G, K)."""
+        """Return the ``Profile.cross`` 2 a_k.c_g of the rows ``part``, (R, G, K)."""
         return np.matmul(2.0 * self.wear[part], self._t(self.nom[part]))
 
     def grid_profiles(self, data: FloatArray, *, want_t: bool) -> tuple:
@@ -98,15 +98,15 @@ class _StackedProfile:
         prof_w = np.empty((b, g))
         prof_t = np.empty((b, k)) if want_t else None
         # a few rows' cost cubes at a time (cache-sized), each made from its rows' products
-        chunk = max(1, one._CHUNK_CELLS // (g * k))
+        chunk = max(1, pl.CHUNK_CELLS // (g * k))
         for s in range(0, b, chunk):
             cube = self.cross(slice(s, s + chunk))
             cube += p_t[s:s + chunk, None, :]
             cube += q_w[s:s + chunk, :, None]
-            prof_w[s:s + chunk] = one._parabola_min(cube, self.t_grid)[0]
+            prof_w[s:s + chunk] = pl.parabola_min(cube, self.t_grid)[0]
             if prof_t is not None:
                 # over the wear grid: on a contiguous copy (argmin would copy it anyway)
-                prof_t[s:s + chunk] = one._parabola_min(
+                prof_t[s:s + chunk] = pl.parabola_min(
                     np.ascontiguousarray(np.swapaxes(cube, 1, 2)), self.grid)[0]
         prof_w += d2[:, None]
         if prof_t is not None:
@@ -135,7 +135,7 @@ class _StackedProfile:
         e = data - c
         cost = (np.einsum('bn,bn->b', e, e)[:, None] + nom2
                 - self._times(2.0 * e[:, None, :], nom)[:, 0, :])
-        return one._parabola_min(cost, self.t_grid)[0]
+        return pl.parabola_min(cost, self.t_grid)[0]
 
     def cost_at_temperature(self, data: FloatArray, t: FloatArray,
                             rows: NDArray[np.intp]) -> FloatArray:
@@ -146,14 +146,14 @@ class _StackedProfile:
         e = data - a
         cost = (np.einsum('bn,bn->b', e, e)[:, None] + wear2
                 - self._times(2.0 * e[:, None, :], wear)[:, 0, :])
-        return one._parabola_min(cost, self.grid)[0]
+        return pl.parabola_min(cost, self.grid)[0]
 
 
 def _extended_grid(grid: FloatArray, w_hat: float) -> FloatArray:
-    """Return the wear grid of one row's T profile (as ``_WearLikelihood`` extends it)."""
+    """Return the wear grid of one row's T profile (as ``WearLikelihood`` extends it)."""
     target = 1.5 * max(float(w_hat), 0.0)
     if target > grid[-1]:
-        count = int(min(np.ceil((target - grid[-1]) / one._COARSE_STEP), 200))
+        count = int(min(np.ceil((target - grid[-1]) / pl.COARSE_STEP), 200))
         return np.concatenate([grid, np.linspace(grid[-1], target, count + 1)[1:]])
     return grid
 
@@ -173,8 +173,8 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
     :raises InputError: as the one-experiment functions.
 
     """
-    grid = one._validate_grid(one.wear_grid(params.wear_max))
-    checked = [one._validate(s, v) for s, v in zip(speeds, values)]
+    grid = pl.validate_grid(pl.wear_grid(params.wear_max))
+    checked = [pl.validate_levels(s, v) for s, v in zip(speeds, values)]
     speeds = [s for s, _ in checked]
     values = [v for _, v in checked]
     out: list[Optional[one.WearIntervals]] = [None] * len(speeds)
@@ -192,7 +192,7 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
                                                                         level=level)
         extended = _extended_grid(grid, float(estimates[i].wear[0]))
         groups.setdefault((s.size, id(calibration), extended.tobytes()), []).append(i)
-    trend = None if trend_grid is None else one._validate_grid(trend_grid)
+    trend = None if trend_grid is None else pl.validate_grid(trend_grid)
     trend_rows: list[Optional[FloatArray]] = [None] * len(speeds)
     for (_, _, extended), rows in groups.items():
         results, like_rows = _intervals_stacked(
@@ -217,11 +217,11 @@ def _likelihood_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArray],
                      params: ParameterSet, trend_grid: FloatArray
                      ) -> list[Optional[FloatArray]]:
     """Return profile_log_likelihood of every row (N >= 2 rows stacked), shape (1, G) each."""
-    grid = one._validate_grid(trend_grid)
+    grid = pl.validate_grid(trend_grid)
     rows: list[Optional[FloatArray]] = [None] * len(speeds)
     by_size: dict[int, list[int]] = {}
     for i, (s, v) in enumerate(zip(speeds, values)):
-        s, v = one._validate(s, v)
+        s, v = pl.validate_levels(s, v)
         if s.size == 1 or v.shape[0] != 1:
             rows[i] = one.profile_log_likelihood(s, v, params=params, wear_grid=grid)
         else:
@@ -256,7 +256,7 @@ def _intervals_stacked(speeds: list, values: list, estimates: list, params: Para
                                     _extended_grid(grid, float(w_hat[0])))
     index = np.arange(len(speeds))
     data = profile.whitened(vals, index)
-    # _WearLikelihood, N >= 2
+    # WearLikelihood, N >= 2
     cost_w, cost_t = profile.grid_profiles(data, want_t=True)
     profile_rows = profile.const[:, None] - 0.5 * cost_w  # on the extended grid
     like_rows = profile_rows[:, :grid.size]

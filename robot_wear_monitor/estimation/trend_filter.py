@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
-from robot_wear_monitor.estimation.intervals import wear_grid
+from robot_wear_monitor.estimation.profile_likelihood import wear_grid
 from robot_wear_monitor.estimation.special_functions import erf
 
 _LOG_FLOOR = -1e30  # stands for log 0 (-inf) in the interpolation of the rows
@@ -32,7 +32,7 @@ class TrendConfig:
     Parameters of the trend filter (rates are in w per experiment).
 
     :ivar wear_grid: strictly increasing wear grid starting at >= 0, shape (G,), G >= 3; the
-        likelihood rows must be given on it (default: ``intervals.wear_grid()``, 0 .. 150,
+        likelihood rows must be given on it (default: ``profile_likelihood.wear_grid()``, 0 .. 150,
         321 points).
     :ivar threshold: alarm threshold of w (default: the paper's 35, ``alarm.WEAR_THRESHOLD``).
     :ivar initial_wear_scale: scale of the half-normal new-joint prior of w [w].

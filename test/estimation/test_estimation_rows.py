@@ -113,15 +113,15 @@ def test_stacked_start_grids_equal_each_rows_own(n):
 
 @pytest.mark.parametrize('n', [2, 4, 9, 20])
 def test_stacked_profiles_equal_each_rows_own(n):
-    """The stacked interval profiles hold each row's _Profile arrays, bit for bit."""
-    from robot_wear_monitor.estimation import batch_intervals, intervals
+    """The stacked interval profiles hold each row's Profile arrays, bit for bit."""
+    from robot_wear_monitor.estimation import batch_intervals, profile_likelihood
     params = load_parameter_set(None)
     speeds, _ = _design_rows(params, np.random.default_rng(n), 9, n)
-    grid = intervals.wear_grid(params.wear_max)
+    grid = profile_likelihood.wear_grid(params.wear_max)
     stacked = batch_intervals._StackedProfile.build(speeds, params, grid)
-    assert stacked.t_grid.shape == (intervals._T_POINTS,)
+    assert stacked.t_grid.shape == (profile_likelihood.T_POINTS,)
     for i in range(speeds.shape[0]):
-        alone = intervals._Profile(speeds[i].copy(), params, grid.copy())
+        alone = profile_likelihood.Profile(speeds[i].copy(), params, grid.copy())
         for name in ('whiten', 'nom', 'wear', 'nom2', 'wear2'):
             assert getattr(alone, name).tobytes() == \
                 np.ascontiguousarray(getattr(stacked, name)[i]).tobytes(), name
@@ -132,12 +132,12 @@ def test_stacked_profiles_equal_each_rows_own(n):
 
 def test_a_trend_grid_equal_to_a_rows_extended_grid_gets_the_whole_trend_row(rows):
     """A row whose interval profile runs on the trend grid itself, extended: its full row."""
-    from robot_wear_monitor.estimation import intervals
+    from robot_wear_monitor.estimation import profile_likelihood
     from robot_wear_monitor.estimation.batch_intervals import _extended_grid
     params, speeds, frictions = rows
     values = [np.asarray(f)[None, :] for f in frictions]
     estimates = estimate_wear_rows(speeds, values, params=params)
-    base = intervals.wear_grid(params.wear_max)
+    base = profile_likelihood.wear_grid(params.wear_max)
     i = next(i for i, (s, e) in enumerate(zip(speeds, estimates))
              if s.size > 1 and 1.5 * e.wear[0] > base[-1])
     grid = _extended_grid(base, float(estimates[i].wear[0]))

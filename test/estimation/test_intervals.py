@@ -1,9 +1,10 @@
 """
 Tests of the profile-likelihood intervals of w and T (estimation/intervals.py).
 
-Data come from the independent generator ``test/independent_robot.py`` (model (8) written
-without the package): levels = model(v, load ~ N(0.5, 0.1), T ~ U[30, 50], w) + N(0, sigma).
-Reference log-likelihoods are computed here from that model and scipy, not from the package.
+Data come from the independent generator ``test/wear_testing/independent_robot.py`` (model (8)
+written without the package): levels = model(v, load ~ N(0.5, 0.1), T ~ U[30, 50], w) +
+N(0, sigma).  Reference log-likelihoods are computed here from that model and scipy, not from
+the package.
 
 The cutoff of the likelihood-ratio statistic is calibrated by the package's own simulation of
 (9) (``calibrate_cutoffs``); the coverage is checked here on the independent generator.
@@ -27,8 +28,8 @@ import pytest
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.estimation.intervals import (calibrate_cutoffs, profile_log_likelihood,
-                                                     wear_grid, WEAR_GRID_MAX, wear_intervals,
-                                                     WearInterval, WearIntervals)
+                                                     wear_intervals, WearInterval, WearIntervals)
+from robot_wear_monitor.estimation.profile_likelihood import wear_grid, WEAR_GRID_MAX
 from robot_wear_monitor.model.params import load_parameter_set
 from scipy import integrate, optimize, stats
 from wear_testing import independent_robot as robot
