@@ -146,11 +146,10 @@ def test_argparse_messages_print_no_password_for_any_verb():
     from robot_wear_monitor.cli import VERBS
     commands = []
     for verb in VERBS:
-        for form in ('userinfo', 'query'):
-            url = _with_password('postgresql://rwm@db.example.invalid:5432/fleet', form)
-            commands += [[verb, '--histroy', url], [verb, url, '--history'],
-                         [verb, f'--history={url}', '--no-such-option'],
-                         [verb, '--port', url]]
+        url, query = (_with_password('postgresql://rwm@db.example.invalid:5432/fleet', form)
+                      for form in ('userinfo', 'query'))
+        commands += [[verb, '--histroy', url], [verb, '--histroy', query],
+                     [verb, url, '--history'], [verb, f'--history={query}', '--port', url]]
     results = []
     for start in range(0, len(commands), 8):  # eight at a time: a machine of a few cores
         batch = [subprocess.Popen([sys.executable, '-m', 'robot_wear_monitor.cli', *argv],
