@@ -176,6 +176,10 @@ class WearHistory:
         return (4 if 'invalid_reason' in columns else 3 if 'robot' in columns
                 else 2 if 'wear_low' in columns else 1)
 
+    def connection_alive(self, *, check: bool = True) -> bool:
+        """Return whether the history's connection still serves (``check``: ask the server)."""
+        return self._backend.alive(check=check)
+
     def close(self) -> None:
         """Close the history (SQLite: a WAL checkpoint folds the log into the file)."""
         self._backend.close()
