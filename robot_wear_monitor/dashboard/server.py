@@ -29,6 +29,13 @@ from typing import Any, Optional
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.input_files import MAX_PEM_BYTES, read_text_file
 
+#: How long a request's headers may take to arrive, from their first byte [s].
+HEADER_TIMEOUT_S = 10.0
+#: The largest request head (request line and headers) h11 takes [bytes]; more is 400.
+MAX_HEADER_BYTES = 16 * 1024
+#: How many connections and requests at once the server takes (``--limit-concurrency``).
+LIMIT_CONCURRENCY = 200
+
 
 def is_loopback(host: str) -> bool:
     """Return whether ``host`` (a name or an address) is only reachable from this machine."""
@@ -108,13 +115,6 @@ def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
                             h11_max_incomplete_event_size=MAX_HEADER_BYTES)
     uvicorn.Server(config).run(sockets=[listener] if listener is not None else None)
 
-
-#: How long a request's headers may take to arrive, from their first byte [s].
-HEADER_TIMEOUT_S = 10.0
-#: The largest request head (request line and headers) h11 takes [bytes]; more is 400.
-MAX_HEADER_BYTES = 16 * 1024
-#: How many connections and requests at once the server takes (``--limit-concurrency``).
-LIMIT_CONCURRENCY = 200
 
 
 def header_timeout_protocol(timeout_s: float = HEADER_TIMEOUT_S) -> type:
