@@ -35,6 +35,7 @@ import time
 from typing import Any, Awaitable, Callable, Optional, TypedDict
 from urllib.parse import quote
 
+from robot_wear_monitor.history.records import HistoryError
 from robot_wear_monitor.history.users import ROLES
 from starlette.concurrency import run_in_threadpool
 from starlette.middleware.base import BaseHTTPMiddleware
@@ -295,9 +296,17 @@ class RequireSession(BaseHTTPMiddleware):
                        call_next: Callable[[Request], Awaitable[Response]]) -> Response:
         """Pass the request on when it has a session (or is public); else refuse it."""
         path = request.url.path
-        response: Response
         bearer = bearer_token(request)
         request.state.token_auth = False
+        try:
+            return await self._dispatch(request, call_next, path, bearer)
+        except HistoryError:  # the history cannot serve now (its server restarting): 503
+            return _history_away()
+
+    async def _dispatch(self, request: Request,
+                        call_next: Callable[[Request], Awaitable[Response]], path: str,
+                        bearer: Optional[str]) -> Response:
+        response: Response
         if bearer is not None and path.startswith('/api/'):
             pool = request.app.state.pool
             if not await run_in_threadpool(_token_from_pool, request, pool, bearer):
@@ -325,6 +334,15 @@ class RequireSession(BaseHTTPMiddleware):
         for key, value in SECURITY_HEADERS.items():
             response.headers.setdefault(key, value)
         return response
+
+
+def _history_away() -> Response:
+    """Return 503: the session or token could not be looked up (no location in it)."""
+    response = JSONResponse({'detail': 'the wear history cannot be read just now: try again '
+                                       'shortly'}, status_code=503, headers={'Retry-After': '5'})
+    for key, value in SECURITY_HEADERS.items():
+        response.headers.setdefault(key, value)
+    return response
 
 
 def _load_from_pool(request: Request, pool: Any) -> None:
