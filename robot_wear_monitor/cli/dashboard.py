@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='connections and requests at once; past it 503 (default '
                              f'{LIMIT_CONCURRENCY})')
     parser.add_argument('--header-timeout-s', type=float, default=None, metavar='S',
-                        help="close a connection whose request headers take longer (default "
+                        help='close a connection whose request headers take longer (default '
                              f'{HEADER_TIMEOUT_S:g})')
     parser.add_argument('--params', action='append', default=[], metavar='FILE',
                         help='a parameter set the estimates name (for the model curve; the '

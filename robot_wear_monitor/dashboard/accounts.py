@@ -75,8 +75,8 @@ def change_role(request: Request, name: str, admin: AdminUser, history: HistoryD
                 role: str = Form('')) -> Response:
     """Give a user another role (it counts at once, for their sessions and tokens too)."""
     return _not_self(request, admin, name, 'change the role of') or _done(
-        request, history, lambda: history.set_role(name=name, role=role, keep_an_admin=True,
-                                                  by=Actor.web(admin['name'])),
+        request, history, lambda: history.set_role(
+            name=name, role=role, keep_an_admin=True, by=Actor.web(admin['name'])),
         f'user {name[:64]} is now {role[:20]}')
 
 
@@ -98,8 +98,8 @@ def remove_user(request: Request, name: str, admin: AdminUser, history: HistoryD
                                                              'the box to confirm'}
         return RedirectResponse('/users', status_code=303)
     return _not_self(request, admin, name, 'remove') or _done(
-        request, history, lambda: history.remove_user(name=name, keep_an_admin=True,
-                                    by=Actor.web(admin['name'])),
+        request, history, lambda: history.remove_user(
+            name=name, keep_an_admin=True, by=Actor.web(admin['name'])),
         f'user {name[:64]} removed; their sessions and API tokens ended')
 
 

@@ -14,7 +14,7 @@ itself, before the session, the API token, the role or any parser looks at it:
   bounded by the size limit (milliseconds): more than :data:`MAX_JSON_KEYS` keys is 413,
   nesting deeper than :data:`MAX_JSON_DEPTH` 422, and a value the API cannot take anywhere
   (``NaN``, ``Infinity``, a number out of range such as ``1e999``, a lone surrogate such as
-  ``\\ud800`` in a text or a key) is 422 naming the field (``loc`` as FastAPI gives it, e.g.
+  U+D800, in a text or a key) is 422 naming the field (``loc`` as FastAPI gives it, e.g.
   ``["body", "comment"]``).  Malformed JSON is left to FastAPI (422 too).
 
 The body passed on is the one read (the app never reads the socket itself).  Every answer

@@ -116,13 +116,12 @@ def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
     uvicorn.Server(config).run(sockets=[listener] if listener is not None else None)
 
 
-
 def header_timeout_protocol(timeout_s: float = HEADER_TIMEOUT_S) -> type:
     """Return uvicorn's h11 protocol with a request-header timer of ``timeout_s`` [s]."""
     import h11  # uvicorn's HTTP/1.1 parser
     from uvicorn.protocols.http.h11_impl import H11Protocol
 
-    class HeaderTimeoutProtocol(H11Protocol):  # type: ignore[misc]
+    class HeaderTimeoutProtocol(H11Protocol):
         """uvicorn's h11 protocol that closes a connection whose request headers stall."""
 
         header_timeout_s = timeout_s

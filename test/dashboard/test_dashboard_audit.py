@@ -1,6 +1,8 @@
 """
-The account audit: every change of a user, role, password or token, from the command line
-or the Users page, is in the history (never a secret), listed by ``dashboard audit``.
+The account audit: every change of an account is in the history, listed by ``dashboard audit``.
+
+Every change of a user, role, password or token, from the command line or the Users page, is
+recorded (never a secret).
 
 On SQLite and PostgreSQL: the command line's changes (run as an operator runs them, in a
 process of their own) come back from ``dashboard audit --json`` with ``cli:<login name>``,

@@ -1,6 +1,8 @@
 """
-The guards around the dashboard, in the app: bounded bodies, 422 for every bad value, the
-login limit that cannot be turned against the owner, the cookie and HSTS, no location shown.
+The guards around the dashboard, in the app (FastAPI's TestClient).
+
+Bounded bodies, 422 for every bad value, the login limit that cannot be turned against the
+owner, the cookie and HSTS, no location shown.
 
 On SQLite and PostgreSQL where the store matters (the bad values never reach it: the alarm
 is acknowledged by the good request after them).  The real server's guards (a 50 MB body,
