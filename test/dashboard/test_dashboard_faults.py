@@ -5,7 +5,8 @@ The dashboard runs as an operator runs it (``robot-wear-monitor dashboard`` in a
 own, uvicorn) on a PostgreSQL history.  A viewer's 50 MB body is answered 413 within seconds
 without the server's memory growing by its size; a body of 300,000 keys is refused while
 another request is answered at once; a connection that never finishes its request headers is
-closed within 20 s; past ``--limit-concurrency`` new requests get 503; after PostgreSQL
+closed within 20 s; past ``--limit-concurrency`` new requests get 503; two Content-Length headers are
+refused (different) or one (identical) before the app, as the docs say; after PostgreSQL
 restarts ``/api/fleet`` answers 200 again within 10 s, on its own.
 """
 
@@ -170,6 +171,29 @@ def test_300000_keys_are_refused_while_another_request_is_answered(dashboard):
     _send_body(server.port, declared, [body], answers)
     assert answers['status'].startswith(b'HTTP/1.1 413')
     assert time.monotonic() - started < 3.0
+
+
+def _raw(port: int, request: bytes) -> bytes:
+    with socket.create_connection(('127.0.0.1', port), timeout=20) as sock:
+        sock.sendall(request)
+        return sock.recv(65536)
+
+
+def test_two_content_lengths_as_the_docs_say(dashboard):
+    # two different values: refused by h11 before the app (400); two identical ones are one
+    server, _ = dashboard
+    head = (b'POST /login HTTP/1.1\r\nHost: x\r\nConnection: close\r\n'
+            b'Content-Type: application/x-www-form-urlencoded\r\n')
+    body = b'username=mia'
+    different = _raw(server.port, head + b'Content-Length: 12\r\nContent-Length: 13\r\n\r\n'
+                     + body)
+    assert different.startswith(b'HTTP/1.1 400'), different[:200]
+    same = _raw(server.port, head + b'Content-Length: 12\r\nContent-Length: 12\r\n\r\n'
+                + body)
+    assert same.startswith(b'HTTP/1.1 403'), same[:200]  # read as one: the CSRF check speaks
+    kinds = _raw(server.port, head + b'Content-Type: text/plain\r\nContent-Length: 12\r\n\r\n'
+                 + body)
+    assert kinds.startswith(b'HTTP/1.1 400'), kinds[:200]
 
 
 def test_a_half_sent_request_is_closed_and_the_concurrency_is_bounded(dashboard):

@@ -202,3 +202,22 @@ def test_the_cookie_is_secure_behind_tls_and_hsts_only_over_own_tls(fleet):
                                        base_url='https://testserver') as tls:
         for path in ('/login', '/api/fleet'):
             assert tls.get(path).headers['strict-transport-security'].startswith('max-age=')
+
+
+def test_a_refused_action_on_the_joint_page_does_not_show_the_location(fleet):
+    # press_line joint_1 has no latched alarm: the history refuses the acknowledgement with a
+    # message that starts with its own location (a path, or a URL)
+    from robot_wear_monitor.dashboard.pages import joint_url
+    with _client(fleet) as client:
+        assert login(client, 'mia').status_code == 303
+        page = joint_url('press_line', 'joint_1')
+        token = csrf_of(client.get('/').text)
+        response = client.post(page + '/acknowledge', data={'owner': 'Team B', 'comment': '',
+                                                            'csrf_token': token},
+                               follow_redirects=False)
+        assert response.status_code == 303
+        shown = client.get(page).text
+    flash = shown.split('id="flash">', 1)[1].split('</p>', 1)[0]
+    assert 'no latched alarm' in flash or 'alarm' in flash, flash
+    host = fleet.split('@')[-1].split('/')[0] if '://' in fleet else fleet
+    assert host not in flash and 'postgresql://' not in flash, flash
