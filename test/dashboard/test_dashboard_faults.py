@@ -5,9 +5,9 @@ The dashboard runs as an operator runs it (``robot-wear-monitor dashboard`` in a
 own, uvicorn) on a PostgreSQL history.  A viewer's 50 MB body is answered 413 within seconds
 without the server's memory growing by its size; a body of 300,000 keys is refused while
 another request is answered at once; a connection that never finishes its request headers is
-closed within 20 s; past ``--limit-concurrency`` new requests get 503; two Content-Length headers are
-refused (different) or one (identical) before the app, as the docs say; after PostgreSQL
-restarts ``/api/fleet`` answers 200 again within 10 s, on its own.
+closed within 20 s; past ``--limit-concurrency`` new requests get 503; two Content-Length
+headers are refused (different) or one (identical) before the app, as the docs say; after
+PostgreSQL restarts ``/api/fleet`` answers 200 again within 10 s, on its own.
 """
 
 import os
