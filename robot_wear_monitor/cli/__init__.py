@@ -89,6 +89,13 @@ def freeze_objects_at_exit() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code (0 success, 2 bad input, 130 Ctrl-C)."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    # from the first byte: argparse's messages echo the words, a password among them too
+    with secrets_kept_out(argv):
+        return _parse_and_run(argv)
+
+
+def _parse_and_run(argv: list[str]) -> int:
+    """Parse ``argv`` and run its command (:func:`main` within the output guard of argv)."""
     # a command names its verb first; anything else (--help, --version, a mistake) gets all
     parser = build_parser(argv[:1] if argv[:1] and argv[0] in VERBS else VERBS)
     ros_args: list[str] = []

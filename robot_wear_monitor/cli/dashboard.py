@@ -11,15 +11,23 @@ list`` and ``dashboard user remove NAME`` (their sessions and API tokens end) ke
 the history; ``dashboard token add USER [--label TEXT]`` makes an API token of a user (shown
 once, only its hash stored), ``dashboard token list [USER]`` lists ids, labels, creation and
 last use (never a token) and ``dashboard token remove USER --id N|--all`` removes them.
+Every such change (and those of the Users page) is recorded in the history's account audit
+(``cli:<login name>`` for the command line); ``dashboard audit [--json] [--limit N]`` lists it,
+newest first.  Serving: ``--behind-tls`` (a TLS proxy in front: Secure cookie),
+``--trusted-proxy ADDRESS`` (whose X-Forwarded-For names the client),
+``--limit-concurrency N`` and ``--header-timeout-s S`` (slow and many clients).
 """
 
 from __future__ import annotations
 
 import argparse
 import getpass
+import json
 import sys
+from typing import Any
 
 from robot_wear_monitor.cli.options import PROG, shown_location
+from robot_wear_monitor.dashboard.server import HEADER_TIMEOUT_S, LIMIT_CONCURRENCY
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
 
@@ -27,7 +35,8 @@ _ROLE_HELP = '; '.join(f'{role} {text}' for role, text in ROLE_TEXTS.items())
 
 HELP = ("web dashboard of a wear history: the fleet worst first, each joint's wear story, "
         'accountable acknowledge and reset (its users: dashboard user '
-        'add|passwd|role|list|remove; API tokens: dashboard token add|list|remove)')
+        'add|passwd|role|list|remove; API tokens: dashboard token add|list|remove; who changed '
+        'them: dashboard audit)')
 
 
 def _history_option(parser: argparse.ArgumentParser, *, top: bool) -> None:
@@ -48,6 +57,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--tls-key', metavar='PEM', help='private key of --tls-cert')
     parser.add_argument('--insecure-http', action='store_true',
                         help='allow plain HTTP on a non-loopback --host (a TLS proxy in front)')
+    parser.add_argument('--behind-tls', action='store_true',
+                        help='a TLS proxy is in front: the session cookie is Secure (the '
+                             'browser sends it over HTTPS only)')
+    parser.add_argument('--trusted-proxy', action='append', default=[], metavar='ADDRESS',
+                        help="a proxy's address whose X-Forwarded-For names the client (for "
+                             'the login rate limit; none trusted by default); repeatable')
+    parser.add_argument('--limit-concurrency', type=int, default=None, metavar='N',
+                        help='connections and requests at once; past it 503 (default '
+                             f'{LIMIT_CONCURRENCY})')
+    parser.add_argument('--header-timeout-s', type=float, default=None, metavar='S',
+                        help='close a connection whose request headers take longer (default '
+                             f'{HEADER_TIMEOUT_S:g})')
     parser.add_argument('--params', action='append', default=[], metavar='FILE',
                         help='a parameter set the estimates name (for the model curve; the '
                              'packaged sets are known already); repeatable')
@@ -56,7 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              '`notify`), one pass every --notify-interval-s')
     parser.add_argument('--notify-interval-s', type=float, default=60.0, metavar='S',
                         help='seconds between notification passes (default 60)')
-    users = parser.add_subparsers(dest='dashboard_command', metavar='user|token')
+    users = parser.add_subparsers(dest='dashboard_command', metavar='user|token|audit')
     user = users.add_parser('user', help='add, list or remove dashboard users; a new password '
                                          'or role')
     actions = user.add_subparsers(dest='user_action', metavar='ACTION', required=True)
@@ -97,6 +118,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     which.add_argument('--id', type=int, dest='token_id', help='the id `token list` shows')
     which.add_argument('--all', action='store_true', help="all of the user's tokens")
     _history_option(token_remove, top=False)
+    audit = users.add_parser('audit', help='who changed which account when (users, roles, '
+                                           'passwords, tokens; page or command line), '
+                                           'newest first')
+    audit.add_argument('--json', action='store_true', dest='audit_json',
+                       help='a JSON list of objects: user, time_s, action, target, source, '
+                            'detail, id')
+    audit.add_argument('--limit', type=int, default=None, metavar='N',
+                       help='the newest N records only')
+    _history_option(audit, top=False)
 
 
 def read_password(*, name: str) -> str:
@@ -116,18 +146,20 @@ def _users(args: argparse.Namespace) -> int:
             as history:
         if args.user_action == 'add':
             password = read_password(name=args.name)
-            user = history.add_user(name=args.name, role=args.role, password=password)
+            user = history.add_user(name=args.name, role=args.role, password=password,
+                                    by=_cli_actor())
             print(f'user {user.name} added ({user.role})')
         elif args.user_action == 'passwd':
             if args.name not in {u.name for u in history.users()}:
                 raise InputError(f'{shown_location(args.history)}: no user {args.name[:64]!r}')
-            ended = history.set_password(name=args.name, password=read_password(name=args.name))
+            ended = history.set_password(name=args.name, password=read_password(name=args.name),
+                                         by=_cli_actor())
             print(f'new password of {args.name} stored; {ended} session(s) ended')
         elif args.user_action == 'role':
-            user = history.set_role(name=args.name, role=args.role)
+            user = history.set_role(name=args.name, role=args.role, by=_cli_actor())
             print(f'user {user.name} is now {user.role}')
         elif args.user_action == 'remove':
-            history.remove_user(name=args.name)
+            history.remove_user(name=args.name, by=_cli_actor())
             print(f'user {args.name} removed; their sessions and API tokens ended')
         else:
             from robot_wear_monitor.text import iso_time
@@ -145,14 +177,15 @@ def _tokens(args: argparse.Namespace) -> int:
     from robot_wear_monitor.text import iso_time, shorten
     with open_history(args.history, init=False) as history:
         if args.token_action == 'add':
-            listed, token = history.add_token(user=args.user, label=args.label)
+            listed, token = history.add_token(user=args.user, label=args.label, by=_cli_actor())
             print(token)
             print(f'API token {listed.id} of {listed.user} made: it is shown this once (only '
                   f'its hash is stored); send it as `Authorization: Bearer TOKEN`',
                   file=sys.stderr)
         elif args.token_action == 'remove':
             removed = history.remove_tokens(user=args.user,
-                                            token_id=None if args.all else args.token_id)
+                                            token_id=None if args.all else args.token_id,
+                                            by=_cli_actor())
             print(f'{removed} API token(s) of {args.user} removed')
         else:
             found = history.tokens(user=args.user)
@@ -166,14 +199,42 @@ def _tokens(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cli_actor() -> Any:
+    """Return the actor of a change made here: ``cli:<login name>``."""
+    from robot_wear_monitor.history.account_audit import Actor
+    return Actor.command_line()
+
+
+def _audit(args: argparse.Namespace) -> int:
+    """List the account audit: a table, or ``--json``."""
+    from robot_wear_monitor.fleet.ranking import iso_time
+    from robot_wear_monitor.history import open_history
+    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    if args.limit is not None and args.limit < 1:
+        raise InputError(f'--limit must be >= 1, got {args.limit}')
+    with open_history(args.history, init=False) as history:
+        found = history.account_audit(limit=args.limit)
+    if args.audit_json:
+        print(json.dumps([item.as_dict() for item in found], ensure_ascii=False, indent=1))
+        return 0
+    for item in found:
+        print(clean_text(f'{iso_time(item.time_s)}  {item.user}  ({item.source})  '
+                         f'{item.action}  {item.target}  {item.detail}'.rstrip(), limit=400))
+    if not found:
+        print('no account changes recorded')
+    return 0
+
+
 def main(args: argparse.Namespace) -> int:
-    """Run ``dashboard`` (serve), ``dashboard user ...`` or ``dashboard token ...``."""
+    """Run ``dashboard`` (serve), ``dashboard user|token ...`` or ``dashboard audit``."""
     if not args.history:
         raise InputError('--history PATH|URL is required (the wear history to show)')
     if args.dashboard_command == 'user':
         return _users(args)
     if args.dashboard_command == 'token':
         return _tokens(args)
+    if args.dashboard_command == 'audit':
+        return _audit(args)
     try:
         from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
                                                       environment_secret)
@@ -187,6 +248,14 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'--notify-interval-s must be >= 1, got {args.notify_interval_s}')
     check_listen(host=args.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
                  insecure_http=args.insecure_http)
+    limit_concurrency = LIMIT_CONCURRENCY if args.limit_concurrency is None \
+        else args.limit_concurrency
+    header_timeout_s = HEADER_TIMEOUT_S if args.header_timeout_s is None \
+        else args.header_timeout_s
+    if limit_concurrency < 1:
+        raise InputError(f'--limit-concurrency must be >= 1, got {limit_concurrency}')
+    if not 0.5 <= header_timeout_s <= 600.0:
+        raise InputError(f'--header-timeout-s must be 0.5-600, got {header_timeout_s:g}')
     extra = {}
     if args.notify:
         from robot_wear_monitor.dashboard.notifier import load_config
@@ -200,11 +269,13 @@ def main(args: argparse.Namespace) -> int:
     app = create_app(DashboardSettings(
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
         https=bool(args.tls_cert), notify_config=args.notify,
-        notify_interval_s=args.notify_interval_s, extra=extra))
+        notify_interval_s=args.notify_interval_s, extra=extra, behind_tls=args.behind_tls,
+        trusted_proxies=tuple(args.trusted_proxy)))
     scheme = 'https' if args.tls_cert else 'http'
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
           '(Ctrl-C stops)', file=sys.stderr)
     serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key,
-          listener=listener)
+          listener=listener, limit_concurrency=limit_concurrency,
+          header_timeout_s=header_timeout_s)
     return 0

@@ -27,6 +27,7 @@ from contextlib import contextmanager
 import gc
 import json
 import math
+import re
 import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
@@ -442,23 +443,40 @@ class _RedactingStream:
 MIN_GUARDED_SECRET_CHARS = 3
 
 
+#: a PostgreSQL URL anywhere in a command-line word (``--history=postgresql://...`` too)
+_URL_IN_WORD = re.compile(r'postgres(?:ql)?://\S+')
+
+
+def _secrets_of(args: argparse.Namespace | Sequence[str]) -> set[str]:
+    """Return the passwords of the URLs among the parsed options, or in the words of argv."""
+    from robot_wear_monitor.history.passwords import location_secrets
+    secrets: set[str] = set()
+    if isinstance(args, argparse.Namespace):
+        for value in vars(args).values():
+            for item in value if isinstance(value, (list, tuple)) else (value,):
+                secrets.update(location_secrets(item))
+    else:
+        for word in args:
+            for url in _URL_IN_WORD.findall(str(word)):
+                secrets.update(location_secrets(url))
+    return {s for s in secrets if len(s) >= MIN_GUARDED_SECRET_CHARS}
+
+
 @contextmanager
-def secrets_kept_out(args: argparse.Namespace) -> Iterator[None]:
+def secrets_kept_out(args: argparse.Namespace | Sequence[str]) -> Iterator[None]:
     """
     Keep the passwords of the command's history URLs out of stdout and stderr while it runs.
 
-    Every option value that is a PostgreSQL URL gives its password (``user:PASS@`` and
+    ``args``: the parsed options (every option value that is a PostgreSQL URL), or the words of
+    the command line before they are parsed (every PostgreSQL URL in a word), so that
+    argparse's own messages (an unrecognized argument, a missing or invalid value: they echo
+    the words) are covered from the first byte.  Each gives its password (``user:PASS@`` and
     ``?password=``, as given and decoded); whatever the command, a library or a traceback
     prints through ``sys.stdout``/``sys.stderr`` has them replaced by ``***``.  The places that
     print a location also show it redacted (:func:`shown_location`): this guard is the second
     line.
     """
-    from robot_wear_monitor.history.passwords import location_secrets
-    secrets: set[str] = set()
-    for value in vars(args).values():
-        for item in value if isinstance(value, (list, tuple)) else (value,):
-            secrets.update(location_secrets(item))
-    secrets = {s for s in secrets if len(s) >= MIN_GUARDED_SECRET_CHARS}
+    secrets = _secrets_of(args)
     if not secrets:
         yield
         return

@@ -9,5 +9,7 @@ routes take by dependency: the history, the user, the CSRF check, the maintainer
 ``auth`` (sessions, CSRF, the login rate limit), ``views`` (what the pages and the API show),
 ``schemas`` (the API's response models), ``pages`` (HTML and forms), ``api`` (JSON under
 ``/api/``), ``notifier`` (the notification loop of ``--notify``), ``server`` (uvicorn, the
-host check).  See docs/dashboard.md.
+host check, the header timeout), ``guards`` (request bodies bounded and checked before anything
+reads them; the answers to bad values and to a history that cannot serve), ``accounts``
+(the Users page and the account audit, for admins).  See docs/dashboard.md.
 """

@@ -5,7 +5,9 @@ Every route is the admin's (``deps.AdminUser``: the history names the user an ad
 403) and every form carries the session's CSRF token (``deps.check_csrf``).  Removing a user
 ends their sessions and API tokens; a new password ends their sessions
 (:mod:`robot_wear_monitor.history.users`).  An admin neither removes nor demotes their own
-account here (the command line can), so that the page never locks its last admin out.
+account here (the command line can), so that the page never locks its last admin out.  Every
+change made here is recorded in the history's account audit as the admin's (source ``web``);
+``/users/audit`` shows that audit (the command line's changes too), newest first.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from fastapi import APIRouter, Depends, Form, Request
 from robot_wear_monitor.dashboard.deps import AdminUser, check_csrf, HistoryDep
 from robot_wear_monitor.dashboard.pages import render
 from robot_wear_monitor.history import HistoryError
+from robot_wear_monitor.history.account_audit import Actor
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
 from robot_wear_monitor.text import iso_time
 from starlette.responses import HTMLResponse, RedirectResponse, Response
@@ -62,7 +65,8 @@ def add_user(request: Request, admin: AdminUser, history: HistoryDep, name: str 
              role: str = Form(''), password: str = Form('')) -> Response:
     """Add a user with a role and a first password."""
     return _done(request, history,
-                 lambda: history.add_user(name=name.strip(), role=role, password=password),
+                 lambda: history.add_user(name=name.strip(), role=role, password=password,
+                                          by=Actor.web(admin['name'])),
                  f'user {name.strip()[:64]} added ({role[:20]})')
 
 
@@ -71,7 +75,8 @@ def change_role(request: Request, name: str, admin: AdminUser, history: HistoryD
                 role: str = Form('')) -> Response:
     """Give a user another role (it counts at once, for their sessions and tokens too)."""
     return _not_self(request, admin, name, 'change the role of') or _done(
-        request, history, lambda: history.set_role(name=name, role=role, keep_an_admin=True),
+        request, history, lambda: history.set_role(
+            name=name, role=role, keep_an_admin=True, by=Actor.web(admin['name'])),
         f'user {name[:64]} is now {role[:20]}')
 
 
@@ -79,7 +84,8 @@ def change_role(request: Request, name: str, admin: AdminUser, history: HistoryD
 def reset_password(request: Request, name: str, admin: AdminUser, history: HistoryDep,
                    password: str = Form('')) -> Response:
     """Give a user a new password; their sessions end."""
-    return _done(request, history, lambda: history.set_password(name=name, password=password),
+    return _done(request, history, lambda: history.set_password(
+                 name=name, password=password, by=Actor.web(admin['name'])),
                  f'new password of {name[:64]} stored; their sessions ended')
 
 
@@ -92,5 +98,18 @@ def remove_user(request: Request, name: str, admin: AdminUser, history: HistoryD
                                                              'the box to confirm'}
         return RedirectResponse('/users', status_code=303)
     return _not_self(request, admin, name, 'remove') or _done(
-        request, history, lambda: history.remove_user(name=name, keep_an_admin=True),
+        request, history, lambda: history.remove_user(
+            name=name, keep_an_admin=True, by=Actor.web(admin['name'])),
         f'user {name[:64]} removed; their sessions and API tokens ended')
+
+
+#: The most audit records the page shows (the newest).
+AUDIT_PAGE_ROWS = 500
+
+
+@router.get('/users/audit')
+def audit_page(request: Request, admin: AdminUser, history: HistoryDep) -> HTMLResponse:
+    """Show who changed which account when (page and command line), newest first."""
+    records = [{**item.as_dict(), 'time': iso_time(item.time_s)}
+               for item in history.account_audit(limit=AUDIT_PAGE_ROWS)]
+    return render(request, 'audit.html', records=records, rows=AUDIT_PAGE_ROWS)

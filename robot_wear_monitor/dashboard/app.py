@@ -17,15 +17,19 @@ from pathlib import Path
 from typing import Optional
 
 from fastapi import FastAPI
+from fastapi.exceptions import RequestValidationError
 from fastapi.staticfiles import StaticFiles
 import jinja2
 from robot_wear_monitor import __version__
 from robot_wear_monitor.dashboard import accounts, api, pages
 from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, LoginLimiter, new_secret_key,
                                                RequireSession, SESSION_MAX_AGE_S)
+from robot_wear_monitor.dashboard.guards import (BodyGuard, history_error_answer,
+                                                 validation_error_answer)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool, POLL_INTERVAL_MS
 from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets, time_spans
+from robot_wear_monitor.history import HistoryError
 from starlette.middleware.sessions import SessionMiddleware
 from starlette.responses import FileResponse
 
@@ -86,8 +90,12 @@ def create_app(settings: DashboardSettings) -> FastAPI:
     app.add_middleware(RequireSession)
     app.add_middleware(SessionMiddleware, secret_key=settings.secret_key or new_secret_key(),
                        session_cookie='rwm_session', max_age=SESSION_MAX_AGE_S,
-                       same_site='strict', https_only=settings.https)
-    app.add_middleware(LoginBodyLimit)  # outermost: a login body is refused before it is read
+                       same_site='strict',
+                       https_only=settings.https or settings.behind_tls)
+    app.add_middleware(LoginBodyLimit)  # a multipart login body is refused before it is read
+    app.add_middleware(BodyGuard)  # outermost: every body bounded and checked before anything
+    app.add_exception_handler(RequestValidationError, validation_error_answer)
+    app.add_exception_handler(HistoryError, history_error_answer)  # 503, no location
     app.mount('/static/swagger', StaticFiles(directory=str(swagger_ui_folder())),
               name='swagger')
     app.mount('/static', StaticFiles(directory=str(HERE / 'static')), name='static')

@@ -9,10 +9,13 @@ session up (:class:`RequireSession`): a logout or the removal of the user ends i
 copied cookie is worth nothing after either.  Every request but ``/login`` and the login
 page's style needs a session: pages redirect to ``/login``, the API answers 401.  Every POST
 carries the session's CSRF token (form field ``csrf_token`` or header ``X-CSRF-Token``) or gets
-403.  Login attempts are counted per user name and per client address in this process's memory
-(:class:`LoginLimiter`) before the password is checked: after :data:`MAX_FAILURES` attempts
-that did not succeed within :data:`WINDOW_S` the login answers 429 until the window has
-passed, however many arrive at once.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
+403.  Login attempts are counted per client address and per (user name, address) in this
+process's memory (:class:`LoginLimiter`) before the password is checked: after
+:data:`MAX_FAILURES` attempts that did not succeed within :data:`WINDOW_S` the login from that
+address (of any name, or of that name) answers 429 until the window has passed, however many
+arrive at once; the same name from another address is not refused (nobody locks the owner
+out), a login the history could not check (503) does not count, and the limiter keeps at most
+:data:`MAX_LIMITER_KEYS` keys.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
 multipart or over :data:`MAX_LOGIN_BODY_BYTES` before its body is read.
 
 The JSON API (``/api/``) also takes a per-user API token (``Authorization: Bearer TOKEN``,
@@ -32,6 +35,7 @@ import time
 from typing import Any, Awaitable, Callable, Optional, TypedDict
 from urllib.parse import quote
 
+from robot_wear_monitor.history.records import HistoryError
 from robot_wear_monitor.history.users import ROLES
 from starlette.concurrency import run_in_threadpool
 from starlette.middleware.base import BaseHTTPMiddleware
@@ -46,6 +50,8 @@ SESSION_MAX_AGE_S = 12 * 3600
 MAX_LOGIN_BODY_BYTES = 64 * 1024
 #: The window of the login rate limit [s].
 WINDOW_S = 300.0
+#: The most keys the login rate limit keeps (addresses and name-address pairs).
+MAX_LIMITER_KEYS = 10000
 #: Paths answered without a session: the login page and its style.
 PUBLIC_PATHS = ('/login', '/static/dashboard.css', '/favicon.ico')
 #: Security headers of every answer (no script but the app's own files, no framing).
@@ -66,51 +72,89 @@ class SessionUser(TypedDict):
 
 
 class LoginLimiter:
-    """Failed logins per user name and per client address, in this process's memory."""
+    """
+    Failed logins per client address and per (user name, address), in this process's memory.
+
+    The owner of an account is never locked out by somebody else: wrong passwords count
+    against the address they came from (any name) and against that address's tries of the
+    name, never against the name alone, so a name tried from one address still logs in from
+    another.  The memory is bounded: a key's failures older than the window are dropped,
+    a key without failures is forgotten, and past :attr:`max_keys` keys the oldest key goes
+    (after the expired ones).
+    """
 
     def __init__(self, *, max_failures: int = MAX_FAILURES, window_s: float = WINDOW_S,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 max_keys: int = MAX_LIMITER_KEYS) -> None:
         """Allow ``max_failures`` failures per key within ``window_s`` [s]."""
         self.max_failures = max_failures
         self.window_s = window_s
+        self.max_keys = max_keys
         self._clock = clock
         self._failures: dict[str, deque[float]] = {}
         self._lock = threading.Lock()
 
-    def _recent(self, key: str, now: float) -> deque[float]:
-        times = self._failures.setdefault(key, deque())
+    @staticmethod
+    def _keys(user: str, address: str) -> tuple[str, str]:
+        return f'address:{address}', f'user:{user}\0address:{address}'
+
+    def __len__(self) -> int:
+        """Return how many keys are kept (addresses and name-address pairs)."""
+        return len(self._failures)
+
+    def _recent(self, key: str, now: float, *, create: bool) -> Optional[deque[float]]:
+        times = self._failures.get(key)
+        if times is None:
+            if not create:
+                return None
+            if len(self._failures) >= self.max_keys:
+                self._make_room(now)
+            times = self._failures[key] = deque()
         while times and now - times[0] > self.window_s:
             times.popleft()
+        if not times and not create:
+            del self._failures[key]
+            return None
         return times
 
-    def retry_after_s(self, *, user: str, address: str) -> float:
-        """Return how long the login stays refused for this user or address [s] (0: allowed)."""
-        now = self._clock()
+    def _make_room(self, now: float) -> None:
+        """Drop the expired keys; then the oldest ones until there is room for one more."""
+        for key in [k for k, t in self._failures.items() if not t or now - t[-1] > self.window_s]:
+            del self._failures[key]
+        while len(self._failures) >= self.max_keys:
+            del self._failures[next(iter(self._failures))]
+
+    def _wait(self, keys: tuple[str, str], now: float) -> float:
         wait = 0.0
-        with self._lock:
-            for key in (f'user:{user}', f'address:{address}'):
-                times = self._recent(key, now)
-                if len(times) >= self.max_failures:
-                    wait = max(wait, self.window_s - (now - times[0]))
+        for key in keys:
+            times = self._recent(key, now, create=False)
+            if times is not None and len(times) >= self.max_failures:
+                wait = max(wait, self.window_s - (now - times[0]))
         return wait
+
+    def retry_after_s(self, *, user: str, address: str) -> float:
+        """Return how long a login of ``user`` from ``address`` stays refused [s] (0: allowed)."""
+        with self._lock:
+            return self._wait(self._keys(user, address), self._clock())
 
     def begin_attempt(self, *, user: str, address: str) -> float:
         """
         Count a login attempt before its password is checked; return 0, or the wait [s].
 
         The check and the count are one step under the lock: of many attempts at once, at
-        most :attr:`max_failures` pass per user name and per address.  A refused attempt
-        (wait > 0) is not counted.  :meth:`succeeded` takes a good attempt back.
+        most :attr:`max_failures` pass per address and per name from it.  A refused attempt
+        (wait > 0) is not counted.  :meth:`succeeded` takes a good attempt back, and
+        :meth:`not_counted` one the history could not check.
         """
         now = self._clock()
         with self._lock:
-            keys = (f'user:{user}', f'address:{address}')
-            recent = [self._recent(key, now) for key in keys]
-            wait = max((self.window_s - (now - times[0]) for times in recent
-                        if len(times) >= self.max_failures), default=0.0)
+            keys = self._keys(user, address)
+            wait = self._wait(keys, now)
             if wait > 0.0:
                 return max(wait, 1e-3)
-            for times in recent:
+            for key in keys:
+                times = self._recent(key, now, create=True)
+                assert times is not None
                 times.append(now)
         return 0.0
 
@@ -118,13 +162,28 @@ class LoginLimiter:
         """Count one failed login of ``user`` from ``address`` (an attempt not begun here)."""
         now = self._clock()
         with self._lock:
-            for key in (f'user:{user}', f'address:{address}'):
-                self._recent(key, now).append(now)
+            for key in self._keys(user, address):
+                times = self._recent(key, now, create=True)
+                assert times is not None
+                times.append(now)
+
+    def not_counted(self, *, user: str, address: str) -> None:
+        """Take back an attempt that was not a wrong password (the history could not say)."""
+        with self._lock:
+            for key in self._keys(user, address):
+                times = self._failures.get(key)
+                if times:
+                    times.pop()
+                if times is not None and not times:
+                    del self._failures[key]
 
     def succeeded(self, *, user: str, address: Optional[str] = None) -> None:
-        """Forget the failures of ``user``; take the good attempt back from ``address``."""
+        """Forget the failures of ``user`` from ``address``; take the good attempt back."""
         with self._lock:
-            self._failures.pop(f'user:{user}', None)
+            for key in list(self._failures):
+                if key.startswith(f'user:{user}\0') and (
+                        address is None or key.endswith(f'\0address:{address}')):
+                    del self._failures[key]
             if address is not None:
                 times = self._failures.get(f'address:{address}')
                 if times:
@@ -204,8 +263,20 @@ def current_user(request: Request) -> Optional[SessionUser]:
 
 
 def client_address(request: Request) -> str:
-    """Return the client's address (the peer of the connection; no proxy headers trusted)."""
-    return request.client.host if request.client else 'unknown'
+    """
+    Return the client's address: the peer of the connection.
+
+    When the peer is one of the settings' ``trusted_proxies`` (``--trusted-proxy``), the
+    last address of its ``X-Forwarded-For`` instead (the one that proxy saw); no header is
+    trusted from anybody else.
+    """
+    peer = request.client.host if request.client else 'unknown'
+    trusted = getattr(getattr(request.app.state, 'settings', None), 'trusted_proxies', ())
+    if peer in trusted:
+        forwarded = request.headers.get('x-forwarded-for', '').split(',')[-1].strip()
+        if forwarded:
+            return forwarded[:64]
+    return peer
 
 
 def _wants_json(path: str) -> bool:
@@ -225,9 +296,17 @@ class RequireSession(BaseHTTPMiddleware):
                        call_next: Callable[[Request], Awaitable[Response]]) -> Response:
         """Pass the request on when it has a session (or is public); else refuse it."""
         path = request.url.path
-        response: Response
         bearer = bearer_token(request)
         request.state.token_auth = False
+        try:
+            return await self._dispatch(request, call_next, path, bearer)
+        except HistoryError:  # the history cannot serve now (its server restarting): 503
+            return _history_away()
+
+    async def _dispatch(self, request: Request,
+                        call_next: Callable[[Request], Awaitable[Response]], path: str,
+                        bearer: Optional[str]) -> Response:
+        response: Response
         if bearer is not None and path.startswith('/api/'):
             pool = request.app.state.pool
             if not await run_in_threadpool(_token_from_pool, request, pool, bearer):
@@ -255,6 +334,15 @@ class RequireSession(BaseHTTPMiddleware):
         for key, value in SECURITY_HEADERS.items():
             response.headers.setdefault(key, value)
         return response
+
+
+def _history_away() -> Response:
+    """Return 503: the session or token could not be looked up (no location in it)."""
+    response = JSONResponse({'detail': 'the wear history cannot be read just now: try again '
+                                       'shortly'}, status_code=503, headers={'Retry-After': '5'})
+    for key, value in SECURITY_HEADERS.items():
+        response.headers.setdefault(key, value)
+    return response
 
 
 def _load_from_pool(request: Request, pool: Any) -> None:

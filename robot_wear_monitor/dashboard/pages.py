@@ -27,6 +27,7 @@ from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, curre
 from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_settings,
                                                get_templates, HistoryDep, LimiterDep,
                                                MaintainerUser, ParameterSetsDep)
+from robot_wear_monitor.dashboard.guards import public_message
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
                                                 fleet_json, fleet_row_html, joint_json,
                                                 joint_url, MAX_PAGE_ROWS, page_links, PAGE_ROWS,
@@ -69,12 +70,14 @@ def login(request: Request, history: HistoryDep, limiter: LimiterDep,
                           error=f'too many failed logins: try again in {wait:.0f} s')
         response.headers['Retry-After'] = str(int(wait) + 1)
         return response
-    user = None
     try:
         user = history.verify_user(name=name, password=password[:1024])
-    except HistoryError:
-        user = None  # a malformed name is a failed login like any other
-    if user is None or not start_session(request, history=history, name=user.name):
+        started = user is not None and start_session(request, history=history, name=user.name)
+    except HistoryError:  # the history could not say (a malformed name is no error): no count
+        limiter.not_counted(user=name, address=address)
+        return render(request, 'login.html', status_code=503, next=safe_next(next),
+                      error='the wear history cannot be read just now: try again shortly')
+    if user is None or not started:
         return render(request, 'login.html', status_code=401, next=safe_next(next),
                       error='wrong user name or password')
     limiter.succeeded(user=name, address=address)
@@ -129,7 +132,7 @@ def _flash_outcome(request: Request, robot: str, joint: str, action: Any,
     try:
         action()
     except HistoryError as error:
-        request.session['flash'] = {'kind': 'error', 'text': _message(error)}
+        request.session['flash'] = {'kind': 'error', 'text': _message(error, request)}
     else:
         request.session['flash'] = {'kind': 'ok', 'text': done}
     return RedirectResponse(joint_url(robot, joint), status_code=303)
@@ -183,9 +186,9 @@ def reset(request: Request, robot: str, joint: str, user: MaintainerUser, histor
         work_order=work_order.strip()), 'alarm reset: the trend restarts')
 
 
-def _message(error: Exception) -> str:
-    text = str(error).splitlines()[0] if str(error) else type(error).__name__
-    return text.split(': ', 1)[1] if ': ' in text and text.startswith('/') else text
+def _message(error: Exception, request: Request) -> str:
+    """Return the error's first line without the history's location (the server's business)."""
+    return public_message(error, location=get_settings(request).history)
 
 
 @router.get('/alarms')

@@ -7,7 +7,7 @@ psycopg 3).  One transaction per experiment (the estimate row and its alarm even
 so a killed process loses nothing that was reported; the experiment's identity (robot, joint,
 end stamp) is a unique key, so a re-run of a recording or a concurrent writer adds nothing.  On
 start the estimator restores its trend, its latched alarm and the evidence of the alarm test per
-robot and joint from here.  A ``schema_version`` table guards the layout (version 7); an older
+robot and joint from here.  A ``schema_version`` table guards the layout (version 10); an older
 history is migrated in place when opened (``migrations.py``: version 2 -> 3 gives the old rows
 the robot the history is opened for, else ``default``), so a file that loads today loads
 tomorrow; a database that is not a wear history is refused and left untouched.  Version 5
@@ -15,12 +15,13 @@ adds what the maintenance team's dashboard stores: acknowledgements and resets b
 (user, owner, reason, planned maintenance date), the dashboard's users and the notifications
 sent; version 6 its server-side sessions; version 7 the edit and withdrawal of an
 acknowledgement, a work order on acknowledgements and resets, the admin role and per-user API
-tokens.
+tokens; version 10 the audit of the accounts (who changed a user, role, password or token).
 
 Modules: ``records`` (the row types), ``migrations`` (the layout per version and backend),
 ``backends`` (SQLite and PostgreSQL connections), ``store`` (:class:`WearHistory`),
 ``alarms`` (acknowledge, reset, the fleet's alarm log), ``users`` (dashboard users, argon2
-hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens),
+hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens), ``account_audit`` (the
+changes of accounts),
 ``notifications_store`` (each notification event once), ``levels_csv`` (export for ``audit``).
 """
 

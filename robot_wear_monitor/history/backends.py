@@ -96,6 +96,9 @@ class HistoryBackend(Protocol):
     def writer_lock(self, key: int, *, wait: bool) -> AbstractContextManager[None]:
         """Return a context holding the advisory writer lock ``key``."""
 
+    def alive(self, *, check: bool) -> bool:
+        """Return whether the connection still serves (``check``: ask the server once)."""
+
     def close(self) -> None:
         """Close the connection."""
 
@@ -317,6 +320,10 @@ class SqliteBackend:
         finally:
             fcntl.lockf(self._lock_fd, fcntl.LOCK_UN, 1, offset)
 
+    def alive(self, *, check: bool) -> bool:
+        """Return True: a file does not go away like a server connection."""
+        return True
+
     def close(self) -> None:
         """Close the connection (a WAL checkpoint folds the log into the file)."""
         self.conn.close()
@@ -403,6 +410,22 @@ class PostgresqlBackend:
         finally:
             if not self.conn.closed:
                 self.execute('SELECT pg_advisory_unlock(?)', (key,))
+
+    def alive(self, *, check: bool) -> bool:
+        """
+        Return whether the connection still serves.
+
+        False once psycopg knows it lost it (closed or broken); with ``check`` also when a
+        ``SELECT 1`` fails (a server restart is only seen by the next statement).
+        """
+        if self.conn.closed or self.conn.broken:
+            return False
+        if check:
+            try:
+                self.conn.execute('SELECT 1')
+            except self._psycopg.Error:
+                return False
+        return True
 
     def close(self) -> None:
         """Close the connection."""

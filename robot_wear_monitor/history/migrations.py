@@ -27,18 +27,21 @@ server-side sessions).  Version 7 (accounts and the write API): alarm events may
 in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`` and
 ``users`` for their new CHECKs, keeping ids and rows; PostgreSQL replaces the constraints);
 ``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).
+Versions 8 and 9: placeholders here (another branch's steps take their place).  Version 10:
+``account_audit`` (every change of a dashboard account: when, who, from where, what, whom;
+never a secret).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 10
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
-          'notifications', 'joint_summary', 'sessions', 'api_tokens')
+          'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -232,9 +235,27 @@ _SQLITE_V7 = (
     _API_TOKENS[1],
 )
 
+#: Version 10: the audit of the dashboard's accounts (``history.account_audit``).
+_ACCOUNT_AUDIT = (
+    """CREATE TABLE account_audit (
+    id {id_column},
+    time_s DOUBLE PRECISION NOT NULL,
+    user_name TEXT NOT NULL,
+    source TEXT NOT NULL,
+    action TEXT NOT NULL,
+    target TEXT NOT NULL,
+    detail TEXT NOT NULL DEFAULT '')""",
+    'CREATE INDEX account_audit_time ON account_audit (time_s, id)',
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7}
+                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
+                                                 8: (), 9: (),
+                                                 10: (_ACCOUNT_AUDIT[0].format(
+                                                     id_column='INTEGER PRIMARY KEY '
+                                                               'AUTOINCREMENT'),
+                                                      _ACCOUNT_AUDIT[1])}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -326,4 +347,8 @@ _POSTGRESQL_V7 = (
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      5: _POSTGRESQL_V5, 6: _V6,
-                                                     7: _POSTGRESQL_V7}
+                                                     7: _POSTGRESQL_V7, 8: (), 9: (),
+                                                     10: (_ACCOUNT_AUDIT[0].format(
+                                                         id_column='BIGINT GENERATED ALWAYS '
+                                                                   'AS IDENTITY PRIMARY KEY'),
+                                                          _ACCOUNT_AUDIT[1])}

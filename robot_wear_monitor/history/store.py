@@ -24,6 +24,7 @@ from robot_wear_monitor.history import alarms, notifications_store
 from robot_wear_monitor.history import sessions as dashboard_sessions
 from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
+from robot_wear_monitor.history.account_audit import Actor, audit_log, AuditRecord
 from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.history.backends import (
     HistoryBackend, is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend,
@@ -167,6 +168,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
+        if 'account_audit' in tables:
+            return 10
         if 'api_tokens' in tables:
             return 7
         if 'sessions' in tables:
@@ -175,6 +178,10 @@ class WearHistory:
             return 5
         return (4 if 'invalid_reason' in columns else 3 if 'robot' in columns
                 else 2 if 'wear_low' in columns else 1)
+
+    def connection_alive(self, *, check: bool = True) -> bool:
+        """Return whether the history's connection still serves (``check``: ask the server)."""
+        return self._backend.alive(check=check)
 
     def close(self) -> None:
         """Close the history (SQLite: a WAL checkpoint folds the log into the file)."""
@@ -357,7 +364,8 @@ class WearHistory:
 
     # ------------------------------------------------------------------ users, notifications
 
-    def add_user(self, *, name: str, role: str, password: str) -> user_accounts.User:
+    def add_user(self, *, name: str, role: str, password: str,
+                 by: Optional[Actor] = None) -> user_accounts.User:
         """
         Add a dashboard user (a role of ``users.ROLES``; argon2 hash of ``password``).
 
@@ -365,24 +373,28 @@ class WearHistory:
         ``A-Za-z0-9_.@-``, the role is unknown, or the password has fewer than 8 characters.
         """
         with self._guard('cannot add the user'):
-            return user_accounts.add_user(self._backend, name=name, role=role, password=password)
+            return user_accounts.add_user(self._backend, name=name, role=role, password=password,
+                                          by=by)
 
-    def remove_user(self, *, name: str, keep_an_admin: bool = False) -> None:
+    def remove_user(self, *, name: str, keep_an_admin: bool = False,
+                    by: Optional[Actor] = None) -> None:
         """
         Remove the dashboard user ``name`` (:class:`HistoryError` when there is none).
 
         ``keep_an_admin``: refuse to remove the last admin (the Users page does).
         """
         with self._guard('cannot remove the user'):
-            user_accounts.remove_user(self._backend, name=name, keep_an_admin=keep_an_admin)
+            user_accounts.remove_user(self._backend, name=name, keep_an_admin=keep_an_admin,
+                                      by=by)
 
-    def set_password(self, *, name: str, password: str) -> int:
+    def set_password(self, *, name: str, password: str, by: Optional[Actor] = None) -> int:
         """Give user ``name`` a new password, ending their sessions; return how many ended."""
         with self._guard('cannot change the password'):
-            return user_accounts.set_password(self._backend, name=name, password=password)
+            return user_accounts.set_password(self._backend, name=name, password=password,
+                                              by=by)
 
-    def set_role(self, *, name: str, role: str,
-                 keep_an_admin: bool = False) -> user_accounts.User:
+    def set_role(self, *, name: str, role: str, keep_an_admin: bool = False,
+                 by: Optional[Actor] = None) -> user_accounts.User:
         """
         Give user ``name`` the role ``role`` (it counts at once); return the user.
 
@@ -390,22 +402,29 @@ class WearHistory:
         """
         with self._guard('cannot change the role'):
             return user_accounts.set_role(self._backend, name=name, role=role,
-                                          keep_an_admin=keep_an_admin)
+                                          keep_an_admin=keep_an_admin, by=by)
 
-    def add_token(self, *, user: str, label: str = '') -> tuple[api_tokens.ApiToken, str]:
+    def add_token(self, *, user: str, label: str = '',
+                  by: Optional[Actor] = None) -> tuple[api_tokens.ApiToken, str]:
         """Make an API token of ``user``; return it as listed and the token (shown once)."""
         with self._guard('cannot add the token'):
-            return api_tokens.add_token(self._backend, user=user, label=label)
+            return api_tokens.add_token(self._backend, user=user, label=label, by=by)
 
     def tokens(self, *, user: Optional[str] = None) -> list[api_tokens.ApiToken]:
         """Return the API tokens as listed (of ``user``): ids and times, never the tokens."""
         with self._guard('cannot read the tokens'):
             return api_tokens.list_tokens(self._backend, user=user)
 
-    def remove_tokens(self, *, user: str, token_id: Optional[int] = None) -> int:
+    def remove_tokens(self, *, user: str, token_id: Optional[int] = None,
+                      by: Optional[Actor] = None) -> int:
         """Remove the token ``token_id`` of ``user`` (None: all of theirs); return how many."""
         with self._guard('cannot remove the token'):
-            return api_tokens.remove_tokens(self._backend, user=user, token_id=token_id)
+            return api_tokens.remove_tokens(self._backend, user=user, token_id=token_id, by=by)
+
+    def account_audit(self, *, limit: Optional[int] = None) -> list[AuditRecord]:
+        """Return the recorded changes of accounts (``by`` whom, what), newest first."""
+        with self._guard('cannot read the account audit'):
+            return audit_log(self._backend, limit=limit)
 
     def find_token(self, *, token: str) -> Optional[api_tokens.TokenUser]:
         """Return who an API token acts as, with their role now (None: no such token)."""

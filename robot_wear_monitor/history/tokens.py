@@ -17,6 +17,7 @@ import secrets
 import time
 from typing import Any, Optional
 
+from robot_wear_monitor.history.account_audit import Actor, record
 from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
 from robot_wear_monitor.history.sessions import secret_digest
@@ -66,9 +67,12 @@ def _label(value: object) -> str:
 
 
 def add_token(backend: HistoryBackend, *, user: str, label: str = '',
-              now_s: Optional[float] = None) -> tuple[ApiToken, str]:
+              now_s: Optional[float] = None, by: Optional[Actor] = None
+              ) -> tuple[ApiToken, str]:
     """
     Make an API token of ``user``; return it as listed and the token (shown once).
+
+    Audited as made ``by`` (its id and label; never the token).
 
     Raises :class:`HistoryError` when there is no such user or the label is too long.
     """
@@ -82,6 +86,8 @@ def add_token(backend: HistoryBackend, *, user: str, label: str = '',
         rows = backend.execute('INSERT INTO api_tokens (user_name, token_hash, label, '
                                'created_wall_time_s) VALUES (?, ?, ?, ?) RETURNING id',
                                (user, secret_digest(token), label, now))
+        record(backend, by=by, action='token_added', target=user,
+               detail=f'token {int(rows[0][0])}' + (f' ({label})' if label else ''), now_s=now)
     return ApiToken(id=int(rows[0][0]), user=user, label=label, created_wall_time_s=now,
                     last_used_wall_time_s=None), token
 
@@ -100,9 +106,11 @@ def list_tokens(backend: HistoryBackend, *, user: Optional[str] = None) -> list[
 
 
 def remove_tokens(backend: HistoryBackend, *, user: str,
-                  token_id: Optional[int] = None) -> int:
+                  token_id: Optional[int] = None, by: Optional[Actor] = None) -> int:
     """
     Remove the token ``token_id`` of ``user`` (None: all of theirs); return how many.
+
+    Audited as made ``by`` (the ids removed).
 
     Raises :class:`HistoryError` when there was none to remove.
     """
@@ -116,6 +124,9 @@ def remove_tokens(backend: HistoryBackend, *, user: str,
         params.append(token_id)
     with backend.transaction():
         rows = backend.execute(query + ' RETURNING id', params)
+        if rows:
+            record(backend, by=by, action='tokens_removed', target=user,
+                   detail='token(s) ' + ', '.join(str(int(r[0])) for r in sorted(rows)))
     if not rows:
         which = f'token {token_id} of user' if token_id is not None else 'token of user'
         raise HistoryError(f'{backend.name}: no {which} {user!r}')

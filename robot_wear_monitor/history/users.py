@@ -17,6 +17,7 @@ import re
 import time
 from typing import Any, Optional
 
+from robot_wear_monitor.history.account_audit import Actor, record
 from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import HistoryError
 
@@ -99,9 +100,10 @@ def check_password(name: str, password: Any) -> str:
     return password
 
 
-def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) -> User:
+def add_user(backend: HistoryBackend, *, name: str, role: str, password: str,
+             by: Optional[Actor] = None) -> User:
     """
-    Add a user with the argon2 hash of ``password``; return it.
+    Add a user with the argon2 hash of ``password``; return it (audited as made ``by``).
 
     Raises :class:`HistoryError` when the name is taken or not allowed, the role unknown, or
     the password empty, shorter than :data:`MIN_PASSWORD_CHARS` or longer than
@@ -116,6 +118,9 @@ def add_user(backend: HistoryBackend, *, name: str, role: str, password: str) ->
             'INSERT INTO users (name, role, password_hash, created_wall_time_s) '
             'VALUES (?, ?, ?, ?) ON CONFLICT (name) DO NOTHING RETURNING name',
             (name, role, password_hash, now))
+        if rows:
+            record(backend, by=by, action='user_added', target=name, detail=f'role {role}',
+                   now_s=now)
     if not rows:
         raise HistoryError(f'{backend.name}: user {name!r} exists already')
     return User(name=name, role=role, created_wall_time_s=now)
@@ -132,9 +137,12 @@ def _keep_an_admin(backend: HistoryBackend, name: str) -> None:
                            'admin first')
 
 
-def remove_user(backend: HistoryBackend, *, name: str, keep_an_admin: bool = False) -> None:
+def remove_user(backend: HistoryBackend, *, name: str, keep_an_admin: bool = False,
+                by: Optional[Actor] = None) -> None:
     """
     Remove the user ``name``, their sessions and tokens; :class:`HistoryError` when none.
+
+    Audited as made ``by`` (with how many tokens went).
 
     ``keep_an_admin``: refuse to remove the last admin (the Users page; checked in the same
     transaction under a lock, so two admins removing each other at once leave one).
@@ -146,16 +154,22 @@ def remove_user(backend: HistoryBackend, *, name: str, keep_an_admin: bool = Fal
         rows = backend.execute('DELETE FROM users WHERE name = ? RETURNING name', (name,))
         if rows:  # the user's sessions (schema version 6) and tokens (7) end with them
             _end_sessions(backend, name)
-            backend.execute('DELETE FROM api_tokens WHERE user_name = ?', (name,))
+            tokens = backend.execute('DELETE FROM api_tokens WHERE user_name = ? RETURNING id',
+                                     (name,))
             if keep_an_admin:
                 _keep_an_admin(backend, name)
+            record(backend, by=by, action='user_removed', target=name,
+                   detail=f'{len(tokens)} API token(s) removed with them')
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
 
 
-def set_password(backend: HistoryBackend, *, name: str, password: str) -> int:
+def set_password(backend: HistoryBackend, *, name: str, password: str,
+                 by: Optional[Actor] = None) -> int:
     """
     Give the user ``name`` a new password; end their sessions; return how many ended.
+
+    Audited as made ``by`` (never the password).
 
     Raises :class:`HistoryError` when there is no such user or the password may not be one
     (:func:`check_password`).  Their API tokens stay (a token is not a password).
@@ -166,6 +180,9 @@ def set_password(backend: HistoryBackend, *, name: str, password: str) -> int:
         rows = backend.execute('UPDATE users SET password_hash = ? WHERE name = ? '
                                'RETURNING name', (password_hash, name))
         ended = _end_sessions(backend, name) if rows else 0
+        if rows:
+            record(backend, by=by, action='password_changed', target=name,
+                   detail=f'{ended} session(s) ended')
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
     return ended
@@ -178,23 +195,28 @@ def _end_sessions(backend: HistoryBackend, name: str) -> int:
 
 
 def set_role(backend: HistoryBackend, *, name: str, role: str,
-             keep_an_admin: bool = False) -> User:
+             keep_an_admin: bool = False, by: Optional[Actor] = None) -> User:
     """
     Give the user ``name`` the role ``role``; return the user.
 
     The role counts at once, for their live sessions and tokens too (each request reads it).
     Raises :class:`HistoryError` when there is no such user or the role is unknown, and with
-    ``keep_an_admin`` when the change would leave no admin (as :func:`remove_user`).
+    ``keep_an_admin`` when the change would leave no admin (as :func:`remove_user`).  Audited
+    as made ``by`` (the old and the new role).
     """
     name = check_user_name(name)
     role = check_role(role)
     with backend.transaction():
         if keep_an_admin:
             backend.lock_in_transaction(_ADMINS_LOCK_KEY)
+        old = backend.execute('SELECT role FROM users WHERE name = ?', (name,))
         rows = backend.execute('UPDATE users SET role = ? WHERE name = ? '
                                'RETURNING name, role, created_wall_time_s', (role, name))
         if rows and keep_an_admin:
             _keep_an_admin(backend, name)
+        if rows:
+            record(backend, by=by, action='role_changed', target=name,
+                   detail=f'{old[0][0] if old else "?"} -> {role}')
     if not rows:
         raise HistoryError(f'{backend.name}: no user {name!r}')
     return User(name=rows[0][0], role=rows[0][1], created_wall_time_s=float(rows[0][2]))

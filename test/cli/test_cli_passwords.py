@@ -137,3 +137,34 @@ def test_the_guard_hides_a_password_that_a_command_prints_anywhere(capsys, monke
     captured = capsys.readouterr()
     _assert_hidden(captured.out + captured.err)
     assert sys.stdout is not None and 'error' in captured.err
+
+
+def test_argparse_messages_print_no_password_for_any_verb():
+    # argparse echoes the words of a mistake: a mistyped option, a missing or an invalid value
+    # next to a URL with a password; the guard is on before the parsing (every verb's parser,
+    # through the main entry, each in its own process as an operator would run it)
+    from robot_wear_monitor.cli import VERBS
+    commands = []
+    for verb in VERBS:
+        url, query = (_with_password('postgresql://rwm@db.example.invalid:5432/fleet', form)
+                      for form in ('userinfo', 'query'))
+        commands += [[verb, '--histroy', url], [verb, '--histroy', query],
+                     [verb, url, '--history'], [verb, f'--history={query}', '--port', url]]
+    results = []
+    for start in range(0, len(commands), 8):  # eight at a time: a machine of a few cores
+        batch = [subprocess.Popen([sys.executable, '-m', 'robot_wear_monitor.cli', *argv],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                  cwd=REPO_ROOT, stdin=subprocess.DEVNULL)
+                 for argv in commands[start:start + 8]]
+        results += [(argv, *process.communicate(timeout=120), process.returncode)
+                    for argv, process in zip(commands[start:start + 8], batch)]
+    for argv, out, err, code in results:
+        assert code == 2, (argv, err)
+        assert 'error:' in err, (argv, err)
+        _assert_hidden(out + err)
+    # the messages that echo the URL still show where it pointed
+    echoed = [err for argv, _, err, _ in results
+              if argv[1] == '--histroy' and 'unrecognized arguments: --histroy post' in err]
+    assert len(echoed) >= 4  # verbs without required options echo the URL
+    assert all('db.example.invalid' in err and ':***@' in err or 'password=***' in err
+               for err in echoed)

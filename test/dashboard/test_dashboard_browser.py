@@ -522,3 +522,25 @@ def test_an_admin_manages_users_from_the_page_and_a_maintainer_may_not(
     browser.get(server + '/users')
     assert 'only an admin may manage the users' in browser.page_source
     assert not browser.find_elements(_by('ID'), 'add-user-form')
+
+
+def test_a_note_in_a_chart_is_text_not_markup(server, browser, history):
+    # Plotly reads <b>, <a href> and <span style> in hover texts: the page escapes them
+    note = '<b style="font-size:40px">big</b> <a href="http://example.invalid/">go</a> & co'
+    with open_history(history) as stored:
+        stored.acknowledge_alarm(joint='joint_2', robot='press_line', user='mia',
+                                 owner='Team B', comment=note)
+    _log_in(browser, server, 'vic')
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    _wear_trace(browser)
+    hovers = browser.execute_script(
+        "const gd = document.getElementById('wear-chart');"
+        'return gd.layout.annotations.map((a) => a.hovertext);')
+    acknowledged = [h for h in hovers if 'acknowledged' in h]
+    assert len(acknowledged) == 1
+    assert '&lt;b style="font-size:40px"&gt;big&lt;/b&gt;' in acknowledged[0]
+    assert '&lt;a href=' in acknowledged[0] and '&amp; co' in acknowledged[0]
+    assert '<b' not in acknowledged[0] and '<a' not in acknowledged[0]
+    # nothing of the note became a link or bold text in the chart
+    assert not browser.execute_script(
+        "return document.querySelector('#wear-chart a[href*=\"example.invalid\"]');")

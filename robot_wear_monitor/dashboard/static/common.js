@@ -27,6 +27,12 @@ function setTimes(node, text) {
   node.replaceChildren(...nodes);
 }
 
+// A text for Plotly (hover texts, annotations): Plotly reads a few HTML tags in them (<b>,
+// <a href>, <span style>), so the server's texts go in with & < > escaped: shown as text.
+function plotlyText(text) {
+  return String(text).replace(/&/g, '&amp;').replace(/</g, '&lt;').replace(/>/g, '&gt;');
+}
+
 function jointUrl(robot, joint) {
   return '/robots/' + encodeURIComponent(robot) + '/joints/' + encodeURIComponent(joint);
 }

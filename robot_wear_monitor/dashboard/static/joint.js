@@ -26,7 +26,8 @@ function lifeTraces(ex, old) {
         color: old ? 'rgba(154,165,177,0.5)' : 'rgba(31,119,180,0.5)',
         array: ex.map((e) => (e.wear_high === null ? null : e.wear_high - e.wear)),
         arrayminus: ex.map((e) => (e.wear_low === null ? null : e.wear - e.wear_low))},
-      text: ex.map((e) => e.time + (e.valid ? '' : ' INVALID: ' + e.invalid_reason)),
+      text: ex.map((e) => plotlyText(e.time +
+        (e.valid ? '' : ' INVALID: ' + e.invalid_reason))),
       hovertemplate: '%{text}<br>w-hat %{y:.1f}' + tag + '<extra></extra>'},
   ];
 }
@@ -74,8 +75,8 @@ function markers(data, nowMs) {
   const shapes = [];
   const annotations = [];
   const items = data.events.filter((e) => e.stamp_s !== null && MARKERS[e.event])
-    .map((e) => ({x: ms(e.stamp_s), kind: e.event, hover: e.time + ' ' + e.event +
-      (e.user ? ' by ' + e.user : '') + (e.note ? ': ' + e.note : '')}));
+    .map((e) => ({x: ms(e.stamp_s), kind: e.event, hover: plotlyText(e.time + ' ' + e.event +
+      (e.user ? ' by ' + e.user : '') + (e.note ? ': ' + e.note : ''))}));
   items.push({x: nowMs, kind: 'now', hover: 'now'});
   items.sort((a, b) => a.x - b.x);
   items.forEach((item, index) => {
