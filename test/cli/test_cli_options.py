@@ -139,11 +139,13 @@ def test_live_params_file_is_the_deprecated_config(tmp_path, capsys):
 
 
 @pytest.mark.parametrize('verb', ['audit', 'identify'])
-def test_level_sources_default_to_gear_ratio_and_torque_scale_1(verb):
+def test_level_sources_leave_the_scales_to_the_input_kind(verb):
+    """Not given: None, so that a bag takes the node config's 150 and 10 and a raw run 1."""
     parser = cli.build_parser()
     extra = ['--out', 'p.yaml'] if verb == 'identify' else []
     args = parser.parse_args([verb, 'data.csv'] + extra)
-    assert args.gear_ratio is None and level_source_scales(args) == (1.0, 1.0)
+    assert args.gear_ratio is None and level_source_scales(args) == (None, None)
+    assert args.config is None
     args = parser.parse_args([verb, 'bag', '--gear-ratio', '150', '--torque-scale', '10']
                              + extra)
     assert level_source_scales(args) == (150.0, 10.0)
