@@ -79,6 +79,18 @@ def setting(default: Any = MISSING, *, description: str, unit: str = '',
     return field(default=default, metadata=metadata)
 
 
+def shared_setting(owner: Any, name: str, *, description: str | None = None) -> Any:
+    """
+    Return a field that is the declared setting ``name`` of another configuration ``owner``.
+
+    The default, unit and check are the owner's (one owner; e.g. the plan's ``trim_s`` is the
+    segmentation's); ``description`` replaces its text where the user reads it differently.
+    """
+    declared = setting_of(owner, name)
+    return setting(declared.default, unit=declared.unit, check=declared.check,
+                   description=description or declared.description)
+
+
 def _kind(annotation: Any) -> tuple[str, bool]:
     text = str(annotation).replace(' ', '')
     optional = 'None' in text or 'Optional' in text
@@ -132,18 +144,19 @@ def problem_of(declared: Setting, value: Any) -> Optional[str]:
     return declared.check(value) if declared.check is not None else None
 
 
-def check_settings(instance: Any) -> None:
+def check_settings(instance: Any, *, prefix: str | None = None) -> None:
     """
     Check every declared setting of a configuration dataclass instance.
 
-    :raises InputError: ``<Class>.<name>: <problem>, got <value>`` for the first bad one.
+    :raises InputError: ``<prefix><name>: <problem>, got <value>`` for the first bad one
+        (``prefix`` default: ``'<Class>.'``).
     """
-    owner = type(instance).__name__
+    prefix = f'{type(instance).__name__}.' if prefix is None else prefix
     for name, declared in declared_settings(instance).items():
         value = getattr(instance, name)
         problem = problem_of(declared, value)
         if problem:
-            raise InputError(f'{owner}.{name}: {problem}, got {str(repr(value))[:60]}')
+            raise InputError(f'{prefix}{name}: {problem}, got {str(repr(value))[:60]}')
 
 
 # ----------------------------------------------------------------------------- checks

@@ -261,7 +261,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float | None,
     return 0
 
 
-def _friction_unit(args: argparse.Namespace, torque_scale: float | None, *, note: bool = True) -> str:
+def _friction_unit(args: argparse.Namespace, torque_scale: float | None, *,
+                   note: bool = True) -> str:
     """
     Return the friction unit of the levels: ``--friction-unit``, else what the input says.
 

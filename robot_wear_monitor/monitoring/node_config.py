@@ -15,14 +15,17 @@ import math
 import os
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
+import warnings
 
 from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
                                                  DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
                                                  WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
 from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE
+from robot_wear_monitor.experiment.plan_config import PlanConfig
 from robot_wear_monitor.experiment.segmentation_settings import (ExperimentGrouping,
                                                                  NODE_SCALES, SegmenterConfig)
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
+from robot_wear_monitor.monitoring.runner_config import RunnerConfig
 from robot_wear_monitor.setting_fields import (declared_settings, fraction, non_empty,
                                                non_negative, open_fraction, positive)
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
@@ -234,9 +237,8 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('speeds_rad_s', 'double_array', DEFAULT_EXPERIMENT_SPEEDS_RAD_S,
                   'speeds of the friction experiment, motor side [rad/s] (default: N = 4 '
                   'optimum of Table V)', _speeds),
-    ParameterSpec('max_acceleration_rad_s2', 'double', 5.0,
-                  'joint acceleration limit of the planned motion, joint side [rad/s^2]',
-                  positive),
+    # PlanConfig (and plan's --max-acceleration) has no default: the node's is its own
+    ParameterSpec.of(PlanConfig, 'max_acceleration_rad_s2', default=5.0),
     ParameterSpec('max_jerk_rad_s3', 'double', 0.0,
                   'joint jerk limit, joint side [rad/s^3]; 0: trapezoidal speed changes',
                   non_negative),
@@ -247,32 +249,17 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   'lower joint limits, one per tested joint [rad]; empty: not checked'),
     ParameterSpec('position_upper_limits_rad', 'double_array', (),
                   'upper joint limits, one per tested joint [rad]; empty: not checked'),
-    ParameterSpec('rate_hz', 'double', 250.0,
-                  'JointState rate the friction_experiment_node sees [Hz] (sample counts)',
-                  positive),
-    ParameterSpec('noise_std', 'double', 0.01,
-                  'torque noise of one sample, normalised (effort / torque_scale) [-]',
-                  non_negative),
+    ParameterSpec.of(PlanConfig, 'rate_hz'),
+    ParameterSpec.of(PlanConfig, 'noise_std'),
     ParameterSpec('target_std_error', 'double', 0.001,
                   'wanted standard error of each friction level, normalised [-]; 0: only the '
                   "segmentation's shortest plateau", non_negative),
-    ParameterSpec.of(SegmenterConfig, 'min_duration_s', parameter='min_plateau_s'),
-    ParameterSpec.of(SegmenterConfig, 'trim_s'),
-    ParameterSpec.of(SegmenterConfig, 'min_samples'),
-    ParameterSpec('dwell_s', 'double', 0.1,
-                  'standstill at every turn of the motion [s]', non_negative),
-    ParameterSpec('point_rate_hz', 'double', 50.0,
-                  'rate of the JointTrajectory points [Hz] (every phase end is a point too)',
-                  positive),
-    ParameterSpec('controller', 'string', 'joint_trajectory_controller',
-                  'the ros2_control joint_trajectory_controller: the motion goes to '
-                  '/<controller>/joint_trajectory', non_empty),
-    ParameterSpec('end_margin_s', 'double', 0.5,
-                  'the end event comes this long after the planned end of the motion [s] '
-                  '(the last samples reach the segmentation)', non_negative),
-    ParameterSpec('pause_between_joints_s', 'double', 1.0,
-                  'standstill between the end event of one tested joint and the start of the '
-                  'next [s]', non_negative),
+    ParameterSpec.of(PlanConfig, 'min_duration_s'),
+    ParameterSpec.of(PlanConfig, 'trim_s'),
+    ParameterSpec.of(PlanConfig, 'min_samples'),
+    ParameterSpec.of(PlanConfig, 'dwell_s'),
+    *(ParameterSpec.of(RunnerConfig, name) for name in (
+        'point_rate_hz', 'controller', 'end_margin_s', 'pause_between_joints_s')),
 )
 
 #: Parameters a joint can override as ``<joint>.<name>`` (with ``joints``), per node.
@@ -285,6 +272,13 @@ PER_JOINT_PARAMETERS: dict[str, tuple[str, ...]] = {
     WEAR_ESTIMATOR_NODE: ('parameter_set_file', 'wear_threshold', 'wear_warning', 'wear_healthy',
                           'alarm_evidence', 'alarm_rule', 'alarm_probability',
                           'min_fit_p_value', 'invalid_fit_p_value', 'experiment_speeds_rad_s'),
+}
+
+#: Deprecated parameter names, per node: old name -> the name that replaced it.  The old name
+#: is still read (a parameter file, ``-p``), with a warning; giving both is an error.
+DEPRECATED_PARAMETERS: dict[str, dict[str, str]] = {
+    # one setting, one name: the segmentation's (friction_experiment_node) min_duration_s
+    FRICTION_EXPERIMENT_RUNNER_NODE: {'min_plateau_s': 'min_duration_s'},
 }
 
 NODE_PARAMETERS: dict[str, tuple[ParameterSpec, ...]] = {
@@ -375,6 +369,7 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
     wear_warning <= wear_threshold.
     """
     specs = {spec.name: spec for spec in _specs(node_name)}
+    values = renamed_parameters(node_name, values, source=source)
     per_joint = PER_JOINT_PARAMETERS.get(node_name, ())
     unknown = sorted(name for name in set(values) - set(specs)
                      if name.rpartition('.')[2] not in per_joint or '.' not in name)
@@ -398,6 +393,28 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
             raise ParameterError(f'{source}: wear_warning: must be <= wear_threshold, got '
                                  f'{result["wear_warning"]} > {result["wear_threshold"]}')
     return result
+
+
+def renamed_parameters(node_name: str, values: Mapping[str, Any], *,
+                       source: str = '<parameters>') -> dict[str, Any]:
+    """
+    Return ``values`` with each deprecated name of the node replaced by its new name.
+
+    Warns once per old name (:class:`FutureWarning`, shown by default; the rclpy nodes log it);
+    the old and the new name both given is a ParameterError.
+    """
+    renamed = dict(values)
+    for old, new in DEPRECATED_PARAMETERS.get(node_name, {}).items():
+        if old not in renamed:
+            continue
+        value = renamed.pop(old)
+        if new in renamed and renamed[new] != value:
+            raise ParameterError(f'{source}: {old} is the deprecated name of {new}: give one '
+                                 f'(got {shorten(repr(value))} and {shorten(repr(renamed[new]))})')
+        warnings.warn(f'{source}: {node_name}: parameter {old} is deprecated; use {new}',
+                      FutureWarning, stacklevel=3)
+        renamed[new] = value
+    return renamed
 
 
 def monitored_joints(values: Mapping[str, Any]) -> Optional[tuple[str, ...]]:
