@@ -17,17 +17,14 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 import warnings
 
-from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
-                                                 DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
-                                                 WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
-from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE
+from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.experiment.plan_config import PlanConfig
 from robot_wear_monitor.experiment.segmentation_settings import (ExperimentGrouping,
                                                                  NODE_SCALES, SegmenterConfig)
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
 from robot_wear_monitor.monitoring.runner_config import RunnerConfig
-from robot_wear_monitor.setting_fields import (declared_settings, fraction, non_empty,
-                                               non_negative, open_fraction, positive)
+from robot_wear_monitor.monitoring.wear_update import EstimatorConfig
+from robot_wear_monitor.setting_fields import declared_settings, non_empty, non_negative
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
@@ -85,11 +82,6 @@ class ParameterSpec:
         return cls(parameter or name, _ROS_TYPES[declared.kind],
                    declared.default if default is None else default, declared.text,
                    declared.check)
-
-
-def _alarm_rule(value: str) -> Optional[str]:
-    return None if value in ALARM_RULES else 'must be ' + ' or '.join(
-        f'"{rule}"' for rule in ALARM_RULES)
 
 
 def _topic(value: str) -> Optional[str]:
@@ -175,33 +167,14 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINTS,
     ParameterSpec('parameter_set_file', 'string', '',
                   'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
-    ParameterSpec('wear_threshold', 'double', WEAR_THRESHOLD,
-                  'alarm level of the wear w [-]: the alarm is raised by an estimate >= it',
-                  positive),
-    ParameterSpec('wear_warning', 'double', WEAR_WARNING,
-                  'diagnostics WARN when the wear estimate reaches this level [-]',
-                  non_negative),
-    ParameterSpec('wear_healthy', 'double', WEAR_HEALTHY,
-                  'wear level that must not raise an alarm [-]; the evidence test weighs each '
-                  'estimate between this level and the threshold', non_negative),
-    ParameterSpec('alarm_evidence', 'double', DEFAULT_ALARM_EVIDENCE,
-                  'CUSUM log-likelihood ratio (worn vs healthy) an estimate >= wear_threshold '
-                  "also needs to raise the alarm [-]; 0: the paper's rule, one estimate >= "
-                  'the threshold is enough', non_negative),
-    ParameterSpec('alarm_rule', 'string', DEFAULT_ALARM_RULE,
-                  'what raises the wear alarm: "trend" (the filtered trend\'s P(w >= '
-                  'wear_threshold) reaches alarm_probability) or "estimate" (the paper\'s rule: '
-                  'one estimate >= wear_threshold, with alarm_evidence)', _alarm_rule),
-    ParameterSpec('alarm_probability', 'double', DEFAULT_ALARM_PROBABILITY,
-                  'with alarm_rule "trend": the posterior probability of w >= wear_threshold '
-                  'that raises the alarm [-]', open_fraction),
-    ParameterSpec('min_fit_p_value', 'double', 0.01,
-                  'diagnostics WARN when the chi-square fit p-value is below it [-]',
-                  fraction),
-    ParameterSpec('invalid_fit_p_value', 'double', INVALID_P_VALUE,
-                  'below this chi-square fit p-value the estimate is invalid: the wear cannot '
-                  'be judged from the experiment (reported, stored, never alarm evidence) [-]',
-                  fraction),
+    ParameterSpec.of(AlarmPolicy, 'threshold', parameter='wear_threshold'),
+    ParameterSpec.of(EstimatorConfig, 'wear_warning'),
+    ParameterSpec.of(AlarmPolicy, 'healthy', parameter='wear_healthy'),
+    ParameterSpec.of(AlarmPolicy, 'evidence_to_raise', parameter='alarm_evidence'),
+    ParameterSpec.of(AlarmPolicy, 'rule', parameter='alarm_rule'),
+    ParameterSpec.of(AlarmPolicy, 'probability', parameter='alarm_probability'),
+    ParameterSpec.of(EstimatorConfig, 'min_fit_p_value'),
+    ParameterSpec.of(EstimatorConfig, 'invalid_fit_p_value'),
     _SPEEDS,
     ParameterSpec('history_file', 'string', '~/.ros/robot_wear_monitor/wear_history.sqlite3',
                   'wear history: an SQLite file, or a PostgreSQL URL '
