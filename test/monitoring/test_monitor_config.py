@@ -15,7 +15,7 @@ from robot_wear_monitor.monitoring.monitor_config import FrictionJointConfig, Mo
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        joint_parameters)
 
-CONFIG = '''friction_experiment_node:
+CONFIG = """friction_experiment_node:
   ros__parameters:
     joints: [joint_2, joint_3]
     idle_gap_s: 5.0
@@ -24,7 +24,7 @@ wear_estimator_node:
   ros__parameters:
     joints: [joint_2, joint_3]
     joint_3: {wear_threshold: 30.0, wear_warning: 27.0}
-'''
+"""
 
 
 @pytest.fixture
