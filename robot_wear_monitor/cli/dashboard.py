@@ -188,10 +188,10 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'--notify-interval-s must be >= 1, got {args.notify_interval_s}')
     check_listen(host=args.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
                  insecure_http=args.insecure_http)
-    extra = {}
+    notifications = None
     if args.notify:
         from robot_wear_monitor.dashboard.notifier import load_config
-        extra['notify'] = load_config(args.notify)  # a bad file stops the start (exit 2)
+        notifications = load_config(args.notify)  # a bad file stops the start (exit 2)
     from robot_wear_monitor.history import open_history
     with open_history(args.history, init=False) as history:
         if not history.users():
@@ -200,8 +200,8 @@ def main(args: argparse.Namespace) -> int:
                   file=sys.stderr)
     app = create_app(DashboardSettings(
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
-        https=bool(args.tls_cert), notify_config=args.notify,
-        notify_interval_s=args.notify_interval_s, extra=extra))
+        https=bool(args.tls_cert), notifications=notifications,
+        notify_interval_s=args.notify_interval_s))
     scheme = 'https' if args.tls_cert else 'http'
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
