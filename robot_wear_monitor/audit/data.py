@@ -363,31 +363,61 @@ def _known_torque_levels(path: Any, run: Any, column: str, settings: Any) -> lis
 
 
 def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states',
-                   config=None, model: str = 'speed') -> AuditTable:
+                   config=None, model: str = 'speed',
+                   experiment_parameters: Mapping[str, Any] | None = None) -> AuditTable:
     """
     Segment the joint states of a recorded bag into friction levels (one per pass pair).
 
     The bag is segmented as ``segment`` and the replay do
-    (:func:`robot_wear_monitor.monitoring.segment.segment_bag`), with ``config``, a
-    :class:`~robot_wear_monitor.experiment.segmentation.SegmenterConfig` (default: the
-    bag-and-stream settings, link side, scale 1); the table's ``levels`` are ``segment``'s rows.
+    (:func:`robot_wear_monitor.monitoring.segment.segment_bag`), with
+    ``experiment_parameters``, the validated ``friction_experiment_node`` parameters of the
+    joint (as :func:`bag_segmentation_parameters` returns them), or else with ``config``, a
+    :class:`~robot_wear_monitor.experiment.segmentation.SegmenterConfig` (default: the node's
+    defaults, the packaged robot's gear ratio and torque scale); the table's ``levels`` are
+    ``segment``'s rows.
     """
-    from robot_wear_monitor.experiment.segmentation_settings import stream_segmenter_config
     from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                            SEGMENTER_FIELDS, validate_parameters)
     from robot_wear_monitor.monitoring.segment import segment_bag
 
-    settings = config if config is not None else stream_segmenter_config(joint)
-    if settings.window_center_rad is not None:
-        raise InputError('table_from_bag: a fixed position window is not a setting of the bag '
-                         'segmentation')
-    parameters = validate_parameters(
-        FRICTION_EXPERIMENT_NODE, {name: getattr(settings, name) for name in SEGMENTER_FIELDS},
-        source='segmentation settings')
+    if experiment_parameters is not None:
+        parameters = dict(experiment_parameters)
+    elif config is None:
+        parameters = bag_segmentation_parameters(joint=joint)
+    else:
+        if config.window_center_rad is not None:
+            raise InputError('table_from_bag: a fixed position window is not a setting of the '
+                             'bag segmentation')
+        parameters = validate_parameters(
+            FRICTION_EXPERIMENT_NODE,
+            {name: getattr(config, name) for name in SEGMENTER_FIELDS},
+            source='segmentation settings')
     result = segment_bag(path, experiment_parameters=parameters, topic=topic)
     table = table_from_levels([level for level, _, _ in result.rows], source=str(path),
                               model=model)
     return replace(table, levels=tuple(result.rows))
+
+
+def bag_segmentation_parameters(*, joint: str, config_file: str | os.PathLike | None = None,
+                                gear_ratio: float | None = None,
+                                torque_scale: float | None = None) -> dict[str, Any]:
+    """
+    Return the ``friction_experiment_node`` parameters a bag of ``joint`` is segmented with.
+
+    Those of the node configuration ``config_file`` (default: the packaged
+    ``wear_monitor.yaml``, gear ratio 150 and torque scale 10), the joint's own
+    ``<joint>.<name>`` values included, with ``gear_ratio`` / ``torque_scale`` overriding when
+    given: the very parameters ``segment --joint JOINT`` and ``replay`` take, so that
+    ``audit`` and ``identify`` of a bag find the same levels.
+    """
+    from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
+                                                           load_node_parameters)
+    overrides: dict[str, Any] = {'joint': joint}
+    if gear_ratio is not None:
+        overrides['gear_ratio'] = float(gear_ratio)
+    if torque_scale is not None:
+        overrides['torque_scale'] = float(torque_scale)
+    return load_node_parameters(FRICTION_EXPERIMENT_NODE, config_file, overrides=overrides)
 
 
 def is_bag(path: str | os.PathLike) -> bool:
@@ -399,17 +429,21 @@ def is_bag(path: str | os.PathLike) -> bool:
 
 def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str | None = None,
                     topic: str = '/joint_states', flip_sign: bool = True,
-                    gear_ratio: float = 1.0, torque_scale: float = 1.0,
+                    gear_ratio: float | None = None, torque_scale: float | None = None,
                     known_torque: str | None = None,
-                    standstill_speed_rad_s: float | None = None) -> AuditTable:
+                    standstill_speed_rad_s: float | None = None,
+                    config_file: str | os.PathLike | None = None) -> AuditTable:
     """
     Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
 
     ``known_torque``: the column of raw runs subtracted from one-way runs without a partner
     (see :func:`table_from_raw_runs`); ``standstill_speed_rad_s``: the standstill threshold
     of raw runs (None: the raw-run set's 0.03 rad/s, or from a slow run's speed noise).  A
-    bag is segmented with the bag-and-stream settings, a raw run with the raw-run settings
-    (:mod:`robot_wear_monitor.experiment.segmentation_settings`).
+    bag is segmented with the node configuration ``config_file``
+    (:func:`bag_segmentation_parameters`: the packaged one by default, gear ratio 150 and
+    torque scale 10, as ``segment`` and ``replay``; ``gear_ratio`` and ``torque_scale``
+    override it when not None), a raw run with the raw-run settings
+    (:mod:`robot_wear_monitor.experiment.segmentation_settings`; link side, N m).
 
     * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
     * a CSV with ``t_s, q_rad, dq_rad_s, tau_measured_Nm``: one raw run, segmented;
@@ -422,9 +456,11 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
     if is_bag(file):
         if not joint:
             raise InputError(f'{file}: a bag needs --joint NAME (the joint to segment)')
-        from robot_wear_monitor.experiment.segmentation_settings import stream_segmenter_config
-        config = stream_segmenter_config(joint, gear_ratio=gear_ratio, torque_scale=torque_scale)
-        return table_from_bag(file, joint=joint, topic=topic, model=model, config=config)
+        parameters = bag_segmentation_parameters(joint=joint, config_file=config_file,
+                                                 gear_ratio=gear_ratio,
+                                                 torque_scale=torque_scale)
+        return table_from_bag(file, joint=joint, topic=topic, model=model,
+                              experiment_parameters=parameters)
     if file.is_dir():
         from robot_wear_monitor.recordings.tables import list_kuka_runs
         runs = list_kuka_runs(file)

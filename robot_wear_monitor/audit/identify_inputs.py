@@ -24,17 +24,19 @@ from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.audit.identification_result import (GOOD_SPEEDS, MIN_SPEEDS,
                                                             MIN_WEAR_SPEEDS, NOMINAL_PARAMETERS)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.segmentation_settings import EXPERIMENT_GAPS_S
 
 
 def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | None = None,
                          topic: str = '/joint_states', flip_sign: bool = True,
-                         gear_ratio: float = 1.0, torque_scale: float = 1.0,
+                         gear_ratio: float | None = None, torque_scale: float | None = None,
                          temperature_topic: str | None = None, load_topic: str | None = None,
-                         experiment_gap_s: float = 10.0,
+                         experiment_gap_s: float = EXPERIMENT_GAPS_S['identify_bag'],
                          temperature_column: str | None = None,
                          load_column: str | None = None,
                          known_torque: str | None = None,
-                         standstill_speed_rad_s: float | None = None) -> AuditTable:
+                         standstill_speed_rad_s: float | None = None,
+                         config_file: str | os.PathLike | None = None) -> AuditTable:
     """
     Return the levels of one ``identify`` input with ``temperature`` and ``load`` columns.
 
@@ -42,14 +44,17 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
     :param role: 'BASELINE' or 'WEAR' (for messages).
     :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s:
         as for :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
-        gear_ratio x joint speed, normalised torque = effort / torque_scale); a level table or
+        gear_ratio x joint speed, normalised torque = effort / torque_scale; None: the node
+        configuration ``config_file``'s, as ``segment``); a level table or
         raw runs (joint speeds) have their speeds multiplied by ``gear_ratio`` too (motor side,
         as the nodes see them).
     :param temperature_topic: bag input: the joint temperature [degC] on this topic
         (sensor_msgs/Temperature or std_msgs/Float64), taken at each level's time.
     :param load_topic: bag input: the load torque (normalised) on this topic (std_msgs/Float64).
     :param experiment_gap_s: bag input: levels more than this many seconds apart start a new
-        experiment [s].
+        experiment [s] (default: the ``identify_bag`` context of
+        :data:`~robot_wear_monitor.experiment.segmentation_settings.EXPERIMENT_GAPS_S`).
+    :param config_file: bag input: the node parameter file (None: the packaged one).
     :param temperature_column, load_column: the table's columns holding temperature and load
         (default ``temperature`` and ``load``).
 
@@ -57,7 +62,8 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
     table = load_audit_data(path, model='speed', joint=joint, topic=topic, flip_sign=flip_sign,
                             gear_ratio=gear_ratio, torque_scale=torque_scale,
                             known_torque=known_torque,
-                            standstill_speed_rad_s=standstill_speed_rad_s)
+                            standstill_speed_rad_s=standstill_speed_rad_s,
+                            config_file=config_file)
     topics = {'temperature': temperature_topic, 'load': load_topic}
     if any(topics.values()):
         if not is_bag(path):
@@ -71,7 +77,8 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                                       source=f'topic {name}')
     if is_bag(path):
         table = number_experiments(table, gap_s=experiment_gap_s)
-    elif gear_ratio != 1.0:  # the bag reader applies it; levels and raw runs are joint side
+    elif gear_ratio is not None and gear_ratio != 1.0:  # the bag reader applies it; levels
+        # and raw runs are joint side
         numeric = dict(table.numeric)
         numeric['speed'] = numeric['speed'] * float(gear_ratio)
         table = AuditTable(numeric, dict(table.text), table.source)

@@ -64,7 +64,7 @@ def main(args: argparse.Namespace) -> int:
                             known_torque=args.known_torque,
                             standstill_speed_rad_s=args.standstill_speed,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
-                            torque_scale=torque_scale)
+                            torque_scale=torque_scale, config_file=args.config)
     levels_out = write_levels_out(args, [table])
     group = args.group
     if group is None and args.model == 'speed' and 'joint' in table.text:

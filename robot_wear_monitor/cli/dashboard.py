@@ -207,9 +207,8 @@ def _cli_actor() -> Any:
 
 def _audit(args: argparse.Namespace) -> int:
     """List the account audit: a table, or ``--json``."""
-    from robot_wear_monitor.fleet.ranking import iso_time
     from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.monitoring.diagnostics import clean_text
+    from robot_wear_monitor.text import iso_time, shorten
     if args.limit is not None and args.limit < 1:
         raise InputError(f'--limit must be >= 1, got {args.limit}')
     with open_history(args.history, init=False) as history:
@@ -218,8 +217,8 @@ def _audit(args: argparse.Namespace) -> int:
         print(json.dumps([item.as_dict() for item in found], ensure_ascii=False, indent=1))
         return 0
     for item in found:
-        print(clean_text(f'{iso_time(item.time_s)}  {item.user}  ({item.source})  '
-                         f'{item.action}  {item.target}  {item.detail}'.rstrip(), limit=400))
+        print(shorten(f'{iso_time(item.time_s)}  {item.user}  ({item.source})  '
+                      f'{item.action}  {item.target}  {item.detail}'.rstrip(), limit=400))
     if not found:
         print('no account changes recorded')
     return 0
@@ -256,10 +255,10 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'--limit-concurrency must be >= 1, got {limit_concurrency}')
     if not 0.5 <= header_timeout_s <= 600.0:
         raise InputError(f'--header-timeout-s must be 0.5-600, got {header_timeout_s:g}')
-    extra = {}
+    notifications = None
     if args.notify:
         from robot_wear_monitor.dashboard.notifier import load_config
-        extra['notify'] = load_config(args.notify)  # a bad file stops the start (exit 2)
+        notifications = load_config(args.notify)  # a bad file stops the start (exit 2)
     from robot_wear_monitor.history import open_history
     with open_history(args.history, init=False) as history:
         if not history.users():
@@ -268,8 +267,8 @@ def main(args: argparse.Namespace) -> int:
                   file=sys.stderr)
     app = create_app(DashboardSettings(
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
-        https=bool(args.tls_cert), notify_config=args.notify,
-        notify_interval_s=args.notify_interval_s, extra=extra, behind_tls=args.behind_tls,
+        https=bool(args.tls_cert), notifications=notifications,
+        notify_interval_s=args.notify_interval_s, behind_tls=args.behind_tls,
         trusted_proxies=tuple(args.trusted_proxy)))
     scheme = 'https' if args.tls_cert else 'http'
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2

@@ -13,10 +13,11 @@ import argparse
 import math
 from typing import Any
 
-from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
-                                            level_source_scales, parse_float_list, PROG,
-                                            write_levels_out)
+from robot_wear_monitor.cli.options import (add_json, add_level_source, BAG_SCALE_DEFAULT,
+                                            emit_json, FINITE, level_source_scales,
+                                            parse_float_list, PROG, write_levels_out)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.segmentation_settings import EXPERIMENT_GAPS_S
 from robot_wear_monitor.yaml_files import shorten
 
 HELP = 'identify a parameter set (models (5), (7), sigma) from friction levels'
@@ -57,9 +58,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--load-topic', metavar='TOPIC',
                         help='bag input: the load torque tau_l (normalised) recorded on this '
                              'topic (std_msgs/Float64), per level at its time')
-    parser.add_argument('--experiment-gap', type=FINITE, default=10.0, metavar='S',
+    parser.add_argument('--experiment-gap', type=FINITE,
+                        default=EXPERIMENT_GAPS_S['identify_bag'], metavar='S',
                         help='bag input: levels more than S seconds apart start a new '
-                             'experiment (default 10)')
+                             f"experiment (default {EXPERIMENT_GAPS_S['identify_bag']:g}; "
+                             'see docs/segmentation.md for the gap of each context)')
     parser.add_argument('--folds', type=int, default=5,
                         help='cross-validation folds of the held-out error (default 5)')
     parser.add_argument('--speed-only', action='store_true',
@@ -89,8 +92,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'replay and the nodes then report T-hat only, w-hat "not '
                              'determined" and no wear alarm (for a joint with no basis for a '
                              'wear model; not the default)')
-    add_level_source(parser, gear_default='1; level tables and raw runs in joint speeds: '
-                                          'their speeds are multiplied by R too')
+    add_level_source(parser, gear_default=(BAG_SCALE_DEFAULT + ' (level tables and raw runs '
+                                           'in joint speeds: their speeds are multiplied by R '
+                                           'too)'))
 
 
 def main(args: argparse.Namespace) -> int:
@@ -134,7 +138,7 @@ def main(args: argparse.Namespace) -> int:
             temperature_topic=args.temperature_topic, load_topic=args.load_topic,
             experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
             load_column=args.load_column, known_torque=args.known_torque,
-            standstill_speed_rad_s=args.standstill_speed)
+            standstill_speed_rad_s=args.standstill_speed, config_file=args.config)
 
     if args.speed_only:
         return _speed_only(args, from_params, gear_ratio, torque_scale)
@@ -200,8 +204,8 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float,
-                          torque_scale: float) -> bool:
+def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float | None,
+                          torque_scale: float | None) -> bool:
     """Return True when the baseline gives temperature and load (columns, topics) that vary."""
     import numpy as np
     from robot_wear_monitor.audit.data import load_audit_data
@@ -210,13 +214,14 @@ def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float,
         return True
     table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
-                            torque_scale=torque_scale, known_torque=args.known_torque)
+                            torque_scale=torque_scale, known_torque=args.known_torque,
+                            config_file=args.config)
     return all(name in table.numeric and np.unique(table.numeric[name]).size > 1
                for name in ('temperature', 'load'))
 
 
-def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
-                torque_scale: float) -> int:
+def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float | None,
+                torque_scale: float | None) -> int:
     """Identify model (4) from levels that vary in speed only; write the speed-only set."""
     from robot_wear_monitor.atomic_files import write_text_atomic
     from robot_wear_monitor.audit.data import load_audit_data
@@ -230,7 +235,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale, known_torque=args.known_torque,
-                            standstill_speed_rad_s=args.standstill_speed)
+                            standstill_speed_rad_s=args.standstill_speed,
+                            config_file=args.config)
     table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
     levels_out = write_levels_out(args, [table])
     unit = _friction_unit(args, torque_scale)
@@ -255,7 +261,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     return 0
 
 
-def _friction_unit(args: argparse.Namespace, torque_scale: float, *, note: bool = True) -> str:
+def _friction_unit(args: argparse.Namespace, torque_scale: float | None, *,
+                   note: bool = True) -> str:
     """
     Return the friction unit of the levels: ``--friction-unit``, else what the input says.
 
@@ -273,7 +280,7 @@ def _friction_unit(args: argparse.Namespace, torque_scale: float, *, note: bool 
         return unit
     source = Path(args.baseline)
     raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
-    unit = 'N.m' if raw and torque_scale == 1.0 else 'normalised'
+    unit = 'N.m' if raw and torque_scale in (None, 1.0) else 'normalised'
     if not raw and note:  # a level table does not say its unit
         import sys
         print(f'{PROG} identify: note: the friction unit of {shorten(str(args.baseline))} is '

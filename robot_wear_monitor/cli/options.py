@@ -8,7 +8,8 @@ Each option that several verbs take is built here, so it has one spelling and on
 * ``--config YAML``: a ROS 2 node parameter file (default: the packaged ``wear_monitor.yaml``);
 * ``--joint``: the joint to work on (replay and segment also take several, or ``all``);
 * ``--gear-ratio R``: motor speed = R x joint speed [-]; when not given, the value of the node
-  config the verb reads for a bag (replay, segment) or else 1 (raw runs, audit, identify);
+  config (``--config``) for a bag (replay, segment, audit, identify: the same for all four) or
+  else the raw-run settings' 1 (raw runs);
 * ``--torque-scale S``: normalised torque = effort / S; defaults as ``--gear-ratio``;
 * ``--json``: print one JSON object on stdout instead of the text; ``--json-out PATH``: also
   write that object to PATH (atomically).  ``--json PATH`` (replay, audit, identify) is the
@@ -32,7 +33,8 @@ import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.segmentation_settings import RAW_RUN_SETTINGS
+from robot_wear_monitor.experiment.segmentation_settings import (NODE_SCALES, RAW_RUN_SETTINGS,
+                                                                 SegmenterConfig)
 from robot_wear_monitor.yaml_files import shorten
 
 if TYPE_CHECKING:  # loads numpy: imported where used, so that the command line starts light
@@ -198,9 +200,63 @@ def add_joints(parser: argparse.ArgumentParser, *, help_text: str) -> None:
                         help=help_text)
 
 
+#: Where ``--gear-ratio`` / ``--torque-scale`` come from when not given, for the verbs that
+#: segment a bag or a raw run (segment, audit, identify): the node configuration for a bag.
+BAG_SCALE_DEFAULT = (f'bag: from the node config (--config), '
+                     f'{NODE_SCALES["gear_ratio"]:g} in the packaged one; raw runs and level '
+                     f'tables: {RAW_RUN_SETTINGS["gear_ratio"]:g}')
+BAG_TORQUE_SCALE_DEFAULT = (f'bag: from the node config (--config), '
+                            f'{NODE_SCALES["torque_scale"]:g} in the packaged one; raw runs: '
+                            f'{RAW_RUN_SETTINGS["torque_scale"]:g}')
+
+
+def setting_type(owner: Any, name: str) -> Callable[[str], Any]:
+    """
+    Return the argparse type of a declared setting: its kind (number, integer) and its check.
+
+    The range is the one the configuration dataclass and the node parameter check
+    (:mod:`robot_wear_monitor.setting_fields`); argparse adds the option's name and exits 2.
+    """
+    from robot_wear_monitor.setting_fields import problem_of, setting_of
+    declared = setting_of(owner, name)
+
+    def parse(text: str) -> Any:
+        try:
+            value: Any = int(text) if declared.kind == 'int' else float(text)
+        except ValueError:
+            kind = 'an integer' if declared.kind == 'int' else 'a number'
+            raise argparse.ArgumentTypeError(f'not {kind}: {shorten(repr(text))}') from None
+        problem = problem_of(declared, value)
+        if problem:
+            unit = f' {declared.unit}' if declared.unit not in ('', '-') else ''
+            raise argparse.ArgumentTypeError(f'{problem}{unit}, got {shorten(text)}{unit}')
+        return value
+    return parse
+
+
+def add_setting_option(parser: Any, flag: str, owner: Any, name: str, *,
+                       default: Any = None, default_text: str | None = None,
+                       metavar: str | None = None, help_prefix: str = '',
+                       **kwargs: Any) -> None:
+    """
+    Add an option that sets the declared setting ``name`` of the configuration ``owner``.
+
+    The help is the setting's description and unit, the type its kind and check
+    (:func:`setting_type`); ``default`` is the argparse default (None: not given, the verb
+    takes the owner's or the node configuration's value), ``default_text`` what the help says
+    the default is (default: the owner's default).  ``parser`` may be an argument group.
+    """
+    from robot_wear_monitor.setting_fields import setting_of
+    declared = setting_of(owner, name)
+    shown = default_text if default_text is not None else f'{declared.default!r}'
+    parser.add_argument(flag, type=setting_type(owner, name), default=default,
+                        metavar=metavar or name.upper(),
+                        help=f'{help_prefix}{declared.text} (default: {shown})', **kwargs)
+
+
 #: argparse types of the options with a physical range (one range per meaning).
-GEAR_RATIO = bounded(0.0, 1e4, low_open=True)
-TORQUE_SCALE = bounded(0.0, 1e9, low_open=True)
+GEAR_RATIO = setting_type(SegmenterConfig, 'gear_ratio')
+TORQUE_SCALE = setting_type(SegmenterConfig, 'torque_scale')
 STANDSTILL_SPEED = bounded(0.0, 1e4, low_open=True)
 TEMPERATURE_DEGC = bounded(-50.0, 200.0, unit='degC')
 WEAR = bounded(0.0, 1000.0)
@@ -360,12 +416,13 @@ def rclpy_missing(error: ImportError) -> InputError:
 
 
 def add_level_source(parser: argparse.ArgumentParser, *,
-                     gear_default: str = '1; bag input only') -> None:
+                     gear_default: str = BAG_SCALE_DEFAULT) -> None:
     """
     Add the options of raw-run and bag inputs that are segmented into levels (audit, identify).
 
-    ``--gear-ratio`` and ``--torque-scale`` are None when not given: see
-    :func:`level_source_scales` (these verbs read no node config, so the default is 1).
+    ``--gear-ratio`` and ``--torque-scale`` are None when not given: a bag then takes them
+    from the node configuration ``--config`` (as ``segment`` and ``replay``), a raw run from
+    the raw-run settings (1); see :func:`level_source_scales`.
     """
     parser.add_argument('--joint', help='joint name to segment (bag input), or to select from a '
                         "level table's joint column (identify --speed-only)")
@@ -380,7 +437,11 @@ def add_level_source(parser: argparse.ArgumentParser, *,
                         help='raw runs: the speed below which a sample is standstill [rad/s] '
                              + RAW_STANDSTILL_DEFAULT)
     add_gear_ratio_and_torque_scale(parser, gear_default=gear_default,
-                                    scale_default='1; bag input only')
+                                    scale_default=BAG_TORQUE_SCALE_DEFAULT)
+    add_config(parser, help_text='bag input: the node parameter file whose '
+                                 'friction_experiment_node parameters segment the bag, as '
+                                 'segment and replay do (default: the packaged '
+                                 'wear_monitor.yaml; per-joint values as <joint>: {...})')
     parser.add_argument('--levels-out', metavar='PATH',
                         help="write the friction levels fitted as a CSV in segment's columns "
                              '(plus temperature and load where the levels have them); bag or '
@@ -410,10 +471,14 @@ def write_levels_out(args: argparse.Namespace, tables: Sequence[Any],
     return str(args.levels_out)
 
 
-def level_source_scales(args: argparse.Namespace) -> tuple[float, float]:
-    """Return (gear ratio, torque scale) of a level source: the options, else 1 and 1."""
-    return (1.0 if args.gear_ratio is None else args.gear_ratio,
-            1.0 if args.torque_scale is None else args.torque_scale)
+def level_source_scales(args: argparse.Namespace) -> tuple[float | None, float | None]:
+    """
+    Return (gear ratio, torque scale) of a level source: the options, None when not given.
+
+    None: a bag takes the node configuration's value (``--config``), a raw run or a level
+    table 1 (:func:`robot_wear_monitor.audit.data.load_audit_data`).
+    """
+    return args.gear_ratio, args.torque_scale
 
 
 def shown_location(location: str) -> str:

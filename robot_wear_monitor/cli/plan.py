@@ -7,10 +7,15 @@ The motion is written as a JointTrajectory YAML (for ``ros2 topic pub``), a bag 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
-from robot_wear_monitor.cli.options import (add_json, add_params, emit_json, FINITE, GEAR_RATIO,
-                                            params_from, parse_float_list, warn_deprecated)
+from robot_wear_monitor.cli.options import (add_json, add_params, add_setting_option, emit_json,
+                                            FINITE, GEAR_RATIO, params_from, parse_float_list,
+                                            warn_deprecated)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.plan_config import PlanConfig
+from robot_wear_monitor.monitoring.runner_config import RunnerConfig
+from robot_wear_monitor.setting_fields import setting_of
 
 HELP = 'plan the friction experiment motion of one joint (JointTrajectory YAML/bag, CSV)'
 
@@ -40,30 +45,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='joint speed limit [rad/s] (default: the fastest planned speed)')
     parser.add_argument('--position-limits', type=parse_float_list, metavar='LOW,HIGH',
                         help='joint position limits [rad], checked against the whole motion')
-    parser.add_argument('--target-std-error', type=FINITE, default=1.0e-3, metavar='E',
-                        help='wanted standard error of each friction level, normalised '
-                             '(default 0.001)')
-    parser.add_argument('--noise-std', type=FINITE, default=0.01, metavar='S',
-                        help="the joint's torque noise per sample, normalised (default 0.01)")
-    parser.add_argument('--sample-rate', type=FINITE, default=None, metavar='HZ',
-                        help='JointState rate the segmentation will see [Hz] (default 250)')
+    add_setting_option(parser, '--target-std-error', PlanConfig, 'target_std_error',
+                       default=_default('target_std_error'), metavar='E')
+    add_setting_option(parser, '--noise-std', PlanConfig, 'noise_std',
+                       default=_default('noise_std'), metavar='S')
+    add_setting_option(parser, '--sample-rate', PlanConfig, 'rate_hz', metavar='HZ')
     parser.add_argument('--rate', type=FINITE, default=None, metavar='HZ', dest='legacy_rate',
                         help='deprecated spelling of --sample-rate (play --rate is a pace)')
-    parser.add_argument('--point-rate', type=FINITE, default=50.0, metavar='HZ',
-                        help='trajectory points per second (plus every phase end; default 50)')
-    parser.add_argument('--dwell', type=FINITE, default=0.1, metavar='S',
-                        help='standstill at each turn [s] (default 0.1)')
-    parser.add_argument('--min-plateau', type=FINITE, default=0.2, metavar='S',
-                        help="the segmentation's min_duration_s [s] (default 0.2)")
-    parser.add_argument('--trim', type=FINITE, default=0.02, metavar='S',
-                        help="the segmentation's trim_s [s] (default 0.02)")
-    parser.add_argument('--min-samples', type=int, default=20,
-                        help="the segmentation's min_samples (default 20)")
+    add_setting_option(parser, '--point-rate', RunnerConfig, 'point_rate_hz',
+                       default=setting_of(RunnerConfig, 'point_rate_hz').default, metavar='HZ')
+    add_setting_option(parser, '--dwell', PlanConfig, 'dwell_s', default=_default('dwell_s'),
+                       metavar='S')
+    add_setting_option(parser, '--min-duration', PlanConfig, 'min_duration_s', metavar='S')
+    parser.add_argument('--min-plateau', type=FINITE, default=None, metavar='S',
+                        dest='legacy_min_plateau',
+                        help='deprecated spelling of --min-duration (one name per setting)')
+    add_setting_option(parser, '--trim', PlanConfig, 'trim_s', default=_default('trim_s'),
+                       metavar='S')
+    add_setting_option(parser, '--min-samples', PlanConfig, 'min_samples',
+                       default=_default('min_samples'), metavar='N')
     parser.add_argument('--hold', metavar='NAME=RAD,...', default='',
                         help='other joints of the trajectory and the positions they hold [rad]')
-    parser.add_argument('--controller', default='joint_trajectory_controller',
+    parser.add_argument('--controller',
+                        default=setting_of(RunnerConfig, 'controller').default,
                         help='ros2_control controller name: the bag topic is '
-                             '/<controller>/joint_trajectory')
+                             '/<controller>/joint_trajectory (default: %(default)s)')
     parser.add_argument('--out', metavar='FILE',
                         help='write the trajectory: .yaml (JointTrajectory for ros2 topic pub), '
                              '.csv (time, position, velocity) or a bag folder (any other name)')
@@ -88,10 +94,26 @@ def parse_hold(text: str) -> tuple[tuple[str, ...], tuple[float, ...]]:
     return tuple(names), tuple(values)
 
 
+def _default(name: str) -> Any:
+    """Return the default of a :class:`PlanConfig` setting (its one owner)."""
+    return setting_of(PlanConfig, name).default
+
+
+def _min_duration(args: argparse.Namespace) -> float:
+    """Return ``--min-duration`` or the deprecated ``--min-plateau`` [s] (default: the owner's)."""
+    if args.legacy_min_plateau is None:
+        return _default('min_duration_s') if args.min_duration is None else args.min_duration
+    warn_deprecated('plan', '--min-plateau S', '--min-duration S')
+    if args.min_duration is not None and args.min_duration != args.legacy_min_plateau:
+        raise InputError('--min-plateau and --min-duration: give one (--min-plateau is '
+                         'deprecated)')
+    return args.legacy_min_plateau
+
+
 def _sample_rate(args: argparse.Namespace) -> float:
     """Return the JointState rate [Hz] of ``--sample-rate`` or the deprecated ``--rate``."""
     if args.legacy_rate is None:
-        return 250.0 if args.sample_rate is None else args.sample_rate
+        return _default('rate_hz') if args.sample_rate is None else args.sample_rate
     warn_deprecated('plan', '--rate HZ', '--sample-rate HZ')
     if args.sample_rate is not None and args.sample_rate != args.legacy_rate:
         raise InputError('--rate and --sample-rate: give one (--rate is deprecated)')
@@ -102,8 +124,8 @@ def main(args: argparse.Namespace) -> int:
     """Run ``plan``: print the plan's durations and write the trajectory of ``--out``."""
     from pathlib import Path
 
-    from robot_wear_monitor.experiment.planning import (PlanConfig, plan_experiment,
-                                                        plan_summary, trajectory_points)
+    from robot_wear_monitor.experiment.planning import (plan_experiment, plan_summary,
+                                                        trajectory_points)
     from robot_wear_monitor.recordings import trajectories
     rate = _sample_rate(args)
     if args.speeds is not None:
@@ -126,7 +148,7 @@ def main(args: argparse.Namespace) -> int:
         max_speed_rad_s=args.max_speed,
         position_limits_rad=(tuple(args.position_limits) if args.position_limits else None),
         rate_hz=rate, noise_std=args.noise_std, target_std_error=args.target_std_error,
-        min_plateau_s=args.min_plateau, trim_s=args.trim, min_samples=args.min_samples,
+        min_duration_s=_min_duration(args), trim_s=args.trim, min_samples=args.min_samples,
         dwell_s=args.dwell, joint_names=((args.joint,) + names) if names else (),
         hold_positions_rad=held)
     plan = plan_experiment(config=config)

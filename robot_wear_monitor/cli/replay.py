@@ -81,7 +81,8 @@ def main(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     with loading_modules():  # rosbags and the monitoring modules
-        from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+        from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
+        from robot_wear_monitor.monitoring.replay import replay_bag
     if not args.bag and not args.manifest:
         raise InputError('name a bag (or several, a folder of bags, or --manifest CSV)')
     if is_batch(args):
@@ -97,11 +98,11 @@ def main(args: argparse.Namespace) -> int:
         from robot_wear_monitor.experiment.simulation import read_truth_json
         truth = read_truth_json(args.truth)
     joint, joints = joint_selection(args.joint)
-    experiment, estimator = replay_parameters(
+    configuration = MonitorConfig.load(
         config_file=args.config, joint=joint, joints=joints, gear_ratio=args.gear_ratio,
         torque_scale=args.torque_scale, params_file=args.params, robot=args.robot)
-    result = replay_bag(args.bag, out_bag=args.out, experiment_parameters=experiment,
-                        estimator_parameters=estimator, storage=args.storage,
+    result = replay_bag(args.bag, out_bag=args.out, configuration=configuration,
+                        storage=args.storage,
                         history_file=args.history, overwrite=args.overwrite,
                         history_init=True if args.init else None,
                         progress=progress_wanted(args), truth=truth, recover=not args.strict)
@@ -122,7 +123,8 @@ def main(args: argparse.Namespace) -> int:
     write_json_out(args.json_out, summary)
     if args.plot:
         from robot_wear_monitor.reporting.replay_report import plot_replay
-        plot_replay(result, args.plot, bag=args.bag, threshold=estimator['wear_threshold'])
+        plot_replay(result, args.plot, bag=args.bag,
+                    threshold=configuration.alarm_policy().threshold)
     if args.json:
         print_json(summary)
         return 0
@@ -243,6 +245,7 @@ def main_batch(args: argparse.Namespace) -> int:
 
     from robot_wear_monitor.fleet.batch import (BagOutcome, collect_bags, ReplaySettings,
                                                 run_batch)
+    from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
     from tqdm import tqdm
     for option, given in (('--truth', args.truth), ('--plot', args.plot)):
         if given:
@@ -257,11 +260,16 @@ def main_batch(args: argparse.Namespace) -> int:
     tasks = collect_bags(paths=args.bag, manifest=args.manifest, robot=args.robot,
                          out_dir=args.out)
     joint, joints = joint_selection(args.joint)
+    # read and checked once, before the workers start (each task sets its robot)
+    configuration = MonitorConfig.load(
+        config_file=args.config, joint=joint, joints=joints, gear_ratio=args.gear_ratio,
+        torque_scale=args.torque_scale, params_file=args.params)
     settings = ReplaySettings(history=args.history, config_file=args.config, joint=joint,
                               joints=tuple(joints) if joints else None,
                               gear_ratio=args.gear_ratio, torque_scale=args.torque_scale,
                               params_file=args.params, storage=args.storage,
-                              overwrite=args.overwrite, recover=not args.strict)
+                              overwrite=args.overwrite, recover=not args.strict,
+                              configuration=configuration)
     if args.history is not None:  # made (or refused) once, before the workers start
         from robot_wear_monitor.history import open_history
         open_history(args.history, init=True if args.init else None).close()

@@ -11,7 +11,8 @@ import argparse
 import sys
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
-                                            add_joints, add_robot, joint_selection,
+                                            add_joints, add_robot, BAG_SCALE_DEFAULT,
+                                            BAG_TORQUE_SCALE_DEFAULT, joint_selection,
                                             parse_float_list, RAW_STANDSTILL_DEFAULT,
                                             STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
@@ -29,11 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_joints(parser, help_text='joint in the bag; several as NAME,NAME or repeated --joint, '
                                  'or "all" (default: the node config\'s joint, joint_2)')
     parser.add_argument('--topic', default='/joint_states', help='JointState topic')
-    add_gear_ratio_and_torque_scale(
-        parser, gear_default='bag: from the node config (--config), 150 in the packaged '
-                             'one; raw CSV: 1',
-        scale_default='bag: from the node config (--config), 10 in the packaged one; raw '
-                      'CSV: 1')
+    add_gear_ratio_and_torque_scale(parser, gear_default=BAG_SCALE_DEFAULT,
+                                    scale_default=BAG_TORQUE_SCALE_DEFAULT)
     add_config(parser, help_text='node parameter file for a bag (default: the packaged '
                                  'wear_monitor.yaml; per-joint values as <joint>: {...})')
     parser.add_argument('--speeds', type=parse_float_list, metavar='V1,V2,...',

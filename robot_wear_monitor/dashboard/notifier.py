@@ -53,10 +53,10 @@ async def notification_lifespan(app: Any) -> AsyncIterator[None]:
     """Run the notification loop while the app runs (when configured); close the histories."""
     settings = app.state.settings
     task = None
-    if settings.notify_config:
-        config = settings.extra.get('notify') or load_config(settings.notify_config)
+    if settings.notifications is not None:
         task = asyncio.create_task(notification_loop(
-            location=settings.history, config=config, interval_s=settings.notify_interval_s))
+            location=settings.history, config=settings.notifications,
+            interval_s=settings.notify_interval_s))
     try:
         yield
     finally:

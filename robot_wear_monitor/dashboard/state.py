@@ -13,12 +13,15 @@ the dashboard answers again within seconds of the server's return, on its own.
 from __future__ import annotations
 
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 import threading
 import time
-from typing import Any, Iterator, Optional
+from typing import Iterator, Optional, TYPE_CHECKING
 
 from robot_wear_monitor.history import open_history, WearHistory
+
+if TYPE_CHECKING:  # the type only; the configuration is read by the command that starts
+    from robot_wear_monitor.fleet.notify_config import NotificationConfig
 
 #: How often the pages ask for news [ms] (they get 304 while nothing changed).
 POLL_INTERVAL_MS = 5000
@@ -98,8 +101,11 @@ class DashboardSettings:
     ``history``: an SQLite path or a ``postgresql://`` URL; ``params``: parameter-set files
     the estimates may name (beside the packaged ones); ``secret_key``: the session key (a new
     random one when None); ``https``: the session cookie is Secure (served over TLS);
-    ``notify_config``: a notification configuration file run in the background
-    (``notify_interval_s`` apart); ``max_failures`` and ``window_s``: the login rate limit;
+    ``notifications``: the notification configuration (``dashboard --notify CONFIG``, read
+    once with :func:`~robot_wear_monitor.fleet.notify_config.load_notification_config` where
+    the server starts): the background loop sends with it every ``notify_interval_s``, and
+    the pages order by its re-escalation margin; ``max_failures`` and ``window_s``: the login
+    rate limit;
     ``behind_tls``: a TLS proxy is in front (the session cookie is Secure although this
     server speaks plain HTTP); ``trusted_proxies``: peer addresses whose ``X-Forwarded-For``
     names the client (the login rate limit counts per client address).
@@ -109,11 +115,10 @@ class DashboardSettings:
     params: tuple[str, ...] = ()
     secret_key: Optional[str] = None
     https: bool = False
-    notify_config: Optional[str] = None
+    notifications: Optional[NotificationConfig] = None
     notify_interval_s: float = 60.0
     max_failures: int = 5
     window_s: float = 300.0
     poll_interval_ms: int = POLL_INTERVAL_MS
     behind_tls: bool = False
     trusted_proxies: tuple[str, ...] = ()
-    extra: dict[str, Any] = field(default_factory=dict)

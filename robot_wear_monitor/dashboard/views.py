@@ -90,7 +90,7 @@ def reescalation_margin(request: Any) -> float:
     orders as the notifier notifies.
     """
     settings = getattr(request.app.state, 'settings', None)
-    config = getattr(settings, 'extra', {}).get('notify') if settings is not None else None
+    config = getattr(settings, 'notifications', None)
     return float(getattr(config, 'reescalation_margin', DEFAULT_REESCALATION_MARGIN))
 
 

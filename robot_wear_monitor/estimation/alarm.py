@@ -43,6 +43,8 @@ from typing import Optional
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.setting_fields import (check_settings, non_negative, open_fraction,
+                                               positive, setting)
 
 #: Alarm level of the wear w [-] (the paper's Sec. V): the alarm is about w >= this.
 WEAR_THRESHOLD = 35.0
@@ -61,6 +63,12 @@ DEFAULT_ALARM_PROBABILITY = 0.15
 DEFAULT_ALARM_EVIDENCE = 0.0
 
 
+def alarm_rule_problem(value: str) -> Optional[str]:
+    """Return what is wrong with an alarm rule's name (one of :data:`ALARM_RULES`), or None."""
+    return None if value in ALARM_RULES else 'must be ' + ' or '.join(
+        f'"{rule}"' for rule in ALARM_RULES)
+
+
 @dataclass(frozen=True)
 class AlarmPolicy:
     """
@@ -74,14 +82,31 @@ class AlarmPolicy:
 
     """
 
-    threshold: float = WEAR_THRESHOLD
-    healthy: float = WEAR_HEALTHY
-    evidence_to_raise: float = DEFAULT_ALARM_EVIDENCE
-    rule: str = DEFAULT_ALARM_RULE
-    probability: float = DEFAULT_ALARM_PROBABILITY
+    threshold: float = setting(
+        WEAR_THRESHOLD, unit='-', check=positive,
+        description='alarm level of the wear w: the alarm is raised by an estimate >= it')
+    healthy: float = setting(
+        WEAR_HEALTHY, unit='-', check=non_negative,
+        description='wear level that must not raise an alarm; the evidence test weighs each '
+                    'estimate between this level and the threshold')
+    evidence_to_raise: float = setting(
+        DEFAULT_ALARM_EVIDENCE, unit='-', check=non_negative,
+        description=('CUSUM log-likelihood ratio (worn vs healthy) an estimate >= the '
+                     "threshold also needs to raise the alarm; 0: the paper's rule, one "
+                     'estimate >= the threshold is enough'))
+    rule: str = setting(
+        DEFAULT_ALARM_RULE, check=alarm_rule_problem,
+        description='what raises the wear alarm: "trend" (the filtered trend\'s P(w >= '
+                    'threshold) reaches the alarm probability) or "estimate" (the paper\'s '
+                    'rule: one estimate >= the threshold, with the alarm evidence)')
+    probability: float = setting(
+        DEFAULT_ALARM_PROBABILITY, unit='-', check=open_fraction,
+        description='with the rule "trend": the posterior probability of w >= the threshold '
+                    'that raises the alarm')
 
     def __post_init__(self) -> None:
         """Reject a policy whose healthy level is not below the threshold, or a bad rule."""
+        check_settings(self, prefix='alarm policy: ')
         if not (self.healthy < self.threshold and self.evidence_to_raise >= 0):
             raise InputError(f'alarm policy: need healthy < threshold and evidence >= 0, got '
                              f'healthy={self.healthy}, threshold={self.threshold}, '

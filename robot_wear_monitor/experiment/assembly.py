@@ -17,6 +17,10 @@ from typing import Sequence
 import numpy as np
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
+from robot_wear_monitor.experiment.segmentation_settings import (EXPERIMENT_GAPS_S,
+                                                                 ExperimentGrouping)
+
+_GROUPING = ExperimentGrouping()
 
 
 def merge_levels(levels: Sequence[FrictionLevel]) -> FrictionLevel:
@@ -120,8 +124,16 @@ class ExperimentAssembler:
     """
 
     def __init__(self, *, speeds_rad_s: Sequence[float] | None = None,
-                 speed_tolerance_rad_s: float = 1.0, idle_gap_s: float = 30.0) -> None:
-        """Configure the grouping; see the class docstring."""
+                 speed_tolerance_rad_s: float = _GROUPING.experiment_speed_tolerance_rad_s,
+                 idle_gap_s: float = EXPERIMENT_GAPS_S['raw_run']) -> None:
+        """
+        Configure the grouping; see the class docstring.
+
+        The defaults are :class:`~robot_wear_monitor.experiment.segmentation_settings.
+        ExperimentGrouping`'s tolerance and the raw-run context's gap
+        (:data:`~robot_wear_monitor.experiment.segmentation_settings.EXPERIMENT_GAPS_S`);
+        the services pass the node's ``idle_gap_s``.
+        """
         if not math.isfinite(speed_tolerance_rad_s) or speed_tolerance_rad_s <= 0:
             raise InputError(f'ExperimentAssembler.speed_tolerance_rad_s: must be > 0, '
                              f'got {speed_tolerance_rad_s}')

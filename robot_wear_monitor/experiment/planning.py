@@ -8,7 +8,7 @@ window, and the joint stands still for ``dwell_s`` at every turn.  Each plateau 
 the segmentation and the wanted accuracy allow, so the experiment is as short as the constraints
 allow:
 
-* the segmentation keeps a plateau of at least ``min_plateau_s`` after trimming ``trim_s`` at
+* the segmentation keeps a plateau of at least ``min_duration_s`` after trimming ``trim_s`` at
   each end, with at least ``min_samples`` samples (the friction-experiment node's
   ``min_duration_s``, ``trim_s`` and ``min_samples``);
 * the friction level tau_f = (tau+ - tau-)/2 of eq. (3) averages M samples per pass, so its
@@ -34,158 +34,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.plan_config import PlanConfig, PlanError  # noqa: F401
 
 
-class PlanError(InputError):
-    """
-    A motion the constraints do not allow.
 
-    :ivar field: the :class:`PlanConfig` field to change (``half_range_rad``,
-        ``position_limits_rad``, ``max_speed_rad_s``).
-    :ivar detail: the problem with its numbers, without the hint of what to change.
-
-    """
-
-    def __init__(self, detail: str, *, field: str, hint: str) -> None:
-        """Keep ``detail`` and ``field``; the message is ``plan: <detail> (<hint>)``."""
-        super().__init__(f'plan: {detail}' + (f' ({hint})' if hint else ''))
-        self.detail = detail
-        self.field = field
-
-
-#: Samples of margin per plateau for the segmentation's sample-resolution ends (see above).
-_MARGIN_SAMPLES = 4.0
 #: Phase kinds of :attr:`ExperimentPlan.kind`.
 REPOSITION, DWELL, RAMP, PLATEAU = 0, 1, 2, 3
-
-
-@dataclass(frozen=True)
-class PlanConfig:
-    """
-    What the friction experiment of one joint must respect; units are in the field names.
-
-    :ivar joint: name of the tested joint.
-    :ivar speeds_rad_s: designed speeds, motor side [rad/s], all > 0 (e.g. Table V's N = 4).
-    :ivar center_rad: centre phi_bar of the position window, joint side [rad].
-    :ivar half_range_rad: half width of the window the constant-speed passes must stay in [rad].
-    :ivar gear_ratio: motor speed / joint speed (1 for a direct drive).
-    :ivar max_acceleration_rad_s2: joint acceleration limit [rad/s^2].
-    :ivar max_jerk_rad_s3: joint jerk limit [rad/s^3]; None: trapezoidal speed changes.
-    :ivar max_speed_rad_s: joint speed limit [rad/s]; None: the fastest designed speed (the
-        repositioning moves then run at it).
-    :ivar position_limits_rad: (lower, upper) joint limits [rad]; None: not checked.
-    :ivar rate_hz: JointState rate the segmentation will see [Hz] (the sample counts).
-    :ivar noise_std: torque noise of one sample, normalised (the joint's noise level).
-    :ivar target_std_error: wanted standard error of each friction level, normalised; None: only
-        the segmentation's minimum plateau.
-    :ivar min_plateau_s: shortest plateau the segmentation keeps after trimming [s].
-    :ivar trim_s: time the segmentation trims at each plateau end [s].
-    :ivar min_samples: fewest samples per pass the segmentation keeps.
-    :ivar dwell_s: standstill at each turn [s].
-    :ivar joint_names: all joints of the trajectory (the tested one included); empty: only it.
-    :ivar hold_positions_rad: positions of the other joints, in ``joint_names`` order without the
-        tested joint [rad] (held during the experiment).
-    :ivar desired_plateau_s: a longer plateau wanted for every speed [s] (None: as short as
-        the segmentation and the accuracy target allow).
-    :ivar shorten_to_window: a plateau that does not fit the window is shortened to fit it
-        (down to the segmentation's minimum, ``min_plateau_s`` and ``min_samples``) instead
-        of refused; the accuracy target then does not hold for that speed.
-
-    """
-
-    joint: str
-    speeds_rad_s: tuple[float, ...]
-    center_rad: float
-    half_range_rad: float
-    gear_ratio: float = 1.0
-    max_acceleration_rad_s2: float = 10.0
-    max_jerk_rad_s3: Optional[float] = None
-    max_speed_rad_s: Optional[float] = None
-    position_limits_rad: Optional[tuple[float, float]] = None
-    rate_hz: float = 250.0
-    noise_std: float = 0.01
-    target_std_error: Optional[float] = 1.0e-3
-    min_plateau_s: float = 0.2
-    trim_s: float = 0.02
-    min_samples: int = 20
-    dwell_s: float = 0.1
-    joint_names: tuple[str, ...] = ()
-    hold_positions_rad: tuple[float, ...] = ()
-    desired_plateau_s: Optional[float] = None
-    shorten_to_window: bool = False
-
-    def __post_init__(self) -> None:
-        """Validate; raise InputError naming the first bad field."""
-        if not isinstance(self.joint, str) or not self.joint:
-            raise InputError('plan: joint must be a non-empty name')
-        speeds = tuple(float(v) for v in self.speeds_rad_s)
-        object.__setattr__(self, 'speeds_rad_s', speeds)
-        if not speeds or not all(math.isfinite(v) and v > 0 for v in speeds):
-            raise InputError(f'plan: speeds must be positive motor-side rad/s, got {speeds}')
-        for name in ('half_range_rad', 'gear_ratio', 'max_acceleration_rad_s2', 'rate_hz',
-                     'min_plateau_s'):
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value > 0):
-                raise InputError(f'plan: {name} must be > 0, got {getattr(self, name)}')
-        for name in ('max_jerk_rad_s3', 'max_speed_rad_s', 'target_std_error',
-                     'desired_plateau_s'):
-            value = getattr(self, name)
-            if value is not None and not (math.isfinite(float(value)) and float(value) > 0):
-                raise InputError(f'plan: {name} must be > 0 (or unset), got {value}')
-        for name in ('noise_std', 'trim_s', 'dwell_s'):
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value >= 0):
-                raise InputError(f'plan: {name} must be >= 0, got {getattr(self, name)}')
-        if not math.isfinite(float(self.center_rad)):
-            raise InputError(f'plan: center_rad must be finite, got {self.center_rad}')
-        if int(self.min_samples) < 1:
-            raise InputError(f'plan: min_samples must be >= 1, got {self.min_samples}')
-        if self.position_limits_rad is not None:
-            low, high = (float(x) for x in self.position_limits_rad)
-            if not (math.isfinite(low) and math.isfinite(high) and low < high):
-                raise InputError(f'plan: position limits must be finite with lower < upper, '
-                                 f'got {self.position_limits_rad}')
-            if not low <= self.center_rad - self.half_range_rad or \
-                    not self.center_rad + self.half_range_rad <= high:
-                raise InputError(
-                    f'plan: the window {self.center_rad:g} +- {self.half_range_rad:g} rad is '
-                    f'outside the joint range [{low:g}, {high:g}] rad')
-        names = tuple(self.joint_names)
-        if names:
-            if self.joint not in names or len(set(names)) != len(names):
-                raise InputError(f'plan: joint_names must be unique and contain '
-                                 f'{self.joint!r}, got {list(names)}')
-            if len(self.hold_positions_rad) != len(names) - 1:
-                raise InputError(f'plan: hold_positions_rad needs {len(names) - 1} values (one '
-                                 f'per other joint), got {len(self.hold_positions_rad)}')
-        elif self.hold_positions_rad:
-            raise InputError('plan: hold_positions_rad given without joint_names')
-        fastest = max(speeds) / self.gear_ratio
-        if self.max_speed_rad_s is not None and fastest > self.max_speed_rad_s * (1 + 1e-12):
-            raise PlanError(f'speed {max(speeds):g} rad/s (motor) is {fastest:.4g} rad/s at the '
-                            f'joint, above its limit {self.max_speed_rad_s:g} rad/s',
-                            field='max_speed_rad_s', hint='')
-
-    @property
-    def samples_per_pass(self) -> int:
-        """Return the samples M each pass needs inside its plateau (segmentation and accuracy)."""
-        needed = float(self.min_samples)
-        if self.target_std_error is not None and self.noise_std > 0:
-            needed = max(needed, self.noise_std ** 2 / (2.0 * self.target_std_error ** 2))
-        needed = max(needed, self.min_plateau_s * self.rate_hz)
-        return int(math.ceil(needed - 1e-9))
-
-    @property
-    def plateau_s(self) -> float:
-        """Constant-speed time of each pass [s] (the same for every speed unless shortened)."""
-        needed = (self.samples_per_pass + _MARGIN_SAMPLES) / self.rate_hz + 2.0 * self.trim_s
-        return max(needed, float(self.desired_plateau_s or 0.0))
-
-    @property
-    def shortest_plateau_s(self) -> float:
-        """Shortest plateau the segmentation keeps [s] (``shorten_to_window`` stops there)."""
-        samples = max(self.min_samples, math.ceil(self.min_plateau_s * self.rate_hz - 1e-9))
-        return (samples + _MARGIN_SAMPLES) / self.rate_hz + 2.0 * self.trim_s
 
 
 @dataclass(frozen=True)

@@ -249,7 +249,7 @@ def plan_config_for(config: JointSimConfig, speeds_rad_s: Sequence[float] | Floa
                       max_acceleration_rad_s2=config.acceleration_rad_s2,
                       max_jerk_rad_s3=config.jerk_rad_s3, rate_hz=config.sample_rate_hz,
                       noise_std=config.effort_noise_std, target_std_error=None,
-                      min_plateau_s=STREAM_SETTINGS['min_duration_s'],
+                      min_duration_s=STREAM_SETTINGS['min_duration_s'],
                       trim_s=STREAM_SETTINGS['trim_s'], min_samples=STREAM_SETTINGS['min_samples'],
                       desired_plateau_s=config.cruise_s, dwell_s=config.dwell_s,
                       shorten_to_window=True)

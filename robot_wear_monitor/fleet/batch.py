@@ -26,13 +26,16 @@ import multiprocessing
 import os
 from pathlib import Path
 import time
-from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.input_files import check_robot_name, csv_rows, read_text_file
 from robot_wear_monitor.recordings import is_bag
 from robot_wear_monitor.text import shorten
 from robot_wear_monitor.yaml_files import load_yaml_file
+
+if TYPE_CHECKING:  # the monitoring modules load numpy: imported where a task runs
+    from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
 
 #: The robot of bags given without a manifest and without ``--robot``.
 DEFAULT_ROBOT = 'default'
@@ -81,6 +84,19 @@ class ReplaySettings:
     storage: str = 'mcap'
     overwrite: bool = False
     recover: bool = True
+    #: both nodes' validated parameters, read once where the batch starts (None: read from
+    #: the fields above by each task); each task sets its robot (:meth:`configuration_for`)
+    configuration: Optional[MonitorConfig] = None
+
+    def configuration_for(self, robot: str) -> MonitorConfig:
+        """Return the nodes' configuration of a task of ``robot`` (its ``robot_id``)."""
+        if self.configuration is not None:
+            return self.configuration.for_robot(robot)
+        from robot_wear_monitor.monitoring.monitor_config import MonitorConfig  # numpy, late
+        return MonitorConfig.load(config_file=self.config_file, joint=self.joint,
+                                  joints=list(self.joints) if self.joints else None,
+                                  gear_ratio=self.gear_ratio, torque_scale=self.torque_scale,
+                                  params_file=self.params_file, robot=robot)
 
 
 @dataclass
@@ -308,7 +324,7 @@ def replay_one(task: BagTask, settings: ReplaySettings) -> BagOutcome:
     """Replay one bag into the history; never raise (a failure is the outcome's ``reason``)."""
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+    from robot_wear_monitor.monitoring.replay import replay_bag
     use_single_blas_thread()
     started = time.perf_counter()
     outcome = BagOutcome(robot=task.robot, bag=str(task.bag), status='failed',
@@ -321,15 +337,11 @@ def replay_one(task: BagTask, settings: ReplaySettings) -> BagOutcome:
                     outcome.status = 'skipped'
                     outcome.reason = 'already in the history'
                     return outcome
-        experiment, estimator = replay_parameters(
-            config_file=settings.config_file, joint=settings.joint,
-            joints=list(settings.joints) if settings.joints else None,
-            gear_ratio=settings.gear_ratio, torque_scale=settings.torque_scale,
-            params_file=settings.params_file, robot=task.robot)
+        configuration = settings.configuration_for(task.robot)
         if task.out_bag is not None:
             task.out_bag.parent.mkdir(parents=True, exist_ok=True)
-        result = replay_bag(task.bag, out_bag=task.out_bag, experiment_parameters=experiment,
-                            estimator_parameters=estimator, storage=settings.storage,
+        result = replay_bag(task.bag, out_bag=task.out_bag, configuration=configuration,
+                            storage=settings.storage,
                             history_file=settings.history, overwrite=settings.overwrite,
                             progress=False, recover=settings.recover)
         outcome.experiments = len(result.updates)

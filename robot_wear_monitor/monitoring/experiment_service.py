@@ -23,7 +23,8 @@ from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport, ROUTINE_REJECTIONS
-from robot_wear_monitor.monitoring.node_config import IDLE_GAP_S, SEGMENTER_FIELDS
+from robot_wear_monitor.monitoring.monitor_config import FrictionJointConfig
+from robot_wear_monitor.monitoring.node_config import IDLE_GAP_S
 from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
                                                     MessageError, MessageKit)
@@ -109,12 +110,15 @@ class FrictionExperimentService:
     @classmethod
     def from_node_parameters(cls, values: Mapping[str, Any]) -> 'FrictionExperimentService':
         """Build from validated ``friction_experiment_node`` parameters (see node_config)."""
-        from robot_wear_monitor.experiment.segmentation import SegmenterConfig
-        config = SegmenterConfig(**{name: values[name] for name in SEGMENTER_FIELDS})
-        return cls(segmenter_config=config,
-                   experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']),
-                   speed_tolerance_rad_s=values['experiment_speed_tolerance_rad_s'],
-                   idle_gap_s=values['idle_gap_s'])
+        return cls.from_joint_config(FrictionJointConfig.from_node_parameters(values))
+
+    @classmethod
+    def from_joint_config(cls, config: FrictionJointConfig) -> 'FrictionExperimentService':
+        """Build from a joint's typed configuration (:class:`FrictionJointConfig`)."""
+        return cls(segmenter_config=config.segmenter,
+                   experiment_speeds_rad_s=config.experiment_speeds_rad_s,
+                   speed_tolerance_rad_s=config.grouping.experiment_speed_tolerance_rad_s,
+                   idle_gap_s=config.grouping.idle_gap_s)
 
     @property
     def joint(self) -> str:

@@ -15,13 +15,16 @@ import math
 import os
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
+import warnings
 
-from robot_wear_monitor.estimation.alarm import (ALARM_RULES, DEFAULT_ALARM_EVIDENCE,
-                                                 DEFAULT_ALARM_PROBABILITY, DEFAULT_ALARM_RULE,
-                                                 WEAR_HEALTHY, WEAR_THRESHOLD, WEAR_WARNING)
-from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE
-from robot_wear_monitor.experiment.segmentation_settings import STREAM_SETTINGS as _SEG
+from robot_wear_monitor.estimation.alarm import AlarmPolicy
+from robot_wear_monitor.experiment.plan_config import PlanConfig
+from robot_wear_monitor.experiment.segmentation_settings import (ExperimentGrouping,
+                                                                 NODE_SCALES, SegmenterConfig)
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
+from robot_wear_monitor.monitoring.runner_config import RunnerConfig
+from robot_wear_monitor.monitoring.wear_update import EstimatorConfig
+from robot_wear_monitor.setting_fields import declared_settings, non_empty, non_negative
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
 FRICTION_EXPERIMENT_NODE = 'friction_experiment_node'
@@ -33,10 +36,14 @@ NODE_CONFIG_FILE = 'wear_monitor.yaml'
 DEFAULT_EXPERIMENT_SPEEDS_RAD_S = (2.1, 28.5, 35.1, 41.7)
 
 #: A pause longer than this [s] between two friction levels ends an experiment (the default of
-#: ``idle_gap_s`` and of the friction experiment service).
-IDLE_GAP_S = 3.0
+#: ``idle_gap_s`` and of the friction experiment service; owned by
+#: :class:`~robot_wear_monitor.experiment.segmentation_settings.ExperimentGrouping`).
+IDLE_GAP_S = ExperimentGrouping().idle_gap_s
 
 PARAMETER_TYPES = ('bool', 'integer', 'double', 'string', 'double_array', 'string_array')
+
+#: The ROS 2 parameter type of a declared setting's kind.
+_ROS_TYPES = {'float': 'double', 'int': 'integer', 'str': 'string', 'bool': 'bool'}
 
 
 @dataclass(frozen=True)
@@ -61,46 +68,20 @@ class ParameterSpec:
     check: Optional[Callable[[Any], Optional[str]]] = None
     read_only: bool = True
 
+    @classmethod
+    def of(cls, owner: Any, name: str, *, default: Any = None,
+           parameter: str | None = None) -> 'ParameterSpec':
+        """
+        Return the parameter of a declared setting of a configuration dataclass ``owner``.
 
-def _positive(value: float) -> Optional[str]:
-    return None if value > 0 else 'must be > 0'
-
-
-def _gear_ratio(value: float) -> Optional[str]:
-    return None if 0 < value <= 1e4 else 'must be > 0 and <= 10000'
-
-
-def _torque_scale(value: float) -> Optional[str]:
-    return None if 0 < value <= 1e9 else 'must be > 0 and <= 1e9'
-
-
-def _non_negative(value: float) -> Optional[str]:
-    return None if value >= 0 else 'must be >= 0'
-
-
-def _probability(value: float) -> Optional[str]:
-    return None if 0 <= value < 1 else 'must be in [0, 1)'
-
-
-def _fraction(value: float) -> Optional[str]:
-    return None if 0 <= value < 1 else 'must be in [0, 1)'
-
-
-def _open_probability(value: float) -> Optional[str]:
-    return None if 0 < value < 1 else 'must be in (0, 1)'
-
-
-def _alarm_rule(value: str) -> Optional[str]:
-    return None if value in ALARM_RULES else 'must be ' + ' or '.join(
-        f'"{rule}"' for rule in ALARM_RULES)
-
-
-def _at_least_3(value: int) -> Optional[str]:
-    return None if value >= 3 else 'must be >= 3'
-
-
-def _non_empty(value: str) -> Optional[str]:
-    return None if value.strip() else 'must not be empty'
+        The type, default, description (with the unit) and check are the setting's
+        (:mod:`robot_wear_monitor.setting_fields`); ``default`` replaces the default where the
+        node's differs (the packaged robot's gear ratio), ``parameter`` the name.
+        """
+        declared = declared_settings(owner)[name]
+        return cls(parameter or name, _ROS_TYPES[declared.kind],
+                   declared.default if default is None else default, declared.text,
+                   declared.check)
 
 
 def _topic(value: str) -> Optional[str]:
@@ -144,7 +125,7 @@ ALL_JOINTS = 'all'
 
 _JOINT = ParameterSpec('joint', 'string', 'joint_2',
                        'name of the monitored joint in /joint_states (when joints is empty)',
-                       _non_empty)
+                       non_empty)
 _JOINTS = ParameterSpec(
     'joints', 'string_array', (),
     'monitored joints (names in /joint_states), or ["all"]: every joint that appears; each '
@@ -162,37 +143,14 @@ _SPEEDS = ParameterSpec(
 FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINT,
     _JOINTS,
-    ParameterSpec('gear_ratio', 'double', 150.0,
-                  'motor-side speed = joint-side velocity * gear_ratio [-]', _gear_ratio),
-    ParameterSpec('torque_scale', 'double', 10.0,
-                  'normalised torque = effort / torque_scale [effort unit]', _torque_scale),
+    ParameterSpec.of(SegmenterConfig, 'gear_ratio', default=NODE_SCALES['gear_ratio']),
+    ParameterSpec.of(SegmenterConfig, 'torque_scale', default=NODE_SCALES['torque_scale']),
     _SPEEDS,
-    ParameterSpec('experiment_speed_tolerance_rad_s', 'double', 1.0,
-                  'a level belongs to an experiment speed within this tolerance, motor side '
-                  '[rad/s]', _positive),
-    ParameterSpec('idle_gap_s', 'double', IDLE_GAP_S,
-                  'a pause longer than this between two friction levels ends an experiment '
-                  '[s] (levels of one experiment come about 1 s apart)', _positive),
-    ParameterSpec('standstill_speed_rad_s', 'double', _SEG['standstill_speed_rad_s'],
-                  'motor-side speed at or below which the joint stands still [rad/s]',
-                  _non_negative),
-    ParameterSpec('speed_tolerance_fraction', 'double', _SEG['speed_tolerance_fraction'],
-                  'a sample is at constant speed within this fraction of the level [-]',
-                  _fraction),
-    ParameterSpec('speed_tolerance_rad_s', 'double', _SEG['speed_tolerance_rad_s'],
-                  'lower bound of the constant-speed band, motor side [rad/s]', _non_negative),
-    ParameterSpec('min_duration_s', 'double', _SEG['min_duration_s'],
-                  'shortest constant-speed plateau kept as a pass [s]', _non_negative),
-    ParameterSpec('trim_s', 'double', _SEG['trim_s'],
-                  'time dropped at each end of each constant-speed plateau [s]',
-                  _non_negative),
-    ParameterSpec('min_samples', 'integer', _SEG['min_samples'],
-                  'fewest samples per pass inside the common position window', _at_least_3),
-    ParameterSpec('min_window_rad', 'double', _SEG['min_window_rad'],
-                  'narrowest common position window of a forward/backward pair, joint side '
-                  '[rad]', _non_negative),
-    ParameterSpec('max_gap_s', 'double', _SEG['max_gap_s'],
-                  'a time step longer than this splits the joint-state stream [s]', _positive),
+    ParameterSpec.of(ExperimentGrouping, 'experiment_speed_tolerance_rad_s'),
+    ParameterSpec.of(ExperimentGrouping, 'idle_gap_s'),
+    *(ParameterSpec.of(SegmenterConfig, name) for name in (
+        'standstill_speed_rad_s', 'speed_tolerance_fraction', 'speed_tolerance_rad_s',
+        'min_duration_s', 'trim_s', 'min_samples', 'min_window_rad', 'max_gap_s')),
     ParameterSpec('experiment_events_topic', 'string', 'friction_experiment/events',
                   "the friction_experiment_runner's events (start/end/aborted of each "
                   'experiment): an end event closes the experiment at once; empty: not '
@@ -209,38 +167,19 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINTS,
     ParameterSpec('parameter_set_file', 'string', '',
                   'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
-    ParameterSpec('wear_threshold', 'double', WEAR_THRESHOLD,
-                  'alarm level of the wear w [-]: the alarm is raised by an estimate >= it',
-                  _positive),
-    ParameterSpec('wear_warning', 'double', WEAR_WARNING,
-                  'diagnostics WARN when the wear estimate reaches this level [-]',
-                  _non_negative),
-    ParameterSpec('wear_healthy', 'double', WEAR_HEALTHY,
-                  'wear level that must not raise an alarm [-]; the evidence test weighs each '
-                  'estimate between this level and the threshold', _non_negative),
-    ParameterSpec('alarm_evidence', 'double', DEFAULT_ALARM_EVIDENCE,
-                  'CUSUM log-likelihood ratio (worn vs healthy) an estimate >= wear_threshold '
-                  "also needs to raise the alarm [-]; 0: the paper's rule, one estimate >= "
-                  'the threshold is enough', _non_negative),
-    ParameterSpec('alarm_rule', 'string', DEFAULT_ALARM_RULE,
-                  'what raises the wear alarm: "trend" (the filtered trend\'s P(w >= '
-                  'wear_threshold) reaches alarm_probability) or "estimate" (the paper\'s rule: '
-                  'one estimate >= wear_threshold, with alarm_evidence)', _alarm_rule),
-    ParameterSpec('alarm_probability', 'double', DEFAULT_ALARM_PROBABILITY,
-                  'with alarm_rule "trend": the posterior probability of w >= wear_threshold '
-                  'that raises the alarm [-]', _open_probability),
-    ParameterSpec('min_fit_p_value', 'double', 0.01,
-                  'diagnostics WARN when the chi-square fit p-value is below it [-]',
-                  _probability),
-    ParameterSpec('invalid_fit_p_value', 'double', INVALID_P_VALUE,
-                  'below this chi-square fit p-value the estimate is invalid: the wear cannot '
-                  'be judged from the experiment (reported, stored, never alarm evidence) [-]',
-                  _probability),
+    ParameterSpec.of(AlarmPolicy, 'threshold', parameter='wear_threshold'),
+    ParameterSpec.of(EstimatorConfig, 'wear_warning'),
+    ParameterSpec.of(AlarmPolicy, 'healthy', parameter='wear_healthy'),
+    ParameterSpec.of(AlarmPolicy, 'evidence_to_raise', parameter='alarm_evidence'),
+    ParameterSpec.of(AlarmPolicy, 'rule', parameter='alarm_rule'),
+    ParameterSpec.of(AlarmPolicy, 'probability', parameter='alarm_probability'),
+    ParameterSpec.of(EstimatorConfig, 'min_fit_p_value'),
+    ParameterSpec.of(EstimatorConfig, 'invalid_fit_p_value'),
     _SPEEDS,
     ParameterSpec('history_file', 'string', '~/.ros/robot_wear_monitor/wear_history.sqlite3',
                   'wear history: an SQLite file, or a PostgreSQL URL '
                   'postgresql://USER@HOST:PORT/DB shared by a fleet (trend and latched alarm '
-                  'survive restarts); ":memory:" keeps nothing', _non_empty),
+                  'survive restarts); ":memory:" keeps nothing', non_empty),
     ParameterSpec('robot_id', 'string', '',
                   'the robot these joints belong to: the key of its rows in a fleet history '
                   'and part of the /diagnostics hardware_id (ROBOT/JOINT); empty: the robot '
@@ -271,50 +210,29 @@ FRICTION_EXPERIMENT_RUNNER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('speeds_rad_s', 'double_array', DEFAULT_EXPERIMENT_SPEEDS_RAD_S,
                   'speeds of the friction experiment, motor side [rad/s] (default: N = 4 '
                   'optimum of Table V)', _speeds),
-    ParameterSpec('max_acceleration_rad_s2', 'double', 5.0,
-                  'joint acceleration limit of the planned motion, joint side [rad/s^2]',
-                  _positive),
+    # PlanConfig (and plan's --max-acceleration) has no default: the node's is its own
+    ParameterSpec.of(PlanConfig, 'max_acceleration_rad_s2', default=5.0),
     ParameterSpec('max_jerk_rad_s3', 'double', 0.0,
                   'joint jerk limit, joint side [rad/s^3]; 0: trapezoidal speed changes',
-                  _non_negative),
+                  non_negative),
     ParameterSpec('max_speed_rad_s', 'double', 0.0,
                   'joint speed limit, joint side [rad/s]; 0: the fastest designed speed '
-                  '(also the speed of the repositioning moves)', _non_negative),
+                  '(also the speed of the repositioning moves)', non_negative),
     ParameterSpec('position_lower_limits_rad', 'double_array', (),
                   'lower joint limits, one per tested joint [rad]; empty: not checked'),
     ParameterSpec('position_upper_limits_rad', 'double_array', (),
                   'upper joint limits, one per tested joint [rad]; empty: not checked'),
-    ParameterSpec('rate_hz', 'double', 250.0,
-                  'JointState rate the friction_experiment_node sees [Hz] (sample counts)',
-                  _positive),
-    ParameterSpec('noise_std', 'double', 0.01,
-                  'torque noise of one sample, normalised (effort / torque_scale) [-]',
-                  _non_negative),
+    ParameterSpec.of(PlanConfig, 'rate_hz'),
+    ParameterSpec.of(PlanConfig, 'noise_std'),
     ParameterSpec('target_std_error', 'double', 0.001,
                   'wanted standard error of each friction level, normalised [-]; 0: only the '
-                  "segmentation's shortest plateau", _non_negative),
-    ParameterSpec('min_plateau_s', 'double', _SEG['min_duration_s'],
-                  'shortest plateau the segmentation keeps after trimming [s] (the '
-                  "friction_experiment_node's min_duration_s)", _positive),
-    ParameterSpec('trim_s', 'double', _SEG['trim_s'],
-                  'time the segmentation trims at each plateau end [s] (its trim_s)',
-                  _non_negative),
-    ParameterSpec('min_samples', 'integer', _SEG['min_samples'],
-                  'fewest samples per pass the segmentation keeps (its min_samples)', _positive),
-    ParameterSpec('dwell_s', 'double', 0.1,
-                  'standstill at every turn of the motion [s]', _non_negative),
-    ParameterSpec('point_rate_hz', 'double', 50.0,
-                  'rate of the JointTrajectory points [Hz] (every phase end is a point too)',
-                  _positive),
-    ParameterSpec('controller', 'string', 'joint_trajectory_controller',
-                  'the ros2_control joint_trajectory_controller: the motion goes to '
-                  '/<controller>/joint_trajectory', _non_empty),
-    ParameterSpec('end_margin_s', 'double', 0.5,
-                  'the end event comes this long after the planned end of the motion [s] '
-                  '(the last samples reach the segmentation)', _non_negative),
-    ParameterSpec('pause_between_joints_s', 'double', 1.0,
-                  'standstill between the end event of one tested joint and the start of the '
-                  'next [s]', _non_negative),
+                  "segmentation's shortest plateau", non_negative),
+    ParameterSpec.of(PlanConfig, 'min_duration_s'),
+    ParameterSpec.of(PlanConfig, 'trim_s'),
+    ParameterSpec.of(PlanConfig, 'min_samples'),
+    ParameterSpec.of(PlanConfig, 'dwell_s'),
+    *(ParameterSpec.of(RunnerConfig, name) for name in (
+        'point_rate_hz', 'controller', 'end_margin_s', 'pause_between_joints_s')),
 )
 
 #: Parameters a joint can override as ``<joint>.<name>`` (with ``joints``), per node.
@@ -327,6 +245,13 @@ PER_JOINT_PARAMETERS: dict[str, tuple[str, ...]] = {
     WEAR_ESTIMATOR_NODE: ('parameter_set_file', 'wear_threshold', 'wear_warning', 'wear_healthy',
                           'alarm_evidence', 'alarm_rule', 'alarm_probability',
                           'min_fit_p_value', 'invalid_fit_p_value', 'experiment_speeds_rad_s'),
+}
+
+#: Deprecated parameter names, per node: old name -> the name that replaced it.  The old name
+#: is still read (a parameter file, ``-p``), with a warning; giving both is an error.
+DEPRECATED_PARAMETERS: dict[str, dict[str, str]] = {
+    # one setting, one name: the segmentation's (friction_experiment_node) min_duration_s
+    FRICTION_EXPERIMENT_RUNNER_NODE: {'min_plateau_s': 'min_duration_s'},
 }
 
 NODE_PARAMETERS: dict[str, tuple[ParameterSpec, ...]] = {
@@ -417,6 +342,7 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
     wear_warning <= wear_threshold.
     """
     specs = {spec.name: spec for spec in _specs(node_name)}
+    values = renamed_parameters(node_name, values, source=source)
     per_joint = PER_JOINT_PARAMETERS.get(node_name, ())
     unknown = sorted(name for name in set(values) - set(specs)
                      if name.rpartition('.')[2] not in per_joint or '.' not in name)
@@ -440,6 +366,28 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
             raise ParameterError(f'{source}: wear_warning: must be <= wear_threshold, got '
                                  f'{result["wear_warning"]} > {result["wear_threshold"]}')
     return result
+
+
+def renamed_parameters(node_name: str, values: Mapping[str, Any], *,
+                       source: str = '<parameters>') -> dict[str, Any]:
+    """
+    Return ``values`` with each deprecated name of the node replaced by its new name.
+
+    Warns once per old name (:class:`FutureWarning`, shown by default; the rclpy nodes log it);
+    the old and the new name both given is a ParameterError.
+    """
+    renamed = dict(values)
+    for old, new in DEPRECATED_PARAMETERS.get(node_name, {}).items():
+        if old not in renamed:
+            continue
+        value = renamed.pop(old)
+        if new in renamed and renamed[new] != value:
+            raise ParameterError(f'{source}: {old} is the deprecated name of {new}: give one '
+                                 f'(got {shorten(repr(value))} and {shorten(repr(renamed[new]))})')
+        warnings.warn(f'{source}: {node_name}: parameter {old} is deprecated; use {new}',
+                      FutureWarning, stacklevel=3)
+        renamed[new] = value
+    return renamed
 
 
 def monitored_joints(values: Mapping[str, Any]) -> Optional[tuple[str, ...]]:

@@ -33,8 +33,7 @@ from robot_wear_monitor.monitoring.diagnostics import split_rejections
 from robot_wear_monitor.monitoring.experiment_service import (explain_no_experiment,
                                                               FrictionExperimentService)
 from robot_wear_monitor.monitoring.joints import JointEstimators, JointExperiments
-from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
-                                                       load_node_parameters, WEAR_ESTIMATOR_NODE)
+from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
 from robot_wear_monitor.monitoring.topics import FRICTION_LEVELS_TOPIC, OUTPUT_TOPICS
 from robot_wear_monitor.monitoring.wear_update import WearUpdate
 from robot_wear_monitor.recordings.bags import (atomic_bag_writer, iter_joint_chunks,
@@ -141,32 +140,21 @@ def replay_parameters(*, config_file: str | os.PathLike | None = None,
     """
     Return the validated parameters of both nodes, with the CLI overrides applied.
 
-    ``joint``: the one monitored joint (plain topics); ``joints``: several, or ``['all']``
-    (per-joint topics); the CLI's ``--gear-ratio``, ``--torque-scale`` and ``--params`` apply
-    to every joint unless the config file gives a joint its own ``<joint>.<name>``;
-    ``robot`` (``--robot``) is the estimator's ``robot_id``.
+    The values of :meth:`MonitorConfig.load` (see there), for the callers that build the
+    services from the two nodes' values (``segment``); ``replay``, the batch and the demo pass
+    the :class:`MonitorConfig` itself to :func:`replay_bag` (``configuration``).
     """
-    experiment: dict[str, Any] = {}
-    estimator: dict[str, Any] = {'history_file': ':memory:'}
-    if joint is not None:
-        experiment['joint'] = estimator['joint'] = joint
-    if joints:
-        experiment['joints'] = estimator['joints'] = tuple(joints)
-    if gear_ratio is not None:
-        experiment['gear_ratio'] = float(gear_ratio)
-    if torque_scale is not None:
-        experiment['torque_scale'] = float(torque_scale)
-    if params_file is not None:
-        estimator['parameter_set_file'] = str(params_file)
-    if robot is not None:
-        estimator['robot_id'] = str(robot)
-    return (load_node_parameters(FRICTION_EXPERIMENT_NODE, config_file, overrides=experiment),
-            load_node_parameters(WEAR_ESTIMATOR_NODE, config_file, overrides=estimator))
+    config = MonitorConfig.load(config_file=config_file, joint=joint, joints=joints,
+                                gear_ratio=gear_ratio, torque_scale=torque_scale,
+                                params_file=params_file, robot=robot)
+    return dict(config.experiment), dict(config.estimator)
 
 
 def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
-               experiment_parameters: Mapping[str, Any],
-               estimator_parameters: Mapping[str, Any], storage: str = 'mcap',
+               configuration: Optional[MonitorConfig] = None,
+               experiment_parameters: Optional[Mapping[str, Any]] = None,
+               estimator_parameters: Optional[Mapping[str, Any]] = None,
+               storage: str = 'mcap',
                history_file: str | os.PathLike | None = None, overwrite: bool = False,
                history_init: Optional[bool] = None,
                progress: bool = False, truth: Optional[list] = None,
@@ -175,7 +163,9 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     """
     Replay ``bag`` through the services; write the node outputs to ``out_bag`` if given.
 
-    The monitored joints are those of the parameters (``joint``, or ``joints``, or every joint
+    ``configuration``: both nodes' validated parameters (:meth:`MonitorConfig.load`); or,
+    for callers that hold them, ``experiment_parameters`` and ``estimator_parameters``.  The
+    monitored joints are those of the parameters (``joint``, or ``joints``, or every joint
     of the recording with ``joints: [all]``).  An unfinished recording (MCAP files without
     ``metadata.yaml``, or an MCAP file given directly) is read up to its last complete message
     (``recover``; the result's ``recovery`` says where it stops); its complete experiments are
@@ -194,7 +184,13 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     :raises ParameterError: invalid parameters or parameter set.
 
     """
-    experiments = JointExperiments(experiment_parameters, source='replay parameters')
+    if configuration is None:
+        if experiment_parameters is None or estimator_parameters is None:
+            raise TypeError("replay_bag: give configuration, or both nodes' parameters")
+        configuration = MonitorConfig(experiment=experiment_parameters,
+                                      estimator=estimator_parameters,
+                                      source='replay parameters')
+    experiments = JointExperiments(configuration.experiment, source='replay parameters')
     bar: Any = nullcontext()  # tqdm is loaded for a progress bar only
     if progress:
         from tqdm import tqdm
@@ -210,14 +206,14 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                                chunk_messages=chunk_messages)
     history = WearHistory(history_file if history_file is not None else ':memory:',
                           init=history_init,
-                          robot=estimator_parameters.get('robot_id') or None)
+                          robot=configuration.robot)
     # one writer of a robot at a time: a second replay of the same robot into the history
     # waits, then restores the first one's rows (its trend is the sequential run's)
     lock = ExitStack()
     try:
         if history_file is not None and str(history_file) != ':memory:':
             lock.enter_context(history.writer_lock(joint=ROBOT_LOCK))
-        estimators = JointEstimators(estimator_parameters, history=history,
+        estimators = JointEstimators(configuration.estimator, history=history,
                                      source='replay parameters')
     except BaseException:
         lock.close()

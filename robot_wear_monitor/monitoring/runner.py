@@ -29,6 +29,8 @@ from robot_wear_monitor.experiment.planning import (ExperimentPlan, plan_experim
                                                     PlanError, trajectory_points, TrajectoryPoints)
 from robot_wear_monitor.model.params import ParameterError
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
+from robot_wear_monitor.monitoring.runner_config import (RunnerConfig,  # noqa: F401 (re-export)
+                                                         trajectory_topic)
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
                                                     ExperimentEvent)
 
@@ -38,45 +40,6 @@ ABORT_SERVICE = '~/abort'
 RUNNER_STATUS_NAME = 'friction_experiment_runner'
 #: Timers may fire this much early without an action being left for later [s].
 _DUE_TOLERANCE_S = 1e-3
-
-
-def trajectory_topic(controller: str) -> str:
-    """Return the JointTrajectory topic of a ros2_control joint_trajectory_controller."""
-    return f'/{controller.strip("/")}/joint_trajectory'
-
-
-@dataclass(frozen=True)
-class RunnerConfig:
-    """
-    What one start request runs: a plan configuration per tested joint and the timing.
-
-    :ivar plans: one PlanConfig per tested joint, in the order they are run.
-    :ivar joint_names: every joint of the controller.
-    :ivar posture_rad: the held posture, one per ``joint_names`` [rad].
-    :ivar point_rate_hz: rate of the trajectory points [Hz].
-    :ivar controller: the joint_trajectory_controller's name.
-    :ivar end_margin_s: the ``end`` event comes this long after the planned end [s].
-    :ivar pause_between_joints_s: from one joint's ``end`` event to the next joint's start [s].
-
-    """
-
-    plans: tuple[PlanConfig, ...]
-    joint_names: tuple[str, ...]
-    posture_rad: tuple[float, ...]
-    point_rate_hz: float = 50.0
-    controller: str = 'joint_trajectory_controller'
-    end_margin_s: float = 0.5
-    pause_between_joints_s: float = 1.0
-
-    @property
-    def trajectory_topic(self) -> str:
-        """Return ``/<controller>/joint_trajectory``."""
-        return trajectory_topic(self.controller)
-
-    @property
-    def joints(self) -> tuple[str, ...]:
-        """Return the tested joints, in the order they are run."""
-        return tuple(plan.joint for plan in self.plans)
 
 
 def _fail(source: str, name: str, problem: str) -> ParameterError:
@@ -151,7 +114,7 @@ def runner_config(values: Mapping[str, Any], *, source: str = '<parameters>') ->
                 max_jerk_rad_s3=jerk or None, max_speed_rad_s=max_speed,
                 position_limits_rad=limits, rate_hz=float(values['rate_hz']),
                 noise_std=float(values['noise_std']), target_std_error=target or None,
-                min_plateau_s=float(values['min_plateau_s']), trim_s=float(values['trim_s']),
+                min_duration_s=float(values['min_duration_s']), trim_s=float(values['trim_s']),
                 min_samples=int(values['min_samples']), dwell_s=float(values['dwell_s']),
                 joint_names=names,
                 hold_positions_rad=tuple(p for n, p in zip(names, posture) if n != joint)))
@@ -167,7 +130,7 @@ def runner_config(values: Mapping[str, Any], *, source: str = '<parameters>') ->
 #: PlanConfig field at fault -> (the node parameter to change, what to do).
 _PLAN_ERRORS = {
     'half_range_rad': ('half_ranges_rad',
-                       'raise half_ranges_rad, or raise target_std_error or lower min_plateau_s'),
+                       'raise half_ranges_rad, or raise target_std_error or lower min_duration_s'),
     'position_limits_rad': ('position_lower_limits_rad',
                             'raise max_acceleration_rad_s2 or move posture_rad away from the '
                             'limit'),

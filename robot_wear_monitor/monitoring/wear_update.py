@@ -21,6 +21,7 @@ from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
 from robot_wear_monitor.recordings import messages
+from robot_wear_monitor.setting_fields import fraction, non_negative, setting
 
 if TYPE_CHECKING:
     from robot_wear_monitor.estimation.intervals import WearInterval
@@ -35,9 +36,16 @@ class EstimatorConfig:
     joint: str
     params: ParameterSet
     alarm: AlarmPolicy = AlarmPolicy()
-    wear_warning: float = WEAR_WARNING
-    min_fit_p_value: float = 0.01
-    invalid_fit_p_value: float = INVALID_P_VALUE
+    wear_warning: float = setting(
+        WEAR_WARNING, unit='-', check=non_negative,
+        description='diagnostics WARN when the wear estimate reaches this level')
+    min_fit_p_value: float = setting(
+        0.01, unit='-', check=fraction,
+        description='diagnostics WARN when the chi-square fit p-value is below it')
+    invalid_fit_p_value: float = setting(
+        INVALID_P_VALUE, unit='-', check=fraction,
+        description='below this chi-square fit p-value the estimate is invalid: the wear cannot '
+                    'be judged from the experiment (reported, stored, never alarm evidence)')
     experiment_speeds_rad_s: tuple[float, ...] = ()
     speed_tolerance_rad_s: float = 1.0
     #: the robot of the joint (``robot_id``; empty: unnamed, the history's ``default``)

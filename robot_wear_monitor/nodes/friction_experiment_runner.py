@@ -16,15 +16,16 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_RUNNER_NODE,
-                                                       FRICTION_EXPERIMENT_RUNNER_PARAMETERS,
-                                                       validate_parameters)
+from robot_wear_monitor.monitoring.node_config import (DEPRECATED_PARAMETERS,
+                                                       FRICTION_EXPERIMENT_RUNNER_NODE,
+                                                       FRICTION_EXPERIMENT_RUNNER_PARAMETERS)
 from robot_wear_monitor.monitoring.runner import (ABORT_SERVICE, ExperimentRunner, runner_config,
                                                   RUNNER_STATUS_NAME, START_SERVICE)
 from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC
 from robot_wear_monitor.nodes.messages import message_kit
 from robot_wear_monitor.nodes.node_helpers import node_time_s
-from robot_wear_monitor.nodes.parameters import declare_parameters
+from robot_wear_monitor.nodes.parameters import (declare_deprecated_parameters,
+                                                 declare_parameters, validated_with_warnings)
 from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS, TRAJECTORY_QOS
 from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import (diagnostics_to_msg, experiment_event_to_msg,
@@ -47,8 +48,14 @@ class FrictionExperimentRunner(Node):
         super().__init__(FRICTION_EXPERIMENT_RUNNER_NODE, **kwargs)
         raw = declare_parameters(self, FRICTION_EXPERIMENT_RUNNER_PARAMETERS)
         source = f'{self.get_name()} parameters'
-        self.parameters = validate_parameters(FRICTION_EXPERIMENT_RUNNER_NODE, raw,
-                                              source=source)
+        deprecated = declare_deprecated_parameters(self, FRICTION_EXPERIMENT_RUNNER_NODE)
+        defaults = {spec.name: spec.default for spec in FRICTION_EXPERIMENT_RUNNER_PARAMETERS}
+        for old in deprecated:  # the old name wins over the new one's default (not over a value)
+            new = DEPRECATED_PARAMETERS[FRICTION_EXPERIMENT_RUNNER_NODE][old]
+            if raw.get(new) == defaults[new]:
+                raw.pop(new)
+        self.parameters = validated_with_warnings(self, FRICTION_EXPERIMENT_RUNNER_NODE,
+                                                  {**raw, **deprecated}, source=source)
         self.runner = ExperimentRunner(runner_config(self.parameters, source=source),
                                        source=source)
         self.kit = message_kit()

@@ -47,6 +47,48 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
     return values
 
 
+def declare_deprecated_parameters(node: Any, node_name: str) -> dict[str, Any]:
+    """
+    Declare the node's deprecated parameter names; return those that were set, by old name.
+
+    Each old name
+    (:data:`~robot_wear_monitor.monitoring.node_config.DEPRECATED_PARAMETERS`) is declared
+    without a value, so that a parameter file or ``-p`` that still uses it reaches
+    :func:`~robot_wear_monitor.monitoring.node_config.validate_parameters`, which renames it
+    (see :func:`validated_with_warnings`).
+    """
+    from rcl_interfaces.msg import ParameterDescriptor
+
+    from robot_wear_monitor.monitoring.node_config import DEPRECATED_PARAMETERS
+    values = {}
+    for old, new in DEPRECATED_PARAMETERS.get(node_name, {}).items():
+        descriptor = ParameterDescriptor(description=f'deprecated name of {new}',
+                                         read_only=True, dynamic_typing=True)
+        value = node.declare_parameter(old, None, descriptor).value
+        if value is not None:
+            values[old] = value
+    return values
+
+
+def validated_with_warnings(node: Any, node_name: str, raw: Mapping[str, Any], *,
+                            source: str) -> dict[str, Any]:
+    """
+    Validate a node's raw parameters; log each deprecation warning on the node's logger.
+
+    :raises ParameterError: as :func:`~robot_wear_monitor.monitoring.node_config.
+        validate_parameters`.
+    """
+    import warnings
+
+    from robot_wear_monitor.monitoring.node_config import validate_parameters
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always', FutureWarning)
+        values = validate_parameters(node_name, raw, source=source)
+    for warning in caught:
+        node.get_logger().warning(str(warning.message))
+    return values
+
+
 def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[ParameterSpec],
                              values: Mapping[str, Any], joint: str) -> dict[str, Any]:
     """

@@ -21,7 +21,8 @@ from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, simulate_scenario,
                                                       truth_path_for, write_truth_json)
-from robot_wear_monitor.monitoring.replay import replay_bag, replay_parameters
+from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
+from robot_wear_monitor.monitoring.replay import replay_bag
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
 from robot_wear_monitor.reporting.replay_report import (plot_friction_curves, plot_wear_trend,
                                                         write_report)
@@ -60,23 +61,20 @@ def run_demo(*, out_dir: str | os.PathLike = 'wear_demo', n_experiments: int = 1
     log(f'wrote {scenario.n_samples} JointState messages to {scenario_bag}')
 
     joint = scenario.config
-    experiment_parameters, estimator_parameters = replay_parameters(
-        joint=joint.joint, gear_ratio=joint.gear_ratio, torque_scale=joint.torque_scale)
-    experiment_parameters['experiment_speeds_rad_s'] = tuple(config.speeds_rad_s)
-    estimator_parameters['experiment_speeds_rad_s'] = tuple(config.speeds_rad_s)
+    configuration = MonitorConfig.load(
+        joint=joint.joint, gear_ratio=joint.gear_ratio,
+        torque_scale=joint.torque_scale).with_experiment_speeds(config.speeds_rad_s)
     log('replaying it through the monitoring service ...')
-    result = replay_bag(scenario_bag, out_bag=monitor_bag,
-                        experiment_parameters=experiment_parameters,
-                        estimator_parameters=estimator_parameters, progress=progress,
-                        truth=scenario.truth, history_file=history)
-    threshold = float(estimator_parameters['wear_threshold'])
+    result = replay_bag(scenario_bag, out_bag=monitor_bag, configuration=configuration,
+                        progress=progress, truth=scenario.truth, history_file=history)
+    threshold = configuration.alarm_policy().threshold
     summary = result.summary()
     truth_crossing = next((t.k for t in scenario.truth if t.wear >= threshold), None)
     summary['truth_first_k_at_threshold'] = truth_crossing
     summary['seed'] = seed
     write_json_atomic(folder / 'summary.json', summary)
     from robot_wear_monitor.model.params import load_parameter_set
-    params = load_parameter_set(estimator_parameters['parameter_set_file'] or None)
+    params = load_parameter_set(configuration.parameter_set_file())
     plot_wear_trend(result, folder / 'wear_trend.png', threshold=threshold,
                     title='Wear estimate vs truth, accelerated wear test (like Fig. 11)')
     plot_friction_curves(result, folder / 'friction_curves.png', params=params,

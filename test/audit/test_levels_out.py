@@ -53,6 +53,34 @@ def test_audit_and_identify_of_a_bag_write_segments_levels(bag, tmp_path):
         assert got == expected, name  # the same rows, every cell (experiment and joint too)
 
 
+def test_every_verb_that_segments_a_bag_takes_the_node_configuration(bag, tmp_path):
+    """No scale given: audit and identify of a bag segment it as segment does (150 and 10)."""
+    path, expected = bag
+    assert main(['audit', str(path), '--joint', 'joint_2', '--levels-out',
+                 str(tmp_path / 'a.csv')]) == 0
+    assert main(['identify', str(path), '--speed-only', '--joint', 'joint_2', '--out',
+                 str(tmp_path / 'set.yaml'), '--levels-out', str(tmp_path / 'i.csv')]) == 0
+    assert _rows(tmp_path / 'a.csv') == expected
+    assert _rows(tmp_path / 'i.csv') == expected
+    # another node configuration: segment, audit and identify all follow it (torque scale 20
+    # halves every friction), none keeps the packaged 10
+    config = tmp_path / 'node.yaml'
+    config.write_text('friction_experiment_node:\n  ros__parameters:\n'
+                      '    joint_2: {torque_scale: 20.0}\n')
+    written = {}
+    for verb, extra in (('segment', ['--out']), ('audit', ['--levels-out']),
+                        ('identify', ['--speed-only', '--out', str(tmp_path / 's2.yaml'),
+                                      '--levels-out'])):
+        out = tmp_path / f'{verb}_20.csv'
+        assert main([verb, str(path), '--joint', 'joint_2', '--config', str(config),
+                     *extra, str(out)]) == 0
+        written[verb] = _rows(out)
+    assert written['audit'] == written['identify'] == written['segment']
+    halved = np.array([float(row['friction']) for row in written['segment']])
+    packaged = np.array([float(row['friction']) for row in expected])
+    assert np.allclose(halved, packaged / 2, rtol=1e-5)  # the CSV holds 6 digits
+
+
 def test_levels_out_of_a_level_table_is_refused(bag, tmp_path, capsys):
     path, expected = bag
     table = tmp_path / 'levels.csv'

@@ -125,6 +125,24 @@ def test_plan_rate_is_the_deprecated_sample_rate(tmp_path, capsys):
     assert default['samples_per_pass'] < json.loads(new.out)['samples_per_pass']
 
 
+def test_plan_min_plateau_is_the_deprecated_min_duration(capsys):
+    """One setting, one name: the segmentation's min_duration_s (the node parameter's)."""
+    argv = ['plan', '--joint', 'joint_2', '--speeds', '28.5,41.7', '--center', '0.2',
+            '--half-range', '0.5', '--gear-ratio', '150', '--max-acceleration', '10', '--json']
+    assert cli.main(argv + ['--min-plateau', '0.5']) == 0
+    old = capsys.readouterr()
+    assert old.err.strip() == ('robot-wear-monitor plan: warning: --min-plateau S is '
+                               'deprecated; use --min-duration S')
+    assert cli.main(argv + ['--min-duration', '0.5']) == 0
+    new = capsys.readouterr()
+    assert new.err == '' and json.loads(new.out) == json.loads(old.out)
+    assert json.loads(new.out)['samples_per_pass'] == 125  # 0.5 s at 250 Hz
+    assert cli.main(argv) == 0  # the default: the segmentation's 0.2 s, 50 samples
+    assert json.loads(capsys.readouterr().out)['samples_per_pass'] == 50
+    assert cli.main(argv + ['--min-samples', '2']) == 2  # the segmentation's one check
+    assert 'argument --min-samples: must be >= 3, got 2' in capsys.readouterr().err
+
+
 def test_live_params_file_is_the_deprecated_config(tmp_path, capsys):
     bad = tmp_path / 'bad.yaml'
     bad.write_text('friction_experiment_node:\n  ros__parameters:\n    gear_ratio: 150\n')
@@ -139,11 +157,13 @@ def test_live_params_file_is_the_deprecated_config(tmp_path, capsys):
 
 
 @pytest.mark.parametrize('verb', ['audit', 'identify'])
-def test_level_sources_default_to_gear_ratio_and_torque_scale_1(verb):
+def test_level_sources_leave_the_scales_to_the_input_kind(verb):
+    """Not given: None, so that a bag takes the node config's 150 and 10 and a raw run 1."""
     parser = cli.build_parser()
     extra = ['--out', 'p.yaml'] if verb == 'identify' else []
     args = parser.parse_args([verb, 'data.csv'] + extra)
-    assert args.gear_ratio is None and level_source_scales(args) == (1.0, 1.0)
+    assert args.gear_ratio is None and level_source_scales(args) == (None, None)
+    assert args.config is None
     args = parser.parse_args([verb, 'bag', '--gear-ratio', '150', '--torque-scale', '10']
                              + extra)
     assert level_source_scales(args) == (150.0, 10.0)

@@ -15,6 +15,7 @@ from fastapi.testclient import TestClient
 import pytest
 from robot_wear_monitor.cli import main as cli_main
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
+from robot_wear_monitor.dashboard.notifier import load_config
 from wear_testing.fleet_history import make_fleet
 
 
@@ -49,7 +50,7 @@ def _config(tmp_path, url: str):
 
 
 def _run_app(history: str, config, seconds: float, received: list, want: int) -> None:
-    app = create_app(DashboardSettings(history=history, notify_config=str(config),
+    app = create_app(DashboardSettings(history=history, notifications=load_config(str(config)),
                                        notify_interval_s=0.2))
     with TestClient(app):
         deadline = time.monotonic() + seconds
@@ -76,3 +77,21 @@ def test_a_bad_configuration_stops_the_start(tmp_path, capsys):
     bad.write_text('webhooks:\n  - name: ops\n    url: ftp://nowhere\n')
     assert cli_main(['dashboard', '--history', history, '--notify', str(bad)]) == 2
     assert 'url' in capsys.readouterr().err
+
+
+def test_the_settings_hold_the_configuration_once_and_the_pages_order_by_it(tmp_path):
+    """``dashboard --notify``: one parsed configuration sends and sets the page's margin."""
+    from types import SimpleNamespace
+
+    from robot_wear_monitor.dashboard.views import reescalation_margin
+    from robot_wear_monitor.fleet.ranking import DEFAULT_REESCALATION_MARGIN
+    path = tmp_path / 'notifications.yaml'
+    path.write_text('events: [alarm_raised]\nreescalation_margin: 7.5\n'
+                    'webhooks:\n  - name: ops\n    url: http://127.0.0.1:9/hook\n')
+    settings = DashboardSettings(history=':memory:', notifications=load_config(str(path)))
+    request = SimpleNamespace(app=SimpleNamespace(state=SimpleNamespace(settings=settings)))
+    assert reescalation_margin(request) == 7.5
+    assert not hasattr(settings, 'extra') and not hasattr(settings, 'notify_config')
+    plain = SimpleNamespace(app=SimpleNamespace(state=SimpleNamespace(
+        settings=DashboardSettings(history=':memory:'))))
+    assert reescalation_margin(plain) == DEFAULT_REESCALATION_MARGIN != 7.5

@@ -39,7 +39,7 @@ def test_the_stream_set_is_the_node_parameters_and_the_packaged_config():
         assert yaml[name] == value, name
     runner = _defaults(node_config.FRICTION_EXPERIMENT_RUNNER_NODE)
     runner_yaml = load_yaml_file(CONFIG)['friction_experiment_runner']['ros__parameters']
-    for planned, segmented in (('min_plateau_s', 'min_duration_s'), ('trim_s', 'trim_s'),
+    for planned, segmented in (('min_duration_s', 'min_duration_s'), ('trim_s', 'trim_s'),
                                ('min_samples', 'min_samples')):
         assert runner[planned] == runner_yaml[planned] == STREAM_SETTINGS[segmented]
 

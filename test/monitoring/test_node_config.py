@@ -64,3 +64,22 @@ def test_the_node_defaults_are_the_owning_constants():
     with pytest.raises(ParameterError, match='must be "trend" or "estimate"'):
         node_config.validate_parameters(node_config.WEAR_ESTIMATOR_NODE,
                                         {'alarm_rule': 'threshold'})
+
+
+def test_a_deprecated_parameter_name_is_read_with_a_warning():
+    runner = node_config.FRICTION_EXPERIMENT_RUNNER_NODE
+    with pytest.warns(FutureWarning, match='min_plateau_s is deprecated; use min_duration_s'):
+        values = node_config.validate_parameters(runner, {'min_plateau_s': 0.4})
+    assert values['min_duration_s'] == 0.4 and 'min_plateau_s' not in values
+    with pytest.raises(ParameterError, match='min_plateau_s is the deprecated name of '
+                                             'min_duration_s: give one'):
+        node_config.validate_parameters(runner, {'min_plateau_s': 0.4, 'min_duration_s': 0.3})
+
+
+@pytest.mark.parametrize('node', [node_config.FRICTION_EXPERIMENT_NODE,
+                                  node_config.FRICTION_EXPERIMENT_RUNNER_NODE])
+def test_min_samples_has_one_check_on_every_node(node):
+    """The segmentation needs 3 samples per pass; the runner's plan is checked the same."""
+    with pytest.raises(ParameterError, match='min_samples: must be >= 3, got 2'):
+        node_config.validate_parameters(node, {'min_samples': 2})
+    assert node_config.validate_parameters(node, {'min_samples': 3})['min_samples'] == 3

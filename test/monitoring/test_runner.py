@@ -51,7 +51,7 @@ def reference_plan(joint, ratio, **settings):
     config = PlanConfig(joint=joint, speeds_rad_s=SPEEDS, center_rad=POSTURE[NAMES.index(joint)],
                         half_range_rad=0.1, gear_ratio=ratio, max_acceleration_rad_s2=5.0,
                         rate_hz=250.0, noise_std=0.01, target_std_error=0.001,
-                        min_plateau_s=0.2, trim_s=0.02, min_samples=20, dwell_s=0.1,
+                        min_duration_s=0.2, trim_s=0.02, min_samples=20, dwell_s=0.1,
                         joint_names=tuple(NAMES), hold_positions_rad=hold, **settings)
     return plan_experiment(config=config)
 

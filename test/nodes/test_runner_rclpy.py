@@ -99,7 +99,7 @@ def _expected_points():
     plan = plan_experiment(config=PlanConfig(
         joint='joint_2', speeds_rad_s=tuple(SPEEDS), center_rad=0.6, half_range_rad=0.1,
         gear_ratio=150.0, max_acceleration_rad_s2=5.0, rate_hz=250.0, noise_std=0.01,
-        target_std_error=0.001, min_plateau_s=0.2, trim_s=0.02, min_samples=20, dwell_s=0.1,
+        target_std_error=0.001, min_duration_s=0.2, trim_s=0.02, min_samples=20, dwell_s=0.1,
         joint_names=tuple(NAMES), hold_positions_rad=hold))
     return plan, trajectory_points(plan, point_rate_hz=50.0)
 
@@ -242,5 +242,18 @@ def test_the_packaged_params_file_starts_the_runner(ros_context):
     try:
         assert [s.joint for s in runner.runner.schedule] == ['joint_2']
         assert runner.parameters['position_lower_limits_rad'] == ()
+    finally:
+        runner.destroy_node()
+
+
+def test_the_old_name_min_plateau_s_still_sets_min_duration_s(ros_context):
+    """One setting, one name: the runner's min_plateau_s is read as min_duration_s, warned."""
+    runner = _runner(min_plateau_s=0.5)
+    try:
+        assert runner.parameters['min_duration_s'] == 0.5
+        assert 'min_plateau_s' not in runner.parameters
+        assert all(plan.min_duration_s == 0.5 for plan in runner.runner.config.plans)
+        # the longer minimum plateau is planned: 0.5 s at 250 Hz is 125 samples per pass
+        assert runner.runner.config.plans[0].samples_per_pass == 125
     finally:
         runner.destroy_node()
