@@ -26,14 +26,17 @@ server-side sessions).  Version 7 (accounts and the write API): alarm events may
 'acknowledgement_edited' and 'acknowledgement_withdrawn' and carry a ``work_order`` (''
 in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`` and
 ``users`` for their new CHECKs, keeping ids and rows; PostgreSQL replaces the constraints);
-``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).
+``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).  Version 8
+(one owner of the threshold): every estimate stores the wear ``threshold`` and the
+``warning_level`` it was judged by (the estimator's node parameters ``wear_threshold`` and
+``wear_warning``); old rows hold NULL (not known: readers assume the parameter set's and say so).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
@@ -232,9 +235,15 @@ _SQLITE_V7 = (
     _API_TOKENS[1],
 )
 
+#: Version 8: the threshold and warning level each estimate was judged by [w] (NULL: not
+#: stored, rows of older versions).
+_V8 = ('ALTER TABLE estimates ADD COLUMN threshold DOUBLE PRECISION',
+       'ALTER TABLE estimates ADD COLUMN warning_level DOUBLE PRECISION')
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7}
+                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
+                                                 8: _V8}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -326,4 +335,4 @@ _POSTGRESQL_V7 = (
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      5: _POSTGRESQL_V5, 6: _V6,
-                                                     7: _POSTGRESQL_V7}
+                                                     7: _POSTGRESQL_V7, 8: _V8}

@@ -345,17 +345,18 @@ def test_each_notification_is_claimed_once_by_concurrent_notifiers(history_locat
                                        channel='webhook', payload={'v': float('nan')})
 
 
-def test_a_version_8_history_is_refused(history_location):
+def test_a_history_of_the_next_version_is_refused(history_location):
     WearHistory(history_location).close()
+    newer = SCHEMA_VERSION + 1
     if is_postgresql_url(history_location):
         import psycopg
         with psycopg.connect(history_location, autocommit=True) as conn:
-            conn.execute('UPDATE schema_version SET version = 8')
+            conn.execute('UPDATE schema_version SET version = %s', (newer,))
     else:
         with sqlite3.connect(history_location) as conn:
-            conn.execute('UPDATE schema_version SET version = 8')
-    assert SCHEMA_VERSION == 7
-    with pytest.raises(HistoryError, match='schema version 8, this version reads 7'):
+            conn.execute('UPDATE schema_version SET version = ?', (newer,))
+    with pytest.raises(HistoryError, match=f'schema version {newer}, this version reads '
+                                           f'{SCHEMA_VERSION}'):
         WearHistory(history_location)
 
 
