@@ -4,8 +4,13 @@ Tests of the history's schema 8 (the threshold an estimate was judged by) on bot
 A version-7 file written by the released code (and a version-7 PostgreSQL database made of the
 same rows) migrates in place: every row kept, the new ``threshold`` and ``warning_level`` NULL
 (read back as NaN: not known); what the estimator stores after the migration carries them.
+``fleet --json``, its CSV, ``/api/fleet`` and the dashboard's pages show such a row with the
+parameter set's threshold, marked as assumed.
 """
 
+import csv
+import io
+import json
 import math
 from pathlib import Path
 import shutil
@@ -118,3 +123,38 @@ def test_a_version_7_sqlite_file_stays_intact(tmp_path):
         assert columns['threshold'] == columns['warning_level'] == 'DOUBLE PRECISION'
         assert conn.execute('SELECT COUNT(*) FROM estimates WHERE threshold IS NULL OR '
                             'warning_level IS NULL').fetchone()[0] == 6
+
+
+def test_a_version_7_history_shows_the_parameter_sets_threshold_as_assumed(v7_history, capsys):
+    from fastapi import testclient as fastapi_testclient
+    from robot_wear_monitor.cli import main
+    from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
+    from wear_testing.fleet_history import login
+    capsys.readouterr()
+    assert main(['fleet', '--history', v7_history, '--json']) == 0
+    rows = {row['joint']: row for row in json.loads(capsys.readouterr().out)}
+    # the rows name the packaged set (alarm.wear_threshold 35, alarm.wear_warning 28)
+    for row in rows.values():
+        assert (row['threshold'], row['warning_level'], row['threshold_assumed']) == (
+            35.0, 28.0, True)
+    assert main(['fleet', '--history', v7_history, '--csv']) == 0
+    table = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
+    assert {(r['threshold'], r['threshold_assumed']) for r in table} == {('35', 'yes')}
+    with WearHistory(v7_history, init=False) as history:
+        history.add_user(name='vic', role='viewer', password='viewer-pass-22')
+    app = create_app(DashboardSettings(history=v7_history))
+    with fastapi_testclient.TestClient(app) as client:
+        assert login(client, 'vic', 'viewer-pass-22').status_code == 303
+        api = {row['joint']: row for row in client.get('/api/fleet').json()['rows']}
+        for joint, row in rows.items():  # the keys fleet --json has, named and valued alike
+            assert {key: api[joint][key] for key in row if key != 'stale'} == {
+                key: value for key, value in row.items() if key != 'stale'}
+            assert api[joint]['text']['threshold'] == '35 (assumed)'
+        fleet_page = client.get('/').text
+        assert fleet_page.count('threshold 35 (assumed)') == 2
+        joint = client.get('/api/robots/cell_1/joints/joint_2').json()
+        assert (joint['threshold'], joint['threshold_assumed'], joint['threshold_text']) == (
+            35.0, True, '35 (assumed)')
+        page = client.get('/robots/cell_1/joints/joint_2').text
+        assert '<dd id="f-threshold">35 (assumed)</dd>' in page
+        assert 'id="threshold-note">Threshold assumed' in page

@@ -14,7 +14,7 @@ def record(k, *, robot, joint, wear, alarm=False, evidence=0.0):
                          wear_std=2.5, chi2=1.0, dof=0, p_value=0.5,
                          temperature_at_bound=False, wear_at_bound=False, alarm_active=alarm,
                          alarm_evidence=evidence, status_level=2 if alarm else 0,
-                         parameter_set='kuka', wear_low=wear - 5, wear_high=wear + 5,
+                         parameter_set='abb_irb6620_joint2', wear_low=wear - 5, wear_high=wear + 5,
                          trend_wear=wear, trend_low=wear - 3, trend_high=wear + 3,
                          crossing_experiments=max(0.0, (50 - wear) / 5),
                          crossing_time_s=3600.0 * max(0.0, (50 - wear) / 5))
