@@ -52,7 +52,7 @@ class RowTexts(_Shape):
     last: str
     invalid: str
     threshold: str = Field(description="the row's threshold: '30', or '35 (assumed)' when the "
-                                       'history stores none (the parameter set\'s)')
+                                       "history stores none (the parameter set's)")
     life: str = Field(description="a reset joint's new life: 'reset <time> by <user> "
                                   "(<reason>): awaiting the first experiment' ('' when "
                                   'never reset)')
