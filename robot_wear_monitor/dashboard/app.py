@@ -28,7 +28,8 @@ from robot_wear_monitor.dashboard.guards import (BodyGuard, history_error_answer
                                                  validation_error_answer)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool, POLL_INTERVAL_MS
-from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets, time_spans
+from robot_wear_monitor.dashboard.views import FleetCache, time_spans
+from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import HistoryError
 from starlette.middleware.sessions import SessionMiddleware
 from starlette.responses import FileResponse

@@ -13,6 +13,9 @@ experiment for longer than :data:`STALE_FACTOR` times its usual interval (the me
 its experiments), counted up to ``now`` from its latest experiment or its last reset,
 whichever is later.  The crossing gets a date when the joint's experiment rate is known (two
 experiments or more).  After a reset the row is the joint's new life (``life_started_s``).
+Each row carries the ``threshold`` and ``warning_level`` its latest estimate was judged by
+(stored with it; a row of an older history gets the parameter set's, ``threshold_assumed``:
+see :mod:`robot_wear_monitor.fleet.thresholds`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import math
 from typing import Any, Iterable, Optional, Sequence
 
 from robot_wear_monitor.csv_cells import csv_text
+from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, threshold_words
 from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.text import iso_time, shorten
@@ -42,7 +46,8 @@ class FleetView:
     ``state``: the history's latest state of the joint (:class:`FleetRow`); ``stale``: no
     experiment for longer than :data:`STALE_FACTOR` usual intervals; ``crossing_time_s``: the
     forecast crossing as a time [s since the epoch], None when the rate or the crossing is
-    unknown.
+    unknown; ``threshold_assumed``: the history stores no threshold for the row (an older
+    history): ``state.threshold`` and ``state.warning_level`` are the parameter set's.
     """
 
     state: FleetRow
@@ -50,6 +55,7 @@ class FleetView:
     crossing_time_s: Optional[float]
     #: why an acknowledged alarm is back on top ('' when it is not): see the module's text
     reescalated: str = ''
+    threshold_assumed: bool = False
 
     def rank_key(self) -> tuple[int, float, float, str, str]:
         """Return the sort key, worst first (:meth:`FleetRow.rank_key`, re-escalation too)."""
@@ -78,6 +84,9 @@ class FleetView:
             'life_started_s': finite_or_none(s.life_started_s),
             'reset_by': s.reset_by or None if math.isfinite(s.life_started_s) else None,
             'reset_reason': s.reset_reason or None if math.isfinite(s.life_started_s) else None,
+            'threshold': finite_or_none(s.threshold),
+            'warning_level': finite_or_none(s.warning_level),
+            'threshold_assumed': self.threshold_assumed,
         }
 
 
@@ -110,16 +119,19 @@ def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
 
 
 def fleet_view(states: Iterable[FleetRow], *, now_s: float,
-               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN) -> list[FleetView]:
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
+               parameter_sets: Optional[ParameterSets] = None) -> list[FleetView]:
     """
     Return the fleet rows worst first (the triage order of the module's text), at ``now_s``.
 
     ``now_s``: the time [s since the epoch] staleness and planned dates are judged at;
     ``reescalation_margin``: the rise of the wear past its value at the acknowledgement that
-    re-escalates an acknowledged alarm [wear units].
+    re-escalates an acknowledged alarm [wear units]; ``parameter_sets``: where a row without a
+    stored threshold finds its parameter set's (None: the packaged sets).
     """
     rows = []
     for state in states:
+        state, assumed = judged_levels(state, parameter_sets)
         interval = state.usual_interval_s
         known = math.isfinite(interval) and interval > 0
         since = state.last_stamp_s
@@ -131,7 +143,8 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
             crossing_time = state.last_stamp_s + state.crossing_experiments * interval
         rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time,
                               reescalated=reescalation(state, now_s=now_s,
-                                                       margin=reescalation_margin)))
+                                                       margin=reescalation_margin),
+                              threshold_assumed=assumed))
     return sorted(rows, key=FleetView.rank_key)
 
 
@@ -167,7 +180,7 @@ def _trend_text(state: FleetRow) -> str:
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
                  'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_service_date',
-                 'reescalated', 'life_started')
+                 'reescalated', 'life_started', 'threshold', 'threshold_assumed')
 
 
 def _alarm_text(row: FleetView, local: bool) -> str:
@@ -186,16 +199,22 @@ def _alarm_text(row: FleetView, local: bool) -> str:
     return text
 
 
+def threshold_text(row: FleetView) -> str:
+    """Return the row's threshold as people read it: '30', or '35 (assumed)' when not stored."""
+    return threshold_words(row.state.threshold, assumed=row.threshold_assumed)
+
+
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     """Return the fleet as a text table, one line per robot joint, worst first."""
-    header = ('robot', 'joint', 'w [95 %]', 'trend w', 'alarm', 'forecast crossing',
-              'experiments', 'last experiment', 'stale')
+    header = ('robot', 'joint', 'w [95 %]', 'trend w', 'threshold', 'alarm',
+              'forecast crossing', 'experiments', 'last experiment', 'stale')
     lines = []
     for row in rows:
         s = row.state
         alarm = _alarm_text(row, local)
         lines.append((shorten(s.robot, 40), shorten(s.joint, 40),
-                      _wear_text(s), _trend_text(s), alarm, crossing_text(row, local=local),
+                      _wear_text(s), _trend_text(s), threshold_text(row), alarm,
+                      crossing_text(row, local=local),
                       str(s.experiments),
                       iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
@@ -235,5 +254,6 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
                     text(s.planned_maintenance or '') if s.acknowledged else '',
                     text(row.reescalated),
                     iso_time(s.life_started_s, local=local)
-                    if math.isfinite(s.life_started_s) else ''])
+                    if math.isfinite(s.life_started_s) else '', number(s.threshold),
+                    'yes' if row.threshold_assumed else 'no'])
     return out

@@ -26,8 +26,11 @@ server-side sessions).  Version 7 (accounts and the write API): alarm events may
 'acknowledgement_edited' and 'acknowledgement_withdrawn' and carry a ``work_order`` (''
 in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`` and
 ``users`` for their new CHECKs, keeping ids and rows; PostgreSQL replaces the constraints);
-``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).
-Versions 8 and 9: placeholders here (another branch's steps take their place).  Version 10:
+``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).  Version 8
+(one owner of the threshold): every estimate stores the wear ``threshold`` and the
+``warning_level`` it was judged by (the estimator's node parameters ``wear_threshold`` and
+``wear_warning``); old rows hold NULL (not known: readers assume the parameter set's and say
+so).  Version 9: placeholder here (another branch's steps take its place).  Version 10:
 ``account_audit`` (every change of a dashboard account: when, who, from where, what, whom;
 never a secret).
 """
@@ -235,6 +238,11 @@ _SQLITE_V7 = (
     _API_TOKENS[1],
 )
 
+#: Version 8: the threshold and warning level each estimate was judged by [w] (NULL: not
+#: stored, rows of older versions).
+_V8 = ('ALTER TABLE estimates ADD COLUMN threshold DOUBLE PRECISION',
+       'ALTER TABLE estimates ADD COLUMN warning_level DOUBLE PRECISION')
+
 #: Version 10: the audit of the dashboard's accounts (``history.account_audit``).
 _ACCOUNT_AUDIT = (
     """CREATE TABLE account_audit (
@@ -251,7 +259,7 @@ _ACCOUNT_AUDIT = (
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
-                                                 8: (), 9: (),
+                                                 8: _V8, 9: (),
                                                  10: (_ACCOUNT_AUDIT[0].format(
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
@@ -347,7 +355,7 @@ _POSTGRESQL_V7 = (
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      5: _POSTGRESQL_V5, 6: _V6,
-                                                     7: _POSTGRESQL_V7, 8: (), 9: (),
+                                                     7: _POSTGRESQL_V7, 8: _V8, 9: (),
                                                      10: (_ACCOUNT_AUDIT[0].format(
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),

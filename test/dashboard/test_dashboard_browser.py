@@ -238,7 +238,10 @@ def test_triage_order_then_a_reset_reads_as_a_new_life(server, browser, history)
     _wait(browser, lambda d: d.find_elements(_by('ID'), 'fleet-rows'), 'the fleet page')
     row = browser.find_element(_by('CSS_SELECTOR'), '#fleet-rows tr[data-joint="joint_2"]'
                                                     '[data-robot="press_line"]')
-    assert line.fullmatch(row.find_element(_by('CSS_SELECTOR'), '.c-wear').text)
+    assert line.fullmatch(row.find_element(_by('CSS_SELECTOR'), '.c-wear .num').text)
+    # the threshold beside it: the history's rows store none, so the set's, said to be assumed
+    assert row.find_element(_by('CSS_SELECTOR'), '.c-wear .thr').text == \
+        'threshold 35 (assumed)'
     assert row.find_element(_by('CSS_SELECTOR'), '.c-state').text == 'ok'
     assert _rows(browser)[-1] == ('press_line', 'joint_2')  # nothing to judge yet: last
     browser.get(server + '/alarms')

@@ -218,6 +218,31 @@ def test_estimator_keeps_estimating_past_the_alarm_then_resets_and_restores(
     assert events == ['raised', 'reset', 'raised']
 
 
+def test_the_node_threshold_wins_is_stored_and_warned_about_once(ros_context, tmp_path,
+                                                                 capfd):
+    executor = SingleThreadedExecutor()
+    estimator = _estimator(tmp_path, wear_threshold=30.0)
+    executor.add_node(estimator)
+    probe = Probe(executor)
+    assert probe.spin_until(lambda: probe.levels_publisher.get_subscription_count() >= 2)
+    for k, wear in enumerate((10.0, 20.0)):
+        probe.levels_publisher.publish(_levels_msg(stamp_s=1000.0 + k, wear=wear))
+        assert probe.spin_until(lambda: len(probe.wear) == k + 1), f'no /wear for {k}'
+    assert estimator.service.config.alarm.threshold == 30.0
+    executor.remove_node(estimator)
+    estimator.destroy_node()
+    warnings = [line for line in capfd.readouterr().err.splitlines()
+                if 'the node parameters differ from parameter set' in line]
+    assert len(warnings) == 1 and 'wear_threshold 30 (the set says 35)' in warnings[0]
+    with sqlite3.connect(tmp_path / 'history.sqlite3') as conn:
+        assert conn.execute('SELECT threshold, warning_level FROM estimates').fetchall() == [
+            (30.0, 28.0), (30.0, 28.0)]
+    # the packaged values (the set's): no warning
+    again = _estimator(tmp_path)
+    again.destroy_node()
+    assert 'differ from parameter set' not in capfd.readouterr().err
+
+
 def test_estimator_counts_bad_friction_levels_and_keeps_running(ros_context, tmp_path):
     executor = SingleThreadedExecutor()
     estimator = _estimator(tmp_path)
