@@ -4,10 +4,10 @@ The README's command chains run as written (with small data): every command bloc
 The runnable blocks run in one ``bash -e`` each, in order, in an empty folder (nothing of the
 repository in it: the tour's first command, ``robot-wear-monitor examples``, copies the example
 files from the installed package), so a later block uses what an earlier one made
-(``examples/``, ``wear_bag``, the history), as a new user would.  The commands on the measured data in ``../shared`` (a line naming
-``../shared``) read only those data: they run apart, one test each, in a folder with
-``../shared`` beside it, and only they skip when ``../shared`` is absent (the reason names the
-block and the command); the chain runs either way.  A block marked ``<!-- not run: REASON -->``
+(``examples/``, ``wear_bag``, the history), as a new user would.  The commands on the measured
+data in ``../shared`` (a line naming ``../shared``) read only those data: they run apart, one
+test each, in a folder with ``../shared`` beside it, and only they skip when ``../shared`` is
+absent (the reason names the block and the command); the chain runs either way.  A block marked ``<!-- not run: REASON -->``
 (the first block, which is the CI itself; a live ROS 2 graph; a server) is reported as a skipped
 test with its reason (:mod:`wear_testing.command_blocks`).  ``text`` blocks are synopses and
 sample output, not commands.
