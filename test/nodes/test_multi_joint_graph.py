@@ -165,7 +165,7 @@ def _offline_replay(bag, config, tmp_path):
     done = subprocess.run([console_script('robot-wear-monitor'), 'replay', str(bag), '--out',
                            str(tmp_path / 'replayed'), '--json', str(summary), '--joint', 'all',
                            '--config', str(config), '--no-progress'],
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=600)  # 120 s: short at load 30
     assert done.returncode == 0, done.stderr
     return json.loads(summary.read_text())
 
