@@ -20,6 +20,11 @@ setup(
         ('share/' + PACKAGE_NAME, ['package.xml']),
         (os.path.join('share', PACKAGE_NAME, 'config'), glob('config/*.yaml')),
         (os.path.join('share', PACKAGE_NAME, 'launch'), glob('launch/*_launch.py')),
+        # the tour's example files, copied out by `robot-wear-monitor examples` (share_files.py)
+        (os.path.join('share', PACKAGE_NAME, 'examples'),
+         sorted(f for f in glob('examples/*') if os.path.isfile(f))),
+        (os.path.join('share', PACKAGE_NAME, 'examples', 'arm_runs'),
+         sorted(glob('examples/arm_runs/*.csv'))),
     ],
     python_requires='>=3.10',
     install_requires=[

@@ -1,14 +1,15 @@
 """
 The README's dashboard screenshots, from a simulated fleet, in a real headless Chromium.
 
-    python3 bench/dashboard_screenshots.py [--out docs/figures] [--keep DIR]
+    python3 bench/dashboard_screenshots.py [--out docs/figures] [--keep DIR] [--width PX]
 
 Simulates six robots whose joint 2 wears to 10 ... 60 over 30 hourly experiments (the README's
 fleet commands; one robot's recording ends 12 hours ago, so it is stale), replays them into one
 history (``replay --manifest``), acknowledges one alarm as a maintainer would, starts the
 dashboard (uvicorn in a thread on 127.0.0.1) and takes ``dashboard_fleet.png`` (the fleet page)
 and ``dashboard_joint.png`` (the joint page of the soonest forecast crossing) with
-headless Chromium (``/usr/bin/chromium``, ``/usr/bin/chromedriver``).
+headless Chromium (``/usr/bin/chromium``, ``/usr/bin/chromedriver``), both at ``--width``
+pixels (1366 by default: the most common laptop screen).  Retake them whenever a page changes.
 """
 
 import argparse
@@ -67,7 +68,11 @@ def _free_port() -> int:
         return sock.getsockname()[1]
 
 
-def take_screenshots(history: Path, out: Path) -> list[Path]:
+#: The width of the screenshots [px].
+WIDTH = 1366
+
+
+def take_screenshots(history: Path, out: Path, *, width: int = WIDTH) -> list[Path]:
     """Serve ``history``, log in with headless Chromium and save the two pages as PNG."""
     from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
     from robot_wear_monitor.dashboard.pages import joint_url
@@ -88,7 +93,7 @@ def take_screenshots(history: Path, out: Path) -> list[Path]:
     options = webdriver.ChromeOptions()
     options.binary_location = '/usr/bin/chromium'
     for argument in ('--headless=new', '--no-sandbox', '--disable-dev-shm-usage',
-                     '--window-size=1500,900', '--hide-scrollbars',
+                     f'--window-size={width},900', '--hide-scrollbars',
                      '--force-device-scale-factor=1'):
         options.add_argument(argument)
     driver = webdriver.Chrome(service=Service('/usr/bin/chromedriver'), options=options)
@@ -101,13 +106,13 @@ def take_screenshots(history: Path, out: Path) -> list[Path]:
         driver.find_element(By.ID, 'password').send_keys(PASSWORD)
         driver.find_element(By.ID, 'login-button').click()
         WebDriverWait(driver, 20).until(lambda d: d.find_elements(By.ID, 'fleet-rows'))
-        driver.set_window_size(1500, 700)
+        driver.set_window_size(width, 700)
         written.append(out / 'dashboard_fleet.png')
         driver.save_screenshot(str(written[-1]))
         with open_history(history, init=False) as stored:  # the soonest forecast crossing
             worst = next(r for r in stored.fleet() if not r.alarm
                          and 0 < r.crossing_experiments < float('inf'))
-        driver.set_window_size(1500, 1750)
+        driver.set_window_size(width, 1750)
         driver.get(base + joint_url(worst.robot, worst.joint))
         WebDriverWait(driver, 20).until(lambda d: d.execute_script(
             "return !!(document.getElementById('friction-chart').data);"))
@@ -126,13 +131,14 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', type=Path, default=REPO / 'docs' / 'figures')
     parser.add_argument('--keep', type=Path, help='keep the bags and the history here')
+    parser.add_argument('--width', type=int, default=WIDTH, help=f'pixels (default {WIDTH})')
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         folder = args.keep or Path(scratch)
         started = time.monotonic()
         history = make_history(folder)
         print(f'fleet simulated and replayed in {time.monotonic() - started:.0f} s: {history}')
-        for path in take_screenshots(history, args.out):
+        for path in take_screenshots(history, args.out, width=args.width):
             print(f'written {path}')
     return 0
 

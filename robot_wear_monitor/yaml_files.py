@@ -77,10 +77,24 @@ def _refuse_aliases(text: str) -> None:
     """
     Raise a ComposerError at the first alias of ``text`` (its events, nothing composed).
 
-    :raises RecursionError: collections nested more than :data:`MAX_YAML_DEPTH` deep.
+    :raises RecursionError: collections nested more than :data:`MAX_YAML_DEPTH` deep, whatever
+        libyaml's own limit: libyaml's scanner reads ahead of the events, and since PyYAML
+        6.0.4 its libyaml refuses deep nesting in its own words ("exceeded maximum nesting
+        depth", 1,000 levels); on any error of libyaml the text is read again by
+        :func:`_nesting_before_error` to tell nesting from other mistakes.
     """
+    try:
+        _scan_events(text, loader=_C_SAFE_LOADER)
+    except yaml.YAMLError as error:
+        if not isinstance(error, yaml.composer.ComposerError):  # not our refusal of an alias
+            _nesting_before_error(text)
+        raise
+
+
+def _scan_events(text: str, *, loader: Any) -> None:
+    """Raise at the first alias, or at nesting past :data:`MAX_YAML_DEPTH`, of ``text``."""
     depth = 0
-    for event in yaml.parse(text, Loader=_C_SAFE_LOADER):
+    for event in yaml.parse(text, Loader=loader):
         if isinstance(event, yaml.CollectionStartEvent):
             depth += 1
             if depth > MAX_YAML_DEPTH:
@@ -91,6 +105,21 @@ def _refuse_aliases(text: str) -> None:
             mark: Any = event.start_mark  # libyaml's: the line and column of yaml.error.Mark
             raise yaml.composer.ComposerError(
                 None, None, 'YAML aliases (*name) are not accepted', mark)
+
+
+def _nesting_before_error(text: str) -> None:
+    """
+    Raise RecursionError when ``text`` nests past :data:`MAX_YAML_DEPTH` before any error.
+
+    Read by PyYAML's pure-Python parser, which has no nesting limit and does not recurse (only
+    its composer does); it stops at the first error or past the depth, so a deep text costs
+    :data:`MAX_YAML_DEPTH` levels, not the whole file.  Any other outcome returns: the caller
+    raises libyaml's own error.
+    """
+    try:
+        _scan_events(text, loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return
 
 
 @lru_cache(maxsize=RECENT_TEXTS)

@@ -54,6 +54,7 @@ def test_colcon_build_installs_nodes_config_and_launch(tmp_path):
     share = prefix / 'share' / 'robot_wear_monitor'
     assert (share / 'config' / 'irb6620_joint2.yaml').is_file()
     assert (share / 'package.xml').is_file()
+    assert _files(share / 'examples') == _files(REPO_ROOT / 'examples')
     assert list((share / 'launch').glob('*_launch.py')), 'launch files not installed'
     index = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
     assert (index / 'robot_wear_monitor').is_file()
@@ -68,6 +69,43 @@ def test_colcon_build_installs_nodes_config_and_launch(tmp_path):
     assert run.returncode == 0, run.stderr
     design = json.loads(run.stdout)
     assert design['speeds'] == pytest.approx([35.84, 40.84], abs=0.4)
+    # ... and copies the example files of the tour into an empty folder
+    (tmp_path / 'empty').mkdir()
+    run = subprocess.run([sys.executable, str(prefix / 'lib' / 'robot_wear_monitor'
+                                              / 'robot-wear-monitor'), 'examples'],
+                         cwd=tmp_path / 'empty', env=env, capture_output=True, text=True,
+                         timeout=120, check=False)
+    assert run.returncode == 0, run.stderr
+    assert _files(tmp_path / 'empty' / 'examples') == _files(REPO_ROOT / 'examples')
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob('*')
+            if p.is_file() and '__pycache__' not in p.parts}
+
+
+def test_setup_installs_every_example_file_where_the_examples_verb_finds_it():
+    """setup.py's data_files hold each file of examples/ under share/robot_wear_monitor/."""
+    import runpy
+
+    import setuptools
+    captured = {}
+    real_setup = setuptools.setup
+    cwd = os.getcwd()
+    try:
+        setuptools.setup = lambda **kwargs: captured.update(kwargs)
+        os.chdir(REPO_ROOT)  # setup.py globs relative to its folder, as pip runs it
+        runpy.run_path(str(REPO_ROOT / 'setup.py'), run_name='__main__')
+    finally:
+        setuptools.setup = real_setup
+        os.chdir(cwd)
+    installed = {os.path.join(folder, Path(file).name): file
+                 for folder, files in captured['data_files'] for file in files}
+    share = os.path.join('share', 'robot_wear_monitor')
+    expected = {os.path.join(share, 'examples', name): os.path.join('examples', name)
+                for name in _files(REPO_ROOT / 'examples')}
+    assert {k: v for k, v in installed.items() if '/examples/' in k} == expected
+    assert os.path.join(share, 'examples', 'arm_runs', 'run_11.csv') in expected
 
 
 def test_pip_installed_console_scripts_run_outside_the_source_tree(tmp_path):

@@ -1,12 +1,13 @@
 """
 The README's command chains run as written (with small data): every command block.
 
-The runnable blocks run in one ``bash -e`` each, in order, in a fresh folder that holds the
-repository's ``examples/``, so a later block uses what an earlier one made (``wear_bag``, the
-history), as a reader would.  The commands on the measured data in ``../shared`` (a line naming
-``../shared``) read only those data: they run apart, one test each, in a folder with
-``../shared`` beside it, and only they skip when ``../shared`` is absent (the reason names the
-block and the command); the chain runs either way.  A block marked ``<!-- not run: REASON -->``
+The runnable blocks run in one ``bash -e`` each, in order, in an empty folder (nothing of the
+repository in it: the tour's first command, ``robot-wear-monitor examples``, copies the example
+files from the installed package), so a later block uses what an earlier one made
+(``examples/``, ``wear_bag``, the history), as a new user would.  The commands on the measured
+data in ``../shared`` (a line naming ``../shared``) read only those data: they run apart, one
+test each, in a folder with ``../shared`` beside it, and only they skip when ``../shared`` is
+absent (the reason names the block and the command); the chain runs either way.  A block marked ``<!-- not run: REASON -->``
 (the first block, which is the CI itself; a live ROS 2 graph; a server) is reported as a skipped
 test with its reason (:mod:`wear_testing.command_blocks`).  ``text`` blocks are synopses and
 sample output, not commands.
@@ -49,8 +50,14 @@ def test_every_ros2_command_is_in_a_block_marked_not_run():
     assert unmarked_ros2_lines(BLOCKS) == [], 'mark these blocks <!-- not run: REASON -->'
 
 
-def test_the_readme_command_chains_run_as_written(tmp_path):
-    work, env = workspace(tmp_path)
+def test_the_first_command_of_the_tour_copies_the_examples():
+    tour = [block for block in BLOCKS if block.not_run is None]
+    assert tour[0].text.strip() == 'robot-wear-monitor examples'
+
+
+def test_the_readme_command_chains_run_as_written_in_an_empty_folder(tmp_path):
+    work, env = workspace(tmp_path, examples=False)
+    assert not any(work.iterdir())
     ran = 0
     for block in BLOCKS:
         script = cut(chain_script(block), SMALLER)
@@ -58,6 +65,7 @@ def test_the_readme_command_chains_run_as_written(tmp_path):
             run_script(script, work=work, env=env, name=block.name)
             ran += 1
     assert ran >= 5
+    assert (work / 'examples' / 'baseline.csv').is_file() and (work / 'my_joint.yaml').is_file()
 
 
 @pytest.mark.parametrize('block', NOT_RUN, ids=[block.name for block in NOT_RUN])

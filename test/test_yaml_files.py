@@ -84,7 +84,7 @@ def test_a_deeply_nested_text_is_a_clear_error_not_a_crash(monkeypatch, loader):
     yaml_files._parsed.cache_clear()
     assert yaml_files.load_yaml_text('[' * 200 + ']' * 200, source='t') == \
         yaml.load('[' * 200 + ']' * 200, Loader=yaml.SafeLoader)
-    for depth in (500, 1000):  # composed in C, then copied: a RecursionError traceback
+    for depth in (500, 1000, 2000):  # past MAX_YAML_DEPTH (2,000: past libyaml 6.0.4's 1,000)
         with pytest.raises(InputError, match='deep.yaml: YAML nested too deeply'):
             yaml_files.load_yaml_text('[' * depth + ']' * depth, source='deep.yaml')
     yaml_files._parsed.cache_clear()
@@ -103,3 +103,39 @@ def test_a_deeply_nested_text_is_a_clear_error_not_a_crash(monkeypatch, loader):
     done = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
                           timeout=120)
     assert (done.returncode, done.stdout.strip()) == (0, 'deep.yaml: YAML nested too deeply')
+
+
+@pytest.mark.parametrize('words', ['exceeded maximum nesting depth', 'some other wording'])
+def test_a_libyaml_that_refuses_deep_nesting_in_its_own_words_gives_the_same_error(
+        monkeypatch, words):
+    """
+    Whatever libyaml's limit and wording (PyYAML 6.0.4: 1,000 levels), the error is ours.
+
+    The stand-in for libyaml reads a few levels, then refuses as its scanner would, before
+    any event past :data:`~robot_wear_monitor.yaml_files.MAX_YAML_DEPTH` reached the reader;
+    an error that is not about nesting keeps libyaml's own words and place.
+    """
+    parse = yaml.parse
+
+    def refusing(text, Loader):  # noqa: N803 - yaml's keyword
+        if Loader is not yaml_files._C_SAFE_LOADER:
+            yield from parse(text, Loader=Loader)
+            return
+        for number, event in enumerate(parse(text[:40], Loader=yaml.SafeLoader)):
+            if number == 20:
+                raise yaml.scanner.ScannerError(
+                    'while scanning', None, words, yaml.error.Mark('<unicode>', 1000, 0, 1000,
+                                                                   None, None))
+            yield event
+    monkeypatch.setattr(yaml_files, '_C_SAFE_LOADER', object())
+    monkeypatch.setattr(yaml, 'parse', refusing)
+    yaml_files._parsed.cache_clear()
+    depth = 400_000
+    with pytest.raises(InputError) as deep:
+        yaml_files.load_yaml_text('[' * depth + ']' * depth, source='deep.yaml')
+    assert str(deep.value) == 'deep.yaml: YAML nested too deeply'
+    shallow = '[' * 50 + ']' * 50 + '\n'  # valid YAML: libyaml's refusal stands, in its words
+    with pytest.raises(InputError) as refused:
+        yaml_files.load_yaml_text(shallow, source='flat.yaml')
+    assert str(refused.value) == f'flat.yaml: not valid YAML: {words} (line 1, column 1001)'
+    yaml_files._parsed.cache_clear()

@@ -31,7 +31,7 @@ __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'v
 
 #: The verbs in the order of ``--help``; each is the module ``robot_wear_monitor.cli.<verb>``.
 VERBS = ('design', 'plan', 'estimate', 'study', 'simulate', 'segment', 'replay', 'demo',
-         'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify',
+         'examples', 'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify',
          'dashboard')
 
 #: Verbs that pass a ``--ros-args ...`` tail to rclpy.

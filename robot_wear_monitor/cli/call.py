@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import FINITE, rclpy_missing, ros_args
+from robot_wear_monitor.cli.options import FINITE, require_rclpy, ros_args
 from robot_wear_monitor.errors import InputError
 
 HELP = ("call the monitor's services: start or abort the friction experiment, reset the wear "
@@ -65,10 +65,8 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'--timeout must be in (0, 3600] s, got {args.timeout:g}')
     candidates = service_candidates(action=args.action, robot=args.robot, joint=args.joint,
                                     node=args.node)
-    try:
-        from robot_wear_monitor.nodes.service_client import call_trigger, ServiceNotFound
-    except ImportError as error:
-        raise rclpy_missing(error) from None
+    require_rclpy()  # one line naming the ros extra, not a traceback
+    from robot_wear_monitor.nodes.service_client import call_trigger, ServiceNotFound
     try:
         answer = call_trigger(candidates=candidates, timeout_s=args.timeout,
                               args=ros_args(args))

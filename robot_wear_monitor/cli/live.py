@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from robot_wear_monitor.cli.options import (add_history, add_robot, PROG, rclpy_missing,
+from robot_wear_monitor.cli.options import (add_history, add_robot, PROG, require_rclpy,
                                             ros_args, warn_deprecated)
 from robot_wear_monitor.errors import InputError
 
@@ -70,10 +70,8 @@ def main(args: argparse.Namespace) -> int:
     load_node_parameters(FRICTION_EXPERIMENT_NODE, params_file,
                          overrides={k: v for k, v in overrides if k == 'joint'})
     load_node_parameters(WEAR_ESTIMATOR_NODE, params_file, overrides=dict(overrides))
-    try:
-        from robot_wear_monitor.nodes.monitoring_graph import ros_arguments, run_monitoring_graph
-    except ImportError as error:
-        raise rclpy_missing(error) from None
+    require_rclpy()  # one line naming the ros extra, not a traceback
+    from robot_wear_monitor.nodes.monitoring_graph import ros_arguments, run_monitoring_graph
     print(f'{PROG} live: friction_experiment_node + wear_estimator_node, parameters from '
           f'{params_file}; Ctrl-C stops', file=sys.stderr, flush=True)
     return run_monitoring_graph(args=ros_arguments(params_file=params_file, overrides=overrides,

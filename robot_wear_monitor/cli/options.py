@@ -410,9 +410,23 @@ def ros_args(args: argparse.Namespace) -> list[str]:
 
 
 def rclpy_missing(error: ImportError) -> InputError:
-    """Return the one-line error of a verb that needs rclpy when it is not installed."""
-    return InputError(f'rclpy is not installed ({error}); pip install '
-                      f'"robot_wear_monitor[ros]" or source a ROS 2 Jazzy setup')
+    """Return the one-line error of a verb that needs rclpy when it is not importable."""
+    return InputError(f'needs rclpy, which is not importable ({error}): install the "ros" extra '
+                      "(pip install '.[ros]' in the repository) or source a ROS 2 Jazzy setup")
+
+
+def require_rclpy() -> None:
+    """
+    Raise :func:`rclpy_missing`'s error when rclpy cannot be imported (live, play, call).
+
+    Asked before any node or client is built, so a plain ``pip install .`` gets one line on
+    stderr and exit 2, not the traceback of an import deep inside a node module.
+    """
+    from robot_wear_monitor.nodes.spinning import import_rclpy
+    try:
+        import_rclpy()
+    except ImportError as error:
+        raise rclpy_missing(error) from None
 
 
 def add_level_source(parser: argparse.ArgumentParser, *,

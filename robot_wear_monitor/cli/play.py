@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_wear_monitor.cli.options import FINITE, rclpy_missing, ros_args
+from robot_wear_monitor.cli.options import FINITE, require_rclpy, ros_args
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.text import escaped
 
@@ -32,10 +32,8 @@ def main(args: argparse.Namespace) -> int:
     """Run ``play``: publish the bag's messages at the recorded pace x ``--rate``."""
     if not args.rate > 0:
         raise InputError(f'--rate must be > 0, got {args.rate}')
-    try:
-        from robot_wear_monitor.nodes.monitoring_graph import run_player
-    except ImportError as error:
-        raise rclpy_missing(error) from None
+    require_rclpy()  # one line naming the ros extra, not a traceback
+    from robot_wear_monitor.nodes.monitoring_graph import run_player
     return run_player(args.bag, rate=args.rate, topics=args.topics,
                       wait_for_subscribers=args.wait_for_subscribers,
                       wait_timeout_s=args.wait_timeout, args=ros_args(args),

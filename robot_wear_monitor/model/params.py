@@ -16,16 +16,15 @@ from dataclasses import dataclass, fields
 import math
 import os
 from pathlib import Path
-import sys
 from typing import Any, Mapping
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.extensions import (extension_from_mapping, extension_to_mapping,
                                                  ExtensionError, ModelExtension)
+from robot_wear_monitor.share_files import packaged_file
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 import yaml
 
-PACKAGE_NAME = 'robot_wear_monitor'
 DEFAULT_PARAMETER_FILE = 'irb6620_joint2.yaml'
 
 
@@ -389,27 +388,10 @@ def packaged_config_file(file_name: str) -> Path:
     """
     Return the path of a packaged ``config/`` file, wherever the package is installed.
 
-    Looks in the ament share directory (colcon install on a ROS host), in ``<prefix>/share``
-    (pip install), in the ``share`` folder of the prefix this module is installed in (colcon
-    install without ament_index_python), and in the source tree, in that order.
+    Looks where :func:`robot_wear_monitor.share_files.share_folders` says, in its order (the
+    ament share directory, ``<prefix>/share``, the source tree).
     """
-    candidates = []
-    try:  # pragma: no cover - only on a ROS 2 host
-        from ament_index_python.packages import get_package_share_directory
-        candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / 'config')
-    except Exception:  # noqa: BLE001 - ament may be absent or the package not indexed
-        pass
-    candidates.append(Path(sys.prefix) / 'share' / PACKAGE_NAME / 'config')
-    here = Path(__file__).resolve()
-    # <prefix>/lib/pythonX.Y/site-packages/robot_wear_monitor/model/params.py -> <prefix>/share
-    candidates.extend(parent / 'share' / PACKAGE_NAME / 'config' for parent in here.parents)
-    candidates.append(here.parents[2] / 'config')  # the source tree
-    for folder in candidates:
-        path = folder / file_name
-        if path.is_file():
-            return path
-    raise ParameterError(
-        f'the packaged {file_name} was not found in ' + ', '.join(str(c) for c in candidates))
+    return packaged_file('config', file_name, error=ParameterError)
 
 
 def default_parameter_file() -> Path:

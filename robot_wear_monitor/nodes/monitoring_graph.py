@@ -26,16 +26,22 @@ def ros_arguments(*, params_file: str | os.PathLike,
     return args + list(extra)
 
 
+#: The exit status of ``live`` after SIGINT (Ctrl-C): 128 + 2, the shell's convention.
+INTERRUPTED_STATUS = 130
+
+
 def run_monitoring_graph(*, args: Sequence[str]) -> int:
     """
     Spin friction_experiment_node and wear_estimator_node in one executor until shutdown.
 
-    Returns 0 after SIGINT/SIGTERM, 2 when a node refuses its parameters.
+    Returns :data:`INTERRUPTED_STATUS` (130) after SIGINT (Ctrl-C), like every verb
+    interrupted; 0 after SIGTERM (a service manager's stop); 2 when a node refuses its
+    parameters.
     """
     from robot_wear_monitor.nodes.friction_experiment_node import FrictionExperimentNode
     from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
     return spin_nodes([FrictionExperimentNode, WearEstimatorNode], logger_name=GRAPH_LOGGER,
-                      args=list(args))
+                      args=list(args), sigint_status=INTERRUPTED_STATUS)
 
 
 def run_player(bag: str | os.PathLike, *, rate: float, topics: Sequence[str] | None,

@@ -9,9 +9,20 @@ from __future__ import annotations
 
 import signal
 import threading
+from types import ModuleType
 from typing import Any, Callable, Sequence
 
 from robot_wear_monitor.nodes.parameters import help_requested, node_help
+
+
+def import_rclpy() -> ModuleType:
+    """
+    Return rclpy, imported here (the verbs that need it ask first, for a one-line error).
+
+    :raises ImportError: neither the ``ros`` extra nor a sourced ROS 2 setup provides it.
+    """
+    import rclpy
+    return rclpy
 
 
 def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -> int:
@@ -25,7 +36,7 @@ def spin_node(node_factory: Callable[[], Any], *, logger_name: str, args=None) -
 
 
 def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
-               args=None) -> int:
+               args=None, sigint_status: int = 0) -> int:
     """
     Init rclpy, build the nodes and spin them in one executor until shutdown.
 
@@ -35,8 +46,10 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     most that long, well within the /joint_states queue (1 s).  BLAS runs on one thread
     (:mod:`robot_wear_monitor.blas_threads`).
     ``args`` are the process arguments (``--ros-args ...`` included) as for ``rclpy.init``.
-    Returns 0 after a normal shutdown and 2 when a node refuses its parameters (nothing is
-    spun then; the nodes already built are destroyed).
+    Returns 0 after a normal shutdown (SIGTERM, the context shut down), ``sigint_status``
+    after SIGINT (Ctrl-C; the node executables: 0, what ``ros2 launch`` expects of a node it
+    stops; ``robot-wear-monitor live``: 130, the shell's convention) and 2 when a node refuses
+    its parameters (nothing is spun then; the nodes already built are destroyed).
 
     SIGINT and SIGTERM stop the spin (within :data:`SIGNAL_POLL_S`) and the nodes are destroyed
     *before* the context shuts down.  rclpy's own signal handler shuts the context down first,
@@ -73,11 +86,13 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
         try:
             while not stop.requested and rclpy.ok():
                 executor.spin_once(timeout_sec=SIGNAL_POLL_S)
-        except (KeyboardInterrupt, ExternalShutdownException):
+        except KeyboardInterrupt:  # SIGINT under Python's own handler (not the main thread)
+            return sigint_status
+        except ExternalShutdownException:
             pass
         finally:
             executor.shutdown()
-        return 0
+        return sigint_status if stop.signal == signal.SIGINT else 0
     finally:
         for node in nodes:
             node.destroy_node()
@@ -94,12 +109,15 @@ class _StopOnSignal:
 
     def __init__(self, *, install: bool = True) -> None:
         self.requested = False
+        #: the signal that stopped the spin (None: none yet)
+        self.signal: int | None = None
         self._previous: dict[int, Any] = {
             number: signal.signal(number, self._on_signal)
             for number in (signal.SIGINT, signal.SIGTERM)} if install else {}
 
     def _on_signal(self, number: int, frame: Any) -> None:
         self.requested = True
+        self.signal = number
         signal.signal(number, self._previous.get(number) or signal.SIG_DFL)  # a 2nd one interrupts
 
     def restore(self) -> None:

@@ -10,7 +10,8 @@ from robot_wear_monitor import cli
 from wear_testing.paths import REPO_ROOT
 
 VERBS = ('design', 'plan', 'estimate', 'study', 'simulate', 'segment', 'replay', 'demo',
-         'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify', 'dashboard')
+         'examples', 'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify',
+         'dashboard')
 
 
 def test_every_verb_is_a_module_with_help_add_arguments_and_main():

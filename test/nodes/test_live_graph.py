@@ -175,9 +175,21 @@ def test_live_command_runs_both_nodes_in_one_process(graph, tmp_path):
     assert graph.wait(lambda: len(graph.wear) == 2, 20.0), graph.log('live')
     assert graph.wear[0] == pytest.approx(40.0, abs=6.0)
     assert graph.alarm[-1] is True
-    live.send_signal(signal.SIGINT)
-    assert live.wait(timeout=5.0) == 0
+    live.send_signal(signal.SIGINT)  # Ctrl-C: 130, as every verb interrupted (command-line.md)
+    assert live.wait(timeout=5.0) == 130, graph.log('live')
     assert 'Traceback' not in graph.log('live')
+
+
+def test_live_command_exits_0_on_sigterm(graph, tmp_path):
+    """SIGTERM is a service manager's stop, not an interruption: exit 0, the history whole."""
+    history = tmp_path / 'h.sqlite3'
+    live = graph.start('live', 'robot-wear-monitor', 'live', '--history', str(history))
+    assert graph.wait(lambda: len(graph.diagnostics) == 2, 40.0), graph.log('live')
+    live.send_signal(signal.SIGTERM)
+    assert live.wait(timeout=10.0) == 0, graph.log('live')
+    assert 'Traceback' not in graph.log('live')
+    with sqlite3.connect(history) as conn:
+        assert conn.execute('PRAGMA integrity_check').fetchone() == ('ok',)
 
 
 def test_live_command_refuses_a_bad_params_file(tmp_path):

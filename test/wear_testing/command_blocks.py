@@ -100,11 +100,18 @@ def cut(script: str, smaller: Sequence[tuple[str, str]]) -> str:
     return script
 
 
-def workspace(folder: Path, *, shared: bool = False) -> tuple[Path, dict[str, str]]:
-    """Return a reader's folder (``examples/``; ``../shared`` beside it) and the environment."""
+def workspace(folder: Path, *, shared: bool = False,
+              examples: bool = True) -> tuple[Path, dict[str, str]]:
+    """
+    Return a reader's folder and the environment.
+
+    The folder holds the repository's ``examples/`` (``examples=False``: nothing, a new user's
+    empty folder), with ``../shared`` beside it when ``shared``.
+    """
     work = folder / 'main'
     work.mkdir()
-    (work / 'examples').symlink_to(ROOT / 'examples')
+    if examples:
+        (work / 'examples').symlink_to(ROOT / 'examples')
     if shared:
         (folder / 'shared').symlink_to(SHARED)
     binary = Path(sys.executable).parent
