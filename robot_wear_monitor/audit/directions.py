@@ -19,9 +19,9 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 from robot_wear_monitor.audit.cross_validation import cv_rms
-from robot_wear_monitor.audit.fitting import as_text, AuditTable, Base, Fit, fit_model
+from robot_wear_monitor.audit.fitting import as_text, AuditTable, Base, Fit
 from robot_wear_monitor.audit.shapes import Term
-from robot_wear_monitor.audit.speed_fit import fit_speed_model
+from robot_wear_monitor.audit.speed_fit import fit_speed_model, SpeedFit
 from robot_wear_monitor.model.extensions import Factor
 
 FloatArray = NDArray[np.float64]
@@ -136,6 +136,9 @@ class DirectionVerdict:
         without a direction term, one offset per direction, an audit step's other effect).
     :ivar preferred: the candidate preferred: ``'model (4) per direction'`` or a rival's name.
     :ivar reason: why, in words.
+    :ivar offset: the offset term (one per direction and group).
+    :ivar offset_fit: the common model with the terms and the offset.
+    :ivar offset_held_out: its held-out residual per level.
 
     """
 
@@ -144,6 +147,9 @@ class DirectionVerdict:
     rivals: dict
     preferred: str
     reason: str
+    offset: Term | None = None
+    offset_fit: SpeedFit | None = None
+    offset_held_out: FloatArray | None = None
 
     @property
     def per_direction(self) -> bool:
@@ -157,26 +163,25 @@ PER_DIRECTION = 'model (4) per direction'
 WITHOUT_DIRECTIONS = 'model (4) common to both directions'
 
 
-def compare_directions(table: AuditTable, *, base: Base, fit: Fit, terms: Sequence,
+def compare_directions(table: AuditTable, *, group: str | None, fit: Fit, terms: Sequence,
                        cv_now: float, folds: NDArray[np.int_], n_common_groups: int,
                        level: float, min_gain: float,
                        rivals: dict | None = None) -> DirectionVerdict:
     """
     Decide whether model (4) per direction earns its place held out.
 
-    ``base``/``fit``: the common model (with the added ``terms``) and its held-out RMS error
-    ``cv_now``; ``rivals``: further simpler candidates' held-out errors (an audit step's).  The
-    per-direction model is preferred when its F-test is significant at ``level`` and its
-    held-out error is below every simpler candidate's by ``min_gain``; otherwise the simpler
-    candidate with the lowest held-out error (the model without a direction term when none
-    beats it by ``min_gain``).
+    ``fit``: the common model of model (4) per ``group`` (with the added ``terms``) and its
+    held-out RMS error ``cv_now``; ``rivals``: further simpler candidates' held-out errors (an
+    audit step's).  The per-direction model is preferred when its F-test is significant at
+    ``level`` and its held-out error is below every simpler candidate's by ``min_gain``;
+    otherwise the simpler candidate with the lowest held-out error (the model without a
+    direction term when none beats it by ``min_gain``).
     """
     trial = try_per_direction(table, fit, n_common_groups, folds, terms)
     offset = direction_offset(table)
-    offset_fit = fit_model(base, table, list(terms) + [offset], fit.theta, max_nfev=200,
-                           nonnegative=True)
-    offset_cv, _ = cv_rms(base, table, list(terms) + [offset], offset_fit.theta, folds,
-                          nonnegative=True)
+    offset_fit = fit_speed_model(table, group, list(terms) + [offset], fit.theta)
+    offset_cv, offset_held = cv_rms(offset_fit.base, table, list(terms) + [offset],
+                                    offset_fit.fit.theta, folds, nonnegative=True)
     simpler = {WITHOUT_DIRECTIONS: cv_now, offset.name: offset_cv, **(rivals or {})}
     best_name = min(simpler, key=lambda k: simpler[k])
     significant = math.isfinite(trial.log10_p) and trial.log10_p <= math.log10(level)
@@ -196,4 +201,5 @@ def compare_directions(table: AuditTable, *, base: Base, fit: Fit, terms: Sequen
                f'the directions do not differ significantly (F = {trial.f_statistic:.3g}, '
                f'log10 p {trial.log10_p:.1f} > log10 {level:g})')
         reason = f'{best_name} preferred to {PER_DIRECTION}: {why}'
-    return DirectionVerdict(trial, bool(significant), simpler, preferred, reason)
+    return DirectionVerdict(trial, bool(significant), simpler, preferred, reason, offset,
+                            offset_fit, offset_held)

@@ -200,6 +200,8 @@ class AuditResult:
             for other in effect.confounded_with:
                 lines.append(f'    confounded with {other["candidate"]} (not added: no evidence '
                              f'of its own given this effect)')
+        lines += [f'  directions: {step["decision"]}' for step in self.steps
+                  if step.get('tried') == 'model (4) per direction' and 'preferred' in step]
         lines.append(f'  stopped: {self.stop_reason}')
         lines += _parameter_lines(self.parameters_after)
         lines += [f'  FLAG: {flag}' for flag in self.parameter_flags]

@@ -27,7 +27,7 @@ from robot_wear_monitor.audit.candidates import (candidate_columns, families, ma
                                                  with_experiment_order, with_position_window)
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
-from robot_wear_monitor.audit.directions import (compare_directions, DIRECTION_GROUP,
+from robot_wear_monitor.audit.directions import (compare_directions, DIRECTION_GROUP, f_test,
                                                  PER_DIRECTION, with_direction_groups)
 from robot_wear_monitor.audit.estimates import estimate_changes
 from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
@@ -123,6 +123,7 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     effects: list[Effect] = []
     steps: list[dict] = []
     split_done = split is None
+    speed_group = group  # model (4) per this group (per direction once the split is taken)
     stop = 'maximum number of effects reached'
     # a replicate repeats the model's conditions (speed, its variables, the groups and the
     # categories); measurements made along the way (a time, a window centre) are no condition
@@ -150,9 +151,11 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                 stop = step['report']['decision']
                 break
             trial_terms = terms + [step['term']]
-            trial_fit = fit_model(base, table, trial_terms, fit.theta, nonnegative=nonnegative)
+            trial_base, trial_fit = _refit(base, table, trial_terms, fit.theta, speed_group,
+                                           model == 'speed')
             cv_trial, held_trial = cv_rms(
-                base, table, _fold_terms(base, terms, step['term'], fit.theta, nonnegative),
+                trial_base, table,
+                _fold_terms(trial_base, terms, step['term'], trial_fit.theta, nonnegative),
                 trial_fit.theta, folds, nonnegative=nonnegative)
             step['report']['rms_cv_with_term'] = cv_trial
             if cv_trial <= cv_now * (1.0 - min_gain):
@@ -166,14 +169,19 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         if not split_done:  # model (4) per direction: a candidate until it is taken
             rival = ({} if accepted is None else
                      {accepted['report']['chosen']['term']: cv_trial})
-            taken = _per_direction_step(table, base, fit, terms, cv_now, folds, group, fdr,
+            taken = _per_direction_step(table, fit, terms, cv_now, folds, group, fdr,
                                         min_gain, effects, steps, rival)
             if taken is not None:
                 if accepted is not None:
                     accepted['report']['decision'] = (
-                        f'not added: {PER_DIRECTION} predicts held-out levels better')
-                base, fit, cv_now, held_now = taken
+                        f'not added: {taken[0]} predicts held-out levels better')
+                name, base, fit, cv_now, held_now, added = taken
+                terms = terms + list(added)
+                # after one offset per direction the per-direction model is no longer tried:
+                # the offset earned its place against it held out
                 split_done = True
+                if name == PER_DIRECTION:
+                    speed_group = DIRECTION_GROUP
                 continue
             if accepted is not None:
                 steps[-1]['decision'] += (f'; {accepted["report"]["chosen"]["term"]} '
@@ -189,6 +197,7 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                               step['report']['chosen']['candidate'],
                               tuple(step['report']['chosen']['confounded_with'])))
         terms, fit, cv_now, held_now = trial_terms, trial_fit, cv_trial, held_trial
+        base = trial_base
     n_params = (orthonormal(design_matrix(base, fit.theta, table, terms)).shape[1]
                 + len(base.theta0))
     floor_vars = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
@@ -246,10 +255,10 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         rms_by_group=_rms_by_group(table, group, held_before, held_now))
 
 
-def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
-                        cv_now: float, folds: np.ndarray, group: str | None, fdr: float,
-                        min_gain: float, effects: list[Effect], steps: list[dict],
-                        rivals: dict) -> tuple[Base, Fit, float, FloatArray] | None:
+def _per_direction_step(table: AuditTable, fit: Fit, terms: Sequence[Term], cv_now: float,
+                        folds: np.ndarray, group: str | None, fdr: float, min_gain: float,
+                        effects: list[Effect], steps: list[dict], rivals: dict
+                        ) -> tuple[str, Base, Fit, float, FloatArray, tuple] | None:
     """
     Try model (4) per direction (``identify --speed-only``'s) against the simpler candidates.
 
@@ -257,8 +266,9 @@ def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence
     significant at ``fdr`` and its held-out error beats, by ``min_gain``, that of the common
     model, of one offset per direction and of the step's own effect (``rivals``: name ->
     held-out error), as :func:`~robot_wear_monitor.audit.directions.compare_directions` decides
-    for ``identify`` too.  The step and, when taken, the effect are appended.  Returns the
-    base, fit, held-out error and residual to go on with, or None when it is not taken.
+    for ``identify`` too.  When the offset per direction is preferred to both, it is added.
+    The step and the effect taken are appended.  Returns (what was taken, base, fit, held-out
+    error, held-out residual, the terms added), or None when neither is taken.
     """
     key = PER_DIRECTION
     labels = table.text[DIRECTION_GROUP]
@@ -272,7 +282,7 @@ def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence
                               f'speeds per direction ({"; ".join(few)})')
         return None
     n_common = len(set(as_text(table, group).tolist())) if group is not None else 1
-    verdict = compare_directions(table, base=base, fit=fit, terms=terms, cv_now=cv_now,
+    verdict = compare_directions(table, group=group, fit=fit, terms=terms, cv_now=cv_now,
                                  folds=folds, n_common_groups=n_common, level=fdr,
                                  min_gain=min_gain, rivals=rivals)
     trial = verdict.trial
@@ -281,6 +291,24 @@ def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence
                          'df': 5 * n_common}],
                   rms_cv_with_term=trial.cv, f_statistic=trial.f_statistic,
                   held_out_of_simpler=dict(verdict.rivals), preferred=verdict.preferred)
+    offset = verdict.offset
+    if offset is not None and verdict.offset_fit is not None and \
+            verdict.offset_held_out is not None and verdict.preferred == offset.name:
+        report['decision'] = f'rejected: {verdict.reason}; {offset.name} added'
+        cv = verdict.rivals[offset.name]
+        change = verdict.offset_fit.fit.prediction - fit.prediction
+        offset_residual = verdict.offset_fit.fit.residual
+        _, p_value = f_test(float(fit.residual @ fit.residual),
+                            float(offset_residual @ offset_residual), table.n_rows, n_common,
+                            verdict.offset_fit.n_parameters + n_common)
+        effects.append(Effect(
+            name=offset.name, shape=offset.shape, variables=offset.variables, df=n_common,
+            log10_p=(math.log10(max(p_value, 1e-300)) if math.isfinite(p_value) else
+                     math.nan), rms_cv_before=cv_now, rms_cv_after=cv,
+            size_rms=float(np.sqrt(np.mean(change ** 2))),
+            size_range=float(change.max() - change.min()), info={}, candidate=offset.name))
+        return (offset.name, verdict.offset_fit.base, verdict.offset_fit.fit, cv,
+                verdict.offset_held_out, (offset,))
     if not verdict.per_direction:
         report['decision'] = f'rejected: {verdict.reason}'
         return None
@@ -295,7 +323,21 @@ def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence
         size_rms=float(np.sqrt(np.mean(change ** 2))),
         size_range=float(change.max() - change.min()),
         info={'f_statistic': trial.f_statistic}, candidate=key))
-    return trial.base, trial.fit, trial.cv, trial.held_out
+    return key, trial.base, trial.fit, trial.cv, trial.held_out, ()
+
+
+def _refit(base: Base, table: AuditTable, terms: Sequence[Term], theta: FloatArray,
+           group: str | None, speed: bool) -> tuple[Base, Fit]:
+    """
+    Re-identify the model with ``terms``: (base, fit).
+
+    The speed model (4) per ``group`` by the shared fitter (its Stribeck terms decided again
+    by BIC with the terms, amplitudes >= 0); the models (5) and (8) from ``theta``.
+    """
+    if speed:
+        fitted = fit_speed_model(table, group, terms, theta)
+        return fitted.base, fitted.fit
+    return base, fit_model(base, table, terms, theta)
 
 
 def _rms_by_group(table: AuditTable, group: str | None, before: np.ndarray,
@@ -336,13 +378,14 @@ def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
                     shown = math.exp(bound) if name == 'phi_s' else bound
                     flags.append(f'{name}{where} = {values[name]:.4g} sits on its {side} bound '
                                  f'{shown:.4g}: not identified by these speeds')
+        amplitudes = ('F_c', 'F_s', 'F_v')
         if key in base.dropped:
             flags.append(f'Stribeck term{where} not supported by the data (BIC): left out, '
                          'F_s = 0, phi_s and alpha undetermined')
-            continue
+            amplitudes = ('F_c', 'F_v')
         flags += [flag_text(v, len(described) > 1) for v in impossible if v['group'] == key]
         flags += [f'{name}{where} = 0 sits on its bound ({name} >= 0): the data pull it '
-                  'below zero' for name in ('F_c', 'F_s', 'F_v') if values[name] == 0]
+                  'below zero' for name in amplitudes if values[name] == 0]
     return tuple(flags)
 
 

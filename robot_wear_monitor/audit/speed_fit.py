@@ -78,25 +78,46 @@ def _one_group(table: AuditTable) -> tuple[np.ndarray, bool]:
     return full.theta, bool(dropped)
 
 
-def fit_speed_model(table: AuditTable, group: str | None,
-                    terms: Sequence = ()) -> SpeedFit:
+def fit_speed_model(table: AuditTable, group: str | None, terms: Sequence = (),
+                    theta: np.ndarray | None = None) -> SpeedFit:
     """
     Fit model (4) per value of ``group`` (one model without) in its physical domain.
 
-    Every group is fitted on its own levels (:func:`_one_group`: starts, bounds, BIC); the
-    groups' thetas then start one fit of the whole table with the ``terms`` an audit added
-    (their amplitudes free, those of model (4) >= 0).  Without terms that fit reproduces the
-    groups' fits.
+    Without ``terms``, every group is fitted on its own levels (:func:`_one_group`: starts,
+    bounds, BIC) and the groups' fits are joined (``identify --speed-only`` and the audit's fit
+    before any effect).  With the ``terms`` an audit added (their amplitudes free, those of
+    model (4) >= 0) the whole table is fitted from ``theta`` (else the groups' fits) and each
+    group's Stribeck term is kept or dropped by the BIC of the whole fit with the terms: an
+    effect the common model lacked (an offset per direction) can make a Stribeck term
+    supported that was not without it, or the other way round.
     """
     keys, codes = group_codes(table, group)
     thetas, dropped = [], []
-    for i, key in enumerate(keys):
-        theta, drop = _one_group(table.subset(codes == i))
-        thetas.append(theta)
-        if drop:
-            dropped.append(key)
+    if theta is None or not terms:
+        for i, key in enumerate(keys):
+            one, drop = _one_group(table.subset(codes == i))
+            thetas.append(one)
+            if drop:
+                dropped.append(key)
+        theta = np.concatenate(thetas)
+    if terms:
+        dropped = []
+        full = speed_base(table, group)
+        fit = fit_model(full, table, list(terms), theta, max_nfev=200, nonnegative=True)
+        best = _bic(fit.residual, FULL_PARAMETERS * len(keys))
+        for key in keys:
+            trial_base = speed_base(table, group, without_stribeck=tuple(dropped) + (key,))
+            trial = fit_model(trial_base, table, list(terms), fit.theta, max_nfev=200,
+                              nonnegative=True)
+            bic = _bic(trial.residual, FULL_PARAMETERS * len(keys) - (
+                FULL_PARAMETERS - WITHOUT_STRIBECK) * (len(dropped) + 1))
+            if bic <= best:
+                best, fit = bic, trial
+                dropped.append(key)
+        base = speed_base(table, group, without_stribeck=tuple(dropped))
+        return SpeedFit(replace(base, theta0=fit.theta), fit, tuple(keys), tuple(dropped))
     base = speed_base(table, group, without_stribeck=tuple(dropped))
     lower, upper = base.bounds(table)
-    theta = np.clip(np.concatenate(thetas), lower + 1e-9, upper - 1e-9)
-    fit = fit_model(base, table, list(terms), theta, max_nfev=200, nonnegative=True)
+    theta = np.clip(theta, lower + 1e-9, upper - 1e-9)
+    fit = fit_model(base, table, [], theta, max_nfev=200, nonnegative=True)
     return SpeedFit(replace(base, theta0=fit.theta), fit, tuple(keys), tuple(dropped))

@@ -197,23 +197,20 @@ def direction_test(table: AuditTable, *, n_folds: int = 5, seed: int = 0) -> Dir
     direction, held out over the audit's folds
     (:func:`~robot_wear_monitor.audit.directions.compare_directions`).
     """
-    from robot_wear_monitor.audit.directions import (compare_directions, direction_offset,
-                                                     PER_DIRECTION, with_direction_groups)
-    from robot_wear_monitor.audit.fitting import fit_model
+    from robot_wear_monitor.audit.directions import (compare_directions, PER_DIRECTION,
+                                                     with_direction_groups)
     grouped = with_direction_groups(table, None)
     assert grouped is not None, 'direction_test needs both directions'
     common = fit_speed_model(grouped, None)
     folds, _ = fold_indices(grouped, n_folds, seed)
     cv_now, _ = cv_rms(common.base, grouped, [], common.fit.theta, folds, nonnegative=True)
-    verdict = compare_directions(grouped, base=common.base, fit=common.fit, terms=(),
+    verdict = compare_directions(grouped, group=None, fit=common.fit, terms=(),
                                  cv_now=cv_now, folds=folds, n_common_groups=1,
                                  level=DIRECTION_ALPHA, min_gain=DIRECTION_MIN_GAIN)
     offset = 0.0
-    term = direction_offset(grouped)
-    if verdict.preferred == term.name:
-        fit = fit_model(common.base, grouped, [term], common.fit.theta, max_nfev=200,
-                        nonnegative=True)
-        offset = float(fit.coef[-1])
+    if verdict.offset is not None and verdict.offset_fit is not None and \
+            verdict.preferred == verdict.offset.name:
+        offset = float(verdict.offset_fit.fit.coef[-1])
     p_value = 10.0 ** verdict.trial.log10_p if math.isfinite(verdict.trial.log10_p) \
         else math.nan
     held_out = dict(verdict.rivals)
