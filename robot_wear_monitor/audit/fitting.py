@@ -87,6 +87,9 @@ class Base:
     bounds_for: Callable[[AuditTable], tuple] | None = None
     #: groups whose Stribeck term is left out (model (4): the data do not support it, BIC)
     dropped: tuple[str, ...] = ()
+    #: the columns of the model with every term (the left-out ones too), for the candidate
+    #: tests: structure the model's own shapes explain is no candidate effect (None: columns)
+    span_columns: Callable[[FloatArray, AuditTable], FloatArray] | None = None
 
     def bounds(self, table: AuditTable) -> tuple[FloatArray, FloatArray]:
         """Bounds of theta for fitting ``table`` (they may depend on its speeds)."""
@@ -110,7 +113,7 @@ def speed_base(table: AuditTable, group: str | None,
     vmin, vmax = np.exp(lower[0::2]), np.exp(upper[0::2]) / 5.0
     theta0 = np.column_stack([np.log(np.sqrt(vmin * vmax)), np.full(g, 1.36)]).ravel()
 
-    def columns(theta: FloatArray, data: AuditTable) -> FloatArray:
+    def all_columns(theta: FloatArray, data: AuditTable, kept: NDArray) -> FloatArray:
         _, c = group_codes(data, group, keys)
         speed = data.numeric['speed']
         out = np.zeros((len(speed), 3 * g))
@@ -118,9 +121,15 @@ def speed_base(table: AuditTable, group: str | None,
         alpha = theta[1::2][c]
         rows = np.arange(len(speed))
         out[rows, 3 * c] = 1.0
-        out[rows, 3 * c + 1] = _decay(speed, phi, alpha) * stribeck[c]
+        out[rows, 3 * c + 1] = _decay(speed, phi, alpha) * kept[c]
         out[rows, 3 * c + 2] = speed
         return out
+
+    def columns(theta: FloatArray, data: AuditTable) -> FloatArray:
+        return all_columns(theta, data, stribeck)
+
+    def span_columns(theta: FloatArray, data: AuditTable) -> FloatArray:
+        return all_columns(theta, data, np.ones(g))
 
     def describe(theta: FloatArray, coef: FloatArray) -> dict:
         result = {}
@@ -140,7 +149,7 @@ def speed_base(table: AuditTable, group: str | None,
 
     start = _speed_start(table, codes, g, theta0, lower, upper)
     return Base('speed', start, lower, upper, columns, describe, decays, bounds,
-                tuple(k for k in keys if k in without_stribeck))
+                tuple(k for k in keys if k in without_stribeck), span_columns)
 
 
 def _speed_bounds(table: AuditTable, group: str | None,

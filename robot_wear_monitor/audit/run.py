@@ -484,8 +484,10 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
     error; the most significant other candidate is chosen.
     """
     x0 = design_matrix(base, fit.theta, table, terms)
+    # the model's own shapes: a Stribeck term left out (BIC) is still the model's, not an effect
+    own = [] if base.span_columns is None else [base.span_columns(fit.theta, table)]
     # the linearised model: its columns and its Jacobian in the nonlinear parameters
-    q0 = orthonormal(np.column_stack([x0, _theta_jacobian(base, table, terms, fit)]))
+    q0 = orthonormal(np.column_stack([x0, *own, _theta_jacobian(base, table, terms, fit)]))
     by_name = {v.name: v for v in variables}
     # from the second effect on, experiment-level structure left by the effects already added
     # counts with the experiments' scatter, not as independent levels (see Tester); so do

@@ -13,9 +13,10 @@ import argparse
 import math
 from typing import Any
 
-from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
-                                            level_source_scales, parse_float_list, PROG,
-                                            write_levels_out)
+from robot_wear_monitor.cli.options import (add_configuration_column, add_friction_unit,
+                                            add_json, add_level_source, emit_json, FINITE,
+                                            friction_unit, level_source_scales,
+                                            parse_float_list, PROG, write_levels_out)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.yaml_files import shorten
 
@@ -70,10 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--speed-only on levels of several joints (a 'joint' column): "
                              'fit them as one joint (default: refused; select one with '
                              '--joint NAME)')
-    parser.add_argument('--friction-unit', metavar='UNIT',
-                        help='the unit of the levels (and of their load), stated in the set '
-                             '(default: N.m for raw runs read with torque scale 1, else '
-                             'normalised)')
+    add_friction_unit(parser)
+    add_configuration_column(parser)
     parser.add_argument('--load-mean', type=FINITE, metavar='MU',
                         help="mean of the load estimate of eq. (14) in the load's unit "
                              "(default: the baseline's load column)")
@@ -137,6 +136,13 @@ def main(args: argparse.Namespace) -> int:
             standstill_speed_rad_s=args.standstill_speed)
 
     if args.speed_only:
+        if args.plots:
+            raise InputError('--plots draws the residual figures of model (5); with '
+                             "--speed-only give them from the audit's fit of model (4), the "
+                             f'same fit: {PROG} audit BASELINE --plots DIR')
+        if args.configuration_column:
+            raise InputError('--configuration-column splits the load estimate of a set of '
+                             'model (5); --speed-only identifies no load')
         return _speed_only(args, from_params, gear_ratio, torque_scale)
     try:
         baseline = levels(args.baseline, 'BASELINE')
@@ -256,30 +262,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
 
 
 def _friction_unit(args: argparse.Namespace, torque_scale: float, *, note: bool = True) -> str:
-    """
-    Return the friction unit of the levels: ``--friction-unit``, else what the input says.
-
-    ``note``: print on stderr that a level table's unit was not stated (else the summary says
-    it).
-    """
-    from pathlib import Path
-
-    from robot_wear_monitor.audit.data import is_bag
-    if args.friction_unit:
-        unit = args.friction_unit.strip()
-        if not unit or len(unit) > 40 or not unit.isprintable():
-            raise InputError(f'--friction-unit: a short unit such as A or N.m, got '
-                             f'{shorten(repr(args.friction_unit))}')
-        return unit
-    source = Path(args.baseline)
-    raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
-    unit = 'N.m' if raw and torque_scale == 1.0 else 'normalised'
-    if not raw and note:  # a level table does not say its unit
-        import sys
-        print(f'{PROG} identify: note: the friction unit of {shorten(str(args.baseline))} is '
-              f'not stated; the set says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
-              file=sys.stderr)
-    return unit
+    """Return the friction unit of the baseline (:func:`~.options.friction_unit`)."""
+    return friction_unit(args, args.baseline, torque_scale, command='identify', note=note)
 
 
 def _one_joint(table: Any, *, joint: str | None, pool: bool) -> Any:
