@@ -70,7 +70,7 @@ def main(args: argparse.Namespace) -> int:
                             torque_scale=torque_scale)
     levels_out = write_levels_out(args, [table])
     unit = friction_unit(args, args.data, torque_scale, command='audit',
-                         note=not args.json)
+                         note=not args.json, holder='the report')
     group = args.group
     if group is None and args.model == 'speed' and 'joint' in table.text:
         group = 'joint'

@@ -395,12 +395,12 @@ def add_friction_unit(parser: argparse.ArgumentParser) -> None:
 
 
 def friction_unit(args: argparse.Namespace, source: str, torque_scale: float, *,
-                  command: str, note: bool = True) -> str:
+                  command: str, note: bool = True, holder: str = 'the set') -> str:
     """
     Return the friction unit of the levels read from ``source``: ``--friction-unit``, else.
 
     N.m for raw runs (a folder, ``.csv.gz``) with torque scale 1, else 'normalised'; ``note``
-    prints on stderr that a level table's unit was not stated.
+    prints on stderr that a level table's unit was not stated (and what ``holder`` says).
     """
     from pathlib import Path
 
@@ -418,7 +418,7 @@ def friction_unit(args: argparse.Namespace, source: str, torque_scale: float, *,
     if not raw and note:  # a level table does not say its unit
         import sys
         print(f'{PROG} {command}: note: the friction unit of {shorten(str(source))} is not '
-              f'stated; the report says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
+              f'stated; {holder} says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
               file=sys.stderr)
     return unit
 
