@@ -118,6 +118,9 @@ def main(args: argparse.Namespace) -> int:
                  else '--speed-only')
         raise InputError(f'--no-wear-model writes a set without a wear model: {given} '
                          'contradicts it (give one or the other)')
+    if args.configuration_column and args.load_mean is not None:
+        raise InputError("--configuration-column takes each configuration's load estimate "
+                         'from its levels; --load-mean gives one for all: give one or the other')
     if (args.load_mean is None) != (args.load_std is None):
         raise InputError('--load-mean and --load-std go together (the load estimate '
                          'N(mu, sigma^2) of eq. (14))')
@@ -164,7 +167,11 @@ def main(args: argparse.Namespace) -> int:
                       load_prior=(None if args.load_mean is None else
                                   (args.load_mean, args.load_std)),
                       borrowed_wear=('none' if args.no_wear_model else
-                                     args.borrowed_wear or 'scaled'))
+                                     args.borrowed_wear or 'scaled'),
+                      configuration_column=args.configuration_column)
+    configured: list = []
+    if args.configuration_column:
+        result, configured = _column_sets(result, baseline, args.configuration_column)
     loaded = write_identified_parameter_set(args.out, result)
     report = result.to_dict()
     report['out'] = str(args.out)
@@ -179,8 +186,10 @@ def main(args: argparse.Namespace) -> int:
         from robot_wear_monitor.audit.identification import for_configuration
         out = Path(args.out)
         for index in range(len(configurations)):
-            path = out.with_name(f'{out.stem}_load{index + 1}{out.suffix or ".yaml"}')
-            written = write_identified_parameter_set(path, for_configuration(result, index))
+            label = configurations[index].get('label') or f'load{index + 1}'
+            path = out.with_name(f'{out.stem}_{label}{out.suffix or ".yaml"}')
+            written = write_identified_parameter_set(
+                path, configured[index] if configured else for_configuration(result, index))
             per_configuration.append({'out': str(path), 'name': written.name,
                                       **configurations[index]})
     report['configuration_sets'] = per_configuration
@@ -195,15 +204,42 @@ def main(args: argparse.Namespace) -> int:
               "says 'normalised' (give --friction-unit UNIT, e.g. A or N.m)")
     print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
     for entry in per_configuration:
-        print(f"parameter set {entry['name']!r} for loads {entry['low']:.4g}-"
+        which = (f"{entry['column']} = {entry['value']}, " if 'column' in entry else '')
+        print(f"parameter set {entry['name']!r} for {which}loads {entry['low']:.4g}-"
               f"{entry['high']:.4g} (load estimate {entry['mean']:.4g} +- {entry['std']:.4g}) "
               f"written to {entry['out']}")
-    if per_configuration:
+    if per_configuration and args.configuration_column:
+        print(f'{args.out}: ' + str(result.extra.get('pooled_note', '')).replace('\n', '\n  '))
+    elif per_configuration:
         print(f'the load column has {len(per_configuration)} configurations: {args.out} holds '
               'the load estimate over both (for a monitor that does not know its payload); '
               'monitor each configuration with its own set (a tighter load estimate: '
               'docs/identify.md)')
     return 0
+
+
+def _column_sets(result: Any, baseline: Any, column: str) -> tuple[Any, list]:
+    """
+    Return (the pooled result with its header note, the configurations' results).
+
+    The note says the pooled set is for a monitor that does not know its configuration and
+    what that costs on these levels (the held-out check of
+    :func:`~robot_wear_monitor.audit.configurations.temperature_cost`).
+    """
+    from dataclasses import replace
+
+    from robot_wear_monitor.audit.configurations import pooled_header, temperature_cost
+    from robot_wear_monitor.audit.identification import for_configuration
+    configurations = result.extra.get('load_configurations') or []
+    configured = [for_configuration(result, i) for i in range(len(configurations))]
+    cost = temperature_cost(table=baseline, residual=result.nominal.residual,
+                            held_out_residual=result.nominal.held_out_residual,
+                            pooled=result.params, sets=[c.params for c in configured],
+                            column=column)
+    extra = {**result.extra, 'pooled_note': pooled_header(cost, column),
+             'configuration_cost': cost}
+    return replace(result, extra=extra), [replace(c, extra={**c.extra, 'configuration_cost':
+                                                            cost}) for c in configured]
 
 
 def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float,

@@ -114,11 +114,14 @@ def test_one_way_runs_with_a_known_torque_fit_sanely_in_both_sign_conventions(tm
     report = json.loads(capsys.readouterr().out)
     # the truth is one model (4) and an offset of 0.3 N.m in the negative direction: the
     # one-parameter offset predicts held-out levels better than model (4) per direction
-    assert [e['candidate'] for e in report['effects']] == ['offset per direction']
+    # (the step's own candidate may name it, e.g. as a Coulomb-like offset per direction)
+    assert len(report['effects']) == 1
+    assert report['effects'][0]['name'].startswith('offset per direction')
     tried = [s for s in report['steps'] if s.get('tried') == 'model (4) per direction']
-    assert tried[0]['preferred'] == 'offset per direction'
+    assert tried[0]['preferred'].startswith('offset per direction')
+    assert tried[0]['decision'].startswith('rejected')
     held = tried[0]['held_out_of_simpler']
-    assert held['offset per direction'] < tried[0]['rms_cv_with_term']
+    assert held['offset per direction'] < 0.2 * tried[0]['rms_cv_with_term']
     fitted = report['parameters_after']['all']
     assert fitted['F_c'] == pytest.approx(1.2, abs=0.05)
     assert fitted['F_v'] == pytest.approx(0.8, abs=0.08)
