@@ -117,8 +117,8 @@ def temperature_cost(*, table: AuditTable, residual: np.ndarray, held_out_residu
         measured = float(table.numeric['temperature'][rows].mean())
         for kind, params in (('pooled', pooled), ('configuration', own)):
             try:
-                t_hat = float(estimate_wear(speeds, friction, params=params)
-                              .estimates[0].temperature_degc)
+                t_hat = float(estimate_wear(speeds, friction,
+                                            params=params).temperature_degc[0])
             except InputError:
                 continue
             errors[kind].append(t_hat - measured)

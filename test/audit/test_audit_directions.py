@@ -123,7 +123,8 @@ def test_one_way_runs_with_a_known_torque_fit_sanely_in_both_sign_conventions(tm
     held = tried[0]['held_out_of_simpler']
     assert held['offset per direction'] < 0.2 * tried[0]['rms_cv_with_term']
     fitted = report['parameters_after']['all']
-    assert fitted['F_c'] == pytest.approx(1.2, abs=0.05)
+    # F_c is the level of the direction the offset is measured from (1.2 or 1.2 + 0.3)
+    assert min(abs(fitted['F_c'] - 1.2), abs(fitted['F_c'] - 1.5)) < 0.05, fitted
     assert fitted['F_v'] == pytest.approx(0.8, abs=0.08)
     assert fitted['F_s'] > 0
     assert not report['parameter_flags'] and not report['impossible_values']
