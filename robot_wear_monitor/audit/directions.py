@@ -139,6 +139,9 @@ class DirectionVerdict:
     :ivar offset: the offset term (one per direction and group).
     :ivar offset_fit: the common model with the terms and the offset.
     :ivar offset_held_out: its held-out residual per level.
+    :ivar direction_verdict: the candidate preferred among the direction terms alone (the
+        common model, one offset per direction, model (4) per direction), as ``identify
+        --speed-only`` decides; ``preferred`` also weighs the ``rivals``.
 
     """
 
@@ -150,6 +153,7 @@ class DirectionVerdict:
     offset: Term | None = None
     offset_fit: SpeedFit | None = None
     offset_held_out: FloatArray | None = None
+    direction_verdict: str = ''
 
     @property
     def per_direction(self) -> bool:
@@ -183,23 +187,29 @@ def compare_directions(table: AuditTable, *, group: str | None, fit: Fit, terms:
     offset_cv, offset_held = cv_rms(offset_fit.base, table, list(terms) + [offset],
                                     offset_fit.fit.theta, folds, nonnegative=True)
     simpler = {WITHOUT_DIRECTIONS: cv_now, offset.name: offset_cv, **(rivals or {})}
-    best_name = min(simpler, key=lambda k: simpler[k])
     significant = math.isfinite(trial.log10_p) and trial.log10_p <= math.log10(level)
+    preferred, reason = _decide(trial, simpler, significant, cv_now, level, min_gain)
+    direction_terms = {k: simpler[k] for k in (WITHOUT_DIRECTIONS, offset.name)}
+    verdict, _ = _decide(trial, direction_terms, significant, cv_now, level, min_gain)
+    return DirectionVerdict(trial, bool(significant), simpler, preferred, reason, offset,
+                            offset_fit, offset_held, verdict)
+
+
+def _decide(trial: DirectionTrial, simpler: dict, significant: bool, cv_now: float,
+            level: float, min_gain: float) -> tuple[str, str]:
+    """Return (the candidate preferred, why) among the per-direction model and ``simpler``."""
+    best_name = min(simpler, key=lambda k: simpler[k])
     beats = trial.cv <= (1.0 - min_gain) * simpler[best_name]
     if significant and beats:
-        preferred = PER_DIRECTION
-        reason = (f'{PER_DIRECTION}: held-out error {trial.cv:.4g} below the simpler '
-                  f"candidates' (best: {best_name}, {simpler[best_name]:.4g}; F-test "
-                  f'log10 p {trial.log10_p:.1f})')
-    else:
-        if best_name != WITHOUT_DIRECTIONS and not (
-                simpler[best_name] <= (1.0 - min_gain) * cv_now):
-            best_name = WITHOUT_DIRECTIONS
-        preferred = best_name
-        why = (f'held-out error {trial.cv:.4g} is not {min_gain:.0%} below '
-               f'{simpler[best_name]:.4g} of {best_name}' if significant and not beats else
-               f'the directions do not differ significantly (F = {trial.f_statistic:.3g}, '
-               f'log10 p {trial.log10_p:.1f} > log10 {level:g})')
-        reason = f'{best_name} preferred to {PER_DIRECTION}: {why}'
-    return DirectionVerdict(trial, bool(significant), simpler, preferred, reason, offset,
-                            offset_fit, offset_held)
+        return PER_DIRECTION, (f'{PER_DIRECTION}: held-out error {trial.cv:.4g} below the '
+                               f"simpler candidates' (best: {best_name}, "
+                               f'{simpler[best_name]:.4g}; F-test log10 p '
+                               f'{trial.log10_p:.1f})')
+    if best_name != WITHOUT_DIRECTIONS and not (
+            simpler[best_name] <= (1.0 - min_gain) * cv_now):
+        best_name = WITHOUT_DIRECTIONS
+    why = (f'held-out error {trial.cv:.4g} is not {min_gain:.0%} below '
+           f'{simpler[best_name]:.4g} of {best_name}' if significant and not beats else
+           f'the directions do not differ significantly (F = {trial.f_statistic:.3g}, '
+           f'log10 p {trial.log10_p:.1f} > log10 {level:g})')
+    return best_name, f'{best_name} preferred to {PER_DIRECTION}: {why}'

@@ -117,6 +117,8 @@ class AuditResult:
     :ivar lack_of_fit: the final model against the pure error of replicated conditions (repeated
         runs at the same speed and direction), None without replicates.
     :ivar rms_by_group: group -> (held-out RMS error before, after) when fitted per ``group``.
+    :ivar stribeck_dropped: the groups whose Stribeck term the fit before any effect left out
+        (BIC), as ``identify --speed-only`` does.
     :ivar friction_unit: the unit of the levels (``audit --friction-unit`` or what the input
         says); '' when not known (the summary then describes the table's unit).
 
@@ -149,6 +151,7 @@ class AuditResult:
     lack_of_fit: LackOfFit | None = None
     rms_by_group: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     friction_unit: str = ''
+    stribeck_dropped: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
@@ -171,7 +174,8 @@ class AuditResult:
             'lack_of_fit': None if self.lack_of_fit is None else self.lack_of_fit.to_dict(),
             'offline_variables': [{'variable': k, 'default': v, 'how': how}
                                   for k, (v, how) in self.offline.items()],
-            'friction_unit': self.friction_unit or None})
+            'friction_unit': self.friction_unit or None,
+            'stribeck_dropped_before': list(self.stribeck_dropped)})
 
     def _added_terms(self) -> dict | None:
         if self.extended_params is None or self.extended_params.model.extension is None:

@@ -252,7 +252,8 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         parameter_flags=speed_parameter_flags(base, fit.theta, fit.coef, table)
         if model == 'speed' else tuple(flag_text(v, False) for v in impossible),
         impossible_values=tuple(impossible), lack_of_fit=replicates,
-        rms_by_group=_rms_by_group(table, group, held_before, held_now))
+        rms_by_group=_rms_by_group(table, group, held_before, held_now),
+        stribeck_dropped=base_before.dropped)
 
 
 def _per_direction_step(table: AuditTable, fit: Fit, terms: Sequence[Term], cv_now: float,
@@ -290,7 +291,8 @@ def _per_direction_step(table: AuditTable, fit: Fit, terms: Sequence[Term], cv_n
                          10.0 ** trial.log10_p if math.isfinite(trial.log10_p) else None,
                          'df': 5 * n_common}],
                   rms_cv_with_term=trial.cv, f_statistic=trial.f_statistic,
-                  held_out_of_simpler=dict(verdict.rivals), preferred=verdict.preferred)
+                  held_out_of_simpler=dict(verdict.rivals), preferred=verdict.preferred,
+                  direction_verdict=verdict.direction_verdict)
     offset = verdict.offset
     if offset is not None and verdict.offset_fit is not None and \
             verdict.offset_held_out is not None and verdict.preferred == offset.name:
