@@ -33,6 +33,10 @@ def test_the_per_direction_model_brings_the_held_out_error_within_twice_the_pure
     result = run_audit(table=table, model='speed', group='joint', estimate=False)
     assert result.effects[0].candidate == 'model (4) per direction', result.summary()
     assert result.effects[0].log10_p < -7  # the directions differ (p < 1e-7)
+    # and it earned its place held out against one offset per direction
+    tried = next(s for s in result.steps if s.get('tried') == 'model (4) per direction')
+    assert tried['rms_cv_with_term'] < 0.99 * tried['held_out_of_simpler'][
+        'offset per direction'], tried
     for joint in ('1', '2'):
         before, after = result.rms_by_group[joint]
         pure = _pure_error(table, joint)
