@@ -63,7 +63,8 @@ def column_configurations(table: AuditTable, column: str) -> list[dict[str, Any]
         raise InputError(f'{table.source}: --configuration-column {shorten(column)} has one '
                          f'value ({shorten(keys[0] if keys else "")}): one configuration, '
                          'nothing to split')
-    out, labels = [], {}
+    out: list[dict[str, Any]] = []
+    labels: dict[str, str] = {}
     for key in keys:
         label = configuration_label(key)
         if label in labels:

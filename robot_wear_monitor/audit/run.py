@@ -380,7 +380,7 @@ def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
                     shown = math.exp(bound) if name == 'phi_s' else bound
                     flags.append(f'{name}{where} = {values[name]:.4g} sits on its {side} bound '
                                  f'{shown:.4g}: not identified by these speeds')
-        amplitudes = ('F_c', 'F_s', 'F_v')
+        amplitudes: tuple[str, ...] = ('F_c', 'F_s', 'F_v')
         if key in base.dropped:
             flags.append(f'Stribeck term{where} not supported by the data (BIC): left out, '
                          'F_s = 0, phi_s and alpha undetermined')
@@ -487,9 +487,9 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
     """
     x0 = design_matrix(base, fit.theta, table, terms)
     # the model's own shapes: a Stribeck term left out (BIC) is still the model's, not an effect
-    own = [] if base.span_columns is None else [base.span_columns(fit.theta, table)]
+    shapes = [] if base.span_columns is None else [base.span_columns(fit.theta, table)]
     # the linearised model: its columns and its Jacobian in the nonlinear parameters
-    q0 = orthonormal(np.column_stack([x0, *own, _theta_jacobian(base, table, terms, fit)]))
+    q0 = orthonormal(np.column_stack([x0, *shapes, _theta_jacobian(base, table, terms, fit)]))
     by_name = {v.name: v for v in variables}
     # from the second effect on, experiment-level structure left by the effects already added
     # counts with the experiments' scatter, not as independent levels (see Tester); so do
