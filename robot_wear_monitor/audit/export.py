@@ -155,9 +155,11 @@ def parameter_set_yaml(result: Identification) -> str:
            f'load {n.load_range[0]:.4g}-{n.load_range[1]:.4g}); +- are standard errors.',
            f'# Held-out error of (5) [mu, sigma] = [{n.held_out_mean:.3e}, '
            f'{n.held_out_std:.3e}] {unit_text} ({n.folds}).',
-           f'# {units}; speeds are motor side in rad/s; temperatures in degC.',
-           f'name: {json.dumps(params.name)}', '', '# Nominal friction, eq. (5), identified.',
-           'nominal_model:']
+           f'# {units}; speeds are motor side in rad/s; temperatures in degC.']
+    if result.extra.get('pooled_note') and not result.extra.get('configuration'):
+        out += ['# ' + text for text in str(result.extra['pooled_note']).splitlines()]
+    out += [f'name: {json.dumps(params.name)}', '', '# Nominal friction, eq. (5), identified.',
+            'nominal_model:']
     out += [model_line(k) for k in NOMINAL_PARAMETERS]
     out.append('')
     scaling = result.extra.get('wear_model_scaling')

@@ -84,6 +84,11 @@ class Base:
     describe: Callable[[FloatArray, FloatArray], dict]
     decays: Callable[[FloatArray, AuditTable], dict]
     bounds_for: Callable[[AuditTable], tuple] | None = None
+    #: groups whose Stribeck term is left out (model (4): the data do not support it, BIC)
+    dropped: tuple[str, ...] = ()
+    #: the columns of the model with every term (the left-out ones too), for the candidate
+    #: tests: structure the model's own shapes explain is no candidate effect (None: columns)
+    span_columns: Callable[[FloatArray, AuditTable], FloatArray] | None = None
 
     def bounds(self, table: AuditTable) -> tuple[FloatArray, FloatArray]:
         """Bounds of theta for fitting ``table`` (they may depend on its speeds)."""
@@ -92,15 +97,22 @@ class Base:
         return self.bounds_for(table)
 
 
-def speed_base(table: AuditTable, group: str | None) -> Base:
-    """Model (4) per group: F_c + F_s exp(-|v/phi_s|^alpha) + F_v v; theta = (log phi, alpha)."""
+def speed_base(table: AuditTable, group: str | None,
+               without_stribeck: Sequence[str] = ()) -> Base:
+    """
+    Model (4) per group: F_c + F_s exp(-|v/phi_s|^alpha) + F_v v; theta = (log phi, alpha).
+
+    ``without_stribeck``: groups whose Stribeck term is left out (its column zero: F_s = 0,
+    their phi_s and alpha stay at the start, undetermined by the data).
+    """
     keys, codes = group_codes(table, group)
+    stribeck = np.array([key not in without_stribeck for key in keys], dtype=float)
     g = len(keys)
     lower, upper = _speed_bounds(table, group, keys)
     vmin, vmax = np.exp(lower[0::2]), np.exp(upper[0::2]) / 5.0
     theta0 = np.column_stack([np.log(np.sqrt(vmin * vmax)), np.full(g, 1.36)]).ravel()
 
-    def columns(theta: FloatArray, data: AuditTable) -> FloatArray:
+    def all_columns(theta: FloatArray, data: AuditTable, kept: NDArray) -> FloatArray:
         _, c = group_codes(data, group, keys)
         speed = data.numeric['speed']
         out = np.zeros((len(speed), 3 * g))
@@ -108,9 +120,15 @@ def speed_base(table: AuditTable, group: str | None) -> Base:
         alpha = theta[1::2][c]
         rows = np.arange(len(speed))
         out[rows, 3 * c] = 1.0
-        out[rows, 3 * c + 1] = _decay(speed, phi, alpha)
+        out[rows, 3 * c + 1] = _decay(speed, phi, alpha) * kept[c]
         out[rows, 3 * c + 2] = speed
         return out
+
+    def columns(theta: FloatArray, data: AuditTable) -> FloatArray:
+        return all_columns(theta, data, stribeck)
+
+    def span_columns(theta: FloatArray, data: AuditTable) -> FloatArray:
+        return all_columns(theta, data, np.ones(g))
 
     def describe(theta: FloatArray, coef: FloatArray) -> dict:
         result = {}
@@ -129,7 +147,8 @@ def speed_base(table: AuditTable, group: str | None) -> Base:
         return _speed_bounds(data, group, keys)
 
     start = _speed_start(table, codes, g, theta0, lower, upper)
-    return Base('speed', start, lower, upper, columns, describe, decays, bounds)
+    return Base('speed', start, lower, upper, columns, describe, decays, bounds,
+                tuple(k for k in keys if k in without_stribeck), span_columns)
 
 
 def _speed_bounds(table: AuditTable, group: str | None,
@@ -328,19 +347,35 @@ def _solve(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
     return coef / scale, q
 
 
-def _solve_nonnegative(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _solve_nonnegative(x: FloatArray, y: FloatArray,
+                       n_constrained: int | None = None) -> tuple[FloatArray, FloatArray]:
     """
-    Non-negative least squares (scaled columns); return (coefficients, span of the free ones).
+    Least squares with the first ``n_constrained`` amplitudes >= 0; the others free.
 
-    The span is an orthonormal basis of the columns whose coefficient is positive (the active
-    set), for Kaufman's projection.
+    Returns (coefficients, orthonormal span of the columns in use).  The free columns (the
+    terms an audit added to model (4)) are projected out, non-negative least squares on the
+    scaled constrained columns runs in their complement, and the free coefficients follow by
+    least squares.  The span is of the constrained columns whose coefficient is positive (the
+    active set) and the free columns, for Kaufman's projection.  ``n_constrained`` None: all.
     """
-    scale = np.linalg.norm(x, axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
-    coef, _ = optimize.nnls(x / scale, y, maxiter=50 * x.shape[1])
+    k = x.shape[1] if n_constrained is None else n_constrained
+    constrained, extra = x[:, :k], x[:, k:]
+    target, projected = y, constrained
+    q_extra = orthonormal(extra) if extra.shape[1] else np.zeros((len(y), 0))
+    if q_extra.shape[1]:
+        target = y - q_extra @ (q_extra.T @ y)
+        projected = constrained - q_extra @ (q_extra.T @ constrained)
+    scale = np.linalg.norm(projected, axis=0)
+    scale = np.where(scale > 1e-12 * max(float(scale.max(initial=0.0)), 1e-300), scale, 1.0)
+    coef, _ = optimize.nnls(projected / scale, target, maxiter=50 * max(k, 1))
     coef = coef / scale
     free = coef > 0
-    return coef, orthonormal(x[:, free]) if free.any() else np.zeros((len(y), 0))
+    out = coef
+    if extra.shape[1]:
+        rest, _ = _solve(extra, y - constrained @ coef)
+        out = np.concatenate([coef, rest])
+    used = np.column_stack([constrained[:, free], extra])
+    return out, orthonormal(used) if used.shape[1] else np.zeros((len(y), 0))
 
 
 def _anchor_weight(solved: tuple, y: FloatArray, lower: FloatArray,
@@ -372,7 +407,8 @@ def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray
 
     The Jacobian is Kaufman's approximation (I - P) dX/dtheta c of the projected residual,
     with dX/dtheta by finite differences of the (cheap) base columns.  ``nonnegative`` keeps
-    every amplitude >= 0 (non-negative least squares inside; model (4) of the paper).
+    every amplitude of ``base`` >= 0 (non-negative least squares inside; model (4) of the
+    paper); the amplitudes of the added ``terms`` stay free.
     """
     y = table.numeric['friction']
     fixed = [t.columns(table) for t in terms]
@@ -384,7 +420,7 @@ def fit_model(base: Base, table: AuditTable, terms: Sequence, theta0: FloatArray
         if key not in cache:
             cache.clear()
             x = np.column_stack([base.columns(theta, table)] + fixed)
-            coef, q = (_solve_nonnegative if nonnegative else _solve)(x, y)
+            coef, q = (_solve_nonnegative(x, y, n_base) if nonnegative else _solve(x, y))
             cache[key] = (x, coef, q)
         return cache[key]
 

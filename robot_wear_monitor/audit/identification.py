@@ -34,6 +34,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 from robot_wear_monitor.array_types import FloatArray
+from robot_wear_monitor.audit.configurations import column_configurations
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.export import parameter_set_yaml
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, fit_model, multistart_fit,
@@ -372,7 +373,8 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
              temperature_bounds_degc: tuple[float, float] | None = None,
              n_folds: int = 5, seed: int = 0, friction_unit: str = 'normalised',
              load_prior: tuple[float, float] | None = None,
-             borrowed_wear: str = 'scaled') -> Identification:
+             borrowed_wear: str = 'scaled',
+             configuration_column: str | None = None) -> Identification:
     """
     Identify a complete parameter set: model (5), optionally (7), sigma of (9b).
 
@@ -399,6 +401,10 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
         ``'reference'`` (taken as it stands; for a joint like the reference's, in its unit),
         ``'none'`` (no wear model: the set estimates T-hat only, w-hat not determined;
         ``not_identified`` holds ``wear``).
+    :param configuration_column: a column of the baseline naming its configurations (a
+        payload): ``extra['load_configurations']`` holds one per value
+        (:func:`~robot_wear_monitor.audit.configurations.column_configurations`) instead of
+        those of a gap in the load column.
 
     :return: The :class:`Identification`; ``params`` is validated like a loaded file.
 
@@ -415,6 +421,8 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
         raise InputError('--no-wear-model writes a set without a wear model; a wear test '
                          '(--wear-test) identifies one: give one or the other')
     reference = from_params.name
+    named = (column_configurations(baseline, configuration_column)
+             if configuration_column is not None else None)
     warnings = check_baseline(baseline)
     nominal = identify_nominal(table=baseline, start=from_params.model, n_folds=n_folds,
                                seed=seed)
@@ -461,7 +469,7 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
                         f'{0.5 * (t_lo + t_hi):g} degC')
         design_t = 0.5 * (t_lo + t_hi)
         provenance['temperature_degc'] = 'the middle of the temperature bounds'
-    clusters = load_clusters(baseline.numeric['load'])
+    clusters = load_clusters(baseline.numeric['load']) if named is None else ()
     if load_prior is not None:
         load_mean, load_std = load_prior
         provenance['load'] = 'given (--load-mean, --load-std)'
@@ -469,6 +477,10 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
         pooled = pooled_load_prior(baseline.numeric['load'])
         load_mean, load_std = pooled.mean, pooled.std
         provenance['load'] = "the baseline's load column: its mean and standard deviation"
+        if named is not None:
+            provenance['load'] += (f' over the {len(named)} configurations of column '
+                                   f'{configuration_column!r} (' + ', '.join(
+                                       c['value'] for c in named) + ')')
         if len(clusters) > 1:
             provenance['load'] += (
                 ' over both configurations of the load (' + ' and '.join(
@@ -531,7 +543,8 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
     params = ParameterSet(**fields_of_set)
     extra: dict[str, Any] = {'temperature_bounds_given': temperature_bounds_degc is not None,
                              'friction_unit': friction_unit,
-                             'load_configurations': [c.to_dict() for c in clusters],
+                             'load_configurations': (named if named is not None else
+                                                     [c.to_dict() for c in clusters]),
                              'wear_model_scaling': scaling.to_dict() if scaling else None}
     result = Identification(params=params, nominal=nominal, wear=wear, sigma=float(sigma),
                             sigma_rule=rule, from_params=from_params,
@@ -559,22 +572,33 @@ def _identified_text(p: Parameter, *, dropped: bool = False) -> str:
 
 def for_configuration(result: Identification, index: int) -> Identification:
     """
-    Return the identification's set for one load configuration (e.g. without the payload).
+    Return the identification's set for one configuration (e.g. without the payload).
 
     The model, sigma, bounds and the wear model (scaled once, at the pooled load) are the
-    same; the load estimate of eq. (14) is the configuration's mean and standard deviation
-    and the name gets ``_load<index + 1>``.  ``index`` counts the configurations of
-    ``result.extra['load_configurations']`` from the lightest.
+    same; the load estimate of eq. (14) is the configuration's mean and standard deviation.
+    A configuration named by a column (``identify --configuration-column``) also has its own
+    operating range and the name ``<name>_<label>``; one of a gap in the load column is named
+    ``<name>_load<index + 1>``.  ``index`` counts ``result.extra['load_configurations']``
+    (from the lightest load, or in the sorted order of the column's values).
     """
     configurations = result.extra.get('load_configurations') or []
     cluster = configurations[index]
-    name = f'{result.params.name}_load{index + 1}'
-    provenance = {**result.provenance, 'load': (
-        f"the baseline's load column, configuration {index + 1} of {len(configurations)} "
-        f"(loads {cluster['low']:.4g}-{cluster['high']:.4g}, {cluster['n_levels']} levels): its "
-        'mean and standard deviation')}
+    overrides: dict[str, Any] = {}
+    if 'label' in cluster:
+        name = f"{result.params.name}_{cluster['label']}"
+        where = (f"the baseline's load column where {cluster['column']} = {cluster['value']} "
+                 f"({cluster['n_levels']} levels, loads {cluster['low']:.4g}-"
+                 f"{cluster['high']:.4g}): its mean and standard deviation")
+        overrides = {k: float(cluster[k]) for k in ('speed_min_rad_s', 'speed_max_rad_s',
+                                                    'speed_separation_rad_s')}
+    else:
+        name = f'{result.params.name}_load{index + 1}'
+        where = (f"the baseline's load column, configuration {index + 1} of "
+                 f"{len(configurations)} (loads {cluster['low']:.4g}-{cluster['high']:.4g}, "
+                 f"{cluster['n_levels']} levels): its mean and standard deviation")
+    provenance = {**result.provenance, 'load': where}
     params = replace(result.params, name=name, load_mean=float(cluster['mean']),
-                     load_std=float(cluster['std']))
+                     load_std=float(cluster['std']), **overrides)
     candidate = replace(result, params=params, provenance=provenance,
                         extra={**result.extra, 'configuration': index + 1})
     import yaml

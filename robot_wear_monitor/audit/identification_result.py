@@ -305,8 +305,9 @@ class Identification:
                      f'{params.load_std:.4g} ({self.provenance.get("load", "")})')
         configurations = self.extra.get('load_configurations') or []
         if len(configurations) > 1:
-            lines.append('  the load column has ' + str(len(configurations)) +
-                         ' configurations: ' + '; '.join(
+            named = configurations[0].get('column')
+            lines.append((f'  column {named!r} names ' if named else '  the load column has ')
+                         + str(len(configurations)) + ' configurations: ' + '; '.join(
                              f"{c['low']:.3g}-{c['high']:.3g} (mean {c['mean']:.3g}, std "
                              f"{c['std']:.3g}, {c['n_levels']} levels)" for c in configurations))
         lines.append(f'operating range: speeds {params.speed_min_rad_s:.4g}-'

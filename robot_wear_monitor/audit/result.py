@@ -114,6 +114,10 @@ class AuditResult:
     :ivar lack_of_fit: the final model against the pure error of replicated conditions (repeated
         runs at the same speed and direction), None without replicates.
     :ivar rms_by_group: group -> (held-out RMS error before, after) when fitted per ``group``.
+    :ivar stribeck_dropped: the groups whose Stribeck term the fit before any effect left out
+        (BIC), as ``identify --speed-only`` does.
+    :ivar friction_unit: the unit of the levels (``audit --friction-unit`` or what the input
+        says); '' when not known (the summary then describes the table's unit).
 
     """
 
@@ -143,6 +147,8 @@ class AuditResult:
     impossible_values: tuple[Mapping[str, object], ...] = ()
     lack_of_fit: LackOfFit | None = None
     rms_by_group: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    friction_unit: str = ''
+    stribeck_dropped: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """Return the JSON report (valid JSON: no NaN or inf)."""
@@ -164,7 +170,9 @@ class AuditResult:
                              for k, (b, a) in self.rms_by_group.items()},
             'lack_of_fit': None if self.lack_of_fit is None else self.lack_of_fit.to_dict(),
             'offline_variables': [{'variable': k, 'default': v, 'how': how}
-                                  for k, (v, how) in self.offline.items()]})
+                                  for k, (v, how) in self.offline.items()],
+            'friction_unit': self.friction_unit or None,
+            'stribeck_dropped_before': list(self.stribeck_dropped)})
 
     def _added_terms(self) -> dict | None:
         if self.extended_params is None or self.extended_params.model.extension is None:
@@ -176,7 +184,8 @@ class AuditResult:
         lines = [f'audit of the {self.model} model on {self.n_levels} friction levels'
                  + (f' (identified per {self.group})' if self.group else ''),
                  f'  candidates: {", ".join(self.candidates) or "(none)"}',
-                 f"  friction unit [f]: the table's ({FRICTION_UNIT_NOTE})",
+                 (f'  friction unit [f]: {self.friction_unit}' if self.friction_unit else
+                  f"  friction unit [f]: the table's ({FRICTION_UNIT_NOTE})"),
                  f'  held-out RMS error before: {self.rms_before:.4g} [f]',
                  f'  held-out RMS error after:  {self.rms_after:.4g} [f]',
                  f'  noise floor: {self.noise_floor:.4g} [f] ({self.noise_floor_method})',
@@ -197,6 +206,8 @@ class AuditResult:
             for other in effect.confounded_with:
                 lines.append(f'    confounded with {other["candidate"]} (not added: no evidence '
                              f'of its own given this effect)')
+        lines += [f'  directions: {step["decision"]}' for step in self.steps
+                  if step.get('tried') == 'model (4) per direction' and 'preferred' in step]
         lines.append(f'  stopped: {self.stop_reason}')
         lines += _parameter_lines(self.parameters_after)
         lines += [f'  FLAG: {flag}' for flag in self.parameter_flags]

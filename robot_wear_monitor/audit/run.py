@@ -27,20 +27,20 @@ from robot_wear_monitor.audit.candidates import (candidate_columns, families, ma
                                                  with_experiment_order, with_position_window)
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.data import MODELS, REQUIRED_COLUMNS
-from robot_wear_monitor.audit.directions import (DIRECTION_GROUP, try_per_direction,
-                                                 with_direction_groups)
+from robot_wear_monitor.audit.directions import (compare_directions, DIRECTION_GROUP, f_test,
+                                                 PER_DIRECTION, with_direction_groups)
 from robot_wear_monitor.audit.estimates import estimate_changes
 from robot_wear_monitor.audit.export import (added_terms, base_model, extended_parameter_set,
                                              offline_defaults)
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, design_matrix, Fit,
-                                              fit_model, group_codes, nominal_base, orthonormal,
-                                              speed_base)
+                                              fit_model, group_codes, nominal_base, orthonormal)
 from robot_wear_monitor.audit.noise import lack_of_fit, noise_floor
 from robot_wear_monitor.audit.physical import flag_text, impossible_values
 from robot_wear_monitor.audit.result import AuditResult, Effect
 from robot_wear_monitor.audit.shapes import choose_shape, ShapeBuilder, Term
 from robot_wear_monitor.audit.significance import (benjamini_hochberg, confounded, periodic_scan,
                                                    sinusoid, Tester)
+from robot_wear_monitor.audit.speed_fit import fit_speed_model
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import Factor
@@ -98,8 +98,10 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     split = with_direction_groups(table, group) if model == 'speed' else None
     if split is not None:
         table = split
+    nonnegative = model == 'speed'  # model (4) in its domain: F_c, F_s, F_v >= 0
     if model == 'speed':
-        base = speed_base(table, group)
+        fitted = fit_speed_model(table, group)  # identify --speed-only's fitter
+        base = fitted.base
     else:
         assert params is not None  # loaded above for the models (5) and (8)
         base = nominal_base(table, params.model, model == 'complete')
@@ -111,14 +113,16 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     group_variable = make_variable(table, group) if group is not None else None
     folds, fold_text = fold_indices(table, n_folds, seed)
 
-    fit = fit_model(base, table, [], base.theta0)
+    fit = fitted.fit if model == 'speed' else fit_model(base, table, [], base.theta0)
     fit_before, base_before = fit, base
-    cv_before, held_before = cv_rms(base, table, [], fit.theta, folds)
+    cv_before, held_before = cv_rms(base, table, [], fit.theta, folds,
+                                    nonnegative=nonnegative)
     cv_now, held_now = cv_before, held_before
     terms: list[Term] = []
     effects: list[Effect] = []
     steps: list[dict] = []
     split_done = split is None
+    speed_group = group  # model (4) per this group (per direction once the split is taken)
     stop = 'maximum number of effects reached'
     # a replicate repeats the model's conditions (speed, its variables, the groups and the
     # categories); measurements made along the way (a time, a window centre) are no condition
@@ -136,13 +140,6 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
             stop = (f'the model explains the data to the replicate error (lack of fit '
                     f'p = {adequate.p_value:.2g} >= {fdr:g})')
             break
-        if not split_done:  # model (4) per direction: a candidate until it is taken
-            taken = _per_direction_step(table, base, fit, terms, cv_now, folds, group, fdr,
-                                        min_gain, effects, steps)
-            if taken is not None:
-                base, fit, cv_now, held_now = taken
-                split_done = True
-                continue
         rejected: list[str] = []
         accepted = None
         while len(rejected) < MAX_TRIES:
@@ -153,10 +150,12 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                 stop = step['report']['decision']
                 break
             trial_terms = terms + [step['term']]
-            trial_fit = fit_model(base, table, trial_terms, fit.theta)
+            trial_base, trial_fit = _refit(base, table, trial_terms, fit.theta, speed_group,
+                                           model == 'speed')
             cv_trial, held_trial = cv_rms(
-                base, table, _fold_terms(base, terms, step['term'], fit.theta),
-                trial_fit.theta, folds)
+                trial_base, table,
+                _fold_terms(trial_base, terms, step['term'], trial_fit.theta, nonnegative),
+                trial_fit.theta, folds, nonnegative=nonnegative)
             step['report']['rms_cv_with_term'] = cv_trial
             if cv_trial <= cv_now * (1.0 - min_gain):
                 accepted = step
@@ -166,6 +165,26 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
             rejected.append(step['report']['tried'])
             stop = (f'the {len(rejected)} most significant effect(s) do not lower the held-out '
                     'error')
+        if not split_done:  # model (4) per direction: a candidate until it is taken
+            rival = ({} if accepted is None else
+                     {accepted['report']['chosen']['term']: cv_trial})
+            taken = _per_direction_step(table, fit, terms, cv_now, folds, group, fdr,
+                                        min_gain, effects, steps, rival)
+            if taken is not None:
+                if accepted is not None:
+                    accepted['report']['decision'] = (
+                        f'not added: {taken[0]} predicts held-out levels better')
+                name, base, fit, cv_now, held_now, added = taken
+                terms = terms + list(added)
+                # after one offset per direction the per-direction model is no longer tried:
+                # the offset earned its place against it held out
+                split_done = True
+                if name == PER_DIRECTION:
+                    speed_group = DIRECTION_GROUP
+                continue
+            if accepted is not None:
+                steps[-1]['decision'] += (f'; {accepted["report"]["chosen"]["term"]} '
+                                          'added instead')
         if accepted is None:
             break
         step['report']['decision'] = 'added'
@@ -177,6 +196,7 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
                               step['report']['chosen']['candidate'],
                               tuple(step['report']['chosen']['confounded_with'])))
         terms, fit, cv_now, held_now = trial_terms, trial_fit, cv_trial, held_trial
+        base = trial_base
     n_params = (orthonormal(design_matrix(base, fit.theta, table, terms)).shape[1]
                 + len(base.theta0))
     floor_vars = ['speed'] + [c for c in REQUIRED_COLUMNS[model] if c not in
@@ -231,22 +251,26 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
         parameter_flags=speed_parameter_flags(base, fit.theta, fit.coef, table)
         if model == 'speed' else tuple(flag_text(v, False) for v in impossible),
         impossible_values=tuple(impossible), lack_of_fit=replicates,
-        rms_by_group=_rms_by_group(table, group, held_before, held_now))
+        rms_by_group=_rms_by_group(table, group, held_before, held_now),
+        stribeck_dropped=base_before.dropped)
 
 
-def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
-                        cv_now: float, folds: np.ndarray, group: str | None, fdr: float,
-                        min_gain: float, effects: list[Effect], steps: list[dict]
-                        ) -> tuple[Base, Fit, float, FloatArray] | None:
+def _per_direction_step(table: AuditTable, fit: Fit, terms: Sequence[Term], cv_now: float,
+                        folds: np.ndarray, group: str | None, fdr: float, min_gain: float,
+                        effects: list[Effect], steps: list[dict], rivals: dict
+                        ) -> tuple[str, Base, Fit, float, FloatArray, tuple] | None:
     """
-    Try model (4) per direction (``identify --speed-only``'s) as the step's first candidate.
+    Try model (4) per direction (``identify --speed-only``'s) against the simpler candidates.
 
     Taken when its F-test against the common model (with the effects added so far) is
-    significant at ``fdr`` and the held-out error comes down by ``min_gain``; the step and,
-    when taken, the effect are appended.  Returns the base, fit, held-out error and residual
-    to go on with, or None when it is not taken.
+    significant at ``fdr`` and its held-out error beats, by ``min_gain``, that of the common
+    model, of one offset per direction and of the step's own effect (``rivals``: name ->
+    held-out error), as :func:`~robot_wear_monitor.audit.directions.compare_directions` decides
+    for ``identify`` too.  When the offset per direction is preferred to both, it is added.
+    The step and the effect taken are appended.  Returns (what was taken, base, fit, held-out
+    error, held-out residual, the terms added), or None when neither is taken.
     """
-    key = 'model (4) per direction'
+    key = PER_DIRECTION
     labels = table.text[DIRECTION_GROUP]
     few = [f'{k}: {_distinct_speeds(table.numeric["speed"][labels == k])} distinct speeds'
            for k in sorted(set(labels.tolist()))
@@ -258,20 +282,38 @@ def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence
                               f'speeds per direction ({"; ".join(few)})')
         return None
     n_common = len(set(as_text(table, group).tolist())) if group is not None else 1
-    trial = try_per_direction(table, fit, n_common, folds, terms)
+    verdict = compare_directions(table, group=group, fit=fit, terms=terms, cv_now=cv_now,
+                                 folds=folds, n_common_groups=n_common, level=fdr,
+                                 min_gain=min_gain, rivals=rivals)
+    trial = verdict.trial
     report.update(best=[{'candidate': key, 'log10_p': trial.log10_p, 'q_value':
                          10.0 ** trial.log10_p if math.isfinite(trial.log10_p) else None,
                          'df': 5 * n_common}],
-                  rms_cv_with_term=trial.cv, f_statistic=trial.f_statistic)
-    if not trial.log10_p <= math.log10(fdr):
-        report['decision'] = (f'rejected: the directions do not differ (F = '
-                              f'{trial.f_statistic:.3g}, log10 p {trial.log10_p:.1f})')
+                  rms_cv_with_term=trial.cv, f_statistic=trial.f_statistic,
+                  held_out_of_simpler=dict(verdict.rivals), preferred=verdict.preferred,
+                  direction_verdict=verdict.direction_verdict)
+    offset = verdict.offset
+    if offset is not None and verdict.offset_fit is not None and \
+            verdict.offset_held_out is not None and verdict.preferred == offset.name:
+        report['decision'] = f'rejected: {verdict.reason}; {offset.name} added'
+        cv = verdict.rivals[offset.name]
+        change = verdict.offset_fit.fit.prediction - fit.prediction
+        offset_residual = verdict.offset_fit.fit.residual
+        _, p_value = f_test(float(fit.residual @ fit.residual),
+                            float(offset_residual @ offset_residual), table.n_rows, n_common,
+                            verdict.offset_fit.n_parameters + n_common)
+        effects.append(Effect(
+            name=offset.name, shape=offset.shape, variables=offset.variables, df=n_common,
+            log10_p=(math.log10(max(p_value, 1e-300)) if math.isfinite(p_value) else
+                     math.nan), rms_cv_before=cv_now, rms_cv_after=cv,
+            size_rms=float(np.sqrt(np.mean(change ** 2))),
+            size_range=float(change.max() - change.min()), info={}, candidate=offset.name))
+        return (offset.name, verdict.offset_fit.base, verdict.offset_fit.fit, cv,
+                verdict.offset_held_out, (offset,))
+    if not verdict.per_direction:
+        report['decision'] = f'rejected: {verdict.reason}'
         return None
-    if not trial.cv <= cv_now * (1.0 - min_gain):
-        report['decision'] = (f'rejected: held-out error {cv_now:.4g} -> {trial.cv:.4g} '
-                              f'(needs {min_gain:.0%} gain)')
-        return None
-    report['decision'] = 'accepted'
+    report['decision'] = f'accepted: {verdict.reason}'
     report['chosen'] = {'candidate': key, 'term': key, 'variables': ['speed', 'direction'],
                         'confounded_with': []}
     change = trial.fit.prediction - fit.prediction
@@ -282,7 +324,21 @@ def _per_direction_step(table: AuditTable, base: Base, fit: Fit, terms: Sequence
         size_rms=float(np.sqrt(np.mean(change ** 2))),
         size_range=float(change.max() - change.min()),
         info={'f_statistic': trial.f_statistic}, candidate=key))
-    return trial.base, trial.fit, trial.cv, trial.held_out
+    return key, trial.base, trial.fit, trial.cv, trial.held_out, ()
+
+
+def _refit(base: Base, table: AuditTable, terms: Sequence[Term], theta: FloatArray,
+           group: str | None, speed: bool) -> tuple[Base, Fit]:
+    """
+    Re-identify the model with ``terms``: (base, fit).
+
+    The speed model (4) per ``group`` by the shared fitter (its Stribeck terms decided again
+    by BIC with the terms, amplitudes >= 0); the models (5) and (8) from ``theta``.
+    """
+    if speed:
+        fitted = fit_speed_model(table, group, terms, theta)
+        return fitted.base, fitted.fit
+    return base, fit_model(base, table, terms, theta)
 
 
 def _rms_by_group(table: AuditTable, group: str | None, before: np.ndarray,
@@ -317,17 +373,25 @@ def speed_parameter_flags(base: Base, theta: np.ndarray, coef: np.ndarray,
     impossible = impossible_values('speed', described, table)
     for i, (key, values) in enumerate(described.items()):
         where = '' if len(described) == 1 else f' ({key})'
-        for k, name in ((2 * i, 'phi_s'), (2 * i + 1, 'alpha')):
+        for k, name in ((2 * i, 'phi_s'), (2 * i + 1, 'alpha')) * (key not in base.dropped):
             for bound, side in ((lower[k], 'lower'), (upper[k], 'upper')):
                 if abs(theta[k] - bound) <= 1e-6 * max(1.0, abs(bound)):
                     shown = math.exp(bound) if name == 'phi_s' else bound
                     flags.append(f'{name}{where} = {values[name]:.4g} sits on its {side} bound '
                                  f'{shown:.4g}: not identified by these speeds')
+        amplitudes: tuple[str, ...] = ('F_c', 'F_s', 'F_v')
+        if key in base.dropped:
+            flags.append(f'Stribeck term{where} not supported by the data (BIC): left out, '
+                         'F_s = 0, phi_s and alpha undetermined')
+            amplitudes = ('F_c', 'F_v')
         flags += [flag_text(v, len(described) > 1) for v in impossible if v['group'] == key]
+        flags += [f'{name}{where} = 0 sits on its bound ({name} >= 0): the data pull it '
+                  'below zero' for name in amplitudes if values[name] == 0]
     return tuple(flags)
 
 
-def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray):
+def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray,
+                nonnegative: bool = False):
     """
     Return the terms of a trial for cross-validation.
 
@@ -340,7 +404,7 @@ def _fold_terms(base: Base, terms: Sequence[Term], term: Term, theta: FloatArray
     name = term.variables[0]
 
     def for_training(train: AuditTable) -> list[Term]:
-        fit = fit_model(base, train, terms, theta, max_nfev=200)
+        fit = fit_model(base, train, terms, theta, max_nfev=200, nonnegative=nonnegative)
         q0 = orthonormal(design_matrix(base, fit.theta, train, terms))
         x = train.numeric[name]
         variable = make_variable(train, name)
@@ -421,8 +485,10 @@ def _step(table: AuditTable, base: Base, fit: Fit, terms: Sequence[Term],
     error; the most significant other candidate is chosen.
     """
     x0 = design_matrix(base, fit.theta, table, terms)
+    # the model's own shapes: a Stribeck term left out (BIC) is still the model's, not an effect
+    shapes = [] if base.span_columns is None else [base.span_columns(fit.theta, table)]
     # the linearised model: its columns and its Jacobian in the nonlinear parameters
-    q0 = orthonormal(np.column_stack([x0, _theta_jacobian(base, table, terms, fit)]))
+    q0 = orthonormal(np.column_stack([x0, *shapes, _theta_jacobian(base, table, terms, fit)]))
     by_name = {v.name: v for v in variables}
     # from the second effect on, experiment-level structure left by the effects already added
     # counts with the experiments' scatter, not as independent levels (see Tester); so do

@@ -9,9 +9,11 @@ and ``--json-out``.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
-from robot_wear_monitor.cli.options import (add_json, add_level_source, add_params, emit_json,
-                                            FINITE, level_source_scales, params_from, PROG,
+from robot_wear_monitor.cli.options import (add_friction_unit, add_json, add_level_source,
+                                            add_params, emit_json, FINITE, friction_unit,
+                                            level_source_scales, params_from, PROG,
                                             write_levels_out)
 from robot_wear_monitor.errors import InputError
 
@@ -41,6 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='write the parameter set extended by the added terms (YAML, '
                              'section added_terms; nominal and complete models) for estimate, '
                              'replay, design and the nodes (--params FILE)')
+    add_friction_unit(parser)
     add_level_source(parser)
 
 
@@ -66,6 +69,8 @@ def main(args: argparse.Namespace) -> int:
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale, config_file=args.config)
     levels_out = write_levels_out(args, [table])
+    unit = friction_unit(args, args.data, torque_scale, command='audit',
+                         note=not args.json, holder='the report')
     group = args.group
     if group is None and args.model == 'speed' and 'joint' in table.text:
         group = 'joint'
@@ -74,6 +79,7 @@ def main(args: argparse.Namespace) -> int:
     result = run_audit(table=table, model=args.model, params=params, group=group,
                        fdr=args.fdr, max_effects=args.max_effects, n_folds=args.folds,
                        estimate=bool(args.params))
+    result = replace(result, friction_unit=unit)
     report = result.to_dict()
     if args.model != 'speed' and not args.params:
         report['estimate_changes'] = {'applies': False, 'reason': NO_PARAMS}

@@ -24,14 +24,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``estimate``: print T-hat [degC] and w-hat with 95 % intervals and the alarm."""
+    from robot_wear_monitor.estimation.plausibility import UNIT_CAUSE
     from robot_wear_monitor.estimation.wear_report import wear_report
     params = params_from(args)
     if len(args.speeds) != len(args.friction):
         raise InputError(f'--speeds has {len(args.speeds)} values but --friction has '
                          f'{len(args.friction)}: give one friction level per speed')
     report = wear_report(speeds_rad_s=args.speeds, frictions=args.friction, params=params)
+    # levels in another unit than the set's are a user mistake: named, and exit 2 (the JSON
+    # and the text are still printed)
+    status = 2 if report.plausibility.likely_cause.startswith(UNIT_CAUSE) else 0
     if emit_json(args, report.to_dict()):
-        return 0
+        return status
     est, interval, wear_std = report.estimate, report.interval, report.wear_std
     t_note = ' (on a bound)' if est.temperature_at_bound else ''
     w_note = ' (on w = 0)' if est.wear_at_bound else ''
@@ -65,4 +69,4 @@ def main(args: argparse.Namespace) -> int:
         print(f'  {name:<20}{value}')
     if not report.plausibility.valid:
         print('INVALID: ' + report.plausibility.text())
-    return 0
+    return status

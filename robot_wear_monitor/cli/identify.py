@@ -13,8 +13,9 @@ import argparse
 import math
 from typing import Any
 
-from robot_wear_monitor.cli.options import (add_json, add_level_source, BAG_SCALE_DEFAULT,
-                                            emit_json, FINITE, level_source_scales,
+from robot_wear_monitor.cli.options import (add_configuration_column, add_friction_unit,
+                                            add_json, add_level_source, BAG_SCALE_DEFAULT,
+                                            emit_json, FINITE, friction_unit, level_source_scales,
                                             parse_float_list, PROG, write_levels_out)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import EXPERIMENT_GAPS_S
@@ -73,10 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--speed-only on levels of several joints (a 'joint' column): "
                              'fit them as one joint (default: refused; select one with '
                              '--joint NAME)')
-    parser.add_argument('--friction-unit', metavar='UNIT',
-                        help='the unit of the levels (and of their load), stated in the set '
-                             '(default: N.m for raw runs read with torque scale 1, else '
-                             'normalised)')
+    add_friction_unit(parser)
+    add_configuration_column(parser)
     parser.add_argument('--load-mean', type=FINITE, metavar='MU',
                         help="mean of the load estimate of eq. (14) in the load's unit "
                              "(default: the baseline's load column)")
@@ -123,6 +122,9 @@ def main(args: argparse.Namespace) -> int:
                  else '--speed-only')
         raise InputError(f'--no-wear-model writes a set without a wear model: {given} '
                          'contradicts it (give one or the other)')
+    if args.configuration_column and args.load_mean is not None:
+        raise InputError("--configuration-column takes each configuration's load estimate "
+                         'from its levels; --load-mean gives one for all: give one or the other')
     if (args.load_mean is None) != (args.load_std is None):
         raise InputError('--load-mean and --load-std go together (the load estimate '
                          'N(mu, sigma^2) of eq. (14))')
@@ -141,6 +143,13 @@ def main(args: argparse.Namespace) -> int:
             standstill_speed_rad_s=args.standstill_speed, config_file=args.config)
 
     if args.speed_only:
+        if args.plots:
+            raise InputError('--plots draws the residual figures of model (5); with '
+                             "--speed-only give them from the audit's fit of model (4), the "
+                             f'same fit: {PROG} audit BASELINE --plots DIR')
+        if args.configuration_column:
+            raise InputError('--configuration-column splits the load estimate of a set of '
+                             'model (5); --speed-only identifies no load')
         return _speed_only(args, from_params, gear_ratio, torque_scale)
     try:
         baseline = levels(args.baseline, 'BASELINE')
@@ -162,7 +171,11 @@ def main(args: argparse.Namespace) -> int:
                       load_prior=(None if args.load_mean is None else
                                   (args.load_mean, args.load_std)),
                       borrowed_wear=('none' if args.no_wear_model else
-                                     args.borrowed_wear or 'scaled'))
+                                     args.borrowed_wear or 'scaled'),
+                      configuration_column=args.configuration_column)
+    configured: list = []
+    if args.configuration_column:
+        result, configured = _column_sets(result, baseline, args.configuration_column)
     loaded = write_identified_parameter_set(args.out, result)
     report = result.to_dict()
     report['out'] = str(args.out)
@@ -177,8 +190,10 @@ def main(args: argparse.Namespace) -> int:
         from robot_wear_monitor.audit.identification import for_configuration
         out = Path(args.out)
         for index in range(len(configurations)):
-            path = out.with_name(f'{out.stem}_load{index + 1}{out.suffix or ".yaml"}')
-            written = write_identified_parameter_set(path, for_configuration(result, index))
+            label = configurations[index].get('label') or f'load{index + 1}'
+            path = out.with_name(f'{out.stem}_{label}{out.suffix or ".yaml"}')
+            written = write_identified_parameter_set(
+                path, configured[index] if configured else for_configuration(result, index))
             per_configuration.append({'out': str(path), 'name': written.name,
                                       **configurations[index]})
     report['configuration_sets'] = per_configuration
@@ -193,15 +208,42 @@ def main(args: argparse.Namespace) -> int:
               "says 'normalised' (give --friction-unit UNIT, e.g. A or N.m)")
     print(f'parameter set {loaded.name!r} written to {args.out} (loaded back and validated)')
     for entry in per_configuration:
-        print(f"parameter set {entry['name']!r} for loads {entry['low']:.4g}-"
+        which = (f"{entry['column']} = {entry['value']}, " if 'column' in entry else '')
+        print(f"parameter set {entry['name']!r} for {which}loads {entry['low']:.4g}-"
               f"{entry['high']:.4g} (load estimate {entry['mean']:.4g} +- {entry['std']:.4g}) "
               f"written to {entry['out']}")
-    if per_configuration:
+    if per_configuration and args.configuration_column:
+        print(f'{args.out}: ' + str(result.extra.get('pooled_note', '')).replace('\n', '\n  '))
+    elif per_configuration:
         print(f'the load column has {len(per_configuration)} configurations: {args.out} holds '
               'the load estimate over both (for a monitor that does not know its payload); '
               'monitor each configuration with its own set (a tighter load estimate: '
               'docs/identify.md)')
     return 0
+
+
+def _column_sets(result: Any, baseline: Any, column: str) -> tuple[Any, list]:
+    """
+    Return (the pooled result with its header note, the configurations' results).
+
+    The note says the pooled set is for a monitor that does not know its configuration and
+    what that costs on these levels (the held-out check of
+    :func:`~robot_wear_monitor.audit.configurations.temperature_cost`).
+    """
+    from dataclasses import replace
+
+    from robot_wear_monitor.audit.configurations import pooled_header, temperature_cost
+    from robot_wear_monitor.audit.identification import for_configuration
+    configurations = result.extra.get('load_configurations') or []
+    configured = [for_configuration(result, i) for i in range(len(configurations))]
+    cost = temperature_cost(table=baseline, residual=result.nominal.residual,
+                            held_out_residual=result.nominal.held_out_residual,
+                            pooled=result.params, sets=[c.params for c in configured],
+                            column=column)
+    extra = {**result.extra, 'pooled_note': pooled_header(cost, column),
+             'configuration_cost': cost}
+    return replace(result, extra=extra), [replace(c, extra={**c.extra, 'configuration_cost':
+                                                            cost}) for c in configured]
 
 
 def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float | None,
@@ -263,30 +305,8 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float | None,
 
 def _friction_unit(args: argparse.Namespace, torque_scale: float | None, *,
                    note: bool = True) -> str:
-    """
-    Return the friction unit of the levels: ``--friction-unit``, else what the input says.
-
-    ``note``: print on stderr that a level table's unit was not stated (else the summary says
-    it).
-    """
-    from pathlib import Path
-
-    from robot_wear_monitor.audit.data import is_bag
-    if args.friction_unit:
-        unit = args.friction_unit.strip()
-        if not unit or len(unit) > 40 or not unit.isprintable():
-            raise InputError(f'--friction-unit: a short unit such as A or N.m, got '
-                             f'{shorten(repr(args.friction_unit))}')
-        return unit
-    source = Path(args.baseline)
-    raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
-    unit = 'N.m' if raw and torque_scale in (None, 1.0) else 'normalised'
-    if not raw and note:  # a level table does not say its unit
-        import sys
-        print(f'{PROG} identify: note: the friction unit of {shorten(str(args.baseline))} is '
-              f'not stated; the set says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
-              file=sys.stderr)
-    return unit
+    """Return the friction unit of the baseline (:func:`~.options.friction_unit`)."""
+    return friction_unit(args, args.baseline, torque_scale, command='identify', note=note)
 
 
 def _one_joint(table: Any, *, joint: str | None, pool: bool) -> Any:

@@ -462,6 +462,54 @@ def add_level_source(parser: argparse.ArgumentParser, *,
                              'raw-run input (atomically)')
 
 
+def add_friction_unit(parser: argparse.ArgumentParser) -> None:
+    """Add ``--friction-unit`` (identify, audit): the unit of the levels, said in the output."""
+    parser.add_argument('--friction-unit', metavar='UNIT',
+                        help='the unit of the levels (and of their load), stated in the set and '
+                             'the report (default: N.m for raw runs read with torque scale 1, '
+                             'else normalised)')
+
+
+def friction_unit(args: argparse.Namespace, source: str, torque_scale: float | None, *,
+                  command: str, note: bool = True, holder: str = 'the set') -> str:
+    """
+    Return the friction unit of the levels read from ``source``: ``--friction-unit``, else.
+
+    N.m for raw runs (a folder, ``.csv.gz``) with torque scale 1 or none given, else
+    'normalised'; ``note`` prints on stderr that a level table's unit was not stated (and
+    what ``holder`` says).
+    """
+    from pathlib import Path
+
+    from robot_wear_monitor.audit.data import is_bag
+    from robot_wear_monitor.yaml_files import shorten
+    if getattr(args, 'friction_unit', None):
+        unit = args.friction_unit.strip()
+        if not unit or len(unit) > 40 or not unit.isprintable():
+            raise InputError(f'--friction-unit: a short unit such as A or N.m, got '
+                             f'{shorten(repr(args.friction_unit))}')
+        return unit
+    path = Path(source)
+    raw = not is_bag(path) and (path.is_dir() or path.name.endswith(('.csv.gz',)))
+    unit = 'N.m' if raw and torque_scale in (None, 1.0) else 'normalised'
+    if not raw and note:  # a level table does not say its unit
+        import sys
+        print(f'{PROG} {command}: note: the friction unit of {shorten(str(source))} is not '
+              f'stated; {holder} says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
+              file=sys.stderr)
+    return unit
+
+
+def add_configuration_column(parser: argparse.ArgumentParser) -> None:
+    """Add ``--configuration-column`` (identify): one set per configuration of the levels."""
+    parser.add_argument('--configuration-column', metavar='COLUMN',
+                        help='a column of the levels that names their configuration (e.g. '
+                             'payload): write one set per value beside --out '
+                             "(<out stem>_<value>.yaml, with that configuration's load "
+                             'estimate and operating range) besides the pooled --out '
+                             '(default: configurations split by a gap in the load column)')
+
+
 #: The help's default of ``--standstill-speed`` (the raw-run settings' threshold).
 RAW_STANDSTILL_DEFAULT = (f'(default {RAW_RUN_SETTINGS["standstill_speed_rad_s"]:g}, or 5 x the '
                           'speed noise of a run slower than that)')

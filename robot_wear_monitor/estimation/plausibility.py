@@ -21,8 +21,10 @@ estimate is used, :func:`check_levels` asks:
 Any failed check makes the estimate *invalid*: it is reported with the reasons, stored, and
 never used as evidence for or against an alarm.  When the failures fit a configuration mistake,
 the likely cause is named (:func:`likely_cause`): all speeds scaled by one factor (gear ratio),
-the levels fitting the model once multiplied by one factor (torque scale), equal levels at every
-speed where the model expects a spread (saturated torque), otherwise another joint or robot.
+the levels fitting the model once multiplied by one factor (torque scale), levels that vary with
+speed but are many times smaller or larger than the set's friction (another unit, e.g. N.m
+against a normalised set), equal levels at every speed where the model expects a spread
+(saturated torque), otherwise another joint or robot.
 """
 
 from __future__ import annotations
@@ -152,6 +154,25 @@ def _best_scale(speeds: np.ndarray, frictions: np.ndarray, params: ParameterSet
     return float(scales[best]), float(batch.p_value[best])
 
 
+#: Levels whose spread is within this fraction of their size are "equal" (saturated, stuck).
+EQUAL_LEVELS = 0.05
+#: Levels that vary with speed and are this many times smaller or larger than the set's
+#: friction are in another unit (a torque scale is not that far off).
+UNIT_FACTOR = 20.0
+#: The start of the likely cause that names a unit mistake.
+UNIT_CAUSE = 'the unit of the levels'
+
+
+def unit_mistake(ratio: float, friction_unit: str) -> str:
+    """Return the likely cause of levels ``ratio`` times the set's friction: another unit."""
+    size = (f'{1 / ratio:.3g} times smaller' if ratio < 1 else f'{ratio:.3g} times larger')
+    return (f'{UNIT_CAUSE}: they are about {size} than the friction of the parameter set '
+            f'(unit: {friction_unit}) at these speeds, and they vary with speed: levels in '
+            f"another unit (N.m, A) than the set's; give the levels in {friction_unit} (raw "
+            'torques: --torque-scale), or identify a set in their unit (identify '
+            '--friction-unit)')
+
+
 def likely_cause(*, speeds_rad_s: ArrayLike, frictions: ArrayLike, params: ParameterSet,
                  failed: Sequence[str], expected_speeds_rad_s: Sequence[float] = ()) -> str:
     """
@@ -173,6 +194,13 @@ def likely_cause(*, speeds_rad_s: ArrayLike, frictions: ArrayLike, params: Param
                  if factor is not None else '')
         return ('the gear ratio (--gear-ratio, node parameter gear_ratio): motor speed = joint '
                 f'velocity x gear ratio{ratio}')
+    model = np.asarray(friction(speeds, params.load_mean, params.design_temperature_degc,
+                                0.0, params.model), dtype=float)
+    level, expected = float(np.median(np.abs(values))), float(np.median(np.abs(model)))
+    equal = np.ptp(values) <= EQUAL_LEVELS * max(level, 1e-300)
+    if speeds.size >= 1 and not equal and level > 0 and expected > 0 and \
+            abs(math.log(level / expected)) > math.log(UNIT_FACTOR):
+        return unit_mistake(level / expected, params.friction_unit)
     if speeds.size >= 3:
         scale, p_value = _best_scale(speeds, values, params)
         if math.isfinite(scale) and p_value >= 0.01 and abs(math.log(scale)) > math.log(1.25):
@@ -180,9 +208,7 @@ def likely_cause(*, speeds_rad_s: ArrayLike, frictions: ArrayLike, params: Param
             return (f'the torque scale (--torque-scale, node parameter torque_scale): the levels '
                     f'x {scale:.3g} fit the model (p = {p_value:.2g}); the torque scale looks '
                     f'about {max(scale, 1 / scale):.2g} times too {direction}')
-    if speeds.size >= 3 and np.ptp(values) <= 2.0 * params.sigma:
-        model = np.asarray(friction(speeds, params.load_mean, params.design_temperature_degc,
-                                    0.0, params.model), dtype=float)
+    if speeds.size >= 3 and np.ptp(values) <= 2.0 * params.sigma and equal:
         if np.ptp(model) > 6.0 * params.sigma:
             return ('a saturated torque or a stuck torque signal: the levels are equal '
                     f'({_fmt(values)}) at every speed, where the model expects them to differ')

@@ -80,3 +80,22 @@ def test_bad_params_file_exits_2(capsys, tmp_path):
     assert main(['estimate', '--speeds', '35,40', '--friction', '0.06,0.05', '--params',
                  str(bad)]) == 2
     assert 'bad.yaml' in capsys.readouterr().err
+
+
+def test_levels_in_newton_metres_against_a_normalised_set_are_a_unit_mistake(capsys):
+    """Levels 36x smaller than the set's friction that vary by 20 %: not 'equal', a unit."""
+    from robot_wear_monitor.model.friction import friction
+    params = load_parameter_set()
+    speeds = [10.0, 30.0, 60.0, 100.0, 150.0]
+    levels = [float(f) / 36.0 for f in friction(speeds, params.load_mean, 40.0, 0.0,
+                                                params.model)]
+    argv = ['estimate', '--speeds', ','.join(map(str, speeds)), '--friction',
+            ','.join(f'{f:.6g}' for f in levels)]
+    assert main(argv + ['--json']) == 2  # a user mistake; the JSON is still printed
+    payload = json.loads(capsys.readouterr().out)
+    assert payload['valid'] is False
+    assert payload['likely_cause'].startswith('the unit of the levels')
+    assert 'times smaller' in payload['likely_cause'] and 'saturated' not in payload[
+        'likely_cause']
+    assert main(argv) == 2
+    assert 'likely cause: the unit of the levels' in capsys.readouterr().out

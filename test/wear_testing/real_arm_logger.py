@@ -83,6 +83,8 @@ class Session:
     :ivar time_constant_s: time constant of the heat-up [s].
     :ivar duration_s: length of the session [s].
     :ivar wear_fraction: relative friction increase at low speed from wear (0 = healthy).
+    :ivar gravity_scale: the gravity current's amplitude x this (another pose of the other
+        joints: the load column of one payload spreads over a wider range).
 
     """
 
@@ -92,6 +94,7 @@ class Session:
     time_constant_s: float = 2400.0
     duration_s: float = 3600.0
     wear_fraction: float = 0.0
+    gravity_scale: float = 1.0
 
 
 def temperature_degc(session: Session, t_s: np.ndarray) -> np.ndarray:
@@ -167,7 +170,8 @@ def log_session(session: Session, *, seed: int, visit_s: float = 30.0,
     log = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     q, dq = log['q_rad'], log.pop('dq_true')
     temperature = temperature_degc(session, log['t_s'])
-    gravity = (G_PAYLOAD if session.payload else G_EMPTY) * np.abs(np.cos(q))
+    gravity = ((G_PAYLOAD if session.payload else G_EMPTY) * session.gravity_scale
+               * np.abs(np.cos(q)))
     friction = friction_current(dq, temperature, gravity, q, offset=offset,
                                 wear_fraction=session.wear_fraction)
     # in a reversal the friction follows the speed's sign through zero (a smooth change)
@@ -239,6 +243,19 @@ IDENTIFICATION_SESSIONS = (
 )
 
 
+#: Identification sessions whose load columns overlap (0.7-2.2 A without the payload, about
+#: 1.9-5.0 A with it: the other joints in other poses), so that no gap in the load column
+#: tells the configurations apart; the ``payload`` column does.
+OVERLAPPING_SESSIONS = (
+    Session(payload=False, room_degc=21.0), Session(payload=True, room_degc=22.0,
+                                                    gravity_scale=0.55),
+    Session(payload=False, room_degc=23.5, warm_degc=42.0, gravity_scale=1.5),
+    Session(payload=True, room_degc=21.5, warm_degc=43.0, gravity_scale=0.8),
+    Session(payload=False, room_degc=26.0, warm_degc=45.0, gravity_scale=1.96),
+    Session(payload=True, room_degc=24.0, warm_degc=42.0, gravity_scale=0.96),
+)
+
+
 def identification_levels(*, seed: int = 0,
                           sessions: Sequence[Session] = IDENTIFICATION_SESSIONS) -> dict:
     """Return the levels of eq. (3) over position bins of the identification sessions."""
@@ -270,7 +287,8 @@ def monitoring_groups(session: Session, *, seed: int, every_s: float = 480.0,
         log = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
         q, dq = log['q_rad'], log.pop('dq_true')
         temperature = temperature_degc(session, log['t_s'])
-        gravity = (G_PAYLOAD if session.payload else G_EMPTY) * np.abs(np.cos(q))
+        gravity = ((G_PAYLOAD if session.payload else G_EMPTY) * session.gravity_scale
+                   * np.abs(np.cos(q)))
         friction = friction_current(dq, temperature, gravity, q, offset=offset,
                                     wear_fraction=session.wear_fraction)
         current = (np.tanh(dq / 0.05) * friction + gravity
