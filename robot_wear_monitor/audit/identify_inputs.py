@@ -35,13 +35,16 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                          temperature_column: str | None = None,
                          load_column: str | None = None,
                          known_torque: str | None = None,
-                         standstill_speed_rad_s: float | None = None) -> AuditTable:
+                         standstill_speed_rad_s: float | None = None,
+                         speed_tolerance: float | None = None,
+                         notes: list[str] | None = None) -> AuditTable:
     """
     Return the levels of one ``identify`` input with ``temperature`` and ``load`` columns.
 
     :param path: a level CSV, a raw run, a folder of raw runs or a bag.
     :param role: 'BASELINE' or 'WEAR' (for messages).
-    :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s:
+    :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s,
+        speed_tolerance, notes:
         as for :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
         gear_ratio x joint speed, normalised torque = effort / torque_scale); a level table or
         raw runs (joint speeds) have their speeds multiplied by ``gear_ratio`` too (motor side,
@@ -58,7 +61,8 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
     table = load_audit_data(path, model='speed', joint=joint, topic=topic, flip_sign=flip_sign,
                             gear_ratio=gear_ratio, torque_scale=torque_scale,
                             known_torque=known_torque,
-                            standstill_speed_rad_s=standstill_speed_rad_s)
+                            standstill_speed_rad_s=standstill_speed_rad_s,
+                            speed_tolerance=speed_tolerance, notes=notes)
     topics = {'temperature': temperature_topic, 'load': load_topic}
     if any(topics.values()):
         if not is_bag(path):

@@ -11,8 +11,8 @@ from __future__ import annotations
 import argparse
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, add_params, emit_json,
-                                            FINITE, level_source_scales, params_from, PROG,
-                                            write_levels_out)
+                                            FINITE, level_source_scales, params_from,
+                                            print_notes, PROG, write_levels_out)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'find and model what the friction model misses in measured friction levels'
@@ -60,11 +60,14 @@ def main(args: argparse.Namespace) -> int:
         raise InputError('--max-effects must be >= 0 and --folds >= 2')
     params = params_from(args) if args.model != 'speed' or args.params else None
     gear_ratio, torque_scale = level_source_scales(args)
+    notes: list[str] = []  # how raw runs were read, for stderr
     table = load_audit_data(args.data, model=args.model, joint=args.joint, topic=args.topic,
                             known_torque=args.known_torque,
                             standstill_speed_rad_s=args.standstill_speed,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
-                            torque_scale=torque_scale)
+                            torque_scale=torque_scale, speed_tolerance=args.speed_tolerance,
+                            notes=notes)
+    print_notes(notes)
     levels_out = write_levels_out(args, [table])
     group = args.group
     if group is None and args.model == 'speed' and 'joint' in table.text:

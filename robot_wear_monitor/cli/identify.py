@@ -14,8 +14,8 @@ import math
 from typing import Any
 
 from robot_wear_monitor.cli.options import (add_json, add_level_source, emit_json, FINITE,
-                                            level_source_scales, parse_float_list, PROG,
-                                            write_levels_out)
+                                            level_source_scales, parse_float_list,
+                                            print_notes, PROG, write_levels_out)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.yaml_files import shorten
 
@@ -134,7 +134,10 @@ def main(args: argparse.Namespace) -> int:
             temperature_topic=args.temperature_topic, load_topic=args.load_topic,
             experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
             load_column=args.load_column, known_torque=args.known_torque,
-            standstill_speed_rad_s=args.standstill_speed)
+            standstill_speed_rad_s=args.standstill_speed,
+            speed_tolerance=args.speed_tolerance, notes=notes)
+
+    notes: list[str] = []  # how raw runs were read, for stderr
 
     if args.speed_only:
         return _speed_only(args, from_params, gear_ratio, torque_scale)
@@ -146,6 +149,7 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'{error} (levels that vary in speed only: --speed-only identifies '
                          'the speed model (4) at their conditions)') from None
     wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None
+    print_notes(notes)
     levels_out = write_levels_out(
         args, [baseline] if wear_test is None else [baseline, wear_test],
         roles=None if wear_test is None else ['baseline', 'wear_test'])
@@ -221,7 +225,9 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     from robot_wear_monitor.atomic_files import write_text_atomic
     from robot_wear_monitor.audit.data import load_audit_data
     from robot_wear_monitor.audit.identify_inputs import default_set_name
+    from robot_wear_monitor.audit.friction_sign import check_speed_fit_friction
     from robot_wear_monitor.audit.speed_model import speed_only_parameter_set
+    notes: list[str] = []  # how raw runs were read, for stderr
     from robot_wear_monitor.model.params import load_parameter_set, parameter_set_yaml_text
     if args.wear_test or args.critical_experiment:
         raise InputError(f'{args.baseline}: --speed-only identifies model (4) only; a wear '
@@ -230,13 +236,16 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float,
     table = load_audit_data(args.baseline, model='speed', joint=args.joint, topic=args.topic,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale, known_torque=args.known_torque,
-                            standstill_speed_rad_s=args.standstill_speed)
+                            standstill_speed_rad_s=args.standstill_speed,
+                            speed_tolerance=args.speed_tolerance, notes=notes)
+    print_notes(notes)
     table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
     levels_out = write_levels_out(args, [table])
     unit = _friction_unit(args, torque_scale)
     result = speed_only_parameter_set(table=table, from_params=from_params,
                                       name=args.name or default_set_name(args.baseline),
                                       friction_unit=unit, n_folds=args.folds)
+    check_speed_fit_friction({k: p.value for k, p in result.fit.groups['all'].items()}, table)
     header = (f'Speed-only parameter set from {PROG} identify {args.baseline}: model (4) at '
               "the data's conditions.\nNot identified: temperature, load, wear (borrowed from "
               f'{from_params.name}); the set refuses to estimate wear.\n'
@@ -265,6 +274,7 @@ def _friction_unit(args: argparse.Namespace, torque_scale: float, *, note: bool 
     from pathlib import Path
 
     from robot_wear_monitor.audit.data import is_bag
+    from robot_wear_monitor.recordings.raw_runs import is_raw_run
     if args.friction_unit:
         unit = args.friction_unit.strip()
         if not unit or len(unit) > 40 or not unit.isprintable():
@@ -272,7 +282,7 @@ def _friction_unit(args: argparse.Namespace, torque_scale: float, *, note: bool 
                              f'{shorten(repr(args.friction_unit))}')
         return unit
     source = Path(args.baseline)
-    raw = not is_bag(source) and (source.is_dir() or source.name.endswith(('.csv.gz',)))
+    raw = not is_bag(source) and (source.is_dir() or is_raw_run(source))
     unit = 'N.m' if raw and torque_scale == 1.0 else 'normalised'
     if not raw and note:  # a level table does not say its unit
         import sys

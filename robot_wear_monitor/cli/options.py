@@ -31,7 +31,8 @@ import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.segmentation_settings import RAW_RUN_SETTINGS
+from robot_wear_monitor.experiment.segmentation_settings import (RAW_RUN_READING,
+                                                                 RAW_RUN_SETTINGS)
 from robot_wear_monitor.yaml_files import shorten
 
 if TYPE_CHECKING:  # loads numpy: imported where used, so that the command line starts light
@@ -369,8 +370,7 @@ def add_level_source(parser: argparse.ArgumentParser, *,
     parser.add_argument('--joint', help='joint name to segment (bag input), or to select from a '
                         "level table's joint column (identify --speed-only)")
     parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
-    parser.add_argument('--raw-sign', action='store_true',
-                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    add_raw_reading(parser)
     parser.add_argument('--known-torque', metavar='COLUMN',
                         help='raw runs that move one way only and have no run the other way: '
                              'a column of a known torque (gravity, a model torque; the '
@@ -384,6 +384,39 @@ def add_level_source(parser: argparse.ArgumentParser, *,
                         help="write the friction levels fitted as a CSV in segment's columns "
                              '(plus temperature and load where the levels have them); bag or '
                              'raw-run input (atomically)')
+
+
+#: ``--speed-tolerance``: a fraction of the speed, in (0, 1).
+SPEED_TOLERANCE = bounded(0.0, 1.0, low_open=True)
+
+
+def add_raw_reading(parser: argparse.ArgumentParser) -> None:
+    """
+    Add ``--raw-sign`` and ``--speed-tolerance``: how raw runs are read (segment, audit, identify).
+
+    Their defaults are the raw-run reading's
+    (:data:`~robot_wear_monitor.experiment.segmentation_settings.RAW_RUN_READING`).
+    """
+    parser.add_argument('--raw-sign', action='store_true',
+                        default=RAW_RUN_READING['raw_sign'],
+                        help='raw runs: keep the recorded torque sign (default: the data '
+                             'decide, per joint: a joint whose eq. (3) friction comes out '
+                             'negative is read with the other sign, and the output says so)')
+    parser.add_argument('--speed-tolerance', type=SPEED_TOLERANCE, metavar='FRACTION',
+                        default=RAW_RUN_READING['speed_tolerance'],
+                        help='raw runs: a plateau is steady when its speed stays within this '
+                             'fraction of it (like the node parameter speed_tolerance_fraction; '
+                             f'default: within {RAW_RUN_READING["noise_band"]:g} std of the '
+                             "run's own speed noise and one step of a quantised speed, at "
+                             f'least {RAW_RUN_SETTINGS["speed_tolerance_fraction"]:g} of the '
+                             'speed)')
+
+
+def print_notes(notes: Sequence[str]) -> None:
+    """Print how raw runs were read (notes, runs used and unused) on stderr, escaped."""
+    from robot_wear_monitor.errors import escaped
+    for line in notes:
+        print(escaped(line), file=sys.stderr)
 
 
 #: The help's default of ``--standstill-speed`` (the raw-run settings' threshold).
