@@ -150,7 +150,8 @@ def speed_noise(velocity_rad_s: Any, *, gear_ratio: float,
     The noise is the scatter of |speed| about its running median (:data:`_NOISE_WINDOW`
     samples) over the samples above standstill: the mean of the 75 % smallest absolute
     deviations / 0.5147 (the std of a normal noise; robust to the ramps, continuous for a
-    quantised signal).  The quantum is the step of a speed
+    quantised signal), at most 3 times the std of the sample-to-sample steps / sqrt(2) (a slow
+    swing of the speed is no noise).  The quantum is the step of a speed
     signal whose values lie on a grid (each distinct value used 10 times on average and the
     steps multiples of the smallest), else 0.
     """
@@ -163,7 +164,14 @@ def speed_noise(velocity_rad_s: Any, *, gear_ratio: float,
     # the mean of the 75 % smallest |residuals| is 0.5147 std of a normal noise: robust to the
     # ramps (their samples are the largest) and continuous for a quantised signal
     residual = residual[residual <= np.quantile(residual, 0.75)]
-    noise = float(residual.mean()) / 0.5147 if residual.size else 0.0
+    wander = float(residual.mean()) / 0.5147 if residual.size else 0.0
+    # noise changes from sample to sample; a slow swing of the speed (an overshoot, a
+    # controller's oscillation) is no noise but an unsteady speed: at most 3 x the noise
+    # seen in the sample-to-sample steps (their std / sqrt(2), estimated the same way)
+    steps = np.abs(np.diff(moving))
+    steps = steps[steps <= np.quantile(steps, 0.75)]
+    white = float(steps.mean()) / 0.5147 / math.sqrt(2.0) if steps.size else 0.0
+    noise = min(wander, 3.0 * white)
     distinct = np.unique(np.round(moving, 9))
     steps = np.diff(distinct)
     steps = steps[steps > 0]
