@@ -328,9 +328,10 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
         from robot_wear_monitor.experiment.segmentation_settings import stream_segmenter_config
         config = stream_segmenter_config(joint, gear_ratio=gear_ratio, torque_scale=torque_scale)
         return table_from_bag(file, joint=joint, topic=topic, model=model, config=config)
-    raw = {'flip_sign': flip_sign, 'model': model, 'known_torque': known_torque,
-           'standstill_speed_rad_s': standstill_speed_rad_s,
-           'speed_tolerance': speed_tolerance, 'joint': joint, 'notes': notes}
+    raw: dict[str, Any] = {'flip_sign': flip_sign, 'model': model,
+                           'known_torque': known_torque,
+                           'standstill_speed_rad_s': standstill_speed_rad_s,
+                           'speed_tolerance': speed_tolerance, 'joint': joint, 'notes': notes}
     if file.is_dir():
         from robot_wear_monitor.recordings.raw_runs import folder_runs
         runs = folder_runs(file)

@@ -462,16 +462,18 @@ def _pair_across_runs(one_way: list, reading: RawRunsReading) -> list[str]:
         _, name, run, _, settings, _ = runs[label][0]
         partner_run = runs[other][0][2]
         forward, backward = merged[label][0], merged[other][0]
-        level, how = None, 'window'
+        paired_level: FrictionLevel | None = None
+        how = 'window'
         if len(runs[label]) == 1 and len(runs[other]) == 1:
-            level, _ = pair_passes(forward, backward, settings)
-        if level is None:
-            level, how = whole_pass_level(forward, backward), 'whole'
+            paired_level, _ = pair_passes(forward, backward, settings)
+        if paired_level is None:
+            paired_level, how = whole_pass_level(forward, backward), 'whole'
             whole += 1
         paired.update((label, other))
         duration = float(max(run.t_s[-1] - run.t_s[0],
                              partner_run.t_s[-1] - partner_run.t_s[0]))
-        reading.levels.append(RunLevel(level, f'{label}+{other}', name, run, 0, duration, how))
+        reading.levels.append(RunLevel(paired_level, f'{label}+{other}', name, run, 0, duration,
+                                       how))
     reading.levels[first_pair:] = sorted(reading.levels[first_pair:],
                                          key=lambda row: row.level.speed_rad_s)
     reading.used += sorted(paired)
