@@ -8,7 +8,6 @@ unit (normalised for the packaged model; N.m for the KUKA data), temperature [de
 from __future__ import annotations
 
 from dataclasses import replace
-import math
 import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -180,120 +179,79 @@ def table_from_levels(levels: Sequence, *, extra: Mapping[str, Sequence] | None 
 def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
                         config=None, model: str = 'speed',
                         known_torque: str | None = None,
-                        standstill_speed_rad_s: float | None = None) -> AuditTable:
+                        standstill_speed_rad_s: float | None = None,
+                        speed_tolerance: float | None = None, joint: str | None = None,
+                        notes: list[str] | None = None) -> AuditTable:
     """
-    Segment KUKA-style raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
+    Segment raw runs (``t_s, q_rad, dq_rad_s, tau_measured_Nm``) into levels.
 
-    Every forward/backward pair of a run gives one level (segmentation of
-    :mod:`robot_wear_monitor.segmentation`, settings of
-    :func:`~robot_wear_monitor.experiment.segmentation_settings.raw_run_segmenter_config`);
-    link-side rad/s and N.m.
+    The one reading of raw runs of every verb,
+    :func:`robot_wear_monitor.recordings.raw_runs.read_raw_runs` (settings of
+    :func:`robot_wear_monitor.experiment.segmentation_settings.raw_run_segmenter_config`, each
+    run's speed band from its own noise or ``speed_tolerance``, a fraction of the speed; one-way runs paired
+    across runs at the closest speed); link-side rad/s and the torque's unit.
 
-    Columns: ``speed``, ``friction`` (sign flipped when ``flip_sign``, as the data's author did,
-    so that friction is positive), ``friction_std_error``, ``experiment`` (the run),
-    ``joint`` and ``pose`` (text, from the run name) and the candidates ``position_centre``
-    and ``position_span`` of the common window [rad], ``time`` (level centre time in the run)
-    [s], ``cycle`` (index of the level in its run), ``load_torque`` = |tau+ + tau-|/2 [N.m]
-    (the gravity load the level was measured under, the tau_l of eq. (5)) and
-    ``run_duration`` [s], and ``direction`` (``positive``/``negative`` for the levels of one
-    pass with a known torque, ``both`` for eq. (3) levels; only when a one-way level is there).
+    Columns: ``speed``, ``friction`` (``flip_sign``: a joint whose eq. (3) friction is negative
+    in the recorded sign is read with the other sign, friction opposing the motion; False
+    keeps the recorded sign, ``--raw-sign``), ``friction_std_error``, ``experiment`` (the
+    run's file name), ``joint`` (``joint<k>`` of a ``joint<k>_`` file name, a ``joint``
+    column, ``joint`` (--joint), else the folder's name; only with several joints) and
+    ``pose`` (KUKA names) and the candidates ``position_centre`` and ``position_span`` of the
+    common window [rad], ``time`` (level centre time in the run) [s], ``cycle`` (index of the
+    level in its run), ``load_torque`` = |tau+ + tau-|/2 (the gravity load the level was
+    measured under, the tau_l of eq. (5)) and ``run_duration`` [s], and ``direction``
+    (``positive``/``negative`` for the levels of one pass with a known torque, ``both`` for
+    eq. (3) levels; only when a one-way level is there).
 
-    Runs that move one way only (one file per speed and direction) give no level alone; their
-    passes are paired across files: a forward and a backward pass of the same joint at the same
-    speed over a common position window form eq. (3) across runs (gravity cancels), with
-    ``experiment`` naming both files.  A one-way run without such a partner gives its friction
-    as the pass's torque minus ``known_torque``, a column of the run with a torque the user
-    knows (gravity, a model torque; the torque's unit); without one it is reported.
-    ``standstill_speed_rad_s`` sets the standstill threshold (default: the settings', or 5
-    times the speed noise of a run slower than it).  The table's ``levels`` are the segmented
-    levels of its rows (friction with the table's sign), labelled by run and joint.
+    A one-way run without a partner gives its friction as the pass's torque minus
+    ``known_torque``, a column of the run with a torque the user knows (gravity, a model
+    torque; the torque's unit); without one it is reported.  ``standstill_speed_rad_s`` sets
+    the standstill threshold (default: the settings', or 5 times the speed noise of a run
+    slower than it).  ``notes``: a list that receives the reading's notes (a joint read with
+    the other sign) and the count of runs used and unused with every unused run's reason.
+    The table's ``levels`` are the segmented levels of its rows (friction with the table's
+    sign), labelled by run and joint.
     """
-    from robot_wear_monitor.experiment.position_bins import low_rate_reason
-    from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
     from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
-    from robot_wear_monitor.recordings.tables import (read_kuka_run, slow_run_config,
+    from robot_wear_monitor.recordings.raw_runs import no_level_error, read_raw_runs
+    from robot_wear_monitor.recordings.tables import (
                                                       with_standstill_speed)
 
     settings = config if config is not None else raw_run_segmenter_config()
     if standstill_speed_rad_s is not None:  # the user's threshold, also for slow runs
         settings = with_standstill_speed(settings, standstill_speed_rad_s)
-    sign = -1.0 if flip_sign else 1.0
+    reading = read_raw_runs(paths, config=settings,
+                            standstill_set=standstill_speed_rad_s is not None,
+                            speed_tolerance=speed_tolerance, raw_sign=not flip_sign,
+                            joint=joint, known_torque=known_torque)
+    if notes is not None:
+        notes.extend(reading.report_lines())
+    if not reading.levels:
+        raise no_level_error(reading, n_paths=len(paths))
     columns: dict[str, list] = {k: [] for k in (
         'speed', 'friction', 'friction_std_error', 'experiment', 'joint', 'pose',
         'position_centre', 'position_span', 'time', 'cycle', 'load_torque', 'run_duration',
         'direction')}
-    rejected: list[str] = []
-    slow_logs: list[str] = []  # the first run too slow for pass pairs, and why
-    one_way: list[tuple[str, Any, Any]] = []  # (run name, run, pass) of one-way runs
-    one_way_files: dict[str, tuple[Any, Any]] = {}  # run name -> (path, settings)
     levels: list[tuple[Any, str, str]] = []  # (level, experiment, joint) of each row
-
-    def add(level: Any, run: Any, experiment: str, i: int, duration: float) -> None:
-        pose = 'new_pose' if 'new_pose' in run.test_set else 'standard'
-        joint = f'joint{run.joint}' if run.joint else run.test_set
-        levels.append((replace(level, friction=sign * level.friction), experiment, joint))
+    for row in reading.levels:
+        level = row.level
+        levels.append((level, row.experiment, row.joint))
         columns['speed'].append(level.speed_rad_s)
-        columns['friction'].append(sign * level.friction)
+        columns['friction'].append(level.friction)
         columns['friction_std_error'].append(level.friction_std_error)
-        columns['experiment'].append(experiment)
-        columns['joint'].append(joint)
-        columns['pose'].append(pose)
+        columns['experiment'].append(row.experiment)
+        columns['joint'].append(row.joint)
+        columns['pose'].append('new_pose' if 'new_pose' in row.run.test_set else 'standard')
         columns['position_centre'].append(0.5 * (level.position_min_rad
                                                  + level.position_max_rad))
         columns['position_span'].append(level.position_max_rad - level.position_min_rad)
         columns['time'].append(0.5 * (level.start_time_s + level.end_time_s))
-        columns['cycle'].append(float(i))
+        columns['cycle'].append(float(row.cycle))
         columns['load_torque'].append(0.5 * abs(level.tau_forward + level.tau_backward))
-        columns['run_duration'].append(duration)
+        columns['run_duration'].append(row.duration_s)
         # a one-way pass keeps its direction; eq. (3) levels hold both
         columns['direction'].append('both' if level.n_forward and level.n_backward else
                                     'positive' if level.n_forward else 'negative')
-
-    for path in paths:
-        run = read_kuka_run(path)
-        name = Path(path).name.split('.')[0]
-        result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
-                               velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
-                               config=settings)
-        slow = (slow_run_config(settings, run.dq_rad_s)
-                if not result.levels and standstill_speed_rad_s is None else None)
-        if slow is not None:  # slower than the standstill threshold: the noise decides
-            result = segment_batch(time_s=run.t_s, position_rad=run.q_rad,
-                                   velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
-                                   config=slow)
-        if not result.levels:
-            passes = one_way_passes(time_s=run.t_s, position_rad=run.q_rad,
-                                    velocity_rad_s=run.dq_rad_s, effort=run.tau_measured_Nm,
-                                    config=slow or settings)
-            if passes and len({p.direction for p in passes}) == 1:
-                one_way += [(name, run, p) for p in passes]
-                one_way_files[name] = (path, slow or settings)
-            else:
-                rejected.append(Path(path).name)
-                reason = low_rate_reason(run.t_s, run.dq_rad_s, settings)
-                if reason is not None and not slow_logs:
-                    slow_logs.append(f'{Path(path).name}: {reason} (segment RUN '
-                                     '--position-bins N writes such levels as a table)')
-            continue
-        duration = float(run.t_s[-1] - run.t_s[0])
-        for i, level in enumerate(result.levels):
-            add(level, run, name, i, duration)
-    unpaired = _pair_one_way_runs(one_way, settings, add)
-    if known_torque is not None:
-        for name in unpaired:
-            path, used = one_way_files[name]
-            run = read_kuka_run(path)
-            for i, level in enumerate(_known_torque_levels(path, run, known_torque, used)):
-                add(level, run, name, i, float(run.t_s[-1] - run.t_s[0]))
-        unpaired = []
-    if not columns['speed']:
-        detail = (f'; {len(unpaired)} run(s) move one way only and have no run the other way '
-                  f'at the same speed over a common position window: {", ".join(unpaired[:5])}'
-                  if unpaired else '')
-        raise InputError(f'no friction level found in {len(paths)} raw run(s){detail}'
-                         + ('' if not unpaired or known_torque else
-                            ' (give --known-torque COLUMN to subtract a known torque)')
-                         + ''.join(f'; {text}' for text in slow_logs))
     if len(set(columns['pose'])) == 1:
         del columns['pose']
     if set(columns['direction']) == {'both'}:
@@ -302,64 +260,6 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
         del columns['joint']
     table = table_from_columns(columns, source=f'{len(paths)} raw runs', model=model)
     return replace(table, levels=tuple(levels))
-
-
-def _pair_one_way_runs(one_way: list, settings: Any, add: Any) -> list[str]:
-    """
-    Pair the passes of one-way runs across files (eq. (3) across runs); return the unpaired.
-
-    Each forward pass takes the first backward pass of another file of the same joint at the
-    same speed that shares a position window with it; each pass is used once.
-    """
-    from robot_wear_monitor.experiment.segmentation import pair_passes, same_speed
-    used: set[int] = set()
-    paired_names: set[str] = set()
-    for i, (name, run, forward) in enumerate(one_way):
-        if forward.direction < 0 or i in used:
-            continue
-        for j, (other, partner_run, backward) in enumerate(one_way):
-            if j in used or backward.direction > 0 or other == name or \
-                    partner_run.joint != run.joint or not same_speed(forward, backward,
-                                                                     settings):
-                continue
-            level, _ = pair_passes(forward, backward, settings)
-            if level is None:
-                continue
-            used.update((i, j))
-            paired_names.update((name, other))
-            duration = float(max(run.t_s[-1] - run.t_s[0],
-                                 partner_run.t_s[-1] - partner_run.t_s[0]))
-            add(level, run, f'{name}+{other}', 0, duration)
-            break
-    return sorted({name for name, _, _ in one_way} - paired_names)
-
-
-def _known_torque_levels(path: Any, run: Any, column: str, settings: Any) -> list:
-    """Return one level per pass of a one-way run: direction x (torque - known torque)."""
-    from robot_wear_monitor.experiment.levels import FrictionLevel
-    from robot_wear_monitor.experiment.segmentation import one_way_passes
-    from robot_wear_monitor.recordings.tables import read_raw_csv
-    (known,) = read_raw_csv(path, columns=(column,))
-    passes = one_way_passes(time_s=run.t_s, position_rad=run.q_rad,
-                            velocity_rad_s=run.dq_rad_s,
-                            effort=run.tau_measured_Nm - known, config=settings)
-    levels = []
-    for p in passes:
-        friction = p.direction * float(np.mean(p.torque))
-        spread = float(np.std(p.torque, ddof=1)) / math.sqrt(p.torque.size) \
-            if p.torque.size > 1 else math.nan
-        inside = (run.t_s >= p.time_s[0]) & (run.t_s <= p.time_s[-1])
-        load = float(np.mean(known[inside]))  # the known torque: the load of eq. (3)
-        levels.append(FrictionLevel(
-            speed_rad_s=float(np.mean(np.abs(p.speed_rad_s))), friction=friction,
-            friction_std_error=spread, tau_forward=load + friction,
-            tau_backward=load - friction,
-            n_forward=int(p.torque.size) if p.direction > 0 else 0,
-            n_backward=int(p.torque.size) if p.direction < 0 else 0,
-            position_min_rad=float(p.position_rad.min()),
-            position_max_rad=float(p.position_rad.max()),
-            start_time_s=float(p.time_s[0]), end_time_s=float(p.time_s[-1])))
-    return levels
 
 
 def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states',
@@ -432,7 +332,9 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
                     gear_ratio: float | None = None, torque_scale: float | None = None,
                     known_torque: str | None = None,
                     standstill_speed_rad_s: float | None = None,
-                    config_file: str | os.PathLike | None = None) -> AuditTable:
+                    config_file: str | os.PathLike | None = None,
+                    speed_tolerance: float | None = None,
+                    notes: list[str] | None = None) -> AuditTable:
     """
     Read DATA of ``audit``: a level CSV, a raw run, a folder of raw runs, or a bag.
 
@@ -447,7 +349,10 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
 
     * a CSV (or .csv.gz) with ``speed`` and ``friction`` columns: a table of levels;
     * a CSV with ``t_s, q_rad, dq_rad_s, tau_measured_Nm``: one raw run, segmented;
-    * a folder holding ``*.csv.gz`` raw runs (or a ``raw_runs`` subfolder): all runs;
+    * a folder holding ``*.csv`` or ``*.csv.gz`` raw runs with any names (or a ``raw_runs``
+      subfolder): all runs, one joint unless named ``joint<k>_...`` or with a ``joint``
+      column (``joint`` names the joint of runs that name none; ``speed_tolerance``,
+      ``notes``: see :func:`table_from_raw_runs`);
     * a bag (folder with ``metadata.yaml``, or a ``.mcap`` / ``.db3`` file): ``joint`` needed.
     """
     file = Path(path)
@@ -461,18 +366,21 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
                                                  torque_scale=torque_scale)
         return table_from_bag(file, joint=joint, topic=topic, model=model,
                               experiment_parameters=parameters)
+    raw: dict[str, Any] = {'flip_sign': flip_sign, 'model': model,
+                           'known_torque': known_torque,
+                           'standstill_speed_rad_s': standstill_speed_rad_s,
+                           'speed_tolerance': speed_tolerance, 'joint': joint, 'notes': notes}
     if file.is_dir():
-        from robot_wear_monitor.recordings.tables import list_kuka_runs
-        runs = list_kuka_runs(file)
+        from robot_wear_monitor.recordings.raw_runs import folder_runs
+        runs = folder_runs(file)
         if not runs:
-            raise InputError(f'{file}: no raw runs (*.csv.gz) and no bag metadata.yaml here')
-        return table_from_raw_runs(runs, flip_sign=flip_sign, model=model,
-                                   known_torque=known_torque,
-                                   standstill_speed_rad_s=standstill_speed_rad_s)
+            raise InputError(f'{file}: no raw runs here and no bag metadata.yaml: a folder of '
+                             'raw runs holds *.csv or *.csv.gz files with the columns t_s, '
+                             'q_rad, dq_rad_s, tau_measured_Nm (any names; one joint unless '
+                             'named joint<k>_... or with a joint column)')
+        return table_from_raw_runs(runs, **raw)
     if _is_raw_run(file):
-        return table_from_raw_runs([file], flip_sign=flip_sign, model=model,
-                                   known_torque=known_torque,
-                                   standstill_speed_rad_s=standstill_speed_rad_s)
+        return table_from_raw_runs([file], **raw)
     return read_level_table(file, model=model)
 
 
@@ -485,7 +393,7 @@ def levels_out_text(tables: Sequence[AuditTable], *,
     the same numbers for the same input and settings), then ``temperature`` [degC] and ``load``
     where every table has them, then ``role`` (one of ``roles`` per table) when given.  A bag's
     ``experiment`` and ``joint`` are ``segment``'s; a raw run's are the run's name and the joint
-    of its file name, and its friction has the table's sign (flipped unless --raw-sign).
+    of its file name, and its friction has the table's sign (from the data unless --raw-sign).
 
     :raises InputError: a table was read as levels (a CSV): there are no segmented levels.
 
@@ -509,10 +417,5 @@ def levels_out_text(tables: Sequence[AuditTable], *,
 
 def _is_raw_run(file: Path) -> bool:
     """Return True when the first line of ``file`` names a raw run's columns (read bounded)."""
-    try:
-        with TextLines(file, what='table', limit_bytes=MAX_LEVEL_TABLE_BYTES,
-                       line_limit_chars=MAX_TABLE_LINE_CHARS) as lines:
-            header = {h.strip() for h in next(iter(lines), '').split(',')}
-    except InputError:
-        return False  # read_level_table says what is wrong
-    return {'t_s', 'q_rad', 'dq_rad_s', 'tau_measured_Nm'} <= header
+    from robot_wear_monitor.recordings.raw_runs import is_raw_run
+    return is_raw_run(file)  # False when unreadable: read_level_table says what is wrong

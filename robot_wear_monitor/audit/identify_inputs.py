@@ -36,13 +36,16 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                          load_column: str | None = None,
                          known_torque: str | None = None,
                          standstill_speed_rad_s: float | None = None,
-                         config_file: str | os.PathLike | None = None) -> AuditTable:
+                         config_file: str | os.PathLike | None = None,
+                         speed_tolerance: float | None = None,
+                         notes: list[str] | None = None) -> AuditTable:
     """
     Return the levels of one ``identify`` input with ``temperature`` and ``load`` columns.
 
     :param path: a level CSV, a raw run, a folder of raw runs or a bag.
     :param role: 'BASELINE' or 'WEAR' (for messages).
-    :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s:
+    :param joint, topic, flip_sign, gear_ratio, torque_scale, known_torque, standstill_speed_rad_s,
+        speed_tolerance, notes:
         as for :func:`~robot_wear_monitor.audit.data.load_audit_data` (bag: motor speed =
         gear_ratio x joint speed, normalised torque = effort / torque_scale; None: the node
         configuration ``config_file``'s, as ``segment``); a level table or
@@ -63,7 +66,8 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
                             gear_ratio=gear_ratio, torque_scale=torque_scale,
                             known_torque=known_torque,
                             standstill_speed_rad_s=standstill_speed_rad_s,
-                            config_file=config_file)
+                            config_file=config_file,
+                            speed_tolerance=speed_tolerance, notes=notes)
     topics = {'temperature': temperature_topic, 'load': load_topic}
     if any(topics.values()):
         if not is_bag(path):

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 from robot_wear_monitor.cli.options import (add_friction_unit, add_json, add_level_source,
                                             add_params, emit_json, FINITE, friction_unit,
-                                            level_source_scales, params_from, PROG,
+                                            level_source_scales, params_from, print_notes, PROG,
                                             write_levels_out)
 from robot_wear_monitor.errors import InputError
 
@@ -63,11 +63,15 @@ def main(args: argparse.Namespace) -> int:
         raise InputError('--max-effects must be >= 0 and --folds >= 2')
     params = params_from(args) if args.model != 'speed' or args.params else None
     gear_ratio, torque_scale = level_source_scales(args)
+    notes: list[str] = []  # how raw runs were read, for stderr
     table = load_audit_data(args.data, model=args.model, joint=args.joint, topic=args.topic,
                             known_torque=args.known_torque,
                             standstill_speed_rad_s=args.standstill_speed,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
-                            torque_scale=torque_scale, config_file=args.config)
+                            torque_scale=torque_scale, config_file=args.config,
+                            speed_tolerance=args.speed_tolerance,
+                            notes=notes)
+    print_notes(notes)
     levels_out = write_levels_out(args, [table])
     unit = friction_unit(args, args.data, torque_scale, command='audit',
                          note=not args.json, holder='the report')

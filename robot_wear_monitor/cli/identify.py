@@ -16,7 +16,8 @@ from typing import Any
 from robot_wear_monitor.cli.options import (add_configuration_column, add_friction_unit,
                                             add_json, add_level_source, BAG_SCALE_DEFAULT,
                                             emit_json, FINITE, friction_unit, level_source_scales,
-                                            parse_float_list, PROG, write_levels_out)
+                                            parse_float_list, print_notes, PROG,
+                                            write_levels_out)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import EXPERIMENT_GAPS_S
 from robot_wear_monitor.yaml_files import shorten
@@ -140,7 +141,10 @@ def main(args: argparse.Namespace) -> int:
             temperature_topic=args.temperature_topic, load_topic=args.load_topic,
             experiment_gap_s=args.experiment_gap, temperature_column=args.temperature_column,
             load_column=args.load_column, known_torque=args.known_torque,
-            standstill_speed_rad_s=args.standstill_speed, config_file=args.config)
+            standstill_speed_rad_s=args.standstill_speed, config_file=args.config,
+            speed_tolerance=args.speed_tolerance, notes=notes)
+
+    notes: list[str] = []  # how raw runs were read, for stderr
 
     if args.speed_only:
         if args.plots:
@@ -159,6 +163,7 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'{error} (levels that vary in speed only: --speed-only identifies '
                          'the speed model (4) at their conditions)') from None
     wear_test = levels(args.wear_test, 'WEAR') if args.wear_test else None
+    print_notes(notes)
     levels_out = write_levels_out(
         args, [baseline] if wear_test is None else [baseline, wear_test],
         roles=None if wear_test is None else ['baseline', 'wear_test'])
@@ -268,7 +273,9 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float | None,
     from robot_wear_monitor.atomic_files import write_text_atomic
     from robot_wear_monitor.audit.data import load_audit_data
     from robot_wear_monitor.audit.identify_inputs import default_set_name
+    from robot_wear_monitor.audit.friction_sign import check_speed_fit_friction
     from robot_wear_monitor.audit.speed_model import speed_only_parameter_set
+    notes: list[str] = []  # how raw runs were read, for stderr
     from robot_wear_monitor.model.params import load_parameter_set, parameter_set_yaml_text
     if args.wear_test or args.critical_experiment:
         raise InputError(f'{args.baseline}: --speed-only identifies model (4) only; a wear '
@@ -278,13 +285,16 @@ def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float | None,
                             flip_sign=not args.raw_sign, gear_ratio=gear_ratio,
                             torque_scale=torque_scale, known_torque=args.known_torque,
                             standstill_speed_rad_s=args.standstill_speed,
-                            config_file=args.config)
+                            config_file=args.config,
+                            speed_tolerance=args.speed_tolerance, notes=notes)
+    print_notes(notes)
     table = _one_joint(table, joint=args.joint, pool=args.pool_joints)
     levels_out = write_levels_out(args, [table])
     unit = _friction_unit(args, torque_scale)
     result = speed_only_parameter_set(table=table, from_params=from_params,
                                       name=args.name or default_set_name(args.baseline),
                                       friction_unit=unit, n_folds=args.folds)
+    check_speed_fit_friction({k: p.value for k, p in result.fit.groups['all'].items()}, table)
     header = (f'Speed-only parameter set from {PROG} identify {args.baseline}: model (4) at '
               "the data's conditions.\nNot identified: temperature, load, wear (borrowed from "
               f'{from_params.name}); the set refuses to estimate wear.\n'

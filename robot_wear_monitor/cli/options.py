@@ -33,7 +33,8 @@ import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.segmentation_settings import (NODE_SCALES, RAW_RUN_SETTINGS,
+from robot_wear_monitor.experiment.segmentation_settings import (NODE_SCALES, RAW_RUN_READING,
+                                                                 RAW_RUN_SETTINGS,
                                                                  SegmenterConfig)
 from robot_wear_monitor.yaml_files import shorten
 
@@ -441,8 +442,7 @@ def add_level_source(parser: argparse.ArgumentParser, *,
     parser.add_argument('--joint', help='joint name to segment (bag input), or to select from a '
                         "level table's joint column (identify --speed-only)")
     parser.add_argument('--topic', default='/joint_states', help='joint-state topic (bag input)')
-    parser.add_argument('--raw-sign', action='store_true',
-                        help='raw runs: keep the torque sign (default: flipped, friction > 0)')
+    add_raw_reading(parser)
     parser.add_argument('--known-torque', metavar='COLUMN',
                         help='raw runs that move one way only and have no run the other way: '
                              'a column of a known torque (gravity, a model torque; the '
@@ -475,13 +475,14 @@ def friction_unit(args: argparse.Namespace, source: str, torque_scale: float | N
     """
     Return the friction unit of the levels read from ``source``: ``--friction-unit``, else.
 
-    N.m for raw runs (a folder, ``.csv.gz``) with torque scale 1 or none given, else
+    N.m for raw runs (a folder, a raw ``.csv``/``.csv.gz``) with torque scale 1 or none, else
     'normalised'; ``note`` prints on stderr that a level table's unit was not stated (and
     what ``holder`` says).
     """
     from pathlib import Path
 
     from robot_wear_monitor.audit.data import is_bag
+    from robot_wear_monitor.recordings.raw_runs import is_raw_run
     from robot_wear_monitor.yaml_files import shorten
     if getattr(args, 'friction_unit', None):
         unit = args.friction_unit.strip()
@@ -490,7 +491,7 @@ def friction_unit(args: argparse.Namespace, source: str, torque_scale: float | N
                              f'{shorten(repr(args.friction_unit))}')
         return unit
     path = Path(source)
-    raw = not is_bag(path) and (path.is_dir() or path.name.endswith(('.csv.gz',)))
+    raw = not is_bag(path) and (path.is_dir() or is_raw_run(path))
     unit = 'N.m' if raw and torque_scale in (None, 1.0) else 'normalised'
     if not raw and note:  # a level table does not say its unit
         import sys
@@ -508,6 +509,39 @@ def add_configuration_column(parser: argparse.ArgumentParser) -> None:
                              "(<out stem>_<value>.yaml, with that configuration's load "
                              'estimate and operating range) besides the pooled --out '
                              '(default: configurations split by a gap in the load column)')
+
+
+#: ``--speed-tolerance``: a fraction of the speed, in (0, 1).
+SPEED_TOLERANCE = bounded(0.0, 1.0, low_open=True)
+
+
+def add_raw_reading(parser: argparse.ArgumentParser) -> None:
+    """
+    Add ``--raw-sign`` and ``--speed-tolerance``: how raw runs are read (segment, audit, identify).
+
+    Their defaults are the raw-run reading's
+    (:data:`~robot_wear_monitor.experiment.segmentation_settings.RAW_RUN_READING`).
+    """
+    parser.add_argument('--raw-sign', action='store_true',
+                        default=RAW_RUN_READING['raw_sign'],
+                        help='raw runs: keep the recorded torque sign (default: the data '
+                             'decide, per joint: a joint whose eq. (3) friction comes out '
+                             'negative is read with the other sign, and the output says so)')
+    parser.add_argument('--speed-tolerance', type=SPEED_TOLERANCE, metavar='FRACTION',
+                        default=RAW_RUN_READING['speed_tolerance'],
+                        help='raw runs: a plateau is steady when its speed stays within this '
+                             'fraction of it (like the node parameter speed_tolerance_fraction; '
+                             f'default: within {RAW_RUN_READING["noise_band"]:g} std of the '
+                             "run's own speed noise and one step of a quantised speed, at "
+                             f'least {RAW_RUN_SETTINGS["speed_tolerance_fraction"]:g} of the '
+                             'speed)')
+
+
+def print_notes(notes: Sequence[str]) -> None:
+    """Print how raw runs were read (notes, runs used and unused) on stderr, escaped."""
+    from robot_wear_monitor.text import escaped
+    for line in notes:
+        print(escaped(line), file=sys.stderr)
 
 
 #: The help's default of ``--standstill-speed`` (the raw-run settings' threshold).

@@ -11,8 +11,9 @@ import argparse
 import sys
 
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
-                                            add_joints, add_robot, BAG_SCALE_DEFAULT,
-                                            BAG_TORQUE_SCALE_DEFAULT, joint_selection,
+                                            add_joints, add_raw_reading, add_robot,
+                                            BAG_SCALE_DEFAULT, BAG_TORQUE_SCALE_DEFAULT,
+                                            joint_selection,
                                             parse_float_list, RAW_STANDSTILL_DEFAULT,
                                             STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
@@ -25,10 +26,14 @@ HELP = 'segment a bag or raw CSV into friction levels of eq. (3) (CSV out)'
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``segment``."""
     parser.add_argument('data', metavar='DATA',
-                        help='ROS 2 bag folder, or a raw CSV(.gz) with t_s,q_rad,dq_rad_s,'
-                             'tau_measured_Nm columns (KUKA runs)')
+                        help='ROS 2 bag folder, a raw CSV(.gz) with t_s,q_rad,dq_rad_s,'
+                             'tau_measured_Nm columns, or a folder of such raw runs (any '
+                             'names: one joint unless named joint<k>_... or with a joint '
+                             'column)')
     add_joints(parser, help_text='joint in the bag; several as NAME,NAME or repeated --joint, '
-                                 'or "all" (default: the node config\'s joint, joint_2)')
+                                 'or "all" (default: the node config\'s joint, joint_2); raw '
+                                 'runs: the name of the joint of runs that name none '
+                                 "(default: their folder's name)")
     parser.add_argument('--topic', default='/joint_states', help='JointState topic')
     add_gear_ratio_and_torque_scale(parser, gear_default=BAG_SCALE_DEFAULT,
                                     scale_default=BAG_TORQUE_SCALE_DEFAULT)
@@ -46,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'bins (forward and backward samples in one bin, at least 2 each '
                              'way), for logs too slow for pass pairs (e.g. 2 Hz); see '
                              'docs/segmentation.md')
+    add_raw_reading(parser)
     add_robot(parser, help_text='add a robot column with this name (levels of several robots '
                                 'in one table)')
 
@@ -59,15 +65,25 @@ def main(args: argparse.Namespace) -> int:
     from robot_wear_monitor.monitoring.diagnostics import rejection_text
     from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
                                                        segment_raw_csv)
+    from robot_wear_monitor.audit.data import is_bag
+    from robot_wear_monitor.recordings.raw_runs import folder_runs
     path = Path(args.data)
-    if path.name.endswith(('.csv', '.csv.gz')) and path.exists() and not path.is_dir():
+    raw_file = path.name.endswith(('.csv', '.csv.gz')) and path.exists() and not path.is_dir()
+    if raw_file or (path.is_dir() and not is_bag(path) and folder_runs(path)):
+        joint, _ = joint_selection(args.joint)
         result = segment_raw_csv(path, gear_ratio=args.gear_ratio,
                                  torque_scale=args.torque_scale, speeds_rad_s=args.speeds,
                                  standstill_speed_rad_s=args.standstill_speed,
-                                 position_bins=args.position_bins)
-        report = [f'{result.n_levels} friction levels; '
-                  + (rejection_text(result.rejections) or 'nothing rejected')]
+                                 position_bins=args.position_bins,
+                                 speed_tolerance=args.speed_tolerance, raw_sign=args.raw_sign,
+                                 joint=joint)
+        report = list(result.notes) + [f'{result.n_levels} friction levels; '
+                                       + (rejection_text(result.rejections)
+                                          or 'nothing rejected')]
     else:
+        if args.raw_sign or args.speed_tolerance is not None:
+            raise InputError('--raw-sign and --speed-tolerance are for raw runs; a bag takes '
+                             'the node parameters (speed_tolerance_fraction) from --config')
         if args.position_bins is not None:
             raise InputError('--position-bins is for a raw CSV; a bag is segmented by pass '
                              'pairs (time windows)')

@@ -12,7 +12,9 @@ The one owner of the segmentation settings: :class:`SegmenterConfig` and its two
   torque scale 1, a 5 % constant-speed band of at least 0.01 rad/s, standstill below 0.03
   rad/s, plateaus of 0.3 s or more, a 0.05 s gap splits the run.  ``segment``, ``audit`` and
   ``identify`` of a raw run use them (a slow run's threshold may follow its speed noise, see
-  :func:`robot_wear_monitor.recordings.tables.slow_run_config`).
+  :func:`robot_wear_monitor.recordings.tables.slow_run_config`), and each run's speed band
+  and gap follow its own signal (:data:`RAW_RUN_READING`,
+  :func:`robot_wear_monitor.recordings.raw_runs.run_settings`).
 
 Speeds are motor side [rad/s] (link side where the gear ratio is 1), times [s], positions [rad].
 """
@@ -45,6 +47,15 @@ RAW_RUN_SETTINGS: Mapping[str, Any] = MappingProxyType({
 #: (``segment``, ``replay``, ``audit``, ``identify``) takes them from the node configuration
 #: (``--config``), whose packaged file holds these values.
 NODE_SCALES: Mapping[str, float] = MappingProxyType({'gear_ratio': 150.0, 'torque_scale': 10.0})
+#: How raw runs are read (:mod:`robot_wear_monitor.recordings.raw_runs`), the defaults of the
+#: verbs' options: ``raw_sign`` (``--raw-sign``: keep the recorded torque sign; default the
+#: data decide, per joint), ``speed_tolerance`` (``--speed-tolerance``: a fraction of the
+#: speed; default None, the band follows the run's speed noise) and ``noise_band`` (that band
+#: in noise std of the speed about its running median).
+RAW_RUN_READING: Mapping[str, Any] = MappingProxyType({
+    'raw_sign': False, 'speed_tolerance': None, 'noise_band': 4.0})
+#: The steadiness band of a raw run in std of its speed noise (``RAW_RUN_READING``).
+RAW_RUN_NOISE_BAND: float = RAW_RUN_READING['noise_band']
 
 
 @dataclass(frozen=True)

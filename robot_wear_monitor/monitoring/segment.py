@@ -3,8 +3,9 @@ Friction levels of a recording, as ``robot-wear-monitor segment`` writes them (C
 
 :func:`segment_bag` segments the joints of a ROS 2 bag as the replay does (joint discovery,
 chunked reading, the per-joint services of :mod:`~robot_wear_monitor.monitoring.joints`) and
-numbers each level by the experiment it belongs to; :func:`segment_raw_csv` segments one
-KUKA-style raw run with the raw-run settings.  :func:`levels_csv_text` formats the levels as
+numbers each level by the experiment it belongs to; :func:`segment_raw_csv` segments a raw
+run or a folder of them with the raw-run settings (the one reading of
+:mod:`~robot_wear_monitor.recordings.raw_runs`).  :func:`levels_csv_text` formats the levels as
 the CSV table ``audit`` and ``identify`` read.  Speeds are motor-side [rad/s], frictions
 normalised torque (effort / torque_scale), times [s].
 """
@@ -53,97 +54,101 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
                     torque_scale: Optional[float] = None,
                     speeds_rad_s: Optional[Sequence[float]] = None,
                     standstill_speed_rad_s: Optional[float] = None,
-                    position_bins: Optional[int] = None) -> SegmentedLevels:
+                    position_bins: Optional[int] = None,
+                    speed_tolerance: Optional[float] = None, raw_sign: bool = False,
+                    joint: Optional[str] = None) -> SegmentedLevels:
     """
-    Segment one KUKA-style raw run with the raw-run settings (gear ratio and scale 1).
+    Segment one raw run, or a folder of raw runs, with the raw-run settings (ratio, scale 1).
 
+    The one reading of raw runs of every verb
+    (:func:`~robot_wear_monitor.recordings.raw_runs.read_raw_runs`: each run's speed band from
+    its own noise or ``speed_tolerance``, a fraction of the speed; one-way runs of a folder
+    paired across runs; the friction's sign from the data per joint unless ``raw_sign``).
+    ``path``: a raw run or a folder of them (``*.csv``, ``*.csv.gz``, any names).
     ``gear_ratio`` / ``torque_scale`` / ``standstill_speed_rad_s``: override the raw-run
     settings when not None (a set standstill threshold is used also for a slow run);
-    ``speeds_rad_s``: assemble the levels into experiments at these speeds (otherwise the
-    levels are in no experiment); ``position_bins``: one level per speed set-point by eq. (3)
-    over this many position bins (:mod:`~robot_wear_monitor.experiment.position_bins`, for
-    low-rate logs) instead of one per pass pair.  A log too slow for pass pairs is named so,
-    with its sample rate and samples per pass.
+    ``speeds_rad_s``: assemble the levels into experiments at these speeds (otherwise a level's
+    experiment is its run's file name); ``position_bins``: one level per speed set-point by
+    eq. (3) over this many position bins (:mod:`~robot_wear_monitor.experiment.position_bins`,
+    for low-rate logs; one run) instead of one per pass pair.  ``joint``: the joint name of
+    runs that name none (default their folder's name).  The notes say what the reading decided
+    and how many runs were used and unused, each unused one with its reason.
+
+    :raises InputError: no run gave a level (every run's reason said).
+
     """
-    from robot_wear_monitor.experiment.position_bins import (low_rate_reason,
-                                                             position_binned_levels)
-    from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
+    from pathlib import Path
+
+    from robot_wear_monitor.experiment.segmentation import ExperimentAssembler
+    from robot_wear_monitor.recordings.raw_runs import (folder_runs, no_level_error,
+                                                        read_raw_runs)
     from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
-    from robot_wear_monitor.recordings.tables import (read_raw_csv, slow_run_config,
-                                                      with_standstill_speed)
-    t, q, v, e = read_raw_csv(path)
+    from robot_wear_monitor.recordings.tables import with_standstill_speed
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
                                        ('torque_scale', torque_scale)) if val is not None}
     config = raw_run_segmenter_config(**overrides)
     if standstill_speed_rad_s is not None:  # the user's threshold, also for a slow run
         config = with_standstill_speed(config, standstill_speed_rad_s)
+    folder = Path(path).is_dir()
     if position_bins is not None:
-        levels, rejections = position_binned_levels(
-            time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config,
-            n_bins=position_bins, speeds_rad_s=speeds_rad_s)
-        if not levels:
-            raise InputError(f'{path}: no friction level over {position_bins} position bins: '
-                             f'no speed set-point has a bin with 2 samples each way '
-                             f'({sum(rejections.values())} set-points without one)')
-        return SegmentedLevels(rows=[(level, '', config.joint) for level in levels],
-                               rejections=dict(rejections), n_levels=len(levels))
-    result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config)
-    if not result.levels:
-        slow_log = low_rate_reason(t, v, config)
-        if slow_log is not None:
-            raise InputError(f'{path}: no friction level: {slow_log}')
-    slow = (slow_run_config(config, v)
-            if not result.levels and standstill_speed_rad_s is None else None)
-    if slow is not None:  # slower than the standstill threshold: the data's noise decides
-        config = slow
-        result = segment_batch(time_s=t, position_rad=q, velocity_rad_s=v, effort=e,
-                               config=config)
-    if not result.levels:
-        raise InputError(f'{path}: no friction level: '
-                         f'{explain_raw_run(v, result.rejections, config)}')
-    rows: list[tuple[FrictionLevel, Any, str]] = [(level, '', config.joint)
-                                                  for level in result.levels]
+        if folder:
+            raise InputError('--position-bins is for one raw run, not a folder')
+        return _position_binned(path, config=config, n_bins=position_bins,
+                                speeds_rad_s=speeds_rad_s, raw_sign=raw_sign)
+    paths = folder_runs(path) if folder else [Path(path)]
+    if not paths:
+        raise InputError(f'{path}: no raw runs here: a folder of raw runs holds *.csv or '
+                         '*.csv.gz files with the columns t_s, q_rad, dq_rad_s, '
+                         'tau_measured_Nm (any names)')
+    reading = read_raw_runs(paths, config=config,
+                            standstill_set=standstill_speed_rad_s is not None,
+                            speed_tolerance=speed_tolerance, raw_sign=raw_sign, joint=joint)
+    if not reading.levels:
+        if not folder:  # one run: its reason is the error
+            raise InputError(f'{path}: no friction level: '
+                             f'{next(iter(reading.unused.values()), "no level")}')
+        raise no_level_error(reading, n_paths=len(paths))
+    rows: list[tuple[FrictionLevel, Any, str]] = [(row.level, row.experiment, row.joint)
+                                                  for row in reading.levels]
     if speeds_rad_s:
-        assembler = ExperimentAssembler(speeds_rad_s=speeds_rad_s)
-        done = [x for level in result.levels for x in assembler.add(level)] + assembler.flush()
-        rows = [(level, k, config.joint) for k, x in enumerate(done) for level in x.levels]
-    return SegmentedLevels(rows=rows, rejections=dict(result.rejections),
-                           n_levels=len(result.levels))
+        rows = []
+        for name in dict.fromkeys(row.joint for row in reading.levels):
+            assembler = ExperimentAssembler(speeds_rad_s=speeds_rad_s)
+            done = [x for row in reading.levels if row.joint == name
+                    for x in assembler.add(row.level)] + assembler.flush()
+            rows += [(level, k, name) for k, x in enumerate(done) for level in x.levels]
+    return SegmentedLevels(rows=rows, rejections=dict(reading.rejections),
+                           n_levels=len(reading.levels),
+                           notes=reading.report_lines() if folder else list(reading.notes))
 
 
-def explain_raw_run(velocity: Any, rejections: Mapping[str, int], config: Any) -> str:
-    """
-    Return why a raw run gave no friction level, in words with its speeds [rad/s].
+def _position_binned(path: Any, *, config: Any, n_bins: int,
+                     speeds_rad_s: Optional[Sequence[float]], raw_sign: bool) -> SegmentedLevels:
+    """Return the levels of one low-rate run over position bins, signed from the data."""
+    from dataclasses import replace
 
-    Too slow to tell from standstill (the typical speed is at the standstill threshold), one
-    direction only (eq. (3) needs a pass each way at one speed), passes never paired, or no
-    constant-speed plateau.
-    """
-    import numpy as np
-    speed = np.abs(np.asarray(velocity, dtype=float)) * config.gear_ratio
-    speed = speed[np.isfinite(speed)]
-    threshold = config.standstill_speed_rad_s
-    if speed.size == 0:
-        return 'no finite velocity sample'
-    typical = float(np.median(speed))
-    if not float(speed.max()) > threshold or typical <= threshold:
-        return (f'too slow to tell from standstill at {typical:.3g} rad/s (the standstill '
-                f'threshold is {threshold:g} rad/s; fastest sample {float(speed.max()):.3g} '
-                'rad/s)')
-    signed = np.asarray(velocity, dtype=float) * config.gear_ratio
-    forward = int(np.count_nonzero(signed > threshold))
-    backward = int(np.count_nonzero(signed < -threshold))
-    if min(forward, backward) < 0.05 * max(forward, backward):
-        way = 'forward' if forward > backward else 'backward'
-        return (f'the joint moves one way only ({way}, at about {typical:.3g} rad/s): eq. (3) '
-                'needs a pass each way at the same speed (runs that move one way each are not '
-                'paired across files)')
-    if rejections.get('pass_unpaired', 0) or rejections.get('pass_no_common_window', 0):
-        return ('passes each way, but none paired with one the other way at the same speed '
-                f'over a common position window (unpaired {rejections.get("pass_unpaired", 0)}, '
-                f'no common window {rejections.get("pass_no_common_window", 0)})')
-    return (f'no constant-speed plateau of {config.min_duration_s:g} s or more '
-            f'({rejections.get("pass_too_short", 0)} passes too short)')
+    from robot_wear_monitor.experiment.position_bins import position_binned_levels
+    from robot_wear_monitor.recordings.raw_runs import folder_joint_name, run_label
+    from robot_wear_monitor.recordings.tables import read_raw_csv
+    t, q, v, e = read_raw_csv(path)
+    levels, rejections = position_binned_levels(
+        time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config,
+        n_bins=n_bins, speeds_rad_s=speeds_rad_s)
+    if not levels:
+        raise InputError(f'{path}: no friction level over {n_bins} position bins: '
+                         f'no speed set-point has a bin with 2 samples each way '
+                         f'({sum(rejections.values())} set-points without one)')
+    notes = []
+    median = sorted(level.friction for level in levels)[len(levels) // 2]
+    if median < 0 and not raw_sign:  # friction opposes the motion: the data decide
+        levels = [replace(lv, friction=-lv.friction, tau_forward=-lv.tau_forward,
+                          tau_backward=-lv.tau_backward) for lv in levels]
+        notes.append(f'{run_label(path)}: the eq. (3) friction comes out negative in the '
+                     f'recorded sign (median {median:.4g}): read with the other sign '
+                     '(--raw-sign keeps the recorded sign)')
+    name = folder_joint_name(path)
+    return SegmentedLevels(rows=[(level, run_label(path), name) for level in levels],
+                           rejections=dict(rejections), n_levels=len(levels), notes=notes)
 
 
 def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, Any],

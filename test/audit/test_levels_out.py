@@ -133,9 +133,9 @@ def test_audit_and_identify_of_a_raw_run_write_segments_levels(tmp_path):
             [[r[c] for c in numbers] for r in expected], verb
         assert {r['experiment'] for r in got} == {'joint2_run'}  # the run, by its name
         assert len({r['joint'] for r in got}) == 1  # one joint, named from the file name
-    # without --raw-sign the friction fitted is flipped (friction > 0 for the KUKA data)
-    out = tmp_path / 'flipped.csv'
+    # without --raw-sign the data decide (issue 43): this run's torque is along the motion,
+    # so its friction is read as recorded, the same as segment's (the KUKA runs are flipped)
+    out = tmp_path / 'data_sign.csv'
     assert main(['audit', str(run), '--levels-out', str(out)]) == 0
-    assert [r['friction'].lstrip('-') for r in _rows(out)] == \
-        [r['friction'] for r in expected]
-    assert all(float(r['friction']) < 0 for r in _rows(out))
+    assert [r['friction'] for r in _rows(out)] == [r['friction'] for r in expected]
+    assert all(float(r['friction']) > 0 for r in _rows(out))
