@@ -43,7 +43,8 @@ from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from robot_wear_monitor.errors import InputError, shorten
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import shorten
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation_settings import (RAW_RUN_NOISE_BAND,
                                                                  SegmenterConfig)
