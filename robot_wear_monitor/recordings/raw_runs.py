@@ -42,9 +42,8 @@ import re
 from typing import Any, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.text import shorten
 from robot_wear_monitor.experiment.levels import FrictionLevel
 from robot_wear_monitor.experiment.segmentation_settings import (RAW_RUN_NOISE_BAND,
                                                                  SegmenterConfig)
@@ -52,8 +51,8 @@ from robot_wear_monitor.input_files import (MAX_LEVEL_TABLE_BYTES, MAX_TABLE_LIN
                                             TextLines)
 from robot_wear_monitor.recordings.tables import (KUKA_COLUMNS, parse_run_name, RawRun,
                                                   read_raw_csv, RecordingError)
+from robot_wear_monitor.text import shorten
 
-FloatArray = NDArray[np.float64]
 
 _JOINT_PREFIX = re.compile(r'^joint(\d+)_')
 #: Samples of the running median the speed noise is measured about.
