@@ -15,8 +15,8 @@ import shutil
 
 from robot_wear_monitor.atomic_files import check_writable, OutputError, staging_folder
 from robot_wear_monitor.cli.options import PROG
-from robot_wear_monitor.text import escaped
 from robot_wear_monitor.share_files import packaged_file
+from robot_wear_monitor.text import escaped
 
 HELP = ('copy the example level tables and raw runs (audit, identify: docs/identify.md) into '
         'a folder')
