@@ -19,6 +19,16 @@ Each option that several verbs take is built here, so it has one spelling and on
 
 The argparse ``type`` functions (:func:`parse_float_list`, :func:`parse_range`,
 :func:`joint_names`) and the JSON output helpers live here too.
+
+**A new option's default** is not written here: a setting is declared once, on its
+component's configuration dataclass, with :func:`robot_wear_monitor.setting_fields.setting`
+(default, unit, description, check; e.g. :class:`~robot_wear_monitor.experiment.
+segmentation_settings.SegmenterConfig`, with the raw-run values in ``RAW_RUN_SETTINGS``).  The
+option is then made from it with :func:`add_setting_option` (help with unit and default, type
+and range from the check), e.g. ``add_setting_option(parser, '--speed-tolerance',
+SegmenterConfig, 'speed_tolerance_rad_s', default_text='raw runs 0.01; bag: the node config')``
+with ``default=None`` when the value depends on the input kind; a node parameter of the same
+setting is ``ParameterSpec.of(Owner, name)`` (:mod:`robot_wear_monitor.monitoring.node_config`).
 """
 
 from __future__ import annotations

@@ -158,9 +158,8 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
 )
 
 #: friction_experiment_node parameters that are fields of segmentation.SegmenterConfig.
-SEGMENTER_FIELDS = ('joint', 'gear_ratio', 'torque_scale', 'standstill_speed_rad_s',
-                    'speed_tolerance_fraction', 'speed_tolerance_rad_s', 'min_duration_s',
-                    'trim_s', 'min_samples', 'min_window_rad', 'max_gap_s')
+SEGMENTER_FIELDS = tuple(name for name in declared_settings(SegmenterConfig)
+                         if name in {spec.name for spec in FRICTION_EXPERIMENT_PARAMETERS})
 
 WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINT,
