@@ -21,7 +21,9 @@ import sys
 
 from robot_wear_monitor.cli.options import PROG, shown_location
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
+from robot_wear_monitor.text import iso_time, shorten
 
 _ROLE_HELP = '; '.join(f'{role} {text}' for role, text in ROLE_TEXTS.items())
 
@@ -111,7 +113,6 @@ def read_password(*, name: str) -> str:
 
 
 def _users(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.history import open_history
     with open_history(args.history, init=None if args.user_action == 'add' else False) \
             as history:
         if args.user_action == 'add':
@@ -130,6 +131,8 @@ def _users(args: argparse.Namespace) -> int:
             history.remove_user(name=args.name)
             print(f'user {args.name} removed; their sessions and API tokens ended')
         else:
+            # imported when the verb runs: --help and the parse load none of it, and numpy loads
+            # after the one-BLAS-thread setting
             from robot_wear_monitor.text import iso_time
             found = history.users()
             for user in found:
@@ -141,8 +144,6 @@ def _users(args: argparse.Namespace) -> int:
 
 
 def _tokens(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.text import iso_time, shorten
     with open_history(args.history, init=False) as history:
         if args.token_action == 'add':
             listed, token = history.add_token(user=args.user, label=args.label)
@@ -175,6 +176,8 @@ def main(args: argparse.Namespace) -> int:
     if args.dashboard_command == 'token':
         return _tokens(args)
     try:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
                                                       environment_secret)
         from robot_wear_monitor.dashboard.server import bind_listener, check_listen, serve
@@ -189,9 +192,10 @@ def main(args: argparse.Namespace) -> int:
                  insecure_http=args.insecure_http)
     extra = {}
     if args.notify:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.dashboard.notifier import load_config
         extra['notify'] = load_config(args.notify)  # a bad file stops the start (exit 2)
-    from robot_wear_monitor.history import open_history
     with open_history(args.history, init=False) as history:
         if not history.users():
             print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '

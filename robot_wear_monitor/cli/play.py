@@ -33,6 +33,8 @@ def main(args: argparse.Namespace) -> int:
     if not args.rate > 0:
         raise InputError(f'--rate must be > 0, got {args.rate}')
     try:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.nodes.monitoring_graph import run_player
     except ImportError as error:
         raise rclpy_missing(error) from None

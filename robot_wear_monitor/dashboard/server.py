@@ -84,6 +84,7 @@ def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
 
     ``listener``: a socket from :func:`bind_listener` (else uvicorn binds ``host``:``port``).
     """
+    # the optional 'dashboard' extra: imported where used
     import uvicorn
     config = uvicorn.Config(app, host=host, port=port, ssl_certfile=tls_cert,
                             ssl_keyfile=tls_key, log_level='info', proxy_headers=False,

@@ -395,6 +395,7 @@ def packaged_config_file(file_name: str) -> Path:
     """
     candidates = []
     try:  # pragma: no cover - only on a ROS 2 host
+        # imported on use: not every importer of this module needs it (start-up time)
         from ament_index_python.packages import get_package_share_directory
         candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / 'config')
     except Exception:  # noqa: BLE001 - ament may be absent or the package not indexed

@@ -19,6 +19,7 @@ from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
 from robot_wear_monitor.text import escaped
 
 #: Columns of the level CSV, in order.
@@ -65,10 +66,10 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     low-rate logs) instead of one per pass pair.  A log too slow for pass pairs is named so,
     with its sample rate and samples per pass.
     """
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.experiment.position_bins import (low_rate_reason,
                                                              position_binned_levels)
     from robot_wear_monitor.experiment.segmentation import ExperimentAssembler, segment_batch
-    from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
     from robot_wear_monitor.recordings.tables import (read_raw_csv, slow_run_config,
                                                       with_standstill_speed)
     t, q, v, e = read_raw_csv(path)
@@ -119,6 +120,7 @@ def explain_raw_run(velocity: Any, rejections: Mapping[str, int], config: Any) -
     direction only (eq. (3) needs a pass each way at one speed), passes never paired, or no
     constant-speed plateau.
     """
+    # imported on use: not every importer of this module needs it (start-up time)
     import numpy as np
     speed = np.abs(np.asarray(velocity, dtype=float)) * config.gear_ratio
     speed = speed[np.isfinite(speed)]
@@ -156,12 +158,14 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
     :func:`~robot_wear_monitor.monitoring.replay.replay_parameters`); ``speeds_rad_s``: keep
     only experiments at these motor speeds [rad/s] (``experiment_speeds_rad_s``).
     """
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.monitoring.joints import JointExperiments
     from robot_wear_monitor.monitoring.replay import (explain_recording, joint_summary,
                                                       NoExperimentError)
     from robot_wear_monitor.recordings.bags import iter_joint_chunks
     experiment = dict(experiment_parameters)
     if speeds_rad_s:
+        # imported on use: not every importer of this module needs it (start-up time)
         from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                                validate_parameters)
         experiment = validate_parameters(
