@@ -36,5 +36,6 @@ def use_single_blas_thread() -> None:
         # own OpenBLAS, which would read the other value if loaded later: load it first.
         # Otherwise skip it: the estimation path does not import scipy (0.14 s)
         import scipy.linalg  # noqa: F401
+    # imported on use: not every importer of this module needs it (start-up time)
     from threadpoolctl import threadpool_limits
     _LIMITER = threadpool_limits(limits=1, user_api='blas')

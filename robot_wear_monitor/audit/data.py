@@ -18,7 +18,7 @@ from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.input_files import (csv_file_rows, MAX_LEVEL_TABLE_BYTES,
-                                            MAX_TABLE_LINE_CHARS, TextLines)
+                                            MAX_TABLE_LINE_CHARS)
 from robot_wear_monitor.text import escaped, shorten
 
 
@@ -188,8 +188,9 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     The one reading of raw runs of every verb,
     :func:`robot_wear_monitor.recordings.raw_runs.read_raw_runs` (settings of
     :func:`robot_wear_monitor.experiment.segmentation_settings.raw_run_segmenter_config`, each
-    run's speed band from its own noise or ``speed_tolerance``, a fraction of the speed; one-way runs paired
-    across runs at the closest speed); link-side rad/s and the torque's unit.
+    run's speed band from its own noise or ``speed_tolerance``, a fraction of the speed;
+    one-way runs paired across runs at the closest speed); link-side rad/s and the torque's
+    unit.
 
     Columns: ``speed``, ``friction`` (``flip_sign``: a joint whose eq. (3) friction is negative
     in the recorded sign is read with the other sign, friction opposing the motion; False

@@ -29,7 +29,9 @@ from typing import Any
 from robot_wear_monitor.cli.options import PROG, shown_location
 from robot_wear_monitor.dashboard.server import HEADER_TIMEOUT_S, LIMIT_CONCURRENCY
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
+from robot_wear_monitor.text import iso_time, shorten
 
 _ROLE_HELP = '; '.join(f'{role} {text}' for role, text in ROLE_TEXTS.items())
 
@@ -141,7 +143,6 @@ def read_password(*, name: str) -> str:
 
 
 def _users(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.history import open_history
     with open_history(args.history, init=None if args.user_action == 'add' else False) \
             as history:
         if args.user_action == 'add':
@@ -162,6 +163,8 @@ def _users(args: argparse.Namespace) -> int:
             history.remove_user(name=args.name, by=_cli_actor())
             print(f'user {args.name} removed; their sessions and API tokens ended')
         else:
+            # imported when the verb runs: --help and the parse load none of it, and numpy loads
+            # after the one-BLAS-thread setting
             from robot_wear_monitor.text import iso_time
             found = history.users()
             for user in found:
@@ -173,8 +176,6 @@ def _users(args: argparse.Namespace) -> int:
 
 
 def _tokens(args: argparse.Namespace) -> int:
-    from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.text import iso_time, shorten
     with open_history(args.history, init=False) as history:
         if args.token_action == 'add':
             listed, token = history.add_token(user=args.user, label=args.label, by=_cli_actor())
@@ -235,6 +236,8 @@ def main(args: argparse.Namespace) -> int:
     if args.dashboard_command == 'audit':
         return _audit(args)
     try:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
                                                       environment_secret)
         from robot_wear_monitor.dashboard.server import bind_listener, check_listen, serve
@@ -257,9 +260,10 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'--header-timeout-s must be 0.5-600, got {header_timeout_s:g}')
     notifications = None
     if args.notify:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.dashboard.notifier import load_config
         notifications = load_config(args.notify)  # a bad file stops the start (exit 2)
-    from robot_wear_monitor.history import open_history
     with open_history(args.history, init=False) as history:
         if not history.users():
             print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '

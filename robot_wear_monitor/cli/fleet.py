@@ -9,13 +9,16 @@ from __future__ import annotations
 
 import argparse
 import csv
+import datetime
 import io
 import math
 import time
 
 from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
                                             emit_json, shown_location)
+from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import open_history
 
 HELP = 'every robot joint of a wear history, worst first (alarm, forecast crossing, wear)'
 
@@ -40,8 +43,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def parse_time(text: str, *, option: str = '--now') -> float:
     """Return seconds since the epoch of an ISO 8601 time (UTC when no zone) or a number."""
-    import datetime
-    import math
     try:
         value = float(text)
     except ValueError:
@@ -61,11 +62,10 @@ def parse_time(text: str, *, option: str = '--now') -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
-    from robot_wear_monitor.cli.outputs import write_text_output
-    from robot_wear_monitor.cli.outputs import to_terminal
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
                                                   fleet_table, fleet_view)
-    from robot_wear_monitor.history import open_history
     now_s = parse_time(args.now) if args.now else time.time()
     margin = (DEFAULT_REESCALATION_MARGIN if args.reescalation_margin is None
               else args.reescalation_margin)

@@ -10,11 +10,18 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+import math
+from pathlib import Path
 from typing import Any, Sequence
 
 from robot_wear_monitor.cli.options import (add_json, add_local, add_robot, emit_json, PROG,
                                             shown_location)
+from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import is_postgresql_url, open_history, write_levels_csv
+from robot_wear_monitor.history.alarms import event_time_s, note_text
+from robot_wear_monitor.json_values import finite_or_none
+from robot_wear_monitor.text import iso_time, LINE_LIMIT, shorten
 
 HELP = 'show the stored wear history and export its friction levels for audit'
 
@@ -46,14 +53,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``history``: a table of the estimates (or ``--json``), ``--csv`` the levels."""
-    import math
-    from pathlib import Path
-
-    from robot_wear_monitor.history import (is_postgresql_url, open_history,
-                                            write_levels_csv)
-    from robot_wear_monitor.json_values import finite_or_none
-    from robot_wear_monitor.text import iso_time, LINE_LIMIT, shorten
-
     if not is_postgresql_url(args.database) and not Path(args.database).is_file():
         raise InputError(f'{shown_location(args.database)}: no such wear history database')
     if args.last is not None and args.last < 1:
@@ -145,6 +144,8 @@ def estimate_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> str
 
 def _row(record: Any) -> tuple[Any, float]:
     """Return (record, the std of w-hat the estimate reported: NaN where it reports none)."""
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.estimation.wear_report import meaningful_std
     return record, meaningful_std(std=record.wear_std, value=record.wear, low=record.wear_low,
                                   high=record.wear_high, open_above=False)
@@ -152,6 +153,8 @@ def _row(record: Any) -> tuple[Any, float]:
 
 def audit_hint(csv: str, records: Any) -> str:
     """Return what to run on the exported levels (audit needs 6 or more distinct speeds)."""
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.audit.run import MIN_SPEEDS
     speeds = sorted(float(v) for r in records for v in r.speeds_rad_s)
     distinct = sum(1 for i, v in enumerate(speeds) if i == 0 or v > speeds[i - 1] * 1.02)
@@ -169,9 +172,6 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
     ``time``/``event_time_s``: the event's time in the log (a raise's experiment stamp, an
     acknowledgement's or a reset's wall time); ``note_text``: the note in words.
     """
-    from robot_wear_monitor.history.alarms import event_time_s, note_text
-    from robot_wear_monitor.json_values import finite_or_none
-    from robot_wear_monitor.text import iso_time
     return [{'id': e.id, 'time': iso_time(event_time_s(e), local=local), 'robot': e.robot,
              'joint': e.joint, 'event': e.event,
              'wear': None if e.wear is None else finite_or_none(e.wear), 'user': e.user,
@@ -184,11 +184,9 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
 
 def alarm_log_main(args: argparse.Namespace) -> int:
     """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
-    from robot_wear_monitor.cli.outputs import write_text_output
-    from robot_wear_monitor.cli.outputs import to_terminal
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.csv_cells import csv_text
-    from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.text import shorten
 
     if args.csv and (args.json or args.json_out):
         raise InputError('--alarms: give --csv or --json, not both')

@@ -20,6 +20,9 @@ from typing import Any, TYPE_CHECKING
 
 from robot_wear_monitor.cli.options import (add_history, add_json, bounded, emit_json,
                                             shown_location)
+from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import open_history
+from robot_wear_monitor.text import iso_time, shorten
 
 if TYPE_CHECKING:
     from robot_wear_monitor.fleet.notifications import SentNotification
@@ -55,7 +58,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _line(sent: SentNotification) -> str:
-    from robot_wear_monitor.text import iso_time, shorten
     what = f'{sent.kind} {shorten(sent.robot, 60)} {shorten(sent.joint, 60)}'
     when = iso_time(time.time())
     if sent.delivered:
@@ -77,7 +79,6 @@ def _log_status(row: dict[str, Any], keys: set[str]) -> str:
 
 
 def _log_line(row: dict[str, Any]) -> str:
-    from robot_wear_monitor.text import iso_time, shorten
     payload = row.get('payload') or {}
     status = row['status']
     if status == 'failure':
@@ -93,11 +94,11 @@ def _log_line(row: dict[str, Any]) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``notify``: one pass (``--once``) or a pass every ``--interval-s`` seconds."""
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.cli.fleet import parse_time
-    from robot_wear_monitor.errors import InputError
     from robot_wear_monitor.fleet.notifications import (load_notification_config,
                                                         notify_forever, notify_once)
-    from robot_wear_monitor.history import open_history
     if args.log is not None:
         if args.once or args.now:
             raise InputError('--log reads the log only: not with --once or --now')

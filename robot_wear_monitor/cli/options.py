@@ -42,11 +42,14 @@ import re
 import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
+from robot_wear_monitor.atomic_files import write_json_atomic, write_text_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import (NODE_SCALES, RAW_RUN_READING,
                                                                  RAW_RUN_SETTINGS,
                                                                  SegmenterConfig)
-from robot_wear_monitor.yaml_files import shorten
+from robot_wear_monitor.history.passwords import location_secrets, redact_location
+from robot_wear_monitor.input_files import check_robot_name
+from robot_wear_monitor.text import LINE_LIMIT, shorten
 
 if TYPE_CHECKING:  # loads numpy: imported where used, so that the command line starts light
     from robot_wear_monitor.model.params import ParameterSet
@@ -177,7 +180,6 @@ def check_option(value: float | None, *, option: str, low: float, high: float, u
     ``low_open``: the low end is excluded (``> low``).  ``unit`` is printed after the numbers
     (e.g. ``'rad/s'``); None passes (the option was not given).
     """
-    import math
     if value is None:
         return
     unit_text = f' {unit}' if unit else ''
@@ -196,6 +198,8 @@ def add_params(parser: argparse.ArgumentParser) -> None:
 
 def params_from(args: argparse.Namespace) -> ParameterSet:
     """Return the parameter set of ``--params`` (the packaged one when not given)."""
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.model.params import load_parameter_set
     return load_parameter_set(getattr(args, 'params', None))
 
@@ -298,7 +302,6 @@ def add_robot(parser: argparse.ArgumentParser, *, help_text: str) -> None:
 
 def robot_name(text: str) -> str:
     """Parse a ``--robot`` value: a non-empty name of at most 128 printable characters."""
-    from robot_wear_monitor.input_files import check_robot_name
     try:
         return check_robot_name(text)
     except InputError as error:
@@ -394,7 +397,6 @@ def write_json_out(path: str | None, payload: Any) -> None:
     """Write ``payload`` to ``--json-out PATH`` atomically (nothing when ``path`` is None)."""
     if path is None:
         return
-    from robot_wear_monitor.atomic_files import write_json_atomic
     try:
         write_json_atomic(path, payload)
     except OSError as error:
@@ -571,7 +573,8 @@ def write_levels_out(args: argparse.Namespace, tables: Sequence[Any],
     """
     if not getattr(args, 'levels_out', None):
         return None
-    from robot_wear_monitor.atomic_files import write_text_atomic
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.audit.data import levels_out_text
     write_text_atomic(args.levels_out, levels_out_text(tables, roles=roles))
     return str(args.levels_out)
@@ -589,8 +592,6 @@ def level_source_scales(args: argparse.Namespace) -> tuple[float | None, float |
 
 def shown_location(location: str) -> str:
     """Return a history location as it may be printed: no password, control characters escaped."""
-    from robot_wear_monitor.history.passwords import redact_location
-    from robot_wear_monitor.text import LINE_LIMIT, shorten
     return shorten(redact_location(location), LINE_LIMIT)
 
 
@@ -620,7 +621,6 @@ _URL_IN_WORD = re.compile(r'postgres(?:ql)?://\S+')
 
 def _secrets_of(args: argparse.Namespace | Sequence[str]) -> set[str]:
     """Return the passwords of the URLs among the parsed options, or in the words of argv."""
-    from robot_wear_monitor.history.passwords import location_secrets
     secrets: set[str] = set()
     if isinstance(args, argparse.Namespace):
         for value in vars(args).values():
@@ -658,6 +658,8 @@ def secrets_kept_out(args: argparse.Namespace | Sequence[str]) -> Iterator[None]
     try:
         yield
     except Exception:  # a traceback is printed here, through the guard, not after it
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         import traceback
         traceback.print_exc()
         raise SystemExit(1) from None

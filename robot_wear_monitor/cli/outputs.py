@@ -62,6 +62,8 @@ def check_outputs(args: argparse.Namespace) -> None:
             check_writable(out, what='--out')
     history = getattr(args, 'history', None)
     if history and command in HISTORY_WRITERS and str(history) != ':memory:':
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.history.backends import is_postgresql_url
         if not is_postgresql_url(history):
             check_writable_file(history, what='--history')

@@ -7,6 +7,7 @@ The motion is written as a JointTrajectory YAML (for ``ros2 topic pub``), a bag 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from robot_wear_monitor.cli.options import (add_json, add_params, add_setting_option, emit_json,
@@ -122,8 +123,8 @@ def _sample_rate(args: argparse.Namespace) -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``plan``: print the plan's durations and write the trajectory of ``--out``."""
-    from pathlib import Path
-
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.experiment.planning import (plan_experiment, plan_summary,
                                                         trajectory_points)
     from robot_wear_monitor.recordings import trajectories
@@ -131,6 +132,8 @@ def main(args: argparse.Namespace) -> int:
     if args.speeds is not None:
         speeds = args.speeds
     else:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from robot_wear_monitor.estimation.design import best_grid_design, optimal_design
         if args.n < 1:
             raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any, Callable
 
 from robot_wear_monitor.cli.options import (add_params, check_option, FINITE, params_from,
@@ -44,6 +45,8 @@ MAX_EXPERIMENTS = 100_000
 def _simulate(simulate_scenario: Callable[..., Any], *, config: Any, params: Any,
               args: argparse.Namespace) -> Any:
     """Return the simulated scenario; an error names the option a user changes, not a field."""
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.experiment.planning import PlanError
     try:
         return simulate_scenario(config=config, model=params.model, seed=args.seed)
@@ -63,8 +66,8 @@ def _simulate(simulate_scenario: Callable[..., Any], *, config: Any, params: Any
 
 def main(args: argparse.Namespace) -> int:
     """Run ``simulate``: write the bag and its truth JSON beside it."""
-    from pathlib import Path
-
+    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
+    # one-BLAS-thread setting
     from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                           JointSimConfig, simulate_scenario,
                                                           truth_path_for, write_truth_json)
@@ -87,6 +90,8 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed, wear_final=args.wear_final, experiment_interval_s=args.interval,
         joint=JointSimConfig(sample_rate_hz=args.sample_rate))
     if args.start_time is not None:
+        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
+        # the one-BLAS-thread setting
         from dataclasses import replace
         import math
 

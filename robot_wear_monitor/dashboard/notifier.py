@@ -16,19 +16,22 @@ import logging
 import time
 from typing import Any, AsyncIterator
 
+from robot_wear_monitor.history import open_history
+
 LOGGER = logging.getLogger('robot_wear_monitor.dashboard')
 
 
 def load_config(path: str) -> Any:
     """Return the notification configuration of ``path`` (NotificationConfigError when bad)."""
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.fleet.notifications import load_notification_config
     return load_notification_config(path)
 
 
 def notify_pass(*, location: str, config: Any) -> int:
     """Run one notification pass on the history at ``location``; return the notices sent."""
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.fleet.notifications import notify_once
-    from robot_wear_monitor.history import open_history
     with open_history(location, init=False) as history:
         sent = notify_once(history=history, config=config, now_s=time.time())
     return len(sent)

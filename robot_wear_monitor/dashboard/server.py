@@ -107,6 +107,7 @@ def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
     ``limit_concurrency``: connections and requests at once (503 past it);
     ``header_timeout_s``: how long a request's headers may take [s].
     """
+    # the optional 'dashboard' extra: imported where used
     import uvicorn
     config = uvicorn.Config(app, host=host, port=port, ssl_certfile=tls_cert,
                             ssl_keyfile=tls_key, log_level='info', proxy_headers=False,

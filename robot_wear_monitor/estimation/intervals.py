@@ -57,7 +57,7 @@ from robot_wear_monitor.estimation.profile_likelihood import (cached_profile, ca
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
 from robot_wear_monitor.estimation.wear_estimates import validate_speeds, WearEstimates
 from robot_wear_monitor.model import friction as fm
-from robot_wear_monitor.model.params import ParameterSet
+from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 
 # The calibration store (keys, the shipped table, the cache) is calibration_store's; its names
 # stay importable from here, as before the store had a module of its own.
@@ -203,7 +203,6 @@ def write_shipped_calibrations(path: str | os.PathLike = SHIPPED_CALIBRATIONS) -
     ``python3 -c "from robot_wear_monitor.estimation.intervals import
     write_shipped_calibrations as w; w()"`` (a test checks that the table is current).
     """
-    from robot_wear_monitor.model.params import load_parameter_set
     params = load_parameter_set(None)
     entries = []
     for speeds in SHIPPED_DESIGNS:

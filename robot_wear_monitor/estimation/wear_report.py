@@ -109,6 +109,7 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
         gives T-hat with its interval only (``wear_determined`` False).
 
     """
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.estimation.estimator import estimate_wear
     from robot_wear_monitor.estimation.intervals import wear_intervals, WearInterval
     from robot_wear_monitor.estimation.wear_estimates import validate_speeds
@@ -116,6 +117,7 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
     estimates = estimate_wear(speeds_rad_s, frictions, params=params)
     est = estimates[0]
     if not params.estimates_wear:  # no wear model: T-hat and its interval only
+        # imported on use: not every importer of this module needs it (start-up time)
         import numpy as np
 
         from robot_wear_monitor.estimation.temperature_only import estimate_temperature

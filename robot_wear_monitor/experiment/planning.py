@@ -36,8 +36,6 @@ from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.plan_config import PlanConfig, PlanError  # noqa: F401
 
-
-
 #: Phase kinds of :attr:`ExperimentPlan.kind`.
 REPOSITION, DWELL, RAMP, PLATEAU = 0, 1, 2, 3
 

@@ -29,6 +29,7 @@ import time
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.errors import InputError, no_such_path_text
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.input_files import check_robot_name, csv_rows, read_text_file
 from robot_wear_monitor.recordings import is_bag
 from robot_wear_monitor.text import shorten
@@ -316,14 +317,15 @@ def recording_fingerprint(bag: str | os.PathLike) -> str:
 # --- one task -------------------------------------------------------------------------------
 
 def _peak_rss_mb() -> float:
+    # imported on use: not every importer of this module needs it (start-up time)
     import resource
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def replay_one(task: BagTask, settings: ReplaySettings) -> BagOutcome:
     """Replay one bag into the history; never raise (a failure is the outcome's ``reason``)."""
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.blas_threads import use_single_blas_thread
-    from robot_wear_monitor.history import open_history
     from robot_wear_monitor.monitoring.replay import replay_bag
     use_single_blas_thread()
     started = time.perf_counter()
@@ -380,6 +382,7 @@ def _chains(tasks: Sequence[BagTask]) -> dict[str, deque[int]]:
 
 
 def _progress_bar(total: int, enabled: bool) -> Any:
+    # imported on use: not every importer of this module needs it (start-up time)
     from tqdm import tqdm
     return tqdm(total=total, unit='bag', desc='replay', disable=not enabled, mininterval=0.5)
 
@@ -467,6 +470,7 @@ def _run_dask(tasks: Sequence[BagTask], settings: ReplaySettings,
               client: Any) -> str:
     """Submit the tasks to Dask: each robot's next bag when its previous one is done."""
     try:
+        # the optional 'dask' extra: imported where used
         from distributed import as_completed, Client
     except ImportError as error:  # pragma: no cover - dask is a dependency
         raise BatchError(f'--dask needs the distributed package: pip install '

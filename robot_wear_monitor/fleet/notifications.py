@@ -61,7 +61,7 @@ from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR, threshold_text
-from robot_wear_monitor.history import WearHistory
+from robot_wear_monitor.history import HistoryError, open_history, WearHistory
 from robot_wear_monitor.text import iso_time
 
 __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
@@ -325,7 +325,6 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
     one pass, not the notifier); a pass that fails is given to ``on_error`` and the loop goes
     on; the sends of each pass go to ``report``.
     """
-    from robot_wear_monitor.history import HistoryError, open_history
 
     def wait(seconds: float) -> None:
         stop.wait(seconds)

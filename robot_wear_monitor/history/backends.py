@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from contextlib import AbstractContextManager, contextmanager
 import errno
+import fcntl
 import hashlib
 import os
 from pathlib import Path
@@ -295,7 +296,6 @@ class SqliteBackend:
     @contextmanager
     def writer_lock(self, key: int, *, wait: bool) -> Iterator[None]:
         """Hold the advisory writer lock ``key`` (a byte of ``<history>-lock``)."""
-        import fcntl
         if self.name == ':memory:':
             yield
             return
@@ -342,6 +342,7 @@ class PostgresqlBackend:
         """Connect to ``url``; raise :class:`HistoryError` naming it when that fails."""
         self.name = redact_url(url)
         try:
+            # the optional 'postgresql' extra: imported where used
             import psycopg
         except ImportError:
             raise HistoryError(f'{self.name}: a PostgreSQL history needs psycopg 3: pip install '

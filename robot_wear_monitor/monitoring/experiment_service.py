@@ -16,12 +16,15 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass, field
 import math
-from typing import Any, Mapping, Optional, Sequence, TYPE_CHECKING
+from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionExperiment, FrictionLevel
+from robot_wear_monitor.experiment.segmentation import (ChunkSegmenter, ExperimentAssembler,
+                                                        merge_levels, SegmenterConfig, SpeedTally,
+                                                        StreamingSegmenter)
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport, ROUTINE_REJECTIONS
 from robot_wear_monitor.monitoring.monitor_config import FrictionJointConfig
 from robot_wear_monitor.monitoring.node_config import IDLE_GAP_S
@@ -29,9 +32,6 @@ from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.recordings.messages import (DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
                                                     MessageError, MessageKit)
 from robot_wear_monitor.text import fmt_number
-
-if TYPE_CHECKING:
-    from robot_wear_monitor.experiment.segmentation import ChunkSegmenter, SegmenterConfig
 
 #: A standstill at least this long [s] is a pause between experiments, not a turn inside one
 #: (the planned experiment dwells 0.1-0.2 s at its turns); used at the cut of a recording.
@@ -82,8 +82,6 @@ class FrictionExperimentService:
 
     def __post_init__(self) -> None:
         """Build the segmenter and the assembler."""
-        from robot_wear_monitor.experiment.segmentation import (ExperimentAssembler,
-                                                                StreamingSegmenter)
         self.messages = 0
         self.experiments = 0
         self.last_experiment: Optional[FrictionExperiment] = None
@@ -94,7 +92,6 @@ class FrictionExperimentService:
         self._segmenter: Any = StreamingSegmenter(self.segmenter_config)
         self._chunks: Optional[ChunkSegmenter] = None
         self._last_pause_end_s = -math.inf
-        from robot_wear_monitor.experiment.segmentation import SpeedTally
         self._speed_tally = SpeedTally(self.speed_tolerance_rad_s)
         self._assembler = ExperimentAssembler(
             speeds_rad_s=list(self.experiment_speeds_rad_s) or None,
@@ -173,7 +170,6 @@ class FrictionExperimentService:
         or ``add_joint_state``), then ``finish()``.  Arrays: shape (n,), time [s], joint
         position [rad], joint speed [rad/s], effort.
         """
-        from robot_wear_monitor.experiment.segmentation import ChunkSegmenter
         if self._chunks is None:
             self._chunks = ChunkSegmenter(self.segmenter_config)
             self._segmenter = self._chunks
@@ -397,7 +393,6 @@ class FrictionExperimentService:
 
     def _close_event_experiment(self) -> list[FrictionExperiment]:
         """Close the open event experiment; return it when it has levels (not counted yet)."""
-        from robot_wear_monitor.experiment.segmentation import merge_levels
         current, self._open = self._open, None
         if current is None:
             return []

@@ -20,6 +20,7 @@ from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
 from robot_wear_monitor.text import escaped
 
 #: Columns of the level CSV, in order.
@@ -77,12 +78,12 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     :raises InputError: no run gave a level (every run's reason said).
 
     """
+    # imported on use: not every importer of this module needs it (start-up time)
     from pathlib import Path
 
     from robot_wear_monitor.experiment.segmentation import ExperimentAssembler
     from robot_wear_monitor.recordings.raw_runs import (folder_runs, no_level_error,
                                                         read_raw_runs)
-    from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
     from robot_wear_monitor.recordings.tables import with_standstill_speed
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
                                        ('torque_scale', torque_scale)) if val is not None}
@@ -161,12 +162,14 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
     :func:`~robot_wear_monitor.monitoring.replay.replay_parameters`); ``speeds_rad_s``: keep
     only experiments at these motor speeds [rad/s] (``experiment_speeds_rad_s``).
     """
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.monitoring.joints import JointExperiments
     from robot_wear_monitor.monitoring.replay import (explain_recording, joint_summary,
                                                       NoExperimentError)
     from robot_wear_monitor.recordings.bags import iter_joint_chunks
     experiment = dict(experiment_parameters)
     if speeds_rad_s:
+        # imported on use: not every importer of this module needs it (start-up time)
         from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                                validate_parameters)
         experiment = validate_parameters(

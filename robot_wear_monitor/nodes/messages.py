@@ -7,6 +7,7 @@ so that importing :mod:`robot_wear_monitor.nodes` needs no ROS.
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 from robot_wear_monitor.recordings.messages import MessageKit, rclpy_kit
@@ -14,7 +15,6 @@ from robot_wear_monitor.recordings.messages import MessageKit, rclpy_kit
 
 def _import_message(type_name: str) -> Any:
     """Return the rclpy class of ``pkg/msg/Name`` (imported on first use)."""
-    import importlib
     package, kind, name = type_name.split('/')
     return getattr(importlib.import_module(f'{package}.{kind}'), name)
 
@@ -27,6 +27,7 @@ def message_kit() -> MessageKit:
     friction_experiment_runner) on first use, so that a node never needs a message package
     it does not publish.
     """
+    # rclpy and its messages come with the optional 'ros' extra: imported where used
     from builtin_interfaces.msg import Time
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from sensor_msgs.msg import JointState, Temperature

@@ -7,6 +7,7 @@ rclpy and its interfaces are imported inside the functions, so that importing
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, Mapping, Sequence
 
 from robot_wear_monitor.monitoring.node_config import ParameterSpec
@@ -22,6 +23,7 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
     with the same one-line error as in the replay, instead of an rclpy
     exception with a traceback.
     """
+    # rclpy and its messages come with the optional 'ros' extra: imported where used
     from rcl_interfaces.msg import ParameterDescriptor
     from rclpy.exceptions import ParameterException
     from robot_wear_monitor.model.params import ParameterError
@@ -101,8 +103,7 @@ def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[Paramete
     reaches the joint, also for a joint first seen at run time (``joints: [all]``), and with
     ``joint`` alone as in the replay.
     """
-    from dataclasses import replace
-
+    # rclpy-side modules load in the node's process only, when this runs
     from robot_wear_monitor.monitoring.node_config import (joint_parameters,
                                                            PER_JOINT_PARAMETERS)
     source = f'{node.get_name()} parameters'
@@ -115,6 +116,7 @@ def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[Paramete
 
 def help_requested(args: Sequence[str] | None) -> bool:
     """Return True when the process arguments before ``--ros-args`` ask for ``-h``/``--help``."""
+    # rclpy-side modules load in the node's process only, when this runs
     import sys
     argv = list(sys.argv[1:] if args is None else args[1:] if args and not str(
         args[0]).startswith('-') else args)
@@ -125,6 +127,7 @@ def help_requested(args: Sequence[str] | None) -> bool:
 
 def node_help(node: str) -> str:
     """Return the ``--help`` text of a node executable: usage and its declared parameters."""
+    # rclpy-side modules load in the node's process only, when this runs
     from robot_wear_monitor.monitoring.node_config import NODE_PARAMETERS
     lines = [f'usage: {node} [--ros-args --params-file FILE -p NAME:=VALUE ...]', '',
              f'The robot_wear_monitor node {node} (ROS 2 Jazzy).  Parameters (type, default):']

@@ -12,6 +12,7 @@ import threading
 from types import ModuleType
 from typing import Any, Callable, Sequence
 
+from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.nodes.parameters import help_requested, node_help
 
 
@@ -60,11 +61,11 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     if help_requested(args):  # answer --help without starting anything
         print(node_help(logger_name))
         return 0
+    # rclpy and its messages come with the optional 'ros' extra: imported where used
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
     from robot_wear_monitor.blas_threads import use_single_blas_thread
-    from robot_wear_monitor.errors import InputError
 
     use_single_blas_thread()
     # signal handlers can only be set in the main thread; elsewhere rclpy's handle the signals

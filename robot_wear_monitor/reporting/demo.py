@@ -73,6 +73,7 @@ def run_demo(*, out_dir: str | os.PathLike = 'wear_demo', n_experiments: int = 1
     summary['truth_first_k_at_threshold'] = truth_crossing
     summary['seed'] = seed
     write_json_atomic(folder / 'summary.json', summary)
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.model.params import load_parameter_set
     params = load_parameter_set(configuration.parameter_set_file())
     plot_wear_trend(result, folder / 'wear_trend.png', threshold=threshold,

@@ -12,6 +12,7 @@ coloured by experiment (like Fig. 2(b)), over the model at w = 0 and at the thre
 
 from __future__ import annotations
 
+from dataclasses import replace
 import math
 import os
 from pathlib import Path
@@ -23,8 +24,10 @@ from robot_wear_monitor.model.params import ParameterSet
 
 
 def _pyplot():
+    # matplotlib loads only when a figure is drawn (start-up time)
     import matplotlib
     matplotlib.use('Agg')
+    # matplotlib loads only when a figure is drawn (start-up time)
     import matplotlib.pyplot as plt
     return plt
 
@@ -111,6 +114,7 @@ def plot_wear_trend(result: Any, path: str | os.PathLike, *, threshold: float,
 def plot_friction_curves(result: Any, path: str | os.PathLike, *, params: ParameterSet,
                          threshold: float) -> Path:
     """Draw the friction levels of every experiment against speed and the model; save a PNG."""
+    # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.model.friction import friction
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))
@@ -242,8 +246,6 @@ def plot_replay(result: Any, path: str | os.PathLike, *, bag: str | os.PathLike,
     One joint (or none with estimates): ``path`` itself; several: ``<stem>_<joint><suffix>``
     beside it.  ``threshold``: the alarm threshold of w [-].
     """
-    from dataclasses import replace
-
     joints = [entry['joint'] for entry in result.joints if entry['estimates']]
     if len(joints) <= 1:
         return [plot_wear_trend(result, path, threshold=threshold,

@@ -16,6 +16,7 @@ from robot_wear_monitor.errors import InputError, no_such_path_text
 from robot_wear_monitor.recordings.bags.message_types import monitor_typestore
 from robot_wear_monitor.yaml_files import load_yaml_file
 from rosbags.rosbag2 import Reader, StoragePlugin
+from rosbags.typesys import get_typestore, Stores
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -36,7 +37,6 @@ BAG_VERSION: Literal[9] = 9
 @cache
 def jazzy_typestore() -> Typestore:
     """Return rosbags' whole ROS 2 Jazzy typestore, loaded on first use (0.04 s) and kept."""
-    from rosbags.typesys import get_typestore, Stores
     return get_typestore(Stores.ROS2_JAZZY)
 
 

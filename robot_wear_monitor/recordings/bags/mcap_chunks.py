@@ -129,6 +129,7 @@ def _decompress(data: memoryview, compression: str, size: int) -> bytes | memory
     if compression == '':
         return data
     if compression == 'zstd':
+        # imported on use: not every importer of this module needs it (start-up time)
         import zstandard
         return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
     if compression == 'lz4':
@@ -320,6 +321,7 @@ def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
         files = [bag / name for name in info['relative_file_paths']]
     except (InputError, KeyError, TypeError):
         return None
+    # imported on use: not every importer of this module needs it (start-up time)
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
     chunks: list[_Chunk] = []
