@@ -2,6 +2,7 @@
 The README's dashboard screenshots, from a simulated fleet, in a real headless Chromium.
 
     python3 bench/dashboard_screenshots.py [--out docs/figures] [--keep DIR] [--width PX]
+                                           [--history DIR/history.sqlite3]
 
 Simulates six robots whose joint 2 wears to 10 ... 60 over 30 hourly experiments (the README's
 fleet commands; one robot's recording ends 12 hours ago, so it is stale), replays them into one
@@ -106,9 +107,10 @@ def take_screenshots(history: Path, out: Path, *, width: int = WIDTH) -> list[Pa
         driver.find_element(By.ID, 'password').send_keys(PASSWORD)
         driver.find_element(By.ID, 'login-button').click()
         WebDriverWait(driver, 20).until(lambda d: d.find_elements(By.ID, 'fleet-rows'))
-        driver.set_window_size(width, 700)
+        driver.set_window_size(width, 1400)  # the whole page: every row of the fleet
+        time.sleep(0.5)
         written.append(out / 'dashboard_fleet.png')
-        driver.save_screenshot(str(written[-1]))
+        driver.find_element(By.TAG_NAME, 'body').screenshot(str(written[-1]))
         with open_history(history, init=False) as stored:  # the soonest forecast crossing
             worst = next(r for r in stored.fleet() if not r.alarm
                          and 0 < r.crossing_experiments < float('inf'))
@@ -132,12 +134,15 @@ def main() -> int:
     parser.add_argument('--out', type=Path, default=REPO / 'docs' / 'figures')
     parser.add_argument('--keep', type=Path, help='keep the bags and the history here')
     parser.add_argument('--width', type=int, default=WIDTH, help=f'pixels (default {WIDTH})')
+    parser.add_argument('--history', type=Path,
+                        help='a history made before (--keep DIR: DIR/history.sqlite3) instead '
+                             'of simulating the fleet again')
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         folder = args.keep or Path(scratch)
         started = time.monotonic()
-        history = make_history(folder)
-        print(f'fleet simulated and replayed in {time.monotonic() - started:.0f} s: {history}')
+        history = args.history or make_history(folder)
+        print(f'fleet ready in {time.monotonic() - started:.0f} s: {history}')
         for path in take_screenshots(history, args.out, width=args.width):
             print(f'written {path}')
     return 0

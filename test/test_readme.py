@@ -7,10 +7,11 @@ files from the installed package), so a later block uses what an earlier one mad
 (``examples/``, ``wear_bag``, the history), as a new user would.  The commands on the measured
 data in ``../shared`` (a line naming ``../shared``) read only those data: they run apart, one
 test each, in a folder with ``../shared`` beside it, and only they skip when ``../shared`` is
-absent (the reason names the block and the command); the chain runs either way.  A block marked ``<!-- not run: REASON -->``
-(the first block, which is the CI itself; a live ROS 2 graph; a server) is reported as a skipped
-test with its reason (:mod:`wear_testing.command_blocks`).  ``text`` blocks are synopses and
-sample output, not commands.
+absent (the reason names the block and the command); the chain runs either way.  A block
+marked ``<!-- not run: REASON -->`` (the first block, which is the CI itself; a live ROS 2
+graph; a server) is reported as a skipped test with its reason
+(:mod:`wear_testing.command_blocks`).  ``text`` blocks are synopses and sample output, not
+commands.
 
 Sizes are cut where a block would take minutes (:data:`SMALLER`); each cut must match, so the
 README cannot drift away from what is tested.  The pages under ``docs/`` have their own test,
