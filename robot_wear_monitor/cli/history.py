@@ -97,7 +97,9 @@ def main(args: argparse.Namespace) -> int:
                        'wear_interval': [json_number(r.wear_low), json_number(r.wear_high)],
                        'temperature_degc': json_number(r.temperature_degc),
                        'p_value': json_number(r.p_value), 'alarm': r.alarm_active,
-                       'valid': r.valid, 'invalid_reason': r.invalid_reason or None}
+                       'valid': r.valid, 'invalid_reason': r.invalid_reason or None,
+                       'threshold': json_number(r.threshold),
+                       'warning_level': json_number(r.warning_level)}
                       for r, std in rows]}
     if emit_json(args, payload):
         return 0

@@ -154,6 +154,9 @@ def test_fleet_json_the_api_and_the_pages_all_say_30(replays, capsys):
     assert main(['fleet', '--history', history, '--csv']) == 0
     [line] = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
     assert (line['threshold'], line['threshold_assumed']) == ('30', 'no')
+    assert main(['history', history, '--json']) == 0
+    estimates = json.loads(capsys.readouterr().out)['estimates']
+    assert {(e['threshold'], e['warning_level']) for e in estimates} == {(30.0, 28.0)}
     with WearHistory(history, init=False) as stored:
         stored.add_user(name='vic', role='viewer', password=PASSWORD)
     app = create_app(DashboardSettings(history=history))
