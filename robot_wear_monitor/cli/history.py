@@ -96,7 +96,9 @@ def main(args: argparse.Namespace) -> int:
                        'wear_interval': [finite_or_none(r.wear_low), finite_or_none(r.wear_high)],
                        'temperature_degc': finite_or_none(r.temperature_degc),
                        'p_value': finite_or_none(r.p_value), 'alarm': r.alarm_active,
-                       'valid': r.valid, 'invalid_reason': r.invalid_reason or None}
+                       'valid': r.valid, 'invalid_reason': r.invalid_reason or None,
+                       'threshold': finite_or_none(r.threshold),
+                       'warning_level': finite_or_none(r.warning_level)}
                       for r, std in rows]}
     if emit_json(args, payload):
         return 0

@@ -61,6 +61,7 @@ from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR, threshold_text
+from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import HistoryError, open_history, WearHistory
 from robot_wear_monitor.text import iso_time
 
@@ -168,18 +169,20 @@ def _where(robot: str, joint: str) -> str:
     return where
 
 
-def due_events(*, history: WearHistory, config: NotificationConfig,
-               now_s: float) -> list[DueEvent]:
+def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float,
+               parameter_sets: Optional[ParameterSets] = None) -> list[DueEvent]:
     """
     Return the events due at ``now_s`` [s since the epoch] that the configuration names.
 
     Worst joint first (the fleet's order); see the module's text for the events and keys.
     Sent or not, an event stays due while its condition holds: :func:`notify_once` keeps it
-    from being sent twice.
+    from being sent twice.  ``parameter_sets``: where a row without a stored threshold finds
+    its parameter set's (None: the packaged sets; see :func:`fleet_view`).
     """
     events: list[DueEvent] = []
     views = fleet_view(history.fleet(), now_s=now_s,
-                       reescalation_margin=config.reescalation_margin)
+                       reescalation_margin=config.reescalation_margin,
+                       parameter_sets=parameter_sets)
     resolved = ({(r[0], r[1]): r[2:] for r in history.resolved_raises()}
                 if 'alarm_raised' in config.events else {})
     for view in views:
@@ -260,7 +263,8 @@ def _send(event: DueEvent, channel: str, config: NotificationConfig,
 
 
 def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: float,
-                sleep: Callable[[float], None] = time.sleep) -> list[SentNotification]:
+                sleep: Callable[[float], None] = time.sleep,
+                parameter_sets: Optional[ParameterSets] = None) -> list[SentNotification]:
     """
     Send what is due at ``now_s`` [s since the epoch], once per event and channel.
 
@@ -268,9 +272,11 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     was sent already, by this process or another).  Failed sends are stored in the history
     and tried again on later passes (see the module's text).  Raises
     :class:`~robot_wear_monitor.history.HistoryError` when the history cannot be
-    read or written; a channel that fails never raises.
+    read or written; a channel that fails never raises.  ``parameter_sets``: see
+    :func:`due_events`.
     """
-    events = due_events(history=history, config=config, now_s=now_s)
+    events = due_events(history=history, config=config, now_s=now_s,
+                        parameter_sets=parameter_sets)
     if not events:
         return []
     log = {str(row['event_key']) for row in history.notifications()}

@@ -154,6 +154,9 @@ def test_fleet_json_the_api_and_the_pages_all_say_30(replays, capsys):
     assert main(['fleet', '--history', history, '--csv']) == 0
     [line] = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
     assert (line['threshold'], line['threshold_assumed']) == ('30', 'no')
+    assert main(['history', history, '--json']) == 0
+    estimates = json.loads(capsys.readouterr().out)['estimates']
+    assert {(e['threshold'], e['warning_level']) for e in estimates} == {(30.0, 28.0)}
     with WearHistory(history, init=False) as stored:
         stored.add_user(name='vic', role='viewer', password=PASSWORD)
     app = create_app(DashboardSettings(history=history))
@@ -225,3 +228,35 @@ def test_the_forecast_and_the_notifications_use_the_stored_threshold(tmp_path):
     assert (view.state.threshold, view.threshold_assumed) == (30.0, False)
     assert 'the wear threshold 30 is forecast to be crossed by' in event.summary
     assert 'Wear threshold: 30 (the alarm level' in event.description
+
+
+def test_a_row_without_a_stored_threshold_takes_its_own_sets_given_by_file(tmp_path):
+    """An older row of a site set (threshold 40) read with ``--params``: 40, assumed."""
+    from robot_wear_monitor.fleet.notifications import load_notification_config
+    from robot_wear_monitor.fleet.thresholds import ParameterSets
+    from robot_wear_monitor.model.params import default_parameter_file
+    text = default_parameter_file().read_text(encoding='utf-8')
+    assert 'name: abb_irb6620_joint2' in text and 'wear_threshold: 35.0' in text
+    site_set = tmp_path / 'site_set.yaml'
+    site_set.write_text(text.replace('name: abb_irb6620_joint2', 'name: site_set')
+                        .replace('wear_threshold: 35.0', 'wear_threshold: 40.0'),
+                        encoding='utf-8')
+    sets = ParameterSets([site_set])
+    with WearHistory(tmp_path / 'h.db') as history:
+        for k, trend in enumerate((30.0, 31.0, 32.0)):
+            history.append(dataclasses.replace(
+                _record(k, threshold=math.nan, trend=trend, crossing=8.0 - k),
+                parameter_set='site_set', warning_level=math.nan))
+        now_s = 1.8e9 + 3 * 3600.0
+        [view] = fleet_view(history.fleet(), now_s=now_s, parameter_sets=sets)
+        [packaged] = fleet_view(history.fleet(), now_s=now_s)
+        notify = tmp_path / 'notify.yaml'
+        notify.write_text('events: [forecast_crossing]\nforecast_horizon_days: 30\n'
+                          'webhooks: [{name: m, url: "http://127.0.0.1:9/x"}]\n')
+        [event] = due_events(history=history, config=load_notification_config(notify),
+                             now_s=now_s, parameter_sets=sets)
+    assert (view.state.threshold, view.threshold_assumed) == (40.0, True)
+    assert view.as_json()['threshold'] == 40.0 and view.as_json()['threshold_assumed']
+    # without the file the name is not known: the packaged default set's 35, also assumed
+    assert (packaged.state.threshold, packaged.threshold_assumed) == (35.0, True)
+    assert 'the wear threshold 40 (assumed) is forecast to be crossed' in event.summary
