@@ -39,9 +39,12 @@ def test_raw_runs_are_segmented_into_levels_per_pass_pair(kuka_table):
     assert np.all(kuka_table.numeric['friction'][joint6] > 0)
 
 
-def test_speed_model_misses_the_window_and_gravity_load_effects(kuka_audit):
+def test_speed_model_misses_the_window_and_gravity_load_effects(kuka_table, kuka_audit):
     result = kuka_audit
-    assert any('joint3' in text for text in result.excluded)  # 4 speeds with levels only
+    # joint3's speed oscillates: levels at 5 set-points at most (4 before issue 43's band of
+    # the run's own noise; its 0.2 rad/s levels may straddle two of the audit's 2 % bins)
+    joint3 = kuka_table.numeric['speed'][kuka_table.text['joint'] == 'joint3']
+    assert len(np.unique(np.round(joint3, 1))) <= 5
     assert result.effects, 'the speed-only model leaves significant structure'
     named = {v for effect in result.effects for v in effect.variables}
     assert named & {'position_span', 'load_torque', 'position_centre'}
