@@ -352,13 +352,19 @@ def _solve_nonnegative(x: FloatArray, y: FloatArray,
     """
     Least squares with the first ``n_constrained`` amplitudes >= 0; the others free.
 
-    Returns (coefficients, orthonormal span of the columns in use).  The free columns (the
-    terms an audit added to model (4)) are projected out, non-negative least squares on the
+    Returns (coefficients, orthonormal span of the columns in use).  When the least-squares
+    solution (:func:`_solve`) has every constrained amplitude >= 0 it is returned (it is the
+    optimum).  Otherwise the free columns (the terms an audit added to model (4)) are projected
+    out, non-negative least squares on the
     scaled constrained columns runs in their complement, and the free coefficients follow by
     least squares.  The span is of the constrained columns whose coefficient is positive (the
     active set) and the free columns, for Kaufman's projection.  ``n_constrained`` None: all.
     """
     k = x.shape[1] if n_constrained is None else n_constrained
+    coef, q = _solve(x, y)
+    coef[~np.any(x, axis=0)] = 0.0  # a column of zeros (a term left out) has no amplitude
+    if np.all(coef[:k] >= 0):  # the least-squares solution is feasible: it is the optimum
+        return coef, q
     constrained, extra = x[:, :k], x[:, k:]
     target, projected = y, constrained
     q_extra = orthonormal(extra) if extra.shape[1] else np.zeros((len(y), 0))
@@ -366,9 +372,14 @@ def _solve_nonnegative(x: FloatArray, y: FloatArray,
         target = y - q_extra @ (q_extra.T @ y)
         projected = constrained - q_extra @ (q_extra.T @ constrained)
     scale = np.linalg.norm(projected, axis=0)
-    scale = np.where(scale > 1e-12 * max(float(scale.max(initial=0.0)), 1e-300), scale, 1.0)
-    coef, _ = optimize.nnls(projected / scale, target, maxiter=50 * max(k, 1))
-    coef = coef / scale
+    # a constrained column (almost) in the span of the free ones is left to them (amplitude 0):
+    # its split with a term is not determined by the data
+    usable = scale > 1e-6 * np.maximum(np.linalg.norm(constrained, axis=0), 1e-300)
+    coef = np.zeros(k)
+    if usable.any():
+        part, _ = optimize.nnls(projected[:, usable] / scale[usable], target,
+                                maxiter=50 * max(k, 1))
+        coef[usable] = part / scale[usable]
     free = coef > 0
     out = coef
     if extra.shape[1]:
