@@ -86,7 +86,7 @@ class FleetCache:
     def row_json(self, view: FleetView) -> dict[str, Any]:
         """Return :func:`fleet_row_json` of ``view``, made once per row state."""
         key = (repr(view.state), view.stale, view.crossing_time_s, view.reescalated,
-               view.threshold_assumed)
+               view.threshold, view.threshold_assumed)
         with self._lock:
             found = self._json.get(key)
         if found is None:
@@ -331,7 +331,7 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
     ``threshold``; the parameter set's when ``threshold_assumed``).
     """
     state = view.state
-    threshold = state.threshold
+    threshold = view.threshold
     row = view.as_json()
     row.update({
         'state': row_state(view), 'arrow': trend_arrow(view),
@@ -578,11 +578,14 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
                                         parameter_sets=parameter_sets)
                   if v.state.joint == joint), None)
     # the threshold the latest estimate was judged by (the parameter set's when not stored)
-    last = state.state if state is not None else records[-1]
-    assumed = state.threshold_assumed if state is not None else not math.isfinite(
-        last.threshold)
-    threshold = params.wear_threshold if assumed else last.threshold
-    warning = params.wear_warning if assumed else last.warning_level
+    if state is not None:
+        threshold, warning, assumed = state.threshold, state.warning_level, \
+            state.threshold_assumed
+    else:
+        last = records[-1]
+        assumed = not math.isfinite(last.threshold)
+        threshold = params.wear_threshold if assumed else last.threshold
+        warning = params.wear_warning if assumed else last.warning_level
     events = alarm_log(history, robot=robot, joint=joint)
     # the joint's current life: the experiments after the estimate its last reset is tied to
     last_reset = max((e for e in events if e['event'] == 'reset'), key=lambda e: e['id'] or 0,

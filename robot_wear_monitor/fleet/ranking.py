@@ -46,8 +46,9 @@ class FleetView:
     ``state``: the history's latest state of the joint (:class:`FleetRow`); ``stale``: no
     experiment for longer than :data:`STALE_FACTOR` usual intervals; ``crossing_time_s``: the
     forecast crossing as a time [s since the epoch], None when the rate or the crossing is
-    unknown; ``threshold_assumed``: the history stores no threshold for the row (an older
-    history): ``state.threshold`` and ``state.warning_level`` are the parameter set's.
+    unknown; ``threshold`` and ``warning_level``: those the latest estimate was judged by [w]
+    (stored with it); ``threshold_assumed``: the history stores none for the row (an older
+    history), they are the parameter set's.
     """
 
     state: FleetRow
@@ -55,6 +56,8 @@ class FleetView:
     crossing_time_s: Optional[float]
     #: why an acknowledged alarm is back on top ('' when it is not): see the module's text
     reescalated: str = ''
+    threshold: float = math.nan
+    warning_level: float = math.nan
     threshold_assumed: bool = False
 
     def rank_key(self) -> tuple[int, float, float, str, str]:
@@ -84,8 +87,8 @@ class FleetView:
             'life_started_s': finite_or_none(s.life_started_s),
             'reset_by': s.reset_by or None if math.isfinite(s.life_started_s) else None,
             'reset_reason': s.reset_reason or None if math.isfinite(s.life_started_s) else None,
-            'threshold': finite_or_none(s.threshold),
-            'warning_level': finite_or_none(s.warning_level),
+            'threshold': finite_or_none(self.threshold),
+            'warning_level': finite_or_none(self.warning_level),
             'threshold_assumed': self.threshold_assumed,
         }
 
@@ -130,8 +133,16 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
     stored threshold finds its parameter set's (None: the packaged sets).
     """
     rows = []
+    assumed_levels: dict[str, tuple[float, float, bool]] = {}  # per parameter set
     for state in states:
-        state, assumed = judged_levels(state, parameter_sets)
+        if math.isfinite(state.threshold) and math.isfinite(state.warning_level):
+            threshold, warning, assumed = state.threshold, state.warning_level, False
+        else:
+            found = None if math.isfinite(state.threshold) else assumed_levels.get(
+                state.parameter_set)
+            threshold, warning, assumed = found or judged_levels(state, parameter_sets)
+            if assumed:
+                assumed_levels[state.parameter_set] = (threshold, warning, assumed)
         interval = state.usual_interval_s
         known = math.isfinite(interval) and interval > 0
         since = state.last_stamp_s
@@ -144,6 +155,7 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
         rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time,
                               reescalated=reescalation(state, now_s=now_s,
                                                        margin=reescalation_margin),
+                              threshold=threshold, warning_level=warning,
                               threshold_assumed=assumed))
     return sorted(rows, key=FleetView.rank_key)
 
@@ -201,7 +213,7 @@ def _alarm_text(row: FleetView, local: bool) -> str:
 
 def threshold_text(row: FleetView) -> str:
     """Return the row's threshold as people read it: '30', or '35 (assumed)' when not stored."""
-    return threshold_words(row.state.threshold, assumed=row.threshold_assumed)
+    return threshold_words(row.threshold, assumed=row.threshold_assumed)
 
 
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
@@ -254,6 +266,6 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
                     text(s.planned_maintenance or '') if s.acknowledged else '',
                     text(row.reescalated),
                     iso_time(s.life_started_s, local=local)
-                    if math.isfinite(s.life_started_s) else '', number(s.threshold),
+                    if math.isfinite(s.life_started_s) else '', number(row.threshold),
                     'yes' if row.threshold_assumed else 'no'])
     return out

@@ -12,7 +12,6 @@ the dashboard's pages say (``threshold_assumed``).
 
 from __future__ import annotations
 
-from dataclasses import replace
 import math
 from pathlib import Path
 import threading
@@ -73,23 +72,22 @@ def packaged_parameter_sets() -> ParameterSets:
 
 
 def judged_levels(state: FleetRow, parameter_sets: Optional[ParameterSets] = None
-                  ) -> tuple[FleetRow, bool]:
+                  ) -> tuple[float, float, bool]:
     """
-    Return ``state`` with the threshold and warning level it was judged by, and if assumed.
+    Return the threshold and warning level [w] ``state`` was judged by, and if assumed.
 
-    A row that stores its threshold is returned as it is (False).  A row of an older history
-    (threshold NaN: not stored) gets the ``alarm.wear_threshold`` and ``alarm.wear_warning`` of
-    the parameter set it names (the packaged default set when that name is not known;
-    ``parameter_sets`` None: the packaged sets) and True: assumed, not known.  A stored
-    threshold without a warning level keeps the threshold and takes the set's warning level.
+    A row that stores them gives its own (False).  A row of an older history (threshold NaN:
+    not stored) gets the ``alarm.wear_threshold`` and ``alarm.wear_warning`` of the parameter
+    set it names (the packaged default set when that name is not known; ``parameter_sets``
+    None: the packaged sets) and True: assumed, not known.  A stored threshold without a
+    warning level keeps the threshold and takes the set's warning level.
     """
     if math.isfinite(state.threshold) and math.isfinite(state.warning_level):
-        return state, False
+        return state.threshold, state.warning_level, False
     params, _ = (parameter_sets or packaged_parameter_sets()).resolve(state.parameter_set)
     if math.isfinite(state.threshold):
-        return replace(state, warning_level=params.wear_warning), False
-    return replace(state, threshold=params.wear_threshold,
-                   warning_level=params.wear_warning), True
+        return state.threshold, params.wear_warning, False
+    return params.wear_threshold, params.wear_warning, True
 
 
 def threshold_words(threshold: float, *, assumed: bool) -> str:

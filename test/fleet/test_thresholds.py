@@ -225,7 +225,7 @@ def test_the_forecast_and_the_notifications_use_the_stored_threshold(tmp_path):
     assert cone['rate_per_experiment'] == pytest.approx(1.5)
     assert forecast_cone(records, threshold=35.0)['rate_per_experiment'] == pytest.approx(2.75)
     assert (story['threshold'], story['warning_level']) == (30.0, 24.0)
-    assert (view.state.threshold, view.threshold_assumed) == (30.0, False)
+    assert (view.threshold, view.threshold_assumed) == (30.0, False)
     assert 'the wear threshold 30 is forecast to be crossed by' in event.summary
     assert 'Wear threshold: 30 (the alarm level' in event.description
 
@@ -255,8 +255,8 @@ def test_a_row_without_a_stored_threshold_takes_its_own_sets_given_by_file(tmp_p
                           'webhooks: [{name: m, url: "http://127.0.0.1:9/x"}]\n')
         [event] = due_events(history=history, config=load_notification_config(notify),
                              now_s=now_s, parameter_sets=sets)
-    assert (view.state.threshold, view.threshold_assumed) == (40.0, True)
+    assert (view.threshold, view.threshold_assumed) == (40.0, True)
     assert view.as_json()['threshold'] == 40.0 and view.as_json()['threshold_assumed']
     # without the file the name is not known: the packaged default set's 35, also assumed
-    assert (packaged.state.threshold, packaged.threshold_assumed) == (35.0, True)
+    assert (packaged.threshold, packaged.threshold_assumed) == (35.0, True)
     assert 'the wear threshold 40 (assumed) is forecast to be crossed' in event.summary
