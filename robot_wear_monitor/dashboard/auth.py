@@ -228,7 +228,7 @@ class RequireSession(BaseHTTPMiddleware):
         response: Response
         bearer = bearer_token(request)
         request.state.token_auth = False
-        if bearer is not None and path.startswith('/api/'):
+        if bearer is not None and (path.startswith('/api/') or path == '/openapi.json'):
             pool = request.app.state.pool
             if not await run_in_threadpool(_token_from_pool, request, pool, bearer):
                 response = JSONResponse({'detail': 'unknown or removed API token'},

@@ -143,7 +143,7 @@ def acknowledge(request: Request, robot: str, joint: str, user: MaintainerUser,
     return _flash_outcome(request, robot, joint, lambda: history.acknowledge_alarm(
         joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
         comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
-        work_order=work_order.strip()), 'alarm acknowledged')
+        work_order=work_order.strip(), source='web'), 'alarm acknowledged')
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
@@ -156,7 +156,7 @@ def edit_acknowledgement(request: Request, robot: str, joint: str, user: Maintai
     return _flash_outcome(request, robot, joint, lambda: history.edit_acknowledgement(
         joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
         comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
-        work_order=work_order.strip()), 'acknowledgement edited')
+        work_order=work_order.strip(), source='web'), 'acknowledgement edited')
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',
@@ -165,7 +165,7 @@ def withdraw_acknowledgement(request: Request, robot: str, joint: str, user: Mai
                              history: HistoryDep, reason: str = Form('')) -> Response:
     """Withdraw the acknowledgement, with a reason; the alarm stays latched."""
     return _flash_outcome(request, robot, joint, lambda: history.withdraw_acknowledgement(
-        joint=joint, robot=robot, user=user['name'], reason=reason.strip()),
+        joint=joint, robot=robot, user=user['name'], reason=reason.strip(), source='web'),
         'acknowledgement withdrawn: the alarm is unacknowledged')
 
 
@@ -173,14 +173,15 @@ def withdraw_acknowledgement(request: Request, robot: str, joint: str, user: Mai
 def reset(request: Request, robot: str, joint: str, user: MaintainerUser, history: HistoryDep,
           reason: str = Form(''), work_order: str = Form(''),
           confirm: str = Form('')) -> Response:
-    """Reset the latched alarm after maintenance, with a reason, once confirmed."""
+    """Record maintenance or a replacement (a new life), with a reason, once confirmed."""
     if confirm != 'yes':
         request.session['flash'] = {'kind': 'error', 'text': 'not reset: tick "the maintenance '
                                                              'is done" to confirm the reset'}
         return RedirectResponse(joint_url(robot, joint), status_code=303)
     return _flash_outcome(request, robot, joint, lambda: history.reset_alarm(
         joint=joint, robot=robot, user=user['name'], reason=reason.strip(),
-        work_order=work_order.strip()), 'alarm reset: the trend restarts')
+        work_order=work_order.strip(), source='web'),
+        'reset: a new life starts, the trend restarts')
 
 
 def _message(error: Exception) -> str:

@@ -152,6 +152,11 @@ class AlarmEventJson(_Shape):
     owner: str
     planned_maintenance: str = Field(description="YYYY-MM-DD or ''")
     work_order: str = Field(description="the maintenance system's work order ('' for none)")
+    source: str = Field(description="where a person's event came from: web, api, cli or "
+                                    "ros ('' for the monitor's raises and events stored "
+                                    'before schema version 9)')
+    changes: str = Field(description="what an edit changed ('field: old -> new' joined by "
+                                     "'; '; '' for other events)")
 
 
 class AcknowledgeRequest(_Shape):
@@ -164,8 +169,17 @@ class AcknowledgeRequest(_Shape):
                                             "128 printable characters, '' for none)")
 
 
+class EditRequest(_Shape):
+    """An edit of the acknowledgement: only the fields sent change (the others are kept)."""
+
+    owner: Optional[str] = Field(None, description='who takes the maintenance on')
+    comment: Optional[str] = Field(None, description='free text (at most 2000 characters)')
+    planned_maintenance: Optional[str] = Field(None, description="YYYY-MM-DD ('' clears it)")
+    work_order: Optional[str] = Field(None, description="the work order ('' clears it)")
+
+
 class ResetRequest(_Shape):
-    """A reset after maintenance: why, and the work order that did it."""
+    """A reset after maintenance or a replacement (with or without an alarm): why, work order."""
 
     reason: str = Field(description='why (non-empty, at most 2000 characters)')
     work_order: str = Field('', description="the work order ('' for none)")

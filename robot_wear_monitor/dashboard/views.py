@@ -477,6 +477,8 @@ def event_json(event: Any) -> dict[str, Any]:
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
         'estimate_id': getattr(event, 'estimate_id', None),
         'work_order': getattr(event, 'work_order', '') or '',
+        'source': getattr(event, 'source', '') or '',
+        'changes': getattr(event, 'changes', '') or '',
     }
 
 
@@ -487,10 +489,16 @@ ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'o
 
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
-              limit: Optional[int] = None) -> list[dict[str, Any]]:
-    """Return the fleet's alarm events newest first (one robot's joint with ``joint``)."""
+              limit: Optional[int] = None,
+              stored_after_s: Optional[float] = None) -> list[dict[str, Any]]:
+    """
+    Return the fleet's alarm events newest first (one robot's joint with ``joint``).
+
+    ``stored_after_s``: only the events stored after that wall time [s] (``?since=``).
+    """
     if hasattr(history, 'alarm_log'):
-        events = history.alarm_log(robot=robot, joint=joint, limit=limit)
+        kwargs = {} if stored_after_s is None else {'stored_after_s': stored_after_s}
+        events = history.alarm_log(robot=robot, joint=joint, limit=limit, **kwargs)
     else:  # a history layer without the fleet-wide log: each joint's events
         pairs = ([(robot, joint)] if joint is not None and robot is not None else
                  [(r, j) for r in ([robot] if robot else history.robots())

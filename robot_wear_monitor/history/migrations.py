@@ -27,13 +27,16 @@ server-side sessions).  Version 7 (accounts and the write API): alarm events may
 in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`` and
 ``users`` for their new CHECKs, keeping ids and rows; PostgreSQL replaces the constraints);
 ``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).
+Version 8 belongs to the stored threshold (issue 42; an empty step here until it is merged).
+Version 9 (maintenance states): alarm events carry their ``source`` (web, api, cli, ros; ''
+for the monitor's raises and old rows) and ``changes`` (what an edit changed, '' otherwise).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 9
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
@@ -232,9 +235,14 @@ _SQLITE_V7 = (
     _API_TOKENS[1],
 )
 
+#: Version 9: where a person's alarm event came from and what an edit changed.
+_V9 = ("ALTER TABLE alarm_events ADD COLUMN source TEXT NOT NULL DEFAULT ''",
+       "ALTER TABLE alarm_events ADD COLUMN changes TEXT NOT NULL DEFAULT ''")
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
-                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7}
+                                                 4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
+                                                 8: (), 9: _V9}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -326,4 +334,4 @@ _POSTGRESQL_V7 = (
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      5: _POSTGRESQL_V5, 6: _V6,
-                                                     7: _POSTGRESQL_V7}
+                                                     7: _POSTGRESQL_V7, 8: (), 9: _V9}

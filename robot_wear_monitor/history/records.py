@@ -85,6 +85,9 @@ ACKNOWLEDGEMENT_EVENTS = ('acknowledged', 'acknowledgement_edited', 'acknowledge
 #: The kinds of alarm events: the latch is the last 'raised' or 'reset' (the
 #: :data:`ACKNOWLEDGEMENT_EVENTS` are remarks on a raised alarm: they never unlatch it).
 ALARM_EVENT_KINDS = ('raised', 'reset', *ACKNOWLEDGEMENT_EVENTS)
+#: Where a person's alarm event came from (schema version 9): the dashboard's forms, its API,
+#: the command line, the ROS reset service ('' for the monitor's own raises and older rows).
+EVENT_SOURCES = ('web', 'api', 'cli', 'ros')
 
 
 @dataclass(frozen=True)
@@ -100,6 +103,9 @@ class AlarmEvent:
     maintenance on; ``planned_maintenance``: its planned date ('YYYY-MM-DD' or '');
     ``work_order``: the maintenance system's work order (schema version 7; '' for none).  An
     edit carries the acknowledgement's values after it; a withdrawal its reason as ``note``.
+    ``source`` (schema version 9): where a person's event came from (one of
+    :data:`EVENT_SOURCES`; '' for the monitor's raises and older rows); ``changes``: what an
+    edit changed, as 'field: old -> new' parts joined by '; ' ('' otherwise).
     """
 
     joint: str
@@ -115,6 +121,8 @@ class AlarmEvent:
     owner: str = ''
     planned_maintenance: str = ''
     work_order: str = ''
+    source: str = ''
+    changes: str = ''
 
 
 @dataclass(frozen=True)
