@@ -36,8 +36,9 @@ from robot_wear_monitor.dashboard.deps import (check_api_csrf, CurrentUser, Flee
 from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
                                                   EditRequest, FleetJson, JointJson, MeJson,
                                                   ResetRequest, WithdrawRequest)
-from robot_wear_monitor.dashboard.views import (alarm_log, event_json, fleet_json, joint_json,
-                                                PAGE_ROWS, reescalation_margin, STATES)
+from robot_wear_monitor.dashboard.views import (alarm_log, event_json, fleet_json,
+                                                forecast_horizon_s, joint_json, PAGE_ROWS,
+                                                reescalation_margin, STATES)
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.alarms import AlarmStateError, UnknownJointError
 from starlette.responses import Response
@@ -92,7 +93,8 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     """
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                          robot=robot or None, state=_state(state), cache=cache, page=page,
-                         limit=limit, reescalation_margin=reescalation_margin(request))
+                         limit=limit, reescalation_margin=reescalation_margin(request),
+                         forecast_horizon_s=forecast_horizon_s(request))
     if robot and robot not in payload['robots']:
         raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
     return json_with_etag(request, payload)
@@ -110,7 +112,8 @@ def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
     """
     payload = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
                          parameter_sets=parameter_sets,
-                         reescalation_margin=reescalation_margin(request))
+                         reescalation_margin=reescalation_margin(request),
+                         forecast_horizon_s=forecast_horizon_s(request))
     if payload is None:
         raise HTTPException(status_code=404, detail=f'no estimates of robot {robot[:80]!r} '
                                                     f'joint {joint[:80]!r}')

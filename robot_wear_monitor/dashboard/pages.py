@@ -28,9 +28,10 @@ from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_se
                                                get_templates, HistoryDep, LimiterDep,
                                                MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
-                                                fleet_json, fleet_row_html, joint_json,
-                                                joint_url, MAX_PAGE_ROWS, page_links, PAGE_ROWS,
-                                                reescalation_margin, STATES)
+                                                fleet_json, fleet_row_html, forecast_horizon_s,
+                                                joint_json, joint_url, MAX_PAGE_ROWS,
+                                                page_links, PAGE_ROWS, reescalation_margin,
+                                                STATES)
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.users import ACTING_ROLES
 from starlette.responses import HTMLResponse, RedirectResponse, Response
@@ -101,7 +102,8 @@ def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterS
     fleet = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                        robot=robot or None, state=state if state in STATES else None,
                        cache=cache, page=page, limit=limit,
-                       reescalation_margin=reescalation_margin(request))
+                       reescalation_margin=reescalation_margin(request),
+                       forecast_horizon_s=forecast_horizon_s(request))
     return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html,
                   page_links=page_links(fleet))
 
@@ -112,7 +114,8 @@ def joint_page(request: Request, robot: str, joint: str, history: HistoryDep,
     """One joint's wear story, its alarm log and (for a maintainer) the alarm forms."""
     data = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
                       parameter_sets=parameter_sets,
-                      reescalation_margin=reescalation_margin(request))
+                      reescalation_margin=reescalation_margin(request),
+                      forecast_horizon_s=forecast_horizon_s(request))
     if data is None:
         return render(request, 'error.html', status_code=404,
                       message=f'no estimates of robot {robot!r} joint {joint!r}')

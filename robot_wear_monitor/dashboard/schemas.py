@@ -14,8 +14,9 @@ from __future__ import annotations
 from typing import Optional
 
 from pydantic import BaseModel, ConfigDict, Field
-from robot_wear_monitor.dashboard.views import FRICTION_EXPERIMENTS, STATES
+from robot_wear_monitor.dashboard.views import FRICTION_EXPERIMENTS
 from robot_wear_monitor.fleet.ranking import STALE_FACTOR
+from robot_wear_monitor.fleet.states import STATES
 from robot_wear_monitor.history import ALARM_EVENT_KINDS
 
 
@@ -74,8 +75,14 @@ class FleetRowJson(_Shape):
     crossing_experiments: Optional[float] = Field(
         description='experiments until the forecast crosses the threshold (median)')
     crossing_time_s: Optional[float] = Field(description='when, at the usual spacing [s]')
-    usual_interval_s: Optional[float] = Field(description='the mean time between experiments '
-                                                          '[s]')
+    crossing_overdue: bool = Field(description='the crossing date has passed without an alarm '
+                                               '(no experiment since to confirm it): the page '
+                                               "reads 'overdue since <date>'")
+    usual_interval_s: Optional[float] = Field(description='the usual time between experiments '
+                                                          '[s]: the median of the recent '
+                                                          'intervals (an outage does not '
+                                                          'stretch it)')
+    usual_interval_basis: Optional[str] = Field(description='how usual_interval_s was found')
     stale: bool = Field(description=f'no experiment for {STALE_FACTOR:g} usual intervals')
     status_level: int
     valid: bool
@@ -93,8 +100,10 @@ class FleetRowJson(_Shape):
                     'wear, trend, crossing and alarm fields are those of the new life')
     reset_by: Optional[str] = Field(description='who reset it (null: the ROS service)')
     reset_reason: Optional[str] = Field(description='why it was reset')
-    state: str = Field(description='one of: ' + ', '.join(STATES),
+    state: str = Field(description='the first that applies of: ' + ', '.join(STATES),
                        json_schema_extra={'enum': list(STATES)})
+    warning_level: Optional[float] = Field(description='the warning level the estimate was '
+                                                       'judged by [w]')
     arrow: str = Field(description='the trend arrow: \u2191, \u2197, \u2192 or ?')
     threshold: float = Field(description="the parameter set's wear threshold [w]")
     acknowledged_s: Optional[float] = Field(description='when acknowledged [s, wall clock]')

@@ -9,10 +9,13 @@ crossing of the wear threshold soonest (in experiments); then the highest upper 
 and notified again) when its wear rises :data:`DEFAULT_REESCALATION_MARGIN` wear units (or the
 margin given) past its value at the acknowledgement (the trend when both are known, else w-hat),
 or when its planned maintenance date has passed (UTC).  A joint is ``stale`` when it has had no
-experiment for longer than :data:`STALE_FACTOR` times its usual interval (the mean time between
-its experiments), counted up to ``now`` from its latest experiment or its last reset,
-whichever is later.  The crossing gets a date when the joint's experiment rate is known (two
-experiments or more).  After a reset the row is the joint's new life (``life_started_s``).
+experiment for longer than :data:`STALE_FACTOR` times its usual interval (the median of its
+recent intervals, :attr:`FleetRow.usual_interval_s`, so that an outage does not stretch it),
+counted up to ``now`` from its latest experiment or its last reset, whichever is later.  The
+crossing gets a date when the joint's experiment rate is known (two experiments or more); a
+date that has passed without an alarm is ``crossing_overdue`` ("overdue since <date>").
+After a reset the row is the joint's new life (``life_started_s``).  Each row's ``state`` is
+the first of :data:`~robot_wear_monitor.fleet.states.STATES` that applies.
 """
 
 from __future__ import annotations
@@ -20,10 +23,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 import datetime
 import math
-from typing import Any, Iterable, Optional, Sequence
+from typing import Any, Callable, Iterable, Optional, Sequence
 
 from robot_wear_monitor.csv_cells import csv_text
+from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
+                                             DEFAULT_FORECAST_HORIZON_DAYS, joint_state,
+                                             warning_level)
 from robot_wear_monitor.history import FleetRow
+from robot_wear_monitor.history.recent import RECENT_INTERVALS
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.monitoring.diagnostics import clean_text
 
@@ -50,6 +57,12 @@ class FleetView:
     crossing_time_s: Optional[float]
     #: why an acknowledged alarm is back on top ('' when it is not): see the module's text
     reescalated: str = ''
+    #: the joint's state: one of :data:`~robot_wear_monitor.fleet.states.STATES`
+    condition: str = 'ok'
+    #: the forecast crossing's date has passed without an alarm (no experiment since)
+    crossing_overdue: bool = False
+    #: the warning level the estimate was judged by [w] (NaN when unknown)
+    warning_level: float = math.nan
 
     def rank_key(self) -> tuple[int, float, float, str, str]:
         """Return the sort key, worst first (:meth:`FleetRow.rank_key`, re-escalation too)."""
@@ -68,7 +81,9 @@ class FleetView:
             'experiments': int(s.experiments), 'last_stamp_s': finite_or_none(s.last_stamp_s),
             'crossing_experiments': finite_or_none(s.crossing_experiments),
             'crossing_time_s': self.crossing_time_s,
+            'crossing_overdue': self.crossing_overdue,
             'usual_interval_s': finite_or_none(s.usual_interval_s),
+            'usual_interval_basis': interval_basis(s),
             'stale': self.stale, 'status_level': int(s.status_level),
             'valid': not s.invalid_reason, 'invalid_reason': s.invalid_reason or None,
             'acknowledged': bool(s.acknowledged), 'acknowledged_by': s.acknowledged_by or None,
@@ -78,7 +93,18 @@ class FleetView:
             'life_started_s': finite_or_none(s.life_started_s),
             'reset_by': s.reset_by or None if math.isfinite(s.life_started_s) else None,
             'reset_reason': s.reset_reason or None if math.isfinite(s.life_started_s) else None,
+            'state': self.condition, 'warning_level': finite_or_none(self.warning_level),
         }
+
+
+def interval_basis(state: FleetRow) -> Optional[str]:
+    """Return how the usual interval was found, in words (None when it is not known)."""
+    if not math.isfinite(state.usual_interval_s):
+        return None
+    if len(state.recent_stamps) >= 2:
+        return (f'median of the last {len(state.recent_stamps) - 1} intervals (at most '
+                f'{RECENT_INTERVALS}): an outage does not stretch it')
+    return 'mean of all intervals'
 
 
 def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
@@ -110,13 +136,17 @@ def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
 
 
 def fleet_view(states: Iterable[FleetRow], *, now_s: float,
-               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN) -> list[FleetView]:
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
+               warning_of: Callable[[FleetRow], float] = warning_level) -> list[FleetView]:
     """
     Return the fleet rows worst first (the triage order of the module's text), at ``now_s``.
 
-    ``now_s``: the time [s since the epoch] staleness and planned dates are judged at;
-    ``reescalation_margin``: the rise of the wear past its value at the acknowledgement that
-    re-escalates an acknowledged alarm [wear units].
+    ``now_s``: the time [s since the epoch] staleness, planned dates and crossing dates are
+    judged at; ``reescalation_margin``: the rise of the wear past its value at the
+    acknowledgement that re-escalates an acknowledged alarm [wear units];
+    ``forecast_horizon_s``: a crossing this soon makes a ``warning`` [s] (the notifications'
+    horizon); ``warning_of``: the warning level a row's estimate was judged by [w].
     """
     rows = []
     for state in states:
@@ -129,9 +159,16 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
         crossing_time = None
         if known and math.isfinite(state.crossing_experiments):
             crossing_time = state.last_stamp_s + state.crossing_experiments * interval
-        rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time,
-                              reescalated=reescalation(state, now_s=now_s,
-                                                       margin=reescalation_margin)))
+        reescalated = reescalation(state, now_s=now_s, margin=reescalation_margin)
+        warning = float(warning_of(state))
+        rows.append(FleetView(
+            state=state, stale=stale, crossing_time_s=crossing_time, reescalated=reescalated,
+            condition=joint_state(state, stale=stale, reescalated=bool(reescalated),
+                                  crossing_time_s=crossing_time, now_s=now_s, warning=warning,
+                                  horizon_s=forecast_horizon_s),
+            crossing_overdue=crossing_overdue(state, crossing_time_s=crossing_time,
+                                              now_s=now_s),
+            warning_level=warning))
     return sorted(rows, key=FleetView.rank_key)
 
 
@@ -148,14 +185,23 @@ def iso_time(stamp_s: Optional[float], *, local: bool = False) -> str:
 def crossing_text(row: FleetView, *, local: bool = False) -> str:
     """Return the forecast crossing in words: experiments to go and the date it falls on."""
     crossing = row.state.crossing_experiments
+    if row.state.awaiting_first_experiment:
+        return 'no forecast yet (new life)'
     if not math.isfinite(crossing):
         return 'not within the forecast horizon'
     if crossing <= 0:
         return 'crossed (trend past the threshold)'
-    text = f'in {crossing:.0f} experiments'
+    if row.crossing_overdue and row.crossing_time_s is not None:
+        return f'overdue since {iso_time(row.crossing_time_s, local=local)[:10]}'
+    text = f'in {plural(round(crossing), "experiment")}'
     if row.crossing_time_s is not None:
         text += f' (~{iso_time(row.crossing_time_s, local=local)[:10]})'
     return text
+
+
+def plural(count: int, noun: str) -> str:
+    """Return '1 robot', '2 robots' (``count`` and ``noun``, with an s unless one)."""
+    return f'{count} {noun}' if count == 1 else f'{count} {noun}s'
 
 
 def _wear_text(state: FleetRow) -> str:
@@ -176,8 +222,9 @@ def _trend_text(state: FleetRow) -> str:
 
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
-                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_service_date',
-                 'reescalated', 'life_started')
+                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_maintenance',
+                 'reescalated', 'life_started', 'state', 'crossing_overdue', 'reset_by',
+                 'reset_reason')
 
 
 def _alarm_text(row: FleetView, local: bool) -> str:
@@ -190,7 +237,7 @@ def _alarm_text(row: FleetView, local: bool) -> str:
     if state.acknowledged:
         text += f', acknowledged by {clean_text(state.acknowledged_by, limit=40)}'
         if state.planned_maintenance:
-            text += f', service planned {state.planned_maintenance}'
+            text += f', maintenance planned {state.planned_maintenance}'
         if row.reescalated:
             text += ', RE-ESCALATED'
     return text
@@ -198,16 +245,16 @@ def _alarm_text(row: FleetView, local: bool) -> str:
 
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     """Return the fleet as a text table, one line per robot joint, worst first."""
-    header = ('robot', 'joint', 'w [95 %]', 'trend w', 'alarm', 'forecast crossing',
-              'experiments', 'last experiment', 'stale')
+    header = ('robot', 'joint', 'state', 'w [95 %]', 'trend w', 'alarm', 'forecast crossing',
+              'experiments', 'last experiment')
     lines = []
     for row in rows:
         s = row.state
         alarm = _alarm_text(row, local)
         lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
+                      row.condition.upper() if row.condition != 'ok' else 'ok',
                       _wear_text(s), _trend_text(s), alarm, crossing_text(row, local=local),
-                      str(s.experiments),
-                      iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))
+                      str(s.experiments), iso_time(s.last_stamp_s, local=local)))
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]
     out = ['  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip()]
@@ -245,5 +292,8 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
                     text(s.planned_maintenance or '') if s.acknowledged else '',
                     text(row.reescalated),
                     iso_time(s.life_started_s, local=local)
-                    if math.isfinite(s.life_started_s) else ''])
+                    if math.isfinite(s.life_started_s) else '', row.condition,
+                    'yes' if row.crossing_overdue else 'no',
+                    text(s.reset_by) if math.isfinite(s.life_started_s) else '',
+                    text(s.reset_reason) if math.isfinite(s.life_started_s) else ''])
     return out

@@ -194,10 +194,22 @@ class FleetRow:
     reset_reason: str = ''
     #: every stored estimate of the joint, old lives too (0: the same as ``experiments``)
     total_experiments: int = 0
+    #: the stamps of the joint's last experiments, all lives, oldest first [s] (``recent.py``)
+    recent_stamps: tuple[float, ...] = ()
 
     @property
     def usual_interval_s(self) -> float:
-        """Return the mean time between the joint's experiments, all lives [s] (NaN with one)."""
+        """
+        Return the joint's usual time between experiments, all lives [s] (NaN with one).
+
+        The median of the intervals between :attr:`recent_stamps` (an outage is one long
+        interval and does not stretch it); without them the mean of all intervals.
+        """
+        if len(self.recent_stamps) >= 2:
+            gaps = sorted(b - a for a, b in zip(self.recent_stamps, self.recent_stamps[1:]))
+            middle = len(gaps) // 2
+            median = gaps[middle] if len(gaps) % 2 else 0.5 * (gaps[middle - 1] + gaps[middle])
+            return median if median > 0 else math.nan
         count = max(self.total_experiments, self.experiments)
         if count < 2:
             return math.nan

@@ -20,7 +20,7 @@ import os
 import time
 from typing import Any, Iterator, Optional, Sequence
 
-from robot_wear_monitor.history import alarms, notifications_store
+from robot_wear_monitor.history import alarms, notifications_store, recent
 from robot_wear_monitor.history import sessions as dashboard_sessions
 from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
@@ -669,13 +669,15 @@ class WearHistory:
                 + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
                 "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
                 'GROUP BY a.robot, a.joint', params)
+            stamps = recent.recent_stamps(self._backend, robot=params[0] if params else None)
         last_event = {(r[0], r[1]): r[2:] for r in latches}
         last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
         baseline = {(r[0], r[1]): r[2:] for r in baselines}
         life_experiments = {(r[0], r[1]): int(r[2]) for r in lives}
-        rows = [_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
-                           life_experiments.get((r[0], r[1]), 0),
-                           baseline.get((r[0], r[1]))) for r in latest]
+        rows = [replace(_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
+                                   life_experiments.get((r[0], r[1]), 0),
+                                   baseline.get((r[0], r[1]))),
+                        recent_stamps=stamps.get((r[0], r[1]), ())) for r in latest]
         return sorted(rows, key=FleetRow.rank_key)
 
 

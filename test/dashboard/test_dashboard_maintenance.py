@@ -161,3 +161,62 @@ def test_a_polling_system_gets_the_events_stored_since_its_last_poll(client, his
     news = client.get(f'/api/alarms?since={seen}', headers=bearer).json()
     assert [(e['event'], e['joint']) for e in news] == [('reset', 'joint_3'),
                                                         ('acknowledged', 'joint_2')]
+
+
+def test_an_acknowledged_alarm_past_its_planned_date_is_an_alarm_everywhere(
+        client, history, bearer, capsys):
+    assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
+        'owner': 'Team B', 'planned_maintenance': '2026-12-01'}).status_code == 200
+    acknowledged = _row(_fleet_json(history, capsys, '--now', '2026-11-30T12:00:00Z'),
+                        'press_line', 'joint_2')
+    assert (acknowledged['state'], acknowledged['reescalated']) == ('acknowledged', False)
+    # the planned date passes: the same word in fleet --json, /api/fleet and the page
+    late = _row(_fleet_json(history, capsys, '--now', '2026-12-02T12:00:00Z'),
+                'press_line', 'joint_2')
+    assert (late['state'], late['reescalated'], late['acknowledged']) == ('alarm', True, True)
+    # the dashboard judges at its clock: move the planned date into the past instead
+    with open_history(history, init=False) as stored:
+        stored.edit_acknowledgement(joint='joint_2', robot='press_line', user='mia',
+                                    planned_maintenance='2020-01-01')
+    fleet = client.get('/api/fleet', headers=bearer).json()
+    row = _row(fleet['rows'], 'press_line', 'joint_2')
+    assert (row['state'], row['reescalated']) == ('alarm', True)
+    assert fleet['counts']['alarm'] == 1 and fleet['counts']['acknowledged'] == 0
+    assert [r['joint'] for r in client.get('/api/fleet?state=alarm',
+                                           headers=bearer).json()['rows']] == ['joint_2']
+    assert login(client, 'mia').status_code == 303
+    page = client.get('/').text
+    assert '<span class="count" data-state="alarm">1</span>' in page
+    assert '<span class="count" data-state="acknowledged">0</span>' in page
+
+
+def test_a_joint_at_the_warning_level_is_a_warning_and_a_reset_one_a_new_life(
+        client, history, bearer, capsys):
+    rows = _fleet_json(history, capsys)
+    warned = _row(rows, 'welder_7', 'joint_3')  # w-hat 30 >= 28, the set's warning level
+    assert (warned['state'], warned['alarm']) == ('warning', False)
+    assert warned['warning_level'] == 28.0
+    assert _row(rows, 'press_line', 'joint_1')['state'] == 'ok'  # w-hat 6, no crossing
+    client.post(NEVER_ALARMED + '/reset', headers=bearer, json={'reason': 'replaced'})
+    assert _row(_fleet_json(history, capsys), 'welder_7', 'joint_3')['state'] == 'new life'
+    assert _row(client.get('/api/fleet', headers=bearer).json()['rows'], 'welder_7',
+                'joint_3')['state'] == 'new life'
+
+
+def test_judged_two_months_later_no_crossing_date_is_shown_passed_without_overdue(
+        history, capsys):
+    later = time.time() + 61 * 86400.0
+    rows = _fleet_json(history, capsys, '--now', str(later))
+    for row in rows:
+        if row['alarm'] or row['crossing_time_s'] is None:
+            continue
+        assert row['crossing_time_s'] >= later or row['crossing_overdue'], row['joint']
+    overdue = [r for r in rows if r['crossing_overdue']]
+    assert {(r['robot'], r['joint']) for r in overdue} == {
+        ('welder_7', 'joint_3'), ('<img src=x onerror=alert(1)>', 'joint_1')}
+    assert all(r['state'] == 'stale' for r in overdue)  # no experiment for two months
+    capsys.readouterr()
+    assert main(['fleet', '--history', history, '--now', str(later)]) == 0
+    table = capsys.readouterr().out
+    assert 'overdue since' in table
+    assert table.splitlines()[0].startswith('3 robots, 5 joints: 1 alarm, 4 stale')
