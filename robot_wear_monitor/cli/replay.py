@@ -116,6 +116,8 @@ def main(args: argparse.Namespace) -> int:
               file=sys.stderr)
     for note in result.notes:
         print(f'note: {escaped(note)}', file=sys.stderr)
+    for warning in result.warnings:
+        print(f'warning: {escaped(warning)}', file=sys.stderr)
     summary = result.summary()
     warn_if_emptier(args.json_out, summary)
     write_json_out(args.json_out, summary)

@@ -25,7 +25,8 @@ from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, LoginLimiter, new
                                                RequireSession, SESSION_MAX_AGE_S)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool, POLL_INTERVAL_MS
-from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets, time_spans
+from robot_wear_monitor.dashboard.views import FleetCache, time_spans
+from robot_wear_monitor.fleet.thresholds import ParameterSets
 from starlette.middleware.sessions import SessionMiddleware
 from starlette.responses import FileResponse
 

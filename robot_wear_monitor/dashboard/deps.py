@@ -29,7 +29,8 @@ import jinja2
 from robot_wear_monitor.dashboard.auth import (csrf_ok, current_user, is_token_request,
                                                LoginLimiter, SessionUser)
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool
-from robot_wear_monitor.dashboard.views import FleetCache, ParameterSets
+from robot_wear_monitor.dashboard.views import FleetCache
+from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.history.users import ACTING_ROLES, ADMIN_ROLE
 

@@ -36,7 +36,7 @@ class WearBar(_Shape):
     low: float = Field(description="the 95 % interval's lower end [% of the bar]")
     high: float = Field(description="the 95 % interval's upper end [% of the bar]")
     wear: float = Field(description='w-hat [% of the bar]; -1 when it cannot be judged')
-    threshold: float = Field(description="the parameter set's wear threshold [% of the bar]")
+    threshold: float = Field(description="the row's threshold [% of the bar]")
     scale_max: float = Field(description='the wear at the right end of the bar [w]: 1.5 x '
                                          'the threshold in every row')
     clipped: bool = Field(description='w-hat or the upper end is past the scale (drawn at '
@@ -52,6 +52,8 @@ class RowTexts(_Shape):
     alarm: str
     last: str
     invalid: str
+    threshold: str = Field(description="the row's threshold: '30', or '35 (assumed)' when the "
+                                       "history stores none (the parameter set's)")
     life: str = Field(description="a reset joint's new life: 'reset <time> by <user> "
                                   "(<reason>): awaiting the first experiment' ('' when "
                                   'never reset)')
@@ -102,10 +104,16 @@ class FleetRowJson(_Shape):
     reset_reason: Optional[str] = Field(description='why it was reset')
     state: str = Field(description='the first that applies of: ' + ', '.join(STATES),
                        json_schema_extra={'enum': list(STATES)})
-    warning_level: Optional[float] = Field(description='the warning level the estimate was '
-                                                       'judged by [w]')
     arrow: str = Field(description='the trend arrow: \u2191, \u2197, \u2192 or ?')
-    threshold: float = Field(description="the parameter set's wear threshold [w]")
+    threshold: Optional[float] = Field(
+        description='the alarm threshold the latest estimate was judged by [w] (the node '
+                    "parameter wear_threshold, stored with it; the parameter set's when "
+                    'threshold_assumed)')
+    warning_level: Optional[float] = Field(
+        description='the warning level it was judged by [w] (wear_warning; the same rule)')
+    threshold_assumed: bool = Field(
+        description='the history stores no threshold for the row (an older history): '
+                    "threshold and warning_level are the parameter set's, assumed")
     acknowledged_s: Optional[float] = Field(description='when acknowledged [s, wall clock]')
     parameter_set: str
     alarm_since: Optional[str] = Field(description='alarm_since_s as ISO 8601 UTC')
@@ -264,7 +272,12 @@ class JointJson(_Shape):
 
     robot: str
     joint: str
-    threshold: float = Field(description="the parameter set's wear threshold [w]")
+    threshold: float = Field(description='the alarm threshold the latest estimate was judged '
+                                         "by [w] (the parameter set's when threshold_assumed)")
+    warning_level: Optional[float] = Field(description='the warning level it was judged by [w]')
+    threshold_assumed: bool = Field(description='the history stores no threshold for it: the '
+                                                "parameter set's, assumed")
+    threshold_text: str = Field(description="'30', or '35 (assumed)'")
     parameter_set: str
     model_note: Optional[str] = Field(description='why another set stands in (null: none)')
     model_check_p_value: float

@@ -11,22 +11,22 @@ degC, speeds motor side in rad/s, frictions normalised, times in seconds since t
 from __future__ import annotations
 
 import math
-from pathlib import Path
 import re
 import threading
 import time
-from typing import Any, Iterable, Optional, Sequence
+from typing import Any, Optional, Sequence
 from urllib.parse import quote, urlencode
 
 from markupsafe import escape, Markup
 import numpy as np
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
-                                              fleet_view, FleetView, iso_time, plural)
+                                              fleet_view, FleetView, iso_time, plural,
+                                              threshold_text)
 from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
+from robot_wear_monitor.fleet.thresholds import ParameterSets, threshold_words
 from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.model.params import (default_parameter_file, load_parameter_set,
-                                             ParameterSet)
+from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import clean_text
 
 #: An experiment whose model check has a p-value below this is marked on the joint page.
@@ -40,46 +40,6 @@ BAR_SCALE = 1.5
 #: The fleet page's rows per page unless ``?limit=`` says otherwise, and the most it shows.
 PAGE_ROWS = 100
 MAX_PAGE_ROWS = 1000
-
-
-class ParameterSets:
-    """
-    The parameter sets the estimates name: the packaged ones and those given by file.
-
-    The history stores the set's name (``parameter_set``), not its file: a name is looked up
-    among the files given (``--params``) and the packaged ``config/*.yaml``; an unknown name
-    falls back to the packaged default set, and :meth:`resolve` says so.
-    """
-
-    def __init__(self, files: Iterable[str | Path] = ()) -> None:
-        """Load the packaged sets and ``files`` (a file that does not load is an error)."""
-        self._lock = threading.Lock()
-        self._by_name: dict[str, ParameterSet] = {}
-        self.default = load_parameter_set()
-        packaged: list[str | Path] = sorted(default_parameter_file().parent.glob('*.yaml'))
-        for path in packaged:
-            try:
-                params = load_parameter_set(path)
-            except Exception:  # noqa: BLE001 - not a parameter set (e.g. a node config)
-                continue
-            self._by_name.setdefault(params.name, params)
-        for path in files:
-            params = load_parameter_set(path)  # ParameterError names the file and field
-            self._by_name[params.name] = params
-
-    def resolve(self, name: str) -> tuple[ParameterSet, str]:
-        """Return the set named ``name`` and '' (or the default set and why it stands in)."""
-        with self._lock:
-            found = self._by_name.get(name)
-        if found is not None:
-            return found, ''
-        return self.default, (f'parameter set {name!r} is not known here (give its file with '
-                              f'--params); the model curve uses the packaged '
-                              f'{self.default.name!r} ({Path(self.default.source).name})')
-
-    def warning_of(self, row: Any) -> float:
-        """Return the warning level [w] of the set a fleet row's estimate names."""
-        return float(self.resolve(row.parameter_set)[0].wear_warning)
 
 
 def reescalation_margin(request: Any) -> float:
@@ -134,14 +94,14 @@ class FleetCache:
         self._rows: list = []
         self._json: dict[tuple, dict[str, Any]] = {}
 
-    def row_json(self, view: FleetView, *, threshold: float) -> dict[str, Any]:
+    def row_json(self, view: FleetView) -> dict[str, Any]:
         """Return :func:`fleet_row_json` of ``view``, made once per row state."""
-        key = (repr(view.state), view.stale, view.crossing_time_s, view.reescalated, threshold,
-               view.condition, view.crossing_overdue)
+        key = (repr(view.state), view.stale, view.crossing_time_s, view.reescalated,
+               view.threshold_assumed, view.condition, view.crossing_overdue)
         with self._lock:
             found = self._json.get(key)
         if found is None:
-            found = RowJson(fleet_row_json(view, threshold=threshold))
+            found = RowJson(fleet_row_json(view))
             with self._lock:
                 if len(self._json) > 4 * max(1000, len(self._rows)):
                     self._json.clear()  # rows of states long gone
@@ -193,13 +153,15 @@ def fleet_row_html(row: dict[str, Any]) -> Markup:
         'visibility="{visible}"></line><line class="threshold" x1="{threshold}" '
         'x2="{threshold}" y1="0" y2="14"></line><polygon class="clip" '
         'points="94,1 100,7 94,13" visibility="{clipped}"></polygon></svg>'
-        '<span class="num">{wear}</span></td>'
+        '<span class="num">{wear}</span> <span class="thr">threshold {threshold_text}'
+        '</span></td>'
         '<td class="c-trend">{trend}</td><td class="c-crossing">{crossing}</td>'
         '<td class="c-alarm">{alarm}</td><td class="c-last">{last}</td>'
         '<td class="c-experiments">{experiments}</td></tr>\n').format(
             state=row['state'].replace(' ', '-'), stale=' stale' if row['stale'] else '',
             robot=row['robot'], joint=row['joint'], url=row['url'], state_text=row['state'],
-            wear=text['wear'], low=low, width=width, mark=bar['wear'],
+            wear=text['wear'], threshold_text=text['threshold'], low=low, width=width,
+            mark=bar['wear'],
             visible='hidden' if bar['wear'] < 0 else 'visible', threshold=bar['threshold'],
             clipped='visible' if bar['clipped'] else 'hidden',
             trend=text['trend'], crossing=time_spans(text['crossing']),
@@ -364,12 +326,18 @@ def _alarm_text(view: FleetView) -> str:
     return text
 
 
-def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
-    """Return one fleet row for the page and ``/api/fleet`` (``fleet --json`` keys and more)."""
+def fleet_row_json(view: FleetView) -> dict[str, Any]:
+    """
+    Return one fleet row for the page and ``/api/fleet`` (``fleet --json`` keys and more).
+
+    The bar is drawn on the threshold the row's latest estimate was judged by (the row's
+    ``threshold``; the parameter set's when ``threshold_assumed``).
+    """
     state = view.state
+    threshold = state.threshold
     row = view.as_json()
     row.update({
-        'state': row_state(view), 'arrow': trend_arrow(view), 'threshold': threshold,
+        'state': row_state(view), 'arrow': trend_arrow(view),
         'acknowledged': bool(getattr(state, 'acknowledged', False)),
         'acknowledged_by': getattr(state, 'acknowledged_by', '') or None,
         'acknowledged_s': _number(getattr(state, 'acknowledged_wall_time_s', math.nan)),
@@ -388,6 +356,7 @@ def fleet_row_json(view: FleetView, *, threshold: float) -> dict[str, Any]:
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
                  'crossing': crossing_words(view), 'alarm': _alarm_text(view),
+                 'threshold': threshold_text(view),
                  'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })
@@ -414,7 +383,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
                        now_s=now_s, reescalation_margin=reescalation_margin,
                        forecast_horizon_s=forecast_horizon_s,
-                       warning_of=parameter_sets.warning_of)
+                       parameter_sets=parameter_sets)
     make = cache.row_json if cache is not None else fleet_row_json
     states = [row_state(v) for v in views]
     counts = dict.fromkeys(STATES, 0)
@@ -431,8 +400,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
         page = min(max(1, page if page is not None else 1), pages)
         first = (page - 1) * limit
         chosen = chosen[first:first + limit]
-    rows = [make(v, threshold=parameter_sets.resolve(v.state.parameter_set)[0].wear_threshold)
-            for v in chosen]
+    rows = [make(v) for v in chosen]
     return {'counts': counts, 'joints': len(views), 'robots': robots,
             'robot': robot, 'state': state, 'rows': rows, 'total': total,
             'page': page if limit is not None else 1, 'pages': pages, 'limit': limit,
@@ -628,12 +596,17 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
     if not records:
         return None
     params, note = parameter_sets.resolve(records[-1].parameter_set)
-    threshold = params.wear_threshold
     state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s,
                                         reescalation_margin=reescalation_margin,
                                         forecast_horizon_s=forecast_horizon_s,
-                                        warning_of=parameter_sets.warning_of)
+                                        parameter_sets=parameter_sets)
                   if v.state.joint == joint), None)
+    # the threshold the latest estimate was judged by (the parameter set's when not stored)
+    last = state.state if state is not None else records[-1]
+    assumed = state.threshold_assumed if state is not None else not math.isfinite(
+        last.threshold)
+    threshold = params.wear_threshold if assumed else last.threshold
+    warning = params.wear_warning if assumed else last.warning_level
     events = alarm_log(history, robot=robot, joint=joint)
     # the joint's current life: the experiments after the estimate its last reset is tied to
     last_reset = max((e for e in events if e['event'] == 'reset'), key=lambda e: e['id'] or 0,
@@ -644,9 +617,11 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
     life = [r for r in records if life_after is None or (r.id or 0) > life_after]
     return {
         'robot': robot, 'joint': joint, 'threshold': threshold,
+        'warning_level': _number(warning), 'threshold_assumed': assumed,
+        'threshold_text': threshold_words(threshold, assumed=assumed),
         'parameter_set': records[-1].parameter_set, 'model_note': note or None,
         'model_check_p_value': MODEL_CHECK_P_VALUE,
-        'state': fleet_row_json(state, threshold=threshold) if state is not None else None,
+        'state': fleet_row_json(state) if state is not None else None,
         'experiments': [{**_experiment_json(r), 'current_life': life_after is None
                          or (r.id or 0) > life_after} for r in records],
         'forecast': forecast_cone(life, threshold=threshold,

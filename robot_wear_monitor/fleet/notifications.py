@@ -7,8 +7,9 @@ same on every pass and in every process:
 
 * ``alarm_raised``: a latched alarm, one per raise (key ``alarm_raised/ROBOT/JOINT/STAMP``, the
   stamp of the raise [s]);
-* ``forecast_crossing``: the forecast crossing of the wear threshold (the fleet view's date,
-  or the trend already past the threshold) at most ``forecast_horizon_days`` ahead of
+* ``forecast_crossing``: the forecast crossing of the wear threshold (the one the joint's
+  latest estimate was judged by, stored with it: ``fleet/thresholds.py``; the fleet view's
+  date, or the trend already past the threshold) at most ``forecast_horizon_days`` ahead of
   ``now_s``, once per alarm cycle (key ``forecast_crossing/ROBOT/JOINT/cycle-STAMP``, the stamp
   of the joint's last reset, ``cycle-0`` before the first);
 * ``joint_stale``: no experiment for longer than the fleet view's stale limit, once per stale
@@ -59,7 +60,8 @@ from robot_wear_monitor.fleet.notify_channels import (
 from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
-from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, iso_time, STALE_FACTOR
+from robot_wear_monitor.fleet.ranking import (fleet_view, FleetView, iso_time, STALE_FACTOR,
+                                              threshold_text)
 from robot_wear_monitor.history import WearHistory
 
 __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
@@ -137,7 +139,9 @@ def _cycle(history: WearHistory, *, robot: str, joint: str) -> str:
 def _facts(view: FleetView) -> str:
     s = view.state
     lines = [f'Robot: {s.robot}', f'Joint: {s.joint}',
-             f'Latest wear: {describe_wear(view)} (0 new .. 100 failure)']
+             f'Latest wear: {describe_wear(view)} (0 new .. 100 failure)',
+             f'Wear threshold: {threshold_text(view)} (the alarm level the latest estimate '
+             'was judged by)']
     if math.isfinite(s.trend_wear):
         lines.append(f'Trend wear: {s.trend_wear:.1f}')
     crossing = s.crossing_experiments
@@ -210,8 +214,10 @@ def due_events(*, history: WearHistory, config: NotificationConfig,
                 f'wear alarm raised ({describe_wear(view)})')
         if 'forecast_crossing' in config.events and _crossing_inside(
                 view, now_s=now_s, horizon_s=config.forecast_horizon_s):
-            when = ('the trend is past the wear threshold' if s.crossing_experiments <= 0
-                    else f'the wear threshold is forecast to be crossed by '
+            threshold = threshold_text(view)
+            when = (f'the trend is past the wear threshold {threshold}'
+                    if s.crossing_experiments <= 0
+                    else f'the wear threshold {threshold} is forecast to be crossed by '
                          f'{iso_time(view.crossing_time_s)} (within '
                          f'{config.forecast_horizon_days:g} days)')
             add('forecast_crossing', _cycle(history, robot=s.robot, joint=s.joint),

@@ -28,7 +28,7 @@ from urllib.parse import quote
 from robot_wear_monitor import __version__
 from robot_wear_monitor.fleet.notify_config import (EmailConfig, NotificationConfig,
                                                     RetryPolicy, WebhookConfig)
-from robot_wear_monitor.fleet.ranking import FleetView, iso_time
+from robot_wear_monitor.fleet.ranking import FleetView, iso_time, threshold_text
 from robot_wear_monitor.monitoring.diagnostics import clean_text
 
 #: Alertmanager's ``endsAt`` of an alert that is still firing.
@@ -107,7 +107,8 @@ def webhook_payload(event: DueEvent, *, config: NotificationConfig,
     name, severity, _ = KINDS[event.kind]
     labels = {'alertname': name, 'robot': event.robot, 'joint': event.joint,
               'severity': severity}
-    annotations = {'summary': event.summary, 'description': event.description}
+    annotations = {'summary': event.summary, 'description': event.description,
+                   'threshold': threshold_text(event.view)}
     status = 'resolved' if event.resolved else 'firing'
     alert = {'status': status, 'labels': labels, 'annotations': annotations,
              'startsAt': iso_time(event.starts_s),

@@ -16,6 +16,9 @@ crossing gets a date when the joint's experiment rate is known (two experiments 
 date that has passed without an alarm is ``crossing_overdue`` ("overdue since <date>").
 After a reset the row is the joint's new life (``life_started_s``).  Each row's ``state`` is
 the first of :data:`~robot_wear_monitor.fleet.states.STATES` that applies.
+Each row carries the ``threshold`` and ``warning_level`` its latest estimate was judged by
+(stored with it; a row of an older history gets the parameter set's, ``threshold_assumed``:
+see :mod:`robot_wear_monitor.fleet.thresholds`).
 """
 
 from __future__ import annotations
@@ -23,12 +26,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 import datetime
 import math
-from typing import Any, Callable, Iterable, Optional, Sequence
+from typing import Any, Iterable, Optional, Sequence
 
 from robot_wear_monitor.csv_cells import csv_text
 from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
                                              DEFAULT_FORECAST_HORIZON_DAYS, joint_state,
                                              warning_level)
+from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, threshold_words
 from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.history.recent import RECENT_INTERVALS
 from robot_wear_monitor.json_values import finite_or_none
@@ -49,7 +53,8 @@ class FleetView:
     ``state``: the history's latest state of the joint (:class:`FleetRow`); ``stale``: no
     experiment for longer than :data:`STALE_FACTOR` usual intervals; ``crossing_time_s``: the
     forecast crossing as a time [s since the epoch], None when the rate or the crossing is
-    unknown.
+    unknown; ``threshold_assumed``: the history stores no threshold for the row (an older
+    history): ``state.threshold`` and ``state.warning_level`` are the parameter set's.
     """
 
     state: FleetRow
@@ -61,8 +66,7 @@ class FleetView:
     condition: str = 'ok'
     #: the forecast crossing's date has passed without an alarm (no experiment since)
     crossing_overdue: bool = False
-    #: the warning level the estimate was judged by [w] (NaN when unknown)
-    warning_level: float = math.nan
+    threshold_assumed: bool = False
 
     def rank_key(self) -> tuple[int, float, float, str, str]:
         """Return the sort key, worst first (:meth:`FleetRow.rank_key`, re-escalation too)."""
@@ -93,7 +97,10 @@ class FleetView:
             'life_started_s': finite_or_none(s.life_started_s),
             'reset_by': s.reset_by or None if math.isfinite(s.life_started_s) else None,
             'reset_reason': s.reset_reason or None if math.isfinite(s.life_started_s) else None,
-            'state': self.condition, 'warning_level': finite_or_none(self.warning_level),
+            'state': self.condition,
+            'threshold': finite_or_none(s.threshold),
+            'warning_level': finite_or_none(s.warning_level),
+            'threshold_assumed': self.threshold_assumed,
         }
 
 
@@ -138,7 +145,7 @@ def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
 def fleet_view(states: Iterable[FleetRow], *, now_s: float,
                reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
                forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
-               warning_of: Callable[[FleetRow], float] = warning_level) -> list[FleetView]:
+               parameter_sets: Optional[ParameterSets] = None) -> list[FleetView]:
     """
     Return the fleet rows worst first (the triage order of the module's text), at ``now_s``.
 
@@ -146,10 +153,12 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
     judged at; ``reescalation_margin``: the rise of the wear past its value at the
     acknowledgement that re-escalates an acknowledged alarm [wear units];
     ``forecast_horizon_s``: a crossing this soon makes a ``warning`` [s] (the notifications'
-    horizon); ``warning_of``: the warning level a row's estimate was judged by [w].
+    horizon); ``parameter_sets``: where a row without a stored threshold finds its parameter
+    set's (None: the packaged sets).
     """
     rows = []
     for state in states:
+        state, assumed = judged_levels(state, parameter_sets)
         interval = state.usual_interval_s
         known = math.isfinite(interval) and interval > 0
         since = state.last_stamp_s
@@ -160,15 +169,14 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
         if known and math.isfinite(state.crossing_experiments):
             crossing_time = state.last_stamp_s + state.crossing_experiments * interval
         reescalated = reescalation(state, now_s=now_s, margin=reescalation_margin)
-        warning = float(warning_of(state))
         rows.append(FleetView(
             state=state, stale=stale, crossing_time_s=crossing_time, reescalated=reescalated,
             condition=joint_state(state, stale=stale, reescalated=bool(reescalated),
-                                  crossing_time_s=crossing_time, now_s=now_s, warning=warning,
-                                  horizon_s=forecast_horizon_s),
+                                  crossing_time_s=crossing_time, now_s=now_s,
+                                  warning=warning_level(state), horizon_s=forecast_horizon_s),
             crossing_overdue=crossing_overdue(state, crossing_time_s=crossing_time,
                                               now_s=now_s),
-            warning_level=warning))
+            threshold_assumed=assumed))
     return sorted(rows, key=FleetView.rank_key)
 
 
@@ -223,8 +231,8 @@ def _trend_text(state: FleetRow) -> str:
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
                  'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_maintenance',
-                 'reescalated', 'life_started', 'state', 'crossing_overdue', 'reset_by',
-                 'reset_reason')
+                 'reescalated', 'life_started', 'threshold', 'threshold_assumed', 'state',
+                 'crossing_overdue', 'reset_by', 'reset_reason')
 
 
 def _alarm_text(row: FleetView, local: bool) -> str:
@@ -243,17 +251,23 @@ def _alarm_text(row: FleetView, local: bool) -> str:
     return text
 
 
+def threshold_text(row: FleetView) -> str:
+    """Return the row's threshold as people read it: '30', or '35 (assumed)' when not stored."""
+    return threshold_words(row.state.threshold, assumed=row.threshold_assumed)
+
+
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     """Return the fleet as a text table, one line per robot joint, worst first."""
-    header = ('robot', 'joint', 'state', 'w [95 %]', 'trend w', 'alarm', 'forecast crossing',
-              'experiments', 'last experiment')
+    header = ('robot', 'joint', 'state', 'w [95 %]', 'trend w', 'threshold', 'alarm',
+              'forecast crossing', 'experiments', 'last experiment')
     lines = []
     for row in rows:
         s = row.state
         alarm = _alarm_text(row, local)
         lines.append((clean_text(s.robot, limit=40), clean_text(s.joint, limit=40),
                       row.condition.upper() if row.condition != 'ok' else 'ok',
-                      _wear_text(s), _trend_text(s), alarm, crossing_text(row, local=local),
+                      _wear_text(s), _trend_text(s), threshold_text(row), alarm,
+                      crossing_text(row, local=local),
                       str(s.experiments), iso_time(s.last_stamp_s, local=local)))
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]
@@ -292,7 +306,8 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
                     text(s.planned_maintenance or '') if s.acknowledged else '',
                     text(row.reescalated),
                     iso_time(s.life_started_s, local=local)
-                    if math.isfinite(s.life_started_s) else '', row.condition,
+                    if math.isfinite(s.life_started_s) else '', number(s.threshold),
+                    'yes' if row.threshold_assumed else 'no', row.condition,
                     'yes' if row.crossing_overdue else 'no',
                     text(s.reset_by) if math.isfinite(s.life_started_s) else '',
                     text(s.reset_reason) if math.isfinite(s.life_started_s) else ''])

@@ -23,7 +23,6 @@ notifications all take the state from here.
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Optional
 
@@ -38,31 +37,15 @@ DEFAULT_FORECAST_HORIZON_DAYS = 30.0
 DAY_S = 86400.0
 
 
-@functools.lru_cache(maxsize=1)
-def _packaged_warning_levels() -> tuple[dict[str, float], float]:
-    """Return the packaged parameter sets' warning levels by name and the default set's [w]."""
-    from robot_wear_monitor.model.params import default_parameter_file, load_parameter_set
-    default = load_parameter_set()
-    levels: dict[str, float] = {}
-    for path in sorted(default_parameter_file().parent.glob('*.yaml')):
-        try:
-            params = load_parameter_set(path)
-        except Exception:  # noqa: BLE001 - not a parameter set (e.g. a node configuration)
-            continue
-        levels.setdefault(params.name, float(params.wear_warning))
-    return levels, float(default.wear_warning)
-
-
 def warning_level(row: FleetRow) -> float:
     """
     Return the warning level the joint's latest estimate was judged by [w].
 
-    The ``alarm.wear_warning`` of the parameter set the estimate names (a packaged set), else
-    that of the packaged default set.  The one place to switch to the level stored with the
-    estimate (issue 42's stored threshold).
+    The level stored with the estimate (schema version 8), or for a row of an older history
+    the parameter set's (``fleet/thresholds.py``, ``judged_levels``, fills it in); NaN: none
+    (no warning by level).
     """
-    levels, default = _packaged_warning_levels()
-    return levels.get(row.parameter_set, default)
+    return float(row.warning_level)
 
 
 def crossing_overdue(row: FleetRow, *, crossing_time_s: Optional[float], now_s: float) -> bool:

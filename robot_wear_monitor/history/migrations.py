@@ -26,8 +26,10 @@ server-side sessions).  Version 7 (accounts and the write API): alarm events may
 'acknowledgement_edited' and 'acknowledgement_withdrawn' and carry a ``work_order`` (''
 in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`` and
 ``users`` for their new CHECKs, keeping ids and rows; PostgreSQL replaces the constraints);
-``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).
-Version 8 belongs to the stored threshold (issue 42; an empty step here until it is merged).
+``api_tokens`` (per-user API tokens: only their SHA-256, when made and last used).  Version 8
+(one owner of the threshold): every estimate stores the wear ``threshold`` and the
+``warning_level`` it was judged by (the estimator's node parameters ``wear_threshold`` and
+``wear_warning``); old rows hold NULL (not known: readers assume the parameter set's and say so).
 Version 9 (maintenance states): alarm events carry their ``source`` (web, api, cli, ros; ''
 for the monitor's raises and old rows) and ``changes`` (what an edit changed, '' otherwise).
 """
@@ -235,6 +237,11 @@ _SQLITE_V7 = (
     _API_TOKENS[1],
 )
 
+#: Version 8: the threshold and warning level each estimate was judged by [w] (NULL: not
+#: stored, rows of older versions).
+_V8 = ('ALTER TABLE estimates ADD COLUMN threshold DOUBLE PRECISION',
+       'ALTER TABLE estimates ADD COLUMN warning_level DOUBLE PRECISION')
+
 #: Version 9: where a person's alarm event came from and what an edit changed.
 _V9 = ("ALTER TABLE alarm_events ADD COLUMN source TEXT NOT NULL DEFAULT ''",
        "ALTER TABLE alarm_events ADD COLUMN changes TEXT NOT NULL DEFAULT ''")
@@ -242,7 +249,7 @@ _V9 = ("ALTER TABLE alarm_events ADD COLUMN source TEXT NOT NULL DEFAULT ''",
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
-                                                 8: (), 9: _V9}
+                                                 8: _V8, 9: _V9}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -334,4 +341,4 @@ _POSTGRESQL_V7 = (
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      5: _POSTGRESQL_V5, 6: _V6,
-                                                     7: _POSTGRESQL_V7, 8: (), 9: _V9}
+                                                     7: _POSTGRESQL_V7, 8: _V8, 9: _V9}

@@ -71,6 +71,10 @@ class HistoryRecord:
     robot: Optional[str] = None
     #: '' for a valid estimate; else why the monitor could not judge the wear (plausibility)
     invalid_reason: str = ''
+    #: the alarm threshold and the warning level the estimate was judged by [w] (schema
+    #: version 8; NaN: not stored, a row of an older history)
+    threshold: float = math.nan
+    warning_level: float = math.nan
 
     @property
     def valid(self) -> bool:
@@ -196,6 +200,10 @@ class FleetRow:
     total_experiments: int = 0
     #: the stamps of the joint's last experiments, all lives, oldest first [s] (``recent.py``)
     recent_stamps: tuple[float, ...] = ()
+    #: the alarm threshold and warning level the latest estimate was judged by [w] (kept
+    #: after a reset: the joint's setting); NaN: not stored (a row of an older history)
+    threshold: float = math.nan
+    warning_level: float = math.nan
 
     @property
     def usual_interval_s(self) -> float:

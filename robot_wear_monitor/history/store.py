@@ -39,7 +39,7 @@ _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions
                    'temperature_degc', 'temperature_std_degc', 'wear', 'wear_std', 'chi2',
                    'dof', 'p_value', 'temperature_at_bound', 'wear_at_bound', 'alarm_active',
                    'alarm_evidence', 'status_level', 'parameter_set', *INTERVAL_COLUMNS,
-                   'invalid_reason')
+                   'invalid_reason', 'threshold', 'warning_level')
 
 
 def _nan_if_none(value: Optional[float]) -> float:
@@ -63,7 +63,9 @@ def _record_from_row(row: Sequence[Any]) -> HistoryRecord:
         wear_at_bound=bool(row[14]), alarm_active=bool(row[15]),
         alarm_evidence=float(row[16]), status_level=int(row[17]), parameter_set=row[18],
         **{c: _nan_if_none(v) for c, v in zip(INTERVAL_COLUMNS, row[19:])},
-        invalid_reason=row[19 + len(INTERVAL_COLUMNS)] or '')
+        invalid_reason=row[19 + len(INTERVAL_COLUMNS)] or '',
+        threshold=_nan_if_none(row[20 + len(INTERVAL_COLUMNS)]),
+        warning_level=_nan_if_none(row[21 + len(INTERVAL_COLUMNS)]))
 
 
 class WearHistory:
@@ -167,6 +169,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
+        if 'threshold' in columns:
+            return 8
         if 'api_tokens' in tables:
             return 7
         if 'sessions' in tables:
@@ -218,7 +222,8 @@ class WearHistory:
                   int(bool(record.alarm_active)), float(record.alarm_evidence),
                   int(record.status_level), record.parameter_set,
                   *(finite_or_none(getattr(record, c)) for c in INTERVAL_COLUMNS),
-                  str(record.invalid_reason)[:2000])
+                  str(record.invalid_reason)[:2000], finite_or_none(record.threshold),
+                  finite_or_none(record.warning_level))
         columns = ('robot', 'joint', 'stamp_s', 'wall_time_s', *_RECORD_COLUMNS[4:])
         with self._guard('cannot store the estimate'), self._backend.transaction():
             if latch_id is not ...:
@@ -643,7 +648,8 @@ class WearHistory:
                 'SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
                 'e.wall_time_s, e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, '
                 'e.trend_low, e.trend_high, e.crossing_experiments, e.crossing_time_s, '
-                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason, e.id '
+                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason, e.id, '
+                'e.threshold, e.warning_level '
                 'FROM joint_summary s JOIN estimates e ON e.id = s.last_id '
                 + where.replace('robot', 's.robot'), params)
             latches = self._backend.execute(
@@ -712,7 +718,8 @@ def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[S
         acknowledged_wall_time_s=float(ack[2]) if acknowledged and ack else math.nan,
         planned_maintenance=ack[3] if acknowledged and ack else '',
         acknowledged_wear=_nan_if_none(ack[4]) if acknowledged and ack else math.nan,
-        acknowledged_trend_wear=_nan_if_none(ack[5]) if acknowledged and ack else math.nan)
+        acknowledged_trend_wear=_nan_if_none(ack[5]) if acknowledged and ack else math.nan,
+        threshold=_nan_if_none(r[20]), warning_level=_nan_if_none(r[21]))
     if event != 'reset' or latch is None:
         return row
     # a reset: the joint's new life, from the estimate after the one the reset is tied to

@@ -319,7 +319,8 @@ class WearEstimatorService:
             wear_at_bound=bool(estimate.wear_at_bound), alarm_active=self.latch.active,
             alarm_evidence=self.latch.evidence, status_level=status.level,
             parameter_set=self.config.params.name, **_interval_columns(interval, trend),
-            invalid_reason=invalid_reason)
+            invalid_reason=invalid_reason, threshold=self.config.alarm.threshold,
+            warning_level=self.config.wear_warning)
         events = [AlarmEvent(joint=self.config.joint, stamp_s=levels.stamp_s, event='raised',
                              wear=wear, note=self._raise_note(wear, trend))] if raised else []
         record_id = self.history.append(record, events=events,

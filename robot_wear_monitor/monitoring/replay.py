@@ -71,6 +71,9 @@ class ReplayResult:
     notes: list[str] = field(default_factory=list)
     #: each monitored joint's state in the history after the replay (:func:`joint_state`)
     states: list[dict[str, Any]] = field(default_factory=list)
+    #: warnings for the log, not the summary: a joint whose node levels (``wear_threshold``,
+    #: ``wear_warning``) are not its parameter set's (the node's win), once per joint
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def invalid(self) -> list[WearUpdate]:
@@ -299,6 +302,8 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
                     _require_experiments(updates, estimators, experiments, stream)
                 result.out_bag = Path(out_bag)
         result.states = joint_states(history, list(estimators.services))
+        result.warnings = [w for w in (s.config.levels_warning()
+                                       for s in estimators.services.values()) if w]
     finally:
         lock.close()
         history.close()
@@ -342,8 +347,9 @@ def joint_states(history: WearHistory, joints: Sequence[str]) -> list[dict[str, 
 
     Per joint: ``alarm`` (latched) and ``alarm_since_stamp_s`` (its raise [s]), ``estimates``
     stored, and ``last_estimate``: the stamp [s], w-hat, its 95 % interval and the validity of
-    the latest stored estimate (None when there is none).  A re-run that estimates nothing new
-    still reports this state.
+    the latest stored estimate (None when there is none); ``threshold`` and ``warning_level``:
+    the levels that estimate was judged by [w] (None: none stored).  A re-run that estimates
+    nothing new still reports this state.
     """
     rows = {row.joint: row for row in history.fleet(robot=history.robot)}
     states = []
@@ -357,7 +363,9 @@ def joint_states(history: WearHistory, joints: Sequence[str]) -> list[dict[str, 
                 'stamp_s': row.last_stamp_s, 'wear': json_number(row.wear),
                 'wear_interval': [json_number(row.wear_low), json_number(row.wear_high)],
                 'valid': not row.invalid_reason,
-                'invalid_reason': row.invalid_reason or None}})
+                'invalid_reason': row.invalid_reason or None},
+            'threshold': json_number(row.threshold) if row else None,
+            'warning_level': json_number(row.warning_level) if row else None})
     return states
 
 

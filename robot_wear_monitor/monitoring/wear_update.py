@@ -62,6 +62,25 @@ class EstimatorConfig:
                    experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']),
                    robot=str(values.get('robot_id', '') or ''))
 
+    def levels_warning(self) -> str:
+        """
+        Return the warning to log once when the node's levels are not the parameter set's.
+
+        The node parameters ``wear_threshold`` and ``wear_warning`` win: they are what a site
+        sets, what the alarm and the trend use and what is stored with every estimate (and
+        shown by the fleet view and the dashboard); the parameter set's ``alarm`` values are
+        only their defaults.  '' when both agree.
+        """
+        differ = [f'{name} {node:g} (the set says {stated:g})' for name, node, stated in (
+            ('wear_threshold', self.alarm.threshold, self.params.wear_threshold),
+            ('wear_warning', self.wear_warning, self.params.wear_warning)) if node != stated]
+        if not differ:
+            return ''
+        where = f'robot {self.robot[:80]!r} ' if self.robot else ''
+        return (f'{where}joint {self.joint[:80]!r}: the node parameters differ from parameter '
+                f'set {self.params.name[:80]!r}: {", ".join(differ)}; the node\'s values are '
+                'used and stored with every estimate')
+
 
 @dataclass(frozen=True)
 class WearUpdate:

@@ -117,6 +117,9 @@ class WearEstimatorNode(Node):
             f'{"LATCHED" if service.latch.active else "clear"}'
             + ('' if self.parameters['reset_service_enabled'] else
                '; no reset service (reset_service_enabled false)'))
+        warning = config.levels_warning()
+        if warning:  # once per joint: its estimator is built once
+            self.get_logger().warning(escaped(warning))
 
     def publish_alarm(self, joint=None):
         """Publish the latched alarm state of a joint (default: every joint)."""

@@ -347,18 +347,18 @@ def test_each_notification_is_claimed_once_by_concurrent_notifiers(history_locat
                                        channel='webhook', payload={'v': float('nan')})
 
 
-def test_a_history_of_a_later_version_is_refused(history_location):
+def test_a_history_of_the_next_version_is_refused(history_location):
     WearHistory(history_location).close()
-    later = SCHEMA_VERSION + 1
+    newer = SCHEMA_VERSION + 1
     if is_postgresql_url(history_location):
         import psycopg
         with psycopg.connect(history_location, autocommit=True) as conn:
-            conn.execute(f'UPDATE schema_version SET version = {later}')
+            conn.execute('UPDATE schema_version SET version = %s', (newer,))
     else:
         with sqlite3.connect(history_location) as conn:
-            conn.execute(f'UPDATE schema_version SET version = {later}')
-    assert SCHEMA_VERSION == 9
-    with pytest.raises(HistoryError, match=f'schema version {later}, this version reads 9'):
+            conn.execute('UPDATE schema_version SET version = ?', (newer,))
+    with pytest.raises(HistoryError, match=f'schema version {newer}, this version reads '
+                                           f'{SCHEMA_VERSION}'):
         WearHistory(history_location)
 
 
@@ -386,12 +386,14 @@ def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_p
     assert (payload[1]['acknowledged'], payload[1]['acknowledged_by'],
             payload[1]['acknowledged_time_s']) == (False, None, None)
     table = fleet_table(rows).splitlines()
-    assert 'acknowledged by ana, service planned 2026-12-01' in table[1]
+    assert 'acknowledged by ana, maintenance planned 2026-12-01' in table[1]
     assert 'acknowledged' not in table[2] and 'LATCHED' in table[2]
     csv_rows = fleet_csv_rows(rows)
-    assert csv_rows[0][-4:] == ['acknowledged_by', 'planned_service_date', 'reescalated',
-                                'life_started']
-    assert [r[-4:-2] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''], ['', '']]
+    first = csv_rows[0].index('acknowledged_by')
+    assert csv_rows[0][first:first + 4] == ['acknowledged_by', 'planned_maintenance',
+                                            'reescalated', 'life_started']
+    assert [r[first:first + 2] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''],
+                                                          ['', '']]
 
 
 def test_the_joint_summary_follows_every_append_and_skips_reruns(history_location):

@@ -7,7 +7,9 @@ alarm on the way) is replayed, and its summary JSON and every number of its outp
 ``/diagnostics``) must equal ``data/replay_60_seed7.json`` bit for bit.  The file was made by
 the code of 2026-11-26 after that day's issues (34-37) had landed, before any work on the
 replay's speed (issue 38): a change that moves a number must say so and write the file anew
-(``PYTHONPATH=test python3 test/monitoring/test_replay_fixed_outputs.py --write``).
+(``PYTHONPATH=test python3 test/monitoring/test_replay_fixed_outputs.py --write``).  Keys added
+since (the ``threshold`` and ``warning_level`` of each ``state`` entry, issue 42) are checked
+against the node configuration and taken out before the comparison.
 """
 
 import json
@@ -69,10 +71,29 @@ def replay_outputs(folder: Path) -> dict:
     return {'summary': summary, 'bag': topics}
 
 
+def _pop_new_state_keys(summary: dict) -> list:
+    """
+    Remove the keys the summary's ``state`` entries gained after the file was made.
+
+    Issue 42 (schema version 8) added ``threshold`` and ``warning_level`` (the levels the
+    latest estimate was judged by); returned per entry ((None, None) where absent, as in a
+    file made before), to be checked against the node configuration the replay ran with.
+    """
+    return [(entry.pop('threshold', None), entry.pop('warning_level', None))
+            for entry in summary['state']]
+
+
 def test_the_replay_gives_the_fixed_outputs_bit_for_bit(tmp_path, capsys):
+    from robot_wear_monitor.monitoring.node_config import (load_node_parameters,
+                                                           WEAR_ESTIMATOR_NODE)
     got = json.loads(json.dumps(replay_outputs(tmp_path)))
     capsys.readouterr()
     fixed = json.loads(FIXED.read_text(encoding='utf-8'))
+    packaged = load_node_parameters(WEAR_ESTIMATOR_NODE)  # the replay ran with this file
+    levels = [(packaged['wear_threshold'], packaged['wear_warning'])] * len(
+        fixed['summary']['state'])
+    assert _pop_new_state_keys(got['summary']) == levels
+    assert _pop_new_state_keys(fixed['summary']) in (levels, [(None, None)] * len(levels))
     assert got['summary'] == fixed['summary']
     assert sorted(got['bag']) == sorted(fixed['bag'])
     for topic in fixed['bag']:

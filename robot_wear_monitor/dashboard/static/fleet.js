@@ -35,6 +35,10 @@ function newRow() {
   const num = document.createElement('span');
   num.className = 'num';
   wear.appendChild(num);
+  wear.appendChild(document.createTextNode(' '));
+  const thr = document.createElement('span');
+  thr.className = 'thr';  // the threshold the row was judged by ('35 (assumed)': not stored)
+  wear.appendChild(thr);
   return tr;
 }
 
@@ -53,6 +57,7 @@ function updateRow(tr, row) {
   setText(link, row.joint);
   setText(tr.querySelector('.c-state .badge'), row.state);
   setText(tr.querySelector('.c-wear .num'), row.text.wear);
+  setText(tr.querySelector('.c-wear .thr'), 'threshold ' + row.text.threshold);
   const bar = row.bar;
   const interval = tr.querySelector('.interval');
   setAttr(interval, 'x', Math.max(bar.low, 0));

@@ -62,7 +62,7 @@ function wearTraces(data) {
       marker: {symbol: 'diamond', size: 12, color: '#ff7f0e'}});
   }
   traces.push({x: [x[0], end], y: [data.threshold, data.threshold], mode: 'lines',
-    name: 'threshold w = ' + data.threshold, line: {color: '#d62728', dash: 'dot'}});
+    name: 'threshold w = ' + data.threshold_text, line: {color: '#d62728', dash: 'dot'}});
   return traces;
 }
 
@@ -156,6 +156,7 @@ function showJoint(data) {
     setText(document.getElementById('f-experiments'), String(s.experiments));
     setTimes(document.getElementById('f-last'), s.text.last);
   }
+  setText(document.getElementById('f-threshold'), data.threshold_text);
   const threshold = data.threshold;
   const wearLayout = layout('w per experiment, 95 % intervals, trend and forecast', 'wear w');
   wearLayout.yaxis.range = [0, Math.max(threshold * 1.3,
