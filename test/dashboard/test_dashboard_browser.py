@@ -522,3 +522,42 @@ def test_an_admin_manages_users_from_the_page_and_a_maintainer_may_not(
     browser.get(server + '/users')
     assert 'only an admin may manage the users' in browser.page_source
     assert not browser.find_elements(_by('ID'), 'add-user-form')
+
+
+LONG_NOTE = ('gearbox ordered from the supplier, the replacement needs the line stopped for a '
+             'whole shift, so it waits for the planned stop; meanwhile the joint runs at '
+             'reduced speed and the operators check its noise every morning ' * 2).strip()
+
+
+def test_no_sideways_scroll_after_a_reset_a_long_acknowledgement_and_a_re_escalation(
+        server, browser, history):
+    """Issue 44: at 1366x900 and at 390x844 no page is wider than the window."""
+    with open_history(history, init=False) as stored:
+        stored.reset_alarm(joint='joint_3', robot='welder_7', user='mia',
+                           reason='gearbox replaced preventively during the planned stop of '
+                                  'line 3, serial GB-2026-11-000417-REPLACEMENT-UNIT',
+                           work_order='WO-2026-0001234567')
+        stored.acknowledge_alarm(joint='joint_2', robot='press_line', user='mia',
+                                 owner='Maintenance team D (night shift, line 3)',
+                                 comment=LONG_NOTE, planned_maintenance='2020-01-01',
+                                 work_order='WO-2026-0009876543')
+    _log_in(browser, server, 'mia')
+    for width, height in ((1366, 900), (390, 844)):
+        browser.set_window_size(width, height)
+        _wait(browser, lambda d: d.execute_script('return window.innerWidth;') <= width,
+              f'a window {width} px wide')
+        for url in ('/', joint_url('press_line', 'joint_2'), joint_url('welder_7', 'joint_3'),
+                    '/alarms'):
+            browser.get(server + url)
+            inner = browser.execute_script('return window.innerWidth;')
+            scroll = browser.execute_script('return document.documentElement.scrollWidth;')
+            assert scroll <= inner, (width, url, scroll)
+        browser.get(server + '/')
+        states = dict(((tr.get_attribute('data-robot'), tr.get_attribute('data-joint')),
+                       tr.find_element(_by('CSS_SELECTOR'), '.c-state').text)
+                      for tr in browser.find_elements(_by('CSS_SELECTOR'), '#fleet-rows tr'))
+        # the re-escalated acknowledged alarm is an alarm; the reset joint a new life
+        assert states[('press_line', 'joint_2')] == 'alarm'
+        assert states[('welder_7', 'joint_3')] == 'new life'
+        count = browser.find_element(_by('CSS_SELECTOR'), '.count[data-state="alarm"]').text
+        assert count == '1'
