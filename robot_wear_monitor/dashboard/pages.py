@@ -181,10 +181,16 @@ def reset(request: Request, robot: str, joint: str, user: MaintainerUser, histor
         request.session['flash'] = {'kind': 'error', 'text': 'not reset: tick "the maintenance '
                                                              'is done" to confirm the reset'}
         return RedirectResponse(joint_url(robot, joint), status_code=303)
+    try:
+        latch = history.latch_event(joint=joint, robot=robot)
+    except HistoryError:
+        latch = None  # the reset below names what is wrong
+    done = ('alarm reset: a new life starts, the trend restarts'
+            if latch is not None and latch.event == 'raised'
+            else 'maintenance recorded: a new life starts, the trend restarts')
     return _flash_outcome(request, robot, joint, lambda: history.reset_alarm(
         joint=joint, robot=robot, user=user['name'], reason=reason.strip(),
-        work_order=work_order.strip(), source='web'),
-        'reset: a new life starts, the trend restarts')
+        work_order=work_order.strip(), source='web'), done)
 
 
 def _message(error: Exception) -> str:
