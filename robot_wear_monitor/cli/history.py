@@ -20,7 +20,8 @@ HELP = 'show the stored wear history and export its friction levels for audit'
 
 #: The columns of ``history --alarms --csv`` (and the keys of its ``--json`` rows).
 ALARM_LOG_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note', 'note_text', 'work_order')
+                     'planned_maintenance', 'note', 'note_text', 'work_order', 'source',
+                     'changes')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -176,7 +177,7 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
              'wear': None if e.wear is None else json_number(e.wear), 'user': e.user,
              'owner': e.owner, 'planned_maintenance': e.planned_maintenance, 'note': e.note,
              'note_text': note_text(e), 'event_time_s': json_number(event_time_s(e)),
-             'work_order': e.work_order,
+             'work_order': e.work_order, 'source': e.source, 'changes': e.changes,
              'stamp_s': json_number(e.stamp_s), 'wall_time_s': json_number(e.wall_time_s),
              'estimate_id': e.estimate_id} for e in events]
 

@@ -461,10 +461,11 @@ def event_json(event: Any) -> dict[str, Any]:
     }
 
 
-#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``; ``work_order`` is
-#: last, so that the columns before it keep their places).
+#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``; ``work_order``,
+#: ``source`` and ``changes`` are last, so that the columns before them keep their places).
 ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note', 'note_text', 'work_order')
+                     'planned_maintenance', 'note', 'note_text', 'work_order', 'source',
+                     'changes')
 
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,

@@ -366,8 +366,10 @@ def test_alarm_log_csv_holds_the_log(client, history):
     assert response.headers['content-type'].startswith('text/csv')
     rows = list(csv.reader(io.StringIO(response.text)))
     assert rows[0] == ['id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                       'planned_maintenance', 'note', 'note_text', 'work_order']
+                       'planned_maintenance', 'note', 'note_text', 'work_order', 'source',
+                       'changes']
     assert rows[1][11] == 'WO-17' and rows[2][11] == ''
+    assert rows[1][12] == 'web' and rows[2][12] == ''  # the form's reset; the monitor's raise
     with open_history(history, init=False) as stored:
         log = stored.alarm_log()
     assert [int(r[0]) for r in rows[1:]] == [e.id for e in log]
