@@ -33,6 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='judge staleness at this time: ISO 8601 (e.g. '
                              '2026-11-24T12:00:00Z) or seconds since the epoch '
                              '(default: the clock)')
+    parser.add_argument('--forecast-horizon-days', type=float, default=None, metavar='DAYS',
+                        help='a forecast crossing this soon makes a joint a warning (default: '
+                             "30, the notifications' forecast_horizon_days)")
     parser.add_argument('--reescalation-margin', type=float, default=None, metavar='W',
                         help='an acknowledged alarm goes back to the top when its wear rises '
                              'W wear units past its value at the acknowledgement (default: '
@@ -65,15 +68,20 @@ def main(args: argparse.Namespace) -> int:
     # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
     # one-BLAS-thread setting
     from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
-                                                  fleet_table, fleet_view)
+                                                  fleet_table, fleet_view, plural)
+    from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
     now_s = parse_time(args.now) if args.now else time.time()
     margin = (DEFAULT_REESCALATION_MARGIN if args.reescalation_margin is None
               else args.reescalation_margin)
     if not (math.isfinite(margin) and margin > 0):
         raise InputError(f'--reescalation-margin must be > 0 wear units, got {margin:.6g}')
+    horizon = (DEFAULT_FORECAST_HORIZON_DAYS if args.forecast_horizon_days is None
+               else args.forecast_horizon_days)
+    if not (math.isfinite(horizon) and horizon >= 0):
+        raise InputError(f'--forecast-horizon-days must be >= 0, got {horizon:.6g}')
     with open_history(args.history, init=False) as history:
         rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s,
-                          reescalation_margin=margin)
+                          reescalation_margin=margin, forecast_horizon_s=horizon * DAY_S)
     if args.robot and not rows:
         raise InputError(f'{shown_location(args.history)}: no estimates of robot '
                          f'{args.robot!r}')
@@ -89,10 +97,9 @@ def main(args: argparse.Namespace) -> int:
     if not rows:
         print(f'{shown_location(args.history)}: no estimates yet')
         return 0
-    alarms = sum(1 for row in rows if row.state.alarm)
-    stale = sum(1 for row in rows if row.stale)
     robots = len({row.state.robot for row in rows})
-    print(f'{robots} robots, {len(rows)} joints: {alarms} alarm(s) latched, {stale} stale '
-          '(worst first)')
+    counts = [(name, sum(1 for row in rows if row.condition == name)) for name in STATES]
+    print(f'{plural(robots, "robot")}, {plural(len(rows), "joint")}: '
+          + ', '.join(f'{count} {name}' for name, count in counts if count) + ' (worst first)')
     print(fleet_table(rows, local=args.local))
     return 0

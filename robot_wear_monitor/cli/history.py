@@ -27,7 +27,8 @@ HELP = 'show the stored wear history and export its friction levels for audit'
 
 #: The columns of ``history --alarms --csv`` (and the keys of its ``--json`` rows).
 ALARM_LOG_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note', 'note_text', 'work_order')
+                     'planned_maintenance', 'note', 'note_text', 'work_order', 'source',
+                     'changes')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -179,7 +180,7 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
              'wear': None if e.wear is None else finite_or_none(e.wear), 'user': e.user,
              'owner': e.owner, 'planned_maintenance': e.planned_maintenance, 'note': e.note,
              'note_text': note_text(e), 'event_time_s': finite_or_none(event_time_s(e)),
-             'work_order': e.work_order,
+             'work_order': e.work_order, 'source': e.source, 'changes': e.changes,
              'stamp_s': finite_or_none(e.stamp_s), 'wall_time_s': finite_or_none(e.wall_time_s),
              'estimate_id': e.estimate_id} for e in events]
 

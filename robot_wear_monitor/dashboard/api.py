@@ -12,8 +12,11 @@ The write API (for a maintenance-management system): ``POST
 /api/robots/{robot}/joints/{joint}/acknowledge`` and ``.../reset``, and
 ``.../acknowledgement/edit`` and ``.../acknowledgement/withdraw``, each with a JSON body.
 They store what the page's forms store, with the same role check (a maintainer or an admin;
-403 otherwise) and the user in the alarm log; they answer the stored event, 409 when the
-alarm is not in the state the action needs, 422 on bad values.  With an API token
+403 otherwise) and the user and the source (``api``) in the alarm log; they answer the stored
+event, 404 for a robot or joint the history holds no estimate of, 409 when the alarm is not in
+the state the action needs, 422 on bad values.  An edit changes only the fields it sends.  A
+reset needs no alarm (a replacement before an alarm is a new life too).  Every route answers
+422 to a query parameter it does not take.  With an API token
 (``Authorization: Bearer``) no CSRF token is needed; a cookie session sends its CSRF token in
 the ``X-CSRF-Token`` header.
 """
@@ -26,19 +29,22 @@ import time
 from typing import Any, Callable, Optional
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
+from robot_wear_monitor.dashboard.api_checks import BEARER, reject_unknown_query
 from robot_wear_monitor.dashboard.auth import csrf_token, is_token_request
 from robot_wear_monitor.dashboard.deps import (check_api_csrf, CurrentUser, FleetCacheDep,
                                                HistoryDep, MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
-                                                  FleetJson, JointJson, MeJson, ResetRequest,
-                                                  WithdrawRequest)
-from robot_wear_monitor.dashboard.views import (alarm_log, event_json, fleet_json, joint_json,
-                                                PAGE_ROWS, reescalation_margin, STATES)
+                                                  EditRequest, FleetJson, JointJson, MeJson,
+                                                  ResetRequest, WithdrawRequest)
+from robot_wear_monitor.dashboard.views import (alarm_log, event_json, fleet_json,
+                                                forecast_horizon_s, joint_json, PAGE_ROWS,
+                                                reescalation_margin, STATES)
 from robot_wear_monitor.history import HistoryError
-from robot_wear_monitor.history.alarms import AlarmStateError
+from robot_wear_monitor.history.alarms import AlarmStateError, UnknownJointError
 from starlette.responses import Response
 
-router = APIRouter(prefix='/api', tags=['api'])
+router = APIRouter(prefix='/api', tags=['api'],
+                   dependencies=[Depends(reject_unknown_query), Depends(BEARER)])
 #: The answer to a request whose If-None-Match is the current ETag.
 NOT_MODIFIED: dict[int | str, dict[str, Any]] = {
     304: {'description': 'Not modified: the ETag in If-None-Match is the current one'}}
@@ -87,7 +93,10 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     """
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                          robot=robot or None, state=_state(state), cache=cache, page=page,
-                         limit=limit, reescalation_margin=reescalation_margin(request))
+                         limit=limit, reescalation_margin=reescalation_margin(request),
+                         forecast_horizon_s=forecast_horizon_s(request))
+    if robot and robot not in payload['robots']:
+        raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
     return json_with_etag(request, payload)
 
 
@@ -103,7 +112,8 @@ def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
     """
     payload = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
                          parameter_sets=parameter_sets,
-                         reescalation_margin=reescalation_margin(request))
+                         reescalation_margin=reescalation_margin(request),
+                         forecast_horizon_s=forecast_horizon_s(request))
     if payload is None:
         raise HTTPException(status_code=404, detail=f'no estimates of robot {robot[:80]!r} '
                                                     f'joint {joint[:80]!r}')
@@ -113,9 +123,18 @@ def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
 @router.get('/alarms', summary='The alarm log of the fleet, newest first',
             response_model=list[AlarmEventJson])
 def api_alarms(history: HistoryDep, robot: Optional[str] = None, joint: Optional[str] = None,
-               limit: Optional[int] = Query(None, ge=1, le=100000)) -> list[dict[str, Any]]:
-    """Return the raised, acknowledged and reset events, newest first, with who and why."""
-    return alarm_log(history, robot=robot or None, joint=joint or None, limit=limit)
+               limit: Optional[int] = Query(None, ge=1, le=100000),
+               since: Optional[float] = Query(None, ge=0, le=1e11, description=(
+                   'only the events stored after this time [s since the epoch] (for a '
+                   'system that polls: pass the largest wall_time_s it has seen)')),
+               ) -> list[dict[str, Any]]:
+    """
+    Return the raised, acknowledged and reset events, newest first, with who and why.
+
+    ``since``: the events stored after that wall time only (a late-replayed raise too).
+    """
+    return alarm_log(history, robot=robot or None, joint=joint or None, limit=limit,
+                     stored_after_s=since)
 
 
 @router.get('/me', summary='The logged-in user', response_model=MeJson)
@@ -129,15 +148,19 @@ WRITE_ERRORS: dict[int | str, dict[str, Any]] = {
     401: {'description': 'no session and no (valid) API token'},
     403: {'description': 'not a maintainer or admin, or a cookie session without its '
                          'X-CSRF-Token header'},
+    404: {'description': 'the history holds no estimate of the robot or joint'},
     409: {'description': 'the alarm is not in the state the action needs (e.g. no latched '
-                         'alarm, already acknowledged)'},
+                         'alarm, already acknowledged, reset already and no experiment '
+                         'since)'},
     422: {'description': 'a bad value (named in detail)'}}
 
 
 def _act(history: Any, action: Callable[[], Any]) -> dict[str, Any]:
-    """Run a write on the history; return the stored event (409/422 with its reason)."""
+    """Run a write on the history; return the stored event (404/409/422 with its reason)."""
     try:
         return event_json(action())
+    except UnknownJointError as error:
+        raise HTTPException(status_code=404, detail=_reason(history, error)) from None
     except AlarmStateError as error:
         raise HTTPException(status_code=409, detail=_reason(history, error)) from None
     except HistoryError as error:
@@ -162,17 +185,24 @@ def api_acknowledge(robot: str, joint: str, body: AcknowledgeRequest, user: Main
     """Acknowledge the latched alarm: owner, comment, planned maintenance date, work order."""
     return _act(history, lambda: history.acknowledge_alarm(
         joint=joint, robot=robot, user=user['name'], owner=body.owner, comment=body.comment,
-        planned_maintenance=body.planned_maintenance, work_order=body.work_order))
+        planned_maintenance=body.planned_maintenance, work_order=body.work_order,
+        source='api'))
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
-             summary='Edit the acknowledgement', **_WRITE)
-def api_edit_acknowledgement(robot: str, joint: str, body: AcknowledgeRequest,
+             summary='Edit the acknowledgement (only the fields sent)', **_WRITE)
+def api_edit_acknowledgement(robot: str, joint: str, body: EditRequest,
                              user: MaintainerUser, history: HistoryDep) -> dict[str, Any]:
-    """Edit the current acknowledgement (the values after the edit; recorded as an event)."""
+    """
+    Edit the current acknowledgement: only the fields sent change (PATCH semantics).
+
+    The event answered (and stored in the log) holds the acknowledgement as it stands after
+    the edit and ``changes``, what the edit changed.
+    """
     return _act(history, lambda: history.edit_acknowledgement(
         joint=joint, robot=robot, user=user['name'], owner=body.owner, comment=body.comment,
-        planned_maintenance=body.planned_maintenance, work_order=body.work_order))
+        planned_maintenance=body.planned_maintenance, work_order=body.work_order,
+        source='api'))
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',
@@ -181,14 +211,19 @@ def api_withdraw_acknowledgement(robot: str, joint: str, body: WithdrawRequest,
                                  user: MaintainerUser, history: HistoryDep) -> dict[str, Any]:
     """Withdraw the current acknowledgement, with a reason (the alarm stays latched)."""
     return _act(history, lambda: history.withdraw_acknowledgement(
-        joint=joint, robot=robot, user=user['name'], reason=body.reason))
+        joint=joint, robot=robot, user=user['name'], reason=body.reason, source='api'))
 
 
-@router.post('/robots/{robot}/joints/{joint}/reset', summary='Reset the alarm after maintenance',
-             **_WRITE)
+@router.post('/robots/{robot}/joints/{joint}/reset',
+             summary='Reset after maintenance or a replacement (a new life)', **_WRITE)
 def api_reset(robot: str, joint: str, body: ResetRequest, user: MaintainerUser,
               history: HistoryDep) -> dict[str, Any]:
-    """Reset the latched alarm after maintenance: the reason and the work order."""
+    """
+    Record maintenance or a replacement: the joint's new life (with or without an alarm).
+
+    The reason and the work order; a latched alarm unlatches; the old life stays in the
+    history.  409 when the joint was reset already and no experiment followed.
+    """
     return _act(history, lambda: history.reset_alarm(
         joint=joint, robot=robot, user=user['name'], reason=body.reason,
-        work_order=body.work_order))
+        work_order=body.work_order, source='api'))

@@ -307,7 +307,7 @@ class RequireSession(BaseHTTPMiddleware):
                         call_next: Callable[[Request], Awaitable[Response]], path: str,
                         bearer: Optional[str]) -> Response:
         response: Response
-        if bearer is not None and path.startswith('/api/'):
+        if bearer is not None and (path.startswith('/api/') or path == '/openapi.json'):
             pool = request.app.state.pool
             if not await run_in_threadpool(_token_from_pool, request, pool, bearer):
                 response = JSONResponse({'detail': 'unknown or removed API token'},

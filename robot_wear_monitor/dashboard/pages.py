@@ -29,9 +29,10 @@ from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_se
                                                MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.guards import public_message
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
-                                                fleet_json, fleet_row_html, joint_json,
-                                                joint_url, MAX_PAGE_ROWS, page_links, PAGE_ROWS,
-                                                reescalation_margin, STATES)
+                                                fleet_json, fleet_row_html, forecast_horizon_s,
+                                                joint_json, joint_url, MAX_PAGE_ROWS,
+                                                page_links, PAGE_ROWS, reescalation_margin,
+                                                STATES)
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.users import ACTING_ROLES
 from starlette.responses import HTMLResponse, RedirectResponse, Response
@@ -104,7 +105,8 @@ def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterS
     fleet = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                        robot=robot or None, state=state if state in STATES else None,
                        cache=cache, page=page, limit=limit,
-                       reescalation_margin=reescalation_margin(request))
+                       reescalation_margin=reescalation_margin(request),
+                       forecast_horizon_s=forecast_horizon_s(request))
     return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html,
                   page_links=page_links(fleet))
 
@@ -115,7 +117,8 @@ def joint_page(request: Request, robot: str, joint: str, history: HistoryDep,
     """One joint's wear story, its alarm log and (for a maintainer) the alarm forms."""
     data = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
                       parameter_sets=parameter_sets,
-                      reescalation_margin=reescalation_margin(request))
+                      reescalation_margin=reescalation_margin(request),
+                      forecast_horizon_s=forecast_horizon_s(request))
     if data is None:
         return render(request, 'error.html', status_code=404,
                       message=f'no estimates of robot {robot!r} joint {joint!r}')
@@ -146,7 +149,7 @@ def acknowledge(request: Request, robot: str, joint: str, user: MaintainerUser,
     return _flash_outcome(request, robot, joint, lambda: history.acknowledge_alarm(
         joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
         comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
-        work_order=work_order.strip()), 'alarm acknowledged')
+        work_order=work_order.strip(), source='web'), 'alarm acknowledged')
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
@@ -159,7 +162,7 @@ def edit_acknowledgement(request: Request, robot: str, joint: str, user: Maintai
     return _flash_outcome(request, robot, joint, lambda: history.edit_acknowledgement(
         joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
         comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
-        work_order=work_order.strip()), 'acknowledgement edited')
+        work_order=work_order.strip(), source='web'), 'acknowledgement edited')
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',
@@ -168,7 +171,7 @@ def withdraw_acknowledgement(request: Request, robot: str, joint: str, user: Mai
                              history: HistoryDep, reason: str = Form('')) -> Response:
     """Withdraw the acknowledgement, with a reason; the alarm stays latched."""
     return _flash_outcome(request, robot, joint, lambda: history.withdraw_acknowledgement(
-        joint=joint, robot=robot, user=user['name'], reason=reason.strip()),
+        joint=joint, robot=robot, user=user['name'], reason=reason.strip(), source='web'),
         'acknowledgement withdrawn: the alarm is unacknowledged')
 
 
@@ -176,14 +179,21 @@ def withdraw_acknowledgement(request: Request, robot: str, joint: str, user: Mai
 def reset(request: Request, robot: str, joint: str, user: MaintainerUser, history: HistoryDep,
           reason: str = Form(''), work_order: str = Form(''),
           confirm: str = Form('')) -> Response:
-    """Reset the latched alarm after maintenance, with a reason, once confirmed."""
+    """Record maintenance or a replacement (a new life), with a reason, once confirmed."""
     if confirm != 'yes':
         request.session['flash'] = {'kind': 'error', 'text': 'not reset: tick "the maintenance '
                                                              'is done" to confirm the reset'}
         return RedirectResponse(joint_url(robot, joint), status_code=303)
+    try:
+        latch = history.latch_event(joint=joint, robot=robot)
+    except HistoryError:
+        latch = None  # the reset below names what is wrong
+    done = ('alarm reset: a new life starts, the trend restarts'
+            if latch is not None and latch.event == 'raised'
+            else 'maintenance recorded: a new life starts, the trend restarts')
     return _flash_outcome(request, robot, joint, lambda: history.reset_alarm(
         joint=joint, robot=robot, user=user['name'], reason=reason.strip(),
-        work_order=work_order.strip()), 'alarm reset: the trend restarts')
+        work_order=work_order.strip(), source='web'), done)
 
 
 def _message(error: Exception, request: Request) -> str:

@@ -14,8 +14,9 @@ from __future__ import annotations
 from typing import Optional
 
 from pydantic import BaseModel, ConfigDict, Field
-from robot_wear_monitor.dashboard.views import FRICTION_EXPERIMENTS, STATES
+from robot_wear_monitor.dashboard.views import FRICTION_EXPERIMENTS
 from robot_wear_monitor.fleet.ranking import STALE_FACTOR
+from robot_wear_monitor.fleet.states import STATES
 from robot_wear_monitor.history import ALARM_EVENT_KINDS
 
 
@@ -76,8 +77,14 @@ class FleetRowJson(_Shape):
     crossing_experiments: Optional[float] = Field(
         description='experiments until the forecast crosses the threshold (median)')
     crossing_time_s: Optional[float] = Field(description='when, at the usual spacing [s]')
-    usual_interval_s: Optional[float] = Field(description='the mean time between experiments '
-                                                          '[s]')
+    crossing_overdue: bool = Field(description='the crossing date has passed without an alarm '
+                                               '(no experiment since to confirm it): the page '
+                                               "reads 'overdue since <date>'")
+    usual_interval_s: Optional[float] = Field(description='the usual time between experiments '
+                                                          '[s]: the median of the recent '
+                                                          'intervals (an outage does not '
+                                                          'stretch it)')
+    usual_interval_basis: Optional[str] = Field(description='how usual_interval_s was found')
     stale: bool = Field(description=f'no experiment for {STALE_FACTOR:g} usual intervals')
     status_level: int
     valid: bool
@@ -95,7 +102,7 @@ class FleetRowJson(_Shape):
                     'wear, trend, crossing and alarm fields are those of the new life')
     reset_by: Optional[str] = Field(description='who reset it (null: the ROS service)')
     reset_reason: Optional[str] = Field(description='why it was reset')
-    state: str = Field(description='one of: ' + ', '.join(STATES),
+    state: str = Field(description='the first that applies of: ' + ', '.join(STATES),
                        json_schema_extra={'enum': list(STATES)})
     arrow: str = Field(description='the trend arrow: \u2191, \u2197, \u2192 or ?')
     threshold: Optional[float] = Field(
@@ -162,6 +169,11 @@ class AlarmEventJson(_Shape):
     owner: str
     planned_maintenance: str = Field(description="YYYY-MM-DD or ''")
     work_order: str = Field(description="the maintenance system's work order ('' for none)")
+    source: str = Field(description="where a person's event came from: web, api, cli or "
+                                    "ros ('' for the monitor's raises and events stored "
+                                    'before schema version 9)')
+    changes: str = Field(description="what an edit changed ('field: old -> new' joined by "
+                                     "'; '; '' for other events)")
 
 
 class AcknowledgeRequest(_Shape):
@@ -174,8 +186,17 @@ class AcknowledgeRequest(_Shape):
                                             "128 printable characters, '' for none)")
 
 
+class EditRequest(_Shape):
+    """An edit of the acknowledgement: only the fields sent change (the others are kept)."""
+
+    owner: Optional[str] = Field(None, description='who takes the maintenance on')
+    comment: Optional[str] = Field(None, description='free text (at most 2000 characters)')
+    planned_maintenance: Optional[str] = Field(None, description="YYYY-MM-DD ('' clears it)")
+    work_order: Optional[str] = Field(None, description="the work order ('' clears it)")
+
+
 class ResetRequest(_Shape):
-    """A reset after maintenance: why, and the work order that did it."""
+    """A reset after maintenance or a replacement (with or without an alarm): why, work order."""
 
     reason: str = Field(description='why (non-empty, at most 2000 characters)')
     work_order: str = Field('', description="the work order ('' for none)")

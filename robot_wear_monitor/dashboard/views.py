@@ -20,15 +20,14 @@ from urllib.parse import quote, urlencode
 from markupsafe import escape, Markup
 import numpy as np
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
-                                              fleet_view, FleetView, threshold_text)
+                                              fleet_view, FleetView, plural, threshold_text)
+from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
 from robot_wear_monitor.fleet.thresholds import ParameterSets, threshold_words
 from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.text import iso_time, shorten
 
-#: The fleet states, worst first, as the filter and the counts name them.
-STATES = ('alarm', 'acknowledged', 'cannot judge', 'stale', 'ok')
 #: An experiment whose model check has a p-value below this is marked on the joint page.
 MODEL_CHECK_P_VALUE = 0.01
 #: How many of the latest experiments the friction-level chart draws against the model.
@@ -37,8 +36,6 @@ FRICTION_EXPERIMENTS = 5
 SOON_EXPERIMENTS = 10.0
 #: Every fleet bar spans 0 to this many times the joint's wear threshold.
 BAR_SCALE = 1.5
-#: Seconds per day (the forecast crossing in days).
-DAY_S = 86400.0
 #: The fleet page's rows per page unless ``?limit=`` says otherwise, and the most it shows.
 PAGE_ROWS = 100
 MAX_PAGE_ROWS = 1000
@@ -55,6 +52,19 @@ def reescalation_margin(request: Any) -> float:
     settings = getattr(request.app.state, 'settings', None)
     config = getattr(settings, 'notifications', None)
     return float(getattr(config, 'reescalation_margin', DEFAULT_REESCALATION_MARGIN))
+
+
+def forecast_horizon_s(request: Any) -> float:
+    """
+    Return the forecast horizon of the dashboard's ``warning`` state [s].
+
+    That of its notification configuration (``forecast_horizon_days``), else
+    :data:`~robot_wear_monitor.fleet.states.DEFAULT_FORECAST_HORIZON_DAYS`: one setting for
+    the page's warnings and the notifications.
+    """
+    settings = getattr(request.app.state, 'settings', None)
+    config = getattr(settings, 'extra', {}).get('notify') if settings is not None else None
+    return float(getattr(config, 'forecast_horizon_days', DEFAULT_FORECAST_HORIZON_DAYS)) * DAY_S
 
 
 def history_version(history: Any) -> tuple:
@@ -86,7 +96,8 @@ class FleetCache:
     def row_json(self, view: FleetView) -> dict[str, Any]:
         """Return :func:`fleet_row_json` of ``view``, made once per row state."""
         key = (repr(view.state), view.stale, view.crossing_time_s, view.reescalated,
-               view.threshold, view.threshold_assumed)
+               view.threshold, view.threshold_assumed, view.condition,
+               view.crossing_overdue)
         with self._lock:
             found = self._json.get(key)
         if found is None:
@@ -199,20 +210,12 @@ def _number(value: Optional[float]) -> Optional[float]:
 
 def row_state(view: FleetView) -> str:
     """
-    Return the state of a fleet row: one of :data:`STATES`.
+    Return the state of a fleet row: one of :data:`STATES` (``fleet/states.py``).
 
-    A re-escalated acknowledged alarm stays ``acknowledged`` (its row says why it is back on
-    top); a joint reset and awaiting its first experiment is ``ok`` (or ``stale``).
+    A re-escalated acknowledged alarm is ``alarm`` (its row says ``reescalated`` and why); a
+    joint reset and awaiting its first experiment is ``new life`` (or ``stale``).
     """
-    state = view.state
-    if state.alarm:
-        return 'acknowledged' if getattr(state, 'acknowledged', False) else 'alarm'
-    if state.invalid_reason or not (math.isfinite(state.wear)
-                                    or state.awaiting_first_experiment):
-        return 'cannot judge'
-    if view.stale:
-        return 'stale'
-    return 'ok'
+    return view.condition
 
 
 def trend_arrow(view: FleetView) -> str:
@@ -282,15 +285,15 @@ def crossing_words(view: FleetView) -> str:
     experiment, at the joint's usual experiment interval; the date is UTC.
     """
     days = crossing_days(view)
-    if days is None or view.crossing_time_s is None:
+    if view.crossing_overdue or days is None or view.crossing_time_s is None:
         text = crossing_text(view)
         if math.isfinite(view.state.crossing_experiments) and \
                 view.state.crossing_experiments > 0:
             text += ' (no date: the experiment interval is not known yet)'
         return text
     amount = f'{days:.1f}' if days < 10 else f'{days:,.0f}'
-    return (f'in {view.state.crossing_experiments:.0f} experiments \u2248 {amount} days '
-            f'(~{utc_text(view.crossing_time_s)[:10]})')
+    return (f'in {plural(round(view.state.crossing_experiments), "experiment")} \u2248 '
+            f'{amount} days (~{utc_text(view.crossing_time_s)[:10]})')
 
 
 def life_text(state: Any) -> str:
@@ -364,7 +367,9 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
                robot: Optional[str] = None, state: Optional[str] = None,
                cache: Optional[FleetCache] = None, page: Optional[int] = None,
                limit: Optional[int] = None,
-               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN) -> dict[str, Any]:
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S
+               ) -> dict[str, Any]:
     """
     Return the fleet worst first, the counts per state and the robots, as one dict.
 
@@ -377,6 +382,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     """
     views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
                        now_s=now_s, reescalation_margin=reescalation_margin,
+                       forecast_horizon_s=forecast_horizon_s,
                        parameter_sets=parameter_sets)
     make = cache.row_json if cache is not None else fleet_row_json
     states = [row_state(v) for v in views]
@@ -450,20 +456,29 @@ def event_json(event: Any) -> dict[str, Any]:
         'planned_maintenance': getattr(event, 'planned_maintenance', '') or '',
         'estimate_id': getattr(event, 'estimate_id', None),
         'work_order': getattr(event, 'work_order', '') or '',
+        'source': getattr(event, 'source', '') or '',
+        'changes': getattr(event, 'changes', '') or '',
     }
 
 
-#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``; ``work_order`` is
-#: last, so that the columns before it keep their places).
+#: The columns of ``/alarms.csv`` (those of ``history --alarms --csv``; ``work_order``,
+#: ``source`` and ``changes`` are last, so that the columns before them keep their places).
 ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner',
-                     'planned_maintenance', 'note', 'note_text', 'work_order')
+                     'planned_maintenance', 'note', 'note_text', 'work_order', 'source',
+                     'changes')
 
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
-              limit: Optional[int] = None) -> list[dict[str, Any]]:
-    """Return the fleet's alarm events newest first (one robot's joint with ``joint``)."""
+              limit: Optional[int] = None,
+              stored_after_s: Optional[float] = None) -> list[dict[str, Any]]:
+    """
+    Return the fleet's alarm events newest first (one robot's joint with ``joint``).
+
+    ``stored_after_s``: only the events stored after that wall time [s] (``?since=``).
+    """
     if hasattr(history, 'alarm_log'):
-        events = history.alarm_log(robot=robot, joint=joint, limit=limit)
+        kwargs = {} if stored_after_s is None else {'stored_after_s': stored_after_s}
+        events = history.alarm_log(robot=robot, joint=joint, limit=limit, **kwargs)
     else:  # a history layer without the fleet-wide log: each joint's events
         pairs = ([(robot, joint)] if joint is not None and robot is not None else
                  [(r, j) for r in ([robot] if robot else history.robots())
@@ -493,7 +508,8 @@ def _experiment_json(record: Any) -> dict[str, Any]:
     }
 
 
-def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[str, Any]]:
+def forecast_cone(records: Sequence[Any], *, threshold: float,
+                  spacing_s: Optional[float] = None) -> Optional[dict[str, Any]]:
     """
     Return the forecast cone of the latest trend up to the threshold, or None.
 
@@ -502,7 +518,8 @@ def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[
     ((threshold - trend) / crossing per experiment), so that its middle line reaches the
     threshold at the stored crossing; the band's edges reach it earliest and latest, which is
     the crossing's interval shown (an approximation: the full forecast distribution is not
-    stored).  Times use the joint's usual experiment spacing.
+    stored).  Times use the joint's usual experiment spacing ``spacing_s`` [s] (the fleet
+    row's, :attr:`FleetRow.usual_interval_s`; else the mean spacing of ``records``).
     """
     if len(records) < 2:
         return None
@@ -513,7 +530,8 @@ def forecast_cone(records: Sequence[Any], *, threshold: float) -> Optional[dict[
     rate = (threshold - last.trend_wear) / crossing
     if not rate > 0:
         return None
-    spacing = (last.stamp_s - records[0].stamp_s) / (len(records) - 1)
+    spacing = (spacing_s if spacing_s is not None and math.isfinite(spacing_s) and spacing_s > 0
+               else (last.stamp_s - records[0].stamp_s) / (len(records) - 1))
     high = last.trend_high if math.isfinite(last.trend_high) else last.trend_wear
     low = last.trend_low if math.isfinite(last.trend_low) else last.trend_wear
     early = max(0.0, (threshold - high) / rate)
@@ -566,15 +584,22 @@ def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dic
 
 def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
                parameter_sets: ParameterSets,
-               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN
+               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S
                ) -> Optional[dict[str, Any]]:
-    """Return one joint's story (None when the history holds no estimate of it)."""
+    """
+    Return one joint's story (None when the history holds no estimate of it).
+
+    The forecast cone is drawn at the fleet row's usual interval, so that the chart and the
+    facts give one crossing date.
+    """
     records = history.records(joint=joint, robot=robot)
     if not records:
         return None
     params, note = parameter_sets.resolve(records[-1].parameter_set)
     state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s,
                                         reescalation_margin=reescalation_margin,
+                                        forecast_horizon_s=forecast_horizon_s,
                                         parameter_sets=parameter_sets)
                   if v.state.joint == joint), None)
     # the threshold the latest estimate was judged by (the parameter set's when not stored)
@@ -603,7 +628,9 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
         'state': fleet_row_json(state) if state is not None else None,
         'experiments': [{**_experiment_json(r), 'current_life': life_after is None
                          or (r.id or 0) > life_after} for r in records],
-        'forecast': forecast_cone(life, threshold=threshold),
+        'forecast': forecast_cone(life, threshold=threshold,
+                                  spacing_s=None if state is None
+                                  else state.state.usual_interval_s),
         'friction': friction_curves(records, params=params),
         'events': events,
     }

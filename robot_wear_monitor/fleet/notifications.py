@@ -11,7 +11,9 @@ same on every pass and in every process:
   latest estimate was judged by, stored with it: ``fleet/thresholds.py``; the fleet view's
   date, or the trend already past the threshold) at most ``forecast_horizon_days`` ahead of
   ``now_s``, once per alarm cycle (key ``forecast_crossing/ROBOT/JOINT/cycle-STAMP``, the stamp
-  of the joint's last reset, ``cycle-0`` before the first);
+  of the joint's last reset, ``cycle-0`` before the first); a crossing date that has passed
+  without an alarm (``crossing_overdue``) is notified once more as overdue (key
+  ``.../cycle-STAMP/overdue-DATE``);
 * ``joint_stale``: no experiment for longer than the fleet view's stale limit, once per stale
   episode (key ``joint_stale/ROBOT/JOINT/last-STAMP``, the stamp of the last experiment).
 
@@ -19,7 +21,8 @@ same on every pass and in every process:
   on top (:func:`~robot_wear_monitor.fleet.ranking.reescalation`: its wear rose
   ``reescalation_margin`` past its value at the acknowledgement, or its planned maintenance
   date passed), once per acknowledgement and reason (key
-  ``alarm_reescalated/ROBOT/JOINT/ack-WALLTIME/margin`` or ``.../date``);
+  ``alarm_reescalated/ROBOT/JOINT/ack-WALLTIME/margin`` or ``.../date-YYYY-MM-DD``: a date
+  postponed by an edit and missed again is notified again);
 * ``alarm_resolved`` (sent when ``alarm_raised`` is configured): the reset of a latched alarm
   after maintenance, as Alertmanager ``status: resolved`` with the fingerprint of the raise's
   alert, once per reset (key ``alarm_resolved/ROBOT/JOINT/reset-ID``), on the channels that
@@ -182,7 +185,8 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
     events: list[DueEvent] = []
     views = fleet_view(history.fleet(), now_s=now_s,
                        reescalation_margin=config.reescalation_margin,
-                       parameter_sets=parameter_sets)
+                       parameter_sets=parameter_sets,
+                       forecast_horizon_s=config.forecast_horizon_s)
     resolved = ({(r[0], r[1]): r[2:] for r in history.resolved_raises()}
                 if 'alarm_raised' in config.events else {})
     for view in views:
@@ -205,8 +209,9 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
                 firing_key=f'alarm_raised/{where}/{_stamp(raised_s)}', ends_s=reset_wall_s)
         if s.acknowledged:
             if view.reescalated and 'alarm_raised' in config.events:
-                reasons = [why for why, word in (('margin', 'rose'), ('date', 'passed'))
-                           if word in view.reescalated]
+                reasons = [why for why, word in (
+                    ('margin', 'rose'), (f'date-{s.planned_maintenance}', 'passed'))
+                    if word in view.reescalated]
                 for reason in reasons:
                     add('alarm_reescalated',
                         f'ack-{_stamp(s.acknowledged_wall_time_s)}/{reason}', now_s,
@@ -223,8 +228,14 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
                     else f'the wear threshold {threshold} is forecast to be crossed by '
                          f'{iso_time(view.crossing_time_s)} (within '
                          f'{config.forecast_horizon_days:g} days)')
-            add('forecast_crossing', _cycle(history, robot=s.robot, joint=s.joint),
-                s.last_stamp_s, when)
+            cycle = _cycle(history, robot=s.robot, joint=s.joint)
+            if view.crossing_overdue and view.crossing_time_s is not None:
+                date = iso_time(view.crossing_time_s)[:10]
+                add('forecast_crossing', f'{cycle}/overdue-{date}', view.crossing_time_s,
+                    f'the forecast crossing of the wear threshold is overdue since {date}: '
+                    f'no experiment since {iso_time(s.last_stamp_s)} to confirm it')
+            else:
+                add('forecast_crossing', cycle, s.last_stamp_s, when)
         if 'joint_stale' in config.events and view.stale:
             last = s.last_stamp_s
             if math.isfinite(s.life_started_s):

@@ -106,7 +106,7 @@ def webhook_payload(event: DueEvent, *, config: NotificationConfig,
     """Return the Alertmanager-like JSON body (webhook version 4) of one event."""
     name, severity, _ = KINDS[event.kind]
     labels = {'alertname': name, 'robot': event.robot, 'joint': event.joint,
-              'severity': severity}
+              'severity': severity, 'state': event.view.condition}
     annotations = {'summary': event.summary, 'description': event.description,
                    'threshold': threshold_text(event.view)}
     status = 'resolved' if event.resolved else 'firing'

@@ -9,10 +9,13 @@ crossing of the wear threshold soonest (in experiments); then the highest upper 
 and notified again) when its wear rises :data:`DEFAULT_REESCALATION_MARGIN` wear units (or the
 margin given) past its value at the acknowledgement (the trend when both are known, else w-hat),
 or when its planned maintenance date has passed (UTC).  A joint is ``stale`` when it has had no
-experiment for longer than :data:`STALE_FACTOR` times its usual interval (the mean time between
-its experiments), counted up to ``now`` from its latest experiment or its last reset,
-whichever is later.  The crossing gets a date when the joint's experiment rate is known (two
-experiments or more).  After a reset the row is the joint's new life (``life_started_s``).
+experiment for longer than :data:`STALE_FACTOR` times its usual interval (the median of its
+recent intervals, :attr:`FleetRow.usual_interval_s`, so that an outage does not stretch it),
+counted up to ``now`` from its latest experiment or its last reset, whichever is later.  The
+crossing gets a date when the joint's experiment rate is known (two experiments or more); a
+date that has passed without an alarm is ``crossing_overdue`` ("overdue since <date>").
+After a reset the row is the joint's new life (``life_started_s``).  Each row's ``state`` is
+the first of :data:`~robot_wear_monitor.fleet.states.STATES` that applies.
 Each row carries the ``threshold`` and ``warning_level`` its latest estimate was judged by
 (stored with it; a row of an older history gets the parameter set's, ``threshold_assumed``:
 see :mod:`robot_wear_monitor.fleet.thresholds`).
@@ -26,8 +29,11 @@ import math
 from typing import Any, Iterable, Optional, Sequence
 
 from robot_wear_monitor.csv_cells import csv_text
+from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
+                                             DEFAULT_FORECAST_HORIZON_DAYS, joint_state)
 from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, threshold_words
 from robot_wear_monitor.history import FleetRow
+from robot_wear_monitor.history.recent import RECENT_INTERVALS
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.text import iso_time, shorten
 
@@ -58,6 +64,10 @@ class FleetView:
     reescalated: str = ''
     threshold: float = math.nan
     warning_level: float = math.nan
+    #: the joint's state: one of :data:`~robot_wear_monitor.fleet.states.STATES`
+    condition: str = 'ok'
+    #: the forecast crossing's date has passed without an alarm (no experiment since)
+    crossing_overdue: bool = False
     threshold_assumed: bool = False
 
     def rank_key(self) -> tuple[int, float, float, str, str]:
@@ -77,7 +87,9 @@ class FleetView:
             'experiments': int(s.experiments), 'last_stamp_s': finite_or_none(s.last_stamp_s),
             'crossing_experiments': finite_or_none(s.crossing_experiments),
             'crossing_time_s': self.crossing_time_s,
+            'crossing_overdue': self.crossing_overdue,
             'usual_interval_s': finite_or_none(s.usual_interval_s),
+            'usual_interval_basis': interval_basis(s),
             'stale': self.stale, 'status_level': int(s.status_level),
             'valid': not s.invalid_reason, 'invalid_reason': s.invalid_reason or None,
             'acknowledged': bool(s.acknowledged), 'acknowledged_by': s.acknowledged_by or None,
@@ -87,10 +99,21 @@ class FleetView:
             'life_started_s': finite_or_none(s.life_started_s),
             'reset_by': s.reset_by or None if math.isfinite(s.life_started_s) else None,
             'reset_reason': s.reset_reason or None if math.isfinite(s.life_started_s) else None,
+            'state': self.condition,
             'threshold': finite_or_none(self.threshold),
             'warning_level': finite_or_none(self.warning_level),
             'threshold_assumed': self.threshold_assumed,
         }
+
+
+def interval_basis(state: FleetRow) -> Optional[str]:
+    """Return how the usual interval was found, in words (None when it is not known)."""
+    if not math.isfinite(state.usual_interval_s):
+        return None
+    if len(state.recent_stamps) >= 2:
+        return (f'median of the last {len(state.recent_stamps) - 1} intervals (at most '
+                f'{RECENT_INTERVALS}): an outage does not stretch it')
+    return 'mean of all intervals'
 
 
 def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
@@ -123,14 +146,17 @@ def reescalation(state: FleetRow, *, now_s: float, margin: float) -> str:
 
 def fleet_view(states: Iterable[FleetRow], *, now_s: float,
                reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
                parameter_sets: Optional[ParameterSets] = None) -> list[FleetView]:
     """
     Return the fleet rows worst first (the triage order of the module's text), at ``now_s``.
 
-    ``now_s``: the time [s since the epoch] staleness and planned dates are judged at;
-    ``reescalation_margin``: the rise of the wear past its value at the acknowledgement that
-    re-escalates an acknowledged alarm [wear units]; ``parameter_sets``: where a row without a
-    stored threshold finds its parameter set's (None: the packaged sets).
+    ``now_s``: the time [s since the epoch] staleness, planned dates and crossing dates are
+    judged at; ``reescalation_margin``: the rise of the wear past its value at the
+    acknowledgement that re-escalates an acknowledged alarm [wear units];
+    ``forecast_horizon_s``: a crossing this soon makes a ``warning`` [s] (the notifications'
+    horizon); ``parameter_sets``: where a row without a stored threshold finds its parameter
+    set's (None: the packaged sets).
     """
     rows = []
     assumed_levels: dict[str, tuple[float, float, bool]] = {}  # per parameter set
@@ -152,25 +178,38 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
         crossing_time = None
         if known and math.isfinite(state.crossing_experiments):
             crossing_time = state.last_stamp_s + state.crossing_experiments * interval
-        rows.append(FleetView(state=state, stale=stale, crossing_time_s=crossing_time,
-                              reescalated=reescalation(state, now_s=now_s,
-                                                       margin=reescalation_margin),
-                              threshold=threshold, warning_level=warning,
-                              threshold_assumed=assumed))
+        reescalated = reescalation(state, now_s=now_s, margin=reescalation_margin)
+        rows.append(FleetView(
+            state=state, stale=stale, crossing_time_s=crossing_time, reescalated=reescalated,
+            condition=joint_state(state, stale=stale, reescalated=bool(reescalated),
+                                  crossing_time_s=crossing_time, now_s=now_s,
+                                  warning=warning, horizon_s=forecast_horizon_s),
+            crossing_overdue=crossing_overdue(state, crossing_time_s=crossing_time,
+                                              now_s=now_s),
+            threshold=threshold, warning_level=warning, threshold_assumed=assumed))
     return sorted(rows, key=FleetView.rank_key)
 
 
 def crossing_text(row: FleetView, *, local: bool = False) -> str:
     """Return the forecast crossing in words: experiments to go and the date it falls on."""
     crossing = row.state.crossing_experiments
+    if row.state.awaiting_first_experiment:
+        return 'no forecast yet (new life)'
     if not math.isfinite(crossing):
         return 'not within the forecast horizon'
     if crossing <= 0:
         return 'crossed (trend past the threshold)'
-    text = f'in {crossing:.0f} experiments'
+    if row.crossing_overdue and row.crossing_time_s is not None:
+        return f'overdue since {iso_time(row.crossing_time_s, local=local)[:10]}'
+    text = f'in {plural(round(crossing), "experiment")}'
     if row.crossing_time_s is not None:
         text += f' (~{iso_time(row.crossing_time_s, local=local)[:10]})'
     return text
+
+
+def plural(count: int, noun: str) -> str:
+    """Return '1 robot', '2 robots' (``count`` and ``noun``, with an s unless one)."""
+    return f'{count} {noun}' if count == 1 else f'{count} {noun}s'
 
 
 def _wear_text(state: FleetRow) -> str:
@@ -191,8 +230,9 @@ def _trend_text(state: FleetRow) -> str:
 
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
                  'alarm_since', 'experiments', 'last_experiment', 'crossing_experiments',
-                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_service_date',
-                 'reescalated', 'life_started', 'threshold', 'threshold_assumed')
+                 'crossing_date', 'stale', 'valid', 'acknowledged_by', 'planned_maintenance',
+                 'reescalated', 'life_started', 'threshold', 'threshold_assumed', 'state',
+                 'crossing_overdue', 'reset_by', 'reset_reason')
 
 
 def _alarm_text(row: FleetView, local: bool) -> str:
@@ -205,7 +245,7 @@ def _alarm_text(row: FleetView, local: bool) -> str:
     if state.acknowledged:
         text += f', acknowledged by {shorten(state.acknowledged_by, 40)}'
         if state.planned_maintenance:
-            text += f', service planned {state.planned_maintenance}'
+            text += f', maintenance planned {state.planned_maintenance}'
         if row.reescalated:
             text += ', RE-ESCALATED'
     return text
@@ -218,17 +258,17 @@ def threshold_text(row: FleetView) -> str:
 
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
     """Return the fleet as a text table, one line per robot joint, worst first."""
-    header = ('robot', 'joint', 'w [95 %]', 'trend w', 'threshold', 'alarm',
-              'forecast crossing', 'experiments', 'last experiment', 'stale')
+    header = ('robot', 'joint', 'state', 'w [95 %]', 'trend w', 'threshold', 'alarm',
+              'forecast crossing', 'experiments', 'last experiment')
     lines = []
     for row in rows:
         s = row.state
         alarm = _alarm_text(row, local)
         lines.append((shorten(s.robot, 40), shorten(s.joint, 40),
+                      row.condition.upper() if row.condition != 'ok' else 'ok',
                       _wear_text(s), _trend_text(s), threshold_text(row), alarm,
                       crossing_text(row, local=local),
-                      str(s.experiments),
-                      iso_time(s.last_stamp_s, local=local), 'STALE' if row.stale else ''))
+                      str(s.experiments), iso_time(s.last_stamp_s, local=local)))
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
               for i, h in enumerate(header)]
     out = ['  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip()]
@@ -267,5 +307,8 @@ def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,
                     text(row.reescalated),
                     iso_time(s.life_started_s, local=local)
                     if math.isfinite(s.life_started_s) else '', number(row.threshold),
-                    'yes' if row.threshold_assumed else 'no'])
+                    'yes' if row.threshold_assumed else 'no', row.condition,
+                    'yes' if row.crossing_overdue else 'no',
+                    text(s.reset_by) if math.isfinite(s.life_started_s) else '',
+                    text(s.reset_reason) if math.isfinite(s.life_started_s) else ''])
     return out

@@ -10,6 +10,10 @@ the alarm is acknowledged while the last of these events after its last raise is
 withdrawal, and the current acknowledgement is that event.  A reset stored here looks to a
 restarted estimator exactly like the ROS ``~/reset_alarm``: a ``reset`` event tied to the
 joint's latest estimate, so that the evidence restores as 0 and the trend restarts there.
+A person may reset a joint at any time (schema version 9): maintenance or a replacement done
+before any alarm starts the joint's new life just as a reset of a latched alarm does; only a
+second reset with no experiment since the first is refused (nothing new to reset).  Every
+person's event names its ``source`` (web, api, cli, ros) and an edit what it changed.
 
 Each check and its write are one transaction, serialised per robot and joint (SQLite
 ``BEGIN IMMEDIATE``, PostgreSQL an advisory transaction lock), so two people acknowledging or
@@ -26,12 +30,12 @@ from typing import Any, Optional, Sequence
 
 from robot_wear_monitor.history.backends import HistoryBackend, lock_key
 from robot_wear_monitor.history.records import (
-    ACKNOWLEDGEMENT_EVENTS, ALARM_EVENT_KINDS, AlarmEvent, HistoryError)
+    ACKNOWLEDGEMENT_EVENTS, ALARM_EVENT_KINDS, AlarmEvent, EVENT_SOURCES, HistoryError)
 from robot_wear_monitor.json_values import finite_or_none
 
 #: The columns of an alarm event, in the order of :func:`event_from_row`.
 EVENT_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, note, estimate_id, '
-                 'user_name, owner, planned_maintenance, work_order')
+                 'user_name, owner, planned_maintenance, work_order, source, changes')
 #: The events of a person on an acknowledgement, as SQL.
 ACKNOWLEDGEMENT_SQL = 'event IN (' + ', '.join(f"'{e}'" for e in ACKNOWLEDGEMENT_EVENTS) + ')'
 #: The events that set the latch (acknowledgements do not).
@@ -50,6 +54,10 @@ class AlarmStateError(HistoryError):
     """The joint's alarm is not in the state the action needs (no latch, acknowledged...)."""
 
 
+class UnknownJointError(HistoryError):
+    """The history holds no estimate of the robot's joint (an action on it is refused)."""
+
+
 def event_from_row(row: Sequence[Any]) -> AlarmEvent:
     """Return the :class:`AlarmEvent` of a row of :data:`EVENT_COLUMNS`."""
     return AlarmEvent(id=int(row[0]), robot=row[1], joint=row[2], stamp_s=float(row[3]),
@@ -57,7 +65,8 @@ def event_from_row(row: Sequence[Any]) -> AlarmEvent:
                       wear=None if row[6] is None else float(row[6]), note=row[7],
                       estimate_id=None if row[8] is None else int(row[8]),
                       user=row[9] or '', owner=row[10] or '', planned_maintenance=row[11] or '',
-                      work_order=row[12] or '')
+                      work_order=row[12] or '', source=row[13] or '',
+                      changes=row[14] or '')
 
 
 def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, joint: str,
@@ -72,15 +81,26 @@ def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, join
               estimate_id, str(event.note)[:MAX_NOTE_CHARS], str(event.user)[:MAX_PERSON_CHARS],
               str(event.owner)[:MAX_PERSON_CHARS],
               check_planned_maintenance(event.planned_maintenance),
-              check_work_order(event.work_order))
+              check_work_order(event.work_order), check_source(event.source),
+              str(event.changes)[:MAX_NOTE_CHARS])
     rows = backend.execute(
         'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
-        'estimate_id, note, user_name, owner, planned_maintenance, work_order) '
-        'VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id', values)
+        'estimate_id, note, user_name, owner, planned_maintenance, work_order, source, '
+        'changes) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id', values)
     return AlarmEvent(id=int(rows[0][0]), robot=robot, joint=joint, stamp_s=values[2],
                       wall_time_s=now, event=event.event, wear=values[5], note=values[7],
                       estimate_id=estimate_id, user=values[8], owner=values[9],
-                      planned_maintenance=values[10], work_order=values[11])
+                      planned_maintenance=values[10], work_order=values[11],
+                      source=values[12], changes=values[13])
+
+
+def check_source(value: Any) -> str:
+    """Return an event's source (one of :data:`EVENT_SOURCES`, or ''); else HistoryError."""
+    text = '' if value is None else str(value)
+    if text and text not in EVENT_SOURCES:
+        raise HistoryError(f'the event source must be one of {", ".join(EVENT_SOURCES)}, got '
+                           f'{text[:40]!r}')
+    return text
 
 
 def check_work_order(value: Any) -> str:
@@ -160,6 +180,16 @@ def _latest_estimate(backend: HistoryBackend, robot: str,
     return (int(rows[0][0]), float(rows[0][1])) if rows else (None, None)
 
 
+def _known_joint(backend: HistoryBackend, robot: str,
+                 joint: str) -> tuple[int, Optional[float]]:
+    """Return the joint's latest estimate (id, w-hat); :class:`UnknownJointError` if none."""
+    estimate_id, wear = _latest_estimate(backend, robot, joint)
+    if estimate_id is None:
+        raise UnknownJointError(f'{backend.name}: no estimates of robot {robot[:80]!r} joint '
+                                f'{joint[:80]!r}')
+    return estimate_id, wear
+
+
 def _no_latch(name: str, robot: str, joint: str, what: str) -> HistoryError:
     return AlarmStateError(f'{name}: robot {robot[:80]!r} joint {joint[:80]!r} has no '
                            f'latched alarm to {what}')
@@ -174,8 +204,8 @@ def _acknowledgement_fields(user: str, owner: str, comment: str, planned_mainten
 
 
 def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, owner: str,
-                      comment: str, planned_maintenance: str = '', work_order: str = ''
-                      ) -> AlarmEvent:
+                      comment: str, planned_maintenance: str = '', work_order: str = '',
+                      source: str = '') -> AlarmEvent:
     """
     Store an acknowledgement of the latched alarm of (robot, joint); return the event.
 
@@ -186,6 +216,7 @@ def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: 
         user, owner, comment, planned_maintenance, work_order)
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
+        _known_joint(backend, robot, joint)
         latch, acknowledged = latch_events(backend, robot=robot, joint=joint)
         if latch is None or latch.event != 'raised':
             raise _no_latch(backend.name, robot, joint, 'acknowledge')
@@ -197,41 +228,61 @@ def acknowledge_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: 
         now = time.time()
         return insert_event(backend, AlarmEvent(
             joint=joint, stamp_s=now, event='acknowledged', wear=wear, note=comment,
-            user=user, owner=owner, planned_maintenance=planned, work_order=order),
+            user=user, owner=owner, planned_maintenance=planned, work_order=order,
+            source=source),
             robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
 
 
 def edit_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str, user: str,
-                         owner: str, comment: str, planned_maintenance: str = '',
-                         work_order: str = '') -> AlarmEvent:
+                         owner: Optional[str] = None, comment: Optional[str] = None,
+                         planned_maintenance: Optional[str] = None,
+                         work_order: Optional[str] = None, source: str = '') -> AlarmEvent:
     """
     Store an edit of the current acknowledgement of (robot, joint); return the event.
 
-    The event carries the values after the edit, ``user`` (who edited) and the wear the
-    acknowledgement was made at (an edit acknowledges no new wear).  Raises
-    :class:`HistoryError` when the alarm is not acknowledged, when the edit changes nothing,
-    or on bad text.
+    Only the fields given change (None keeps the current value: an edit that sends the owner
+    alone keeps the comment, the planned date and the work order).  The event carries the
+    acknowledgement as it stands after the edit, ``user`` (who edited), ``changes`` (what
+    changed, 'field: old -> new' joined by '; ') and the wear the acknowledgement was made at
+    (an edit acknowledges no new wear).  Raises :class:`HistoryError` when the alarm is not
+    acknowledged, when the edit changes nothing, or on bad text.
     """
-    user, owner, comment, planned, order = _acknowledgement_fields(
-        user, owner, comment, planned_maintenance, work_order)
+    user = _person('user', user)
+    given = {'owner': None if owner is None else _person('owner', owner),
+             'comment': None if comment is None else _note('comment', comment, required=False),
+             'planned_maintenance': None if planned_maintenance is None
+             else check_planned_maintenance(planned_maintenance),
+             'work_order': None if work_order is None else check_work_order(work_order)}
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
+        _known_joint(backend, robot, joint)
         current = _current_acknowledgement(backend, robot, joint, 'edit')
-        if (current.owner, current.note, current.planned_maintenance, current.work_order) == \
-                (owner, comment, planned, order):
+        before = {'owner': current.owner, 'comment': current.note,
+                  'planned_maintenance': current.planned_maintenance,
+                  'work_order': current.work_order}
+        after = {k: before[k] if v is None else v for k, v in given.items()}
+        changes = '; '.join(f'{k}: {_shown(before[k])} -> {_shown(after[k])}'
+                            for k in before if before[k] != after[k])
+        if not changes:
             raise AlarmStateError(f'{backend.name}: the edit of the acknowledgement of robot '
                                   f'{robot[:80]!r} joint {joint[:80]!r} changes nothing')
         estimate_id, _ = _latest_estimate(backend, robot, joint)
         now = time.time()
         return insert_event(backend, AlarmEvent(
             joint=joint, stamp_s=now, event='acknowledgement_edited', wear=current.wear,
-            note=comment,
-            user=user, owner=owner, planned_maintenance=planned, work_order=order),
+            note=after['comment'], user=user, owner=after['owner'],
+            planned_maintenance=after['planned_maintenance'], work_order=after['work_order'],
+            source=source, changes=changes),
             robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
 
 
+def _shown(value: str) -> str:
+    """Return a value in an edit's ``changes``: quoted, cut at 60 characters ('' as none)."""
+    return repr(value[:60]) if value else 'none'
+
+
 def withdraw_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str, user: str,
-                             reason: str) -> AlarmEvent:
+                             reason: str, source: str = '') -> AlarmEvent:
     """
     Withdraw the current acknowledgement of (robot, joint), with a reason; return the event.
 
@@ -242,14 +293,15 @@ def withdraw_acknowledgement(backend: HistoryBackend, *, robot: str, joint: str,
     reason = _note('withdrawal reason', reason, required=True)
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
+        _known_joint(backend, robot, joint)
         current = _current_acknowledgement(backend, robot, joint, 'withdraw')
         estimate_id, wear = _latest_estimate(backend, robot, joint)
         now = time.time()
         return insert_event(backend, AlarmEvent(
             joint=joint, stamp_s=now, event='acknowledgement_withdrawn', wear=wear, note=reason,
             user=user, owner=current.owner, planned_maintenance=current.planned_maintenance,
-            work_order=current.work_order), robot=robot, joint=joint, estimate_id=estimate_id,
-            wall_time_s=now)
+            work_order=current.work_order, source=source), robot=robot, joint=joint,
+            estimate_id=estimate_id, wall_time_s=now)
 
 
 def _current_acknowledgement(backend: HistoryBackend, robot: str, joint: str,
@@ -264,13 +316,18 @@ def _current_acknowledgement(backend: HistoryBackend, robot: str, joint: str,
 
 
 def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, reason: str,
-                stamp_s: Optional[float] = None, work_order: str = '') -> AlarmEvent:
+                stamp_s: Optional[float] = None, work_order: str = '',
+                source: str = '') -> AlarmEvent:
     """
-    Store a reset of the latched alarm of (robot, joint) after maintenance; return it.
+    Store a reset of (robot, joint) after maintenance or a replacement; return it.
 
-    The event is tied to the joint's latest estimate, as the ROS reset service ties it: a
-    restarted estimator restores evidence 0 and restarts the trend after that estimate.
-    Raises :class:`HistoryError` when the joint has no latched alarm or on bad text.
+    With or without a latched alarm (a preventive replacement is a new life too).  The event
+    is tied to the joint's latest estimate, as the ROS reset service ties it: a restarted
+    estimator restores evidence 0 and restarts the trend after that estimate.  Raises
+    :class:`UnknownJointError` when the history holds no estimate of the joint,
+    :class:`AlarmStateError` when the joint was reset already and no experiment followed
+    (nothing new to reset: a second click, or two people at once), :class:`HistoryError`
+    on bad text.
     """
     user = _person('user', user)
     reason = _note('reset reason', reason, required=True)
@@ -281,13 +338,16 @@ def reset_alarm(backend: HistoryBackend, *, robot: str, joint: str, user: str, r
         raise HistoryError(f'the reset stamp must be a finite time [s], got {stamp_s!r}')
     with backend.transaction():
         backend.lock_in_transaction(action_lock(robot, joint))
+        estimate_id, _ = _known_joint(backend, robot, joint)
         latch, _ = latch_events(backend, robot=robot, joint=joint)
-        if latch is None or latch.event != 'raised':
-            raise _no_latch(backend.name, robot, joint, 'reset')
-        estimate_id, _ = _latest_estimate(backend, robot, joint)
+        if latch is not None and latch.event == 'reset' and latch.estimate_id == estimate_id:
+            by = f' by {latch.user[:80]!r}' if latch.user else ''
+            raise AlarmStateError(f'{backend.name}: robot {robot[:80]!r} joint {joint[:80]!r} '
+                                  f'was reset already{by} and awaits its first experiment: '
+                                  'nothing new to reset')
         return insert_event(backend, AlarmEvent(
             joint=joint, stamp_s=stamp, event='reset', wear=None, note=reason, user=user,
-            work_order=order),
+            work_order=order, source=source),
             robot=robot, joint=joint, estimate_id=estimate_id, wall_time_s=now)
 
 
@@ -302,7 +362,8 @@ def event_time_s(event: AlarmEvent) -> float:
 
 
 def alarm_log(backend: HistoryBackend, *, robot: Optional[str] = None, joint: Optional[str] = None,
-              limit: Optional[int] = None, before_id: Optional[int] = None) -> list[AlarmEvent]:
+              limit: Optional[int] = None, before_id: Optional[int] = None,
+              stored_after_s: Optional[float] = None) -> list[AlarmEvent]:
     """
     Return the fleet's alarm events, newest first by event time (:data:`EVENT_TIME`).
 
@@ -310,7 +371,9 @@ def alarm_log(backend: HistoryBackend, *, robot: Optional[str] = None, joint: Op
     an acknowledgement or a reset at the moment it was made; the id breaks ties.
     ``robot``/``joint`` keep one robot's or one joint's events (a joint name of every robot
     when ``robot`` is None); ``before_id`` keeps the events after that event in this order
-    (the next page); ``limit`` at most that many.
+    (the next page); ``limit`` at most that many; ``stored_after_s`` only the events stored
+    after that wall time [s since the epoch] (for a system that polls: a raise replayed late
+    is new to it although its event time is old).
     """
     conditions: list[str] = []
     params: list[Any] = []
@@ -324,6 +387,12 @@ def alarm_log(backend: HistoryBackend, *, robot: Optional[str] = None, joint: Op
                           'WHERE id = ?) AND id < ?))')
         before = _positive('before_id', before_id)
         params += [before, before, before]
+    if stored_after_s is not None:
+        if not math.isfinite(float(stored_after_s)):
+            raise HistoryError(f'the alarm log since must be a finite time [s], got '
+                               f'{str(stored_after_s)[:40]!r}')
+        conditions.append('wall_time_s > ?')
+        params.append(float(stored_after_s))
     query = f'SELECT {EVENT_COLUMNS} FROM alarm_events'
     if conditions:
         query += ' WHERE ' + ' AND '.join(conditions)
@@ -339,14 +408,17 @@ def resolved_raises(backend: HistoryBackend) -> list[tuple[str, str, float, floa
     Return the alarms a reset resolved: per joint whose latch is a reset, the raise before it.
 
     Rows (robot, joint, the raise's stamp [s], the reset's wall time [s], the reset's id), one
-    query for the fleet (the joints reset before any raise are left out).
+    query for the fleet (a reset with no raise since the reset before it resolves nothing:
+    a joint reset without an alarm is left out).
     """
     rows = backend.execute(
         'SELECT a.robot, a.joint, r.stamp_s, a.wall_time_s, a.id FROM alarm_events a JOIN '
         f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {LATCH_EVENTS} '
         'GROUP BY robot, joint) l ON a.id = l.last_id JOIN alarm_events r ON r.id = '
         '(SELECT MAX(p.id) FROM alarm_events p WHERE p.robot = a.robot AND p.joint = a.joint '
-        "AND p.event = 'raised' AND p.id < a.id) WHERE a.event = 'reset'")
+        "AND p.event = 'raised' AND p.id < a.id) WHERE a.event = 'reset' AND NOT EXISTS "
+        '(SELECT 1 FROM alarm_events q WHERE q.robot = a.robot AND q.joint = a.joint AND '
+        "q.event = 'reset' AND q.id > r.id AND q.id < a.id)")
     return [(r[0], r[1], float(r[2]), float(r[3]), int(r[4])) for r in rows]
 
 

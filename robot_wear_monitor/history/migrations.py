@@ -30,9 +30,10 @@ in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`
 (one owner of the threshold): every estimate stores the wear ``threshold`` and the
 ``warning_level`` it was judged by (the estimator's node parameters ``wear_threshold`` and
 ``wear_warning``); old rows hold NULL (not known: readers assume the parameter set's and say
-so).  Version 9: placeholder here (another branch's steps take its place).  Version 10:
-``account_audit`` (every change of a dashboard account: when, who, from where, what, whom;
-never a secret).
+so).  Version 9 (maintenance states): alarm events carry their ``source`` (web, api, cli,
+ros; '' for the monitor's raises and old rows) and ``changes`` (what an edit changed, ''
+otherwise).  Version 10: ``account_audit`` (every change of a dashboard account: when,
+who, from where, what, whom; never a secret).
 """
 
 from __future__ import annotations
@@ -243,6 +244,10 @@ _SQLITE_V7 = (
 _V8 = ('ALTER TABLE estimates ADD COLUMN threshold DOUBLE PRECISION',
        'ALTER TABLE estimates ADD COLUMN warning_level DOUBLE PRECISION')
 
+#: Version 9: where a person's alarm event came from and what an edit changed.
+_V9 = ("ALTER TABLE alarm_events ADD COLUMN source TEXT NOT NULL DEFAULT ''",
+       "ALTER TABLE alarm_events ADD COLUMN changes TEXT NOT NULL DEFAULT ''")
+
 #: Version 10: the audit of the dashboard's accounts (``history.account_audit``).
 _ACCOUNT_AUDIT = (
     """CREATE TABLE account_audit (
@@ -259,7 +264,7 @@ _ACCOUNT_AUDIT = (
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
-                                                 8: _V8, 9: (),
+                                                 8: _V8, 9: _V9,
                                                  10: (_ACCOUNT_AUDIT[0].format(
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
@@ -355,7 +360,7 @@ _POSTGRESQL_V7 = (
 #: PostgreSQL: version -> its steps, oldest first.
 POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      5: _POSTGRESQL_V5, 6: _V6,
-                                                     7: _POSTGRESQL_V7, 8: _V8, 9: (),
+                                                     7: _POSTGRESQL_V7, 8: _V8, 9: _V9,
                                                      10: (_ACCOUNT_AUDIT[0].format(
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),

@@ -89,6 +89,9 @@ ACKNOWLEDGEMENT_EVENTS = ('acknowledged', 'acknowledgement_edited', 'acknowledge
 #: The kinds of alarm events: the latch is the last 'raised' or 'reset' (the
 #: :data:`ACKNOWLEDGEMENT_EVENTS` are remarks on a raised alarm: they never unlatch it).
 ALARM_EVENT_KINDS = ('raised', 'reset', *ACKNOWLEDGEMENT_EVENTS)
+#: Where a person's alarm event came from (schema version 9): the dashboard's forms, its API,
+#: the command line, the ROS reset service ('' for the monitor's own raises and older rows).
+EVENT_SOURCES = ('web', 'api', 'cli', 'ros')
 
 
 @dataclass(frozen=True)
@@ -104,6 +107,9 @@ class AlarmEvent:
     maintenance on; ``planned_maintenance``: its planned date ('YYYY-MM-DD' or '');
     ``work_order``: the maintenance system's work order (schema version 7; '' for none).  An
     edit carries the acknowledgement's values after it; a withdrawal its reason as ``note``.
+    ``source`` (schema version 9): where a person's event came from (one of
+    :data:`EVENT_SOURCES`; '' for the monitor's raises and older rows); ``changes``: what an
+    edit changed, as 'field: old -> new' parts joined by '; ' ('' otherwise).
     """
 
     joint: str
@@ -119,6 +125,8 @@ class AlarmEvent:
     owner: str = ''
     planned_maintenance: str = ''
     work_order: str = ''
+    source: str = ''
+    changes: str = ''
 
 
 @dataclass(frozen=True)
@@ -190,6 +198,8 @@ class FleetRow:
     reset_reason: str = ''
     #: every stored estimate of the joint, old lives too (0: the same as ``experiments``)
     total_experiments: int = 0
+    #: the stamps of the joint's last experiments, all lives, oldest first [s] (``recent.py``)
+    recent_stamps: tuple[float, ...] = ()
     #: the alarm threshold and warning level the latest estimate was judged by [w] (kept
     #: after a reset: the joint's setting); NaN: not stored (a row of an older history)
     threshold: float = math.nan
@@ -197,7 +207,17 @@ class FleetRow:
 
     @property
     def usual_interval_s(self) -> float:
-        """Return the mean time between the joint's experiments, all lives [s] (NaN with one)."""
+        """
+        Return the joint's usual time between experiments, all lives [s] (NaN with one).
+
+        The median of the intervals between :attr:`recent_stamps` (an outage is one long
+        interval and does not stretch it); without them the mean of all intervals.
+        """
+        if len(self.recent_stamps) >= 2:
+            gaps = sorted(b - a for a, b in zip(self.recent_stamps, self.recent_stamps[1:]))
+            middle = len(gaps) // 2
+            median = gaps[middle] if len(gaps) % 2 else 0.5 * (gaps[middle - 1] + gaps[middle])
+            return median if median > 0 else math.nan
         count = max(self.total_experiments, self.experiments)
         if count < 2:
             return math.nan

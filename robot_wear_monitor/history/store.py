@@ -20,7 +20,7 @@ import os
 import time
 from typing import Any, Iterator, Optional, Sequence
 
-from robot_wear_monitor.history import alarms, notifications_store
+from robot_wear_monitor.history import alarms, notifications_store, recent
 from robot_wear_monitor.history import sessions as dashboard_sessions
 from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
@@ -172,6 +172,8 @@ class WearHistory:
         columns = self._backend.columns('estimates')
         if 'account_audit' in tables:
             return 10
+        if 'source' in self._backend.columns('alarm_events'):
+            return 9
         if 'threshold' in columns:
             return 8
         if 'api_tokens' in tables:
@@ -273,7 +275,7 @@ class WearHistory:
 
     def acknowledge_alarm(self, *, joint: str, robot: Optional[str] = None, user: str,
                           owner: str, comment: str, planned_maintenance: str = '',
-                          work_order: str = '') -> AlarmEvent:
+                          work_order: str = '', source: str = '') -> AlarmEvent:
         """
         Acknowledge the latched alarm of the robot's ``joint``; return the stored event.
 
@@ -281,34 +283,37 @@ class WearHistory:
         reset or a new raise.  ``user``: who acknowledges; ``owner``: who takes the
         maintenance on (both 1-128 printable characters); ``comment``: free text (at most
         2000 characters); ``planned_maintenance``: 'YYYY-MM-DD' or ''; ``work_order``: the
-        maintenance system's work order (at most 128 printable characters, '' for none).
-        Raises :class:`HistoryError` when the joint has no latched alarm, when it is
-        acknowledged already, or on bad values.
+        maintenance system's work order (at most 128 printable characters, '' for none);
+        ``source``: web, api, cli or ros.  Raises :class:`HistoryError` when the joint has no
+        latched alarm (``UnknownJointError``: no estimate of it), when it is acknowledged
+        already, or on bad values.
         """
         with self._guard('cannot acknowledge the alarm'):
             return alarms.acknowledge_alarm(
                 self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
                 user=user, owner=owner, comment=comment,
-                planned_maintenance=planned_maintenance, work_order=work_order)
+                planned_maintenance=planned_maintenance, work_order=work_order, source=source)
 
     def edit_acknowledgement(self, *, joint: str, robot: Optional[str] = None, user: str,
-                             owner: str, comment: str, planned_maintenance: str = '',
-                             work_order: str = '') -> AlarmEvent:
+                             owner: Optional[str] = None, comment: Optional[str] = None,
+                             planned_maintenance: Optional[str] = None,
+                             work_order: Optional[str] = None, source: str = '') -> AlarmEvent:
         """
         Edit the current acknowledgement of the robot's ``joint``; return the stored event.
 
-        The values are those after the edit (as :meth:`acknowledge_alarm` takes them);
-        ``user``: who edits.  Raises :class:`HistoryError` when the alarm is not acknowledged,
-        the edit changes nothing, or on bad values.
+        Only the values given change (None keeps the current one); ``user``: who edits; the
+        event holds the acknowledgement after the edit and what changed.  Raises
+        :class:`HistoryError` when the alarm is not acknowledged, the edit changes nothing,
+        or on bad values.
         """
         with self._guard('cannot edit the acknowledgement'):
             return alarms.edit_acknowledgement(
                 self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
                 user=user, owner=owner, comment=comment,
-                planned_maintenance=planned_maintenance, work_order=work_order)
+                planned_maintenance=planned_maintenance, work_order=work_order, source=source)
 
     def withdraw_acknowledgement(self, *, joint: str, robot: Optional[str] = None, user: str,
-                                 reason: str) -> AlarmEvent:
+                                 reason: str, source: str = '') -> AlarmEvent:
         """
         Withdraw the acknowledgement of the robot's ``joint`` (non-empty ``reason``).
 
@@ -318,27 +323,30 @@ class WearHistory:
         with self._guard('cannot withdraw the acknowledgement'):
             return alarms.withdraw_acknowledgement(
                 self._backend, robot=self._robot(robot), joint=_check_name('joint', joint),
-                user=user, reason=reason)
+                user=user, reason=reason, source=source)
 
     def reset_alarm(self, *, joint: str, robot: Optional[str] = None, user: str, reason: str,
-                    stamp_s: Optional[float] = None, work_order: str = '') -> AlarmEvent:
+                    stamp_s: Optional[float] = None, work_order: str = '',
+                    source: str = '') -> AlarmEvent:
         """
-        Reset the latched alarm of the robot's ``joint`` after maintenance; return the event.
+        Reset the robot's ``joint`` after maintenance or a replacement; return the event.
 
         Exactly what the ROS ``~/reset_alarm`` stores (a ``reset`` tied to the joint's latest
         estimate), with ``user`` and ``reason`` (non-empty): a restarted estimator restores
         the alarm clear with evidence 0 and restarts its trend (the component's new life).
         ``stamp_s``: the moment [s] (default now); ``work_order``: as for an acknowledgement.
-        Raises :class:`HistoryError` when the joint has no latched alarm or on bad values.
+        With or without a latched alarm (:func:`~robot_wear_monitor.history.alarms.reset_alarm`:
+        refused for an unknown joint, or one reset already with no experiment since).
         """
-        with self._guard('cannot reset the alarm'):
+        with self._guard('cannot reset the joint'):
             return alarms.reset_alarm(self._backend, robot=self._robot(robot),
                                       joint=_check_name('joint', joint), user=user,
-                                      reason=reason, stamp_s=stamp_s, work_order=work_order)
+                                      reason=reason, stamp_s=stamp_s, work_order=work_order,
+                                      source=source)
 
     def alarm_log(self, *, robot: Optional[str] = None, joint: Optional[str] = None,
-                  limit: Optional[int] = None, before_id: Optional[int] = None
-                  ) -> list[AlarmEvent]:
+                  limit: Optional[int] = None, before_id: Optional[int] = None,
+                  stored_after_s: Optional[float] = None) -> list[AlarmEvent]:
         """
         Return the alarm events of the fleet, newest first by event time (robot, id, times).
 
@@ -346,11 +354,12 @@ class WearHistory:
         time (:func:`~robot_wear_monitor.history.alarms.alarm_log`), whatever the order the
         recordings were replayed in.  ``robot`` None: every robot (not the history's robot);
         ``joint``: that joint only; ``before_id``: the events after that one in this order
-        (the next page); ``limit``: at most so many.
+        (the next page); ``limit``: at most so many; ``stored_after_s``: only the events
+        stored after that wall time [s] (a poller's ``since``).
         """
         with self._guard('cannot read the alarm log'):
             return alarms.alarm_log(self._backend, robot=robot, joint=joint, limit=limit,
-                                    before_id=before_id)
+                                    before_id=before_id, stored_after_s=stored_after_s)
 
     def resolved_raises(self) -> list[tuple[str, str, float, float, int]]:
         """
@@ -687,13 +696,15 @@ class WearHistory:
                 + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
                 "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
                 'GROUP BY a.robot, a.joint', params)
+            stamps = recent.recent_stamps(self._backend, robot=params[0] if params else None)
         last_event = {(r[0], r[1]): r[2:] for r in latches}
         last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
         baseline = {(r[0], r[1]): r[2:] for r in baselines}
         life_experiments = {(r[0], r[1]): int(r[2]) for r in lives}
-        rows = [_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
-                           life_experiments.get((r[0], r[1]), 0),
-                           baseline.get((r[0], r[1]))) for r in latest]
+        rows = [replace(_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
+                                   life_experiments.get((r[0], r[1]), 0),
+                                   baseline.get((r[0], r[1]))),
+                        recent_stamps=stamps.get((r[0], r[1]), ())) for r in latest]
         return sorted(rows, key=FleetRow.rank_key)
 
 

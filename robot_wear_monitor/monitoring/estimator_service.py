@@ -408,7 +408,7 @@ class WearEstimatorService:
         last_id = self.trend[-1].id if self.trend else None
         stored = self.history.record_event(AlarmEvent(joint=self.config.joint, stamp_s=stamp_s,
                                                       event='reset', wear=None, note=note,
-                                                      estimate_id=last_id))
+                                                      estimate_id=last_id, source='ros'))
         self._latch_event_id = stored.id
         if was_active:
             return True, 'wear alarm cleared; evidence and trend reset'

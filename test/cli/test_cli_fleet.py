@@ -58,7 +58,7 @@ def test_fleet_text_and_csv_have_no_nan(fleet_dir, capsys):
     assert main(['fleet', '--history', str(fleet_dir / 'history.sqlite3'), '--now',
                  str(NOW_S)]) == 0
     text = capsys.readouterr().out
-    assert text.splitlines()[0].startswith('3 robots, 3 joints: 1 alarm(s) latched')
+    assert text.splitlines()[0].startswith('3 robots, 3 joints: 1 alarm, 2 warning')
     assert text.splitlines()[2].startswith('robot_3')
     assert 'nan' not in text
     assert main(['fleet', '--history', str(fleet_dir / 'history.sqlite3'), '--csv']) == 0

@@ -83,7 +83,8 @@ def test_the_alarm_log_as_csv_on_stdout_and_to_a_file(history_path, tmp_path, ca
     assert rows[1]['joint'] == HOSTILE_JOINT  # CSV quotes it; the text is kept as stored
     assert rows[1]['note'] == 'order, "gear" box' and rows[1]['planned_maintenance'] == \
         '2026-12-01'
-    assert ALARM_LOG_COLUMNS[-1] == 'work_order' and rows[1]['work_order'] == 'WO-9'
+    assert ALARM_LOG_COLUMNS[-3:] == ('work_order', 'source', 'changes')
+    assert rows[1]['work_order'] == 'WO-9'
     assert rows[0]['wear'] == '' and float(rows[2]['wear']) == 50.0
     ids = [int(r['id']) for r in rows]
     assert ids == sorted(ids, reverse=True)

@@ -81,7 +81,9 @@ def test_api_fleet_pages_only_when_asked(client):
             truth[(page - 1) * 10:page * 10], page
         assert (got['total'], got['pages'], got['page'], got['limit'], got['first']) == \
             (62, 7, page, 10, (page - 1) * 10 + 1)
-        assert got['joints'] == 62 and got['counts']['ok'] == 61  # the whole fleet's
+        # the whole fleet's: 1 alarm, 4 warnings (w-hat >= 28 or a crossing near)
+        assert got['joints'] == 62 and got['counts']['ok'] == 57
+        assert got['counts']['warning'] == 4 and got['counts']['alarm'] == 1
     last = client.get('/api/fleet', params={'page': 7, 'limit': 10}).json()['rows']
     assert len(last) == 2  # 62 rows: the seventh page holds two
     past = client.get('/api/fleet', params={'page': 99, 'limit': 10}).json()

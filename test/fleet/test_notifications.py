@@ -264,7 +264,7 @@ def test_the_webhook_payload_and_the_email_say_what_the_history_holds(tmp_path, 
     assert body['receiver'] == 'maint' and body['groupKey'] == key
     assert body['externalURL'] == DASHBOARD
     labels = {'alertname': 'WearAlarmRaised', 'robot': 'cell_1', 'joint': 'joint_2',
-              'severity': 'critical'}
+              'severity': 'critical', 'state': 'alarm'}
     assert body['commonLabels'] == labels
     [alert] = body['alerts']
     assert alert['status'] == 'firing' and alert['labels'] == labels
@@ -718,3 +718,48 @@ def test_a_trickling_webhook_cannot_stall_a_send_past_its_deadline(tmp_path, cap
     assert elapsed_s < 30.0, elapsed_s  # the issue's bound; the policy allows about 10 s
     assert server.connections >= 2  # retried: a stalled try is a timeout, not a refusal
     assert 'no whole answer within' in capsys.readouterr().err
+
+
+def test_a_passed_crossing_date_is_notified_as_overdue_once(tmp_path, webhook):
+    """Issue 44: the crossing date passes with no experiment since: one 'overdue' alert."""
+    config = _config(tmp_path, webhook=webhook, events=['forecast_crossing'])
+    with WearHistory(tmp_path / 'h.db') as history:
+        for k in range(3):
+            history.append(_record('r', 'j', T0 + k * HOUR, wear=20.0, crossing=5.0))
+        [ahead] = notify_once(history=history, config=config, now_s=T0 + 2 * HOUR + 60)
+        assert notify_once(history=history, config=config, now_s=T0 + 6 * HOUR) == []
+        # the date (T0 + 7 h at the usual hour) passes without an experiment
+        [overdue] = notify_once(history=history, config=config, now_s=T0 + 8 * HOUR)
+        assert notify_once(history=history, config=config, now_s=T0 + 9 * HOUR) == []
+    date = iso_time(T0 + 7 * HOUR)[:10]
+    assert (ahead.kind, overdue.kind) == ('forecast_crossing', 'forecast_crossing')
+    first, second = webhook.alerts()
+    assert first['groupKey'] == 'forecast_crossing/r/j/cycle-0'
+    assert second['groupKey'] == f'forecast_crossing/r/j/cycle-0/overdue-{date}'
+    summary = second['alerts'][0]['annotations']['summary']
+    assert summary.startswith(f'r j: the forecast crossing of the wear threshold is overdue '
+                              f'since {date}')
+    assert second['commonLabels']['state'] == 'stale'  # and no experiment for 6 intervals
+
+
+def test_a_postponed_planned_date_missed_again_is_notified_again(tmp_path, webhook):
+    """Issue 44: an edit moves the planned date; when that one passes too, a new alert."""
+    import datetime
+    config = _config(tmp_path, webhook=webhook, events=['alarm_raised'])
+
+    def day(text: str) -> float:
+        return datetime.datetime.fromisoformat(text + 'T12:00:00+00:00').timestamp()
+    with WearHistory(tmp_path / 'h.db') as history:
+        _fleet(history)
+        history.acknowledge_alarm(robot='cell_1', joint='joint_2', user='ana', owner='ben',
+                                  comment='', planned_maintenance='2026-12-01')
+        notify_once(history=history, config=config, now_s=day('2026-11-30'))
+        [missed] = notify_once(history=history, config=config, now_s=day('2026-12-02'))
+        history.edit_acknowledgement(robot='cell_1', joint='joint_2', user='ana',
+                                     planned_maintenance='2026-12-05')
+        assert notify_once(history=history, config=config, now_s=day('2026-12-03')) == []
+        [again] = notify_once(history=history, config=config, now_s=day('2026-12-06'))
+    assert (missed.kind, again.kind) == ('alarm_reescalated', 'alarm_reescalated')
+    assert missed.event_key.endswith('/date-2026-12-01')
+    assert again.event_key.endswith('/date-2026-12-05')
+    assert 'the planned maintenance date 2026-12-05 has passed' in again.summary

@@ -3,6 +3,7 @@
 import json
 import math
 
+import pytest
 from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view, STALE_FACTOR
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.text import iso_time
@@ -74,7 +75,8 @@ def test_json_csv_and_table_say_it_without_nan(tmp_path):
     assert payload[0]['experiments'] == 4
     table = fleet_table(rows)
     csv_rows = fleet_csv_rows(rows)
-    for text in (table, '\n'.join(','.join(r) for r in csv_rows)):
+    # the rows (the header's planned_mainte-nan-ce is a word)
+    for text in (table, '\n'.join(','.join(r) for r in csv_rows[1:])):
         assert 'nan' not in text.lower() and 'inf' not in text.lower().replace('info', '')
     assert 'not within the forecast horizon' in table
     assert 'in 8 experiments' in table
@@ -84,3 +86,26 @@ def test_json_csv_and_table_say_it_without_nan(tmp_path):
 def test_iso_time_is_utc_with_z():
     assert iso_time(0.0) == '1970-01-01T00:00:00Z'
     assert iso_time(math.nan) == '-'
+
+
+def test_an_outage_does_not_stretch_the_usual_interval(tmp_path):
+    """Hourly experiments, a nine-day outage, hourly again: the usual interval stays 1 h."""
+    from robot_wear_monitor.history import open_history
+    stamps = [T0_S + k * HOUR_S for k in range(10)]
+    stamps += [stamps[-1] + 9 * 86400.0 + k * HOUR_S for k in range(6)]
+    with open_history(tmp_path / 'outage.sqlite3', robot='r1') as history:
+        for k, stamp in enumerate(stamps):
+            history.append(HistoryRecord(
+                joint='j1', stamp_s=stamp, speeds_rad_s=(10.0,), frictions=(0.1,),
+                temperature_degc=40.0, temperature_std_degc=1.0, wear=20.0, wear_std=2.0,
+                chi2=1.0, dof=1, p_value=0.5, temperature_at_bound=False, wear_at_bound=False,
+                alarm_active=False, alarm_evidence=0.0, status_level=0, parameter_set='p',
+                trend_wear=20.0, crossing_experiments=100.0))
+        [row] = history.fleet()
+    mean = (stamps[-1] - stamps[0]) / (len(stamps) - 1)
+    assert mean > 14 * HOUR_S  # the mean the outage stretched
+    assert row.usual_interval_s == pytest.approx(HOUR_S)
+    [view] = fleet_view([row], now_s=stamps[-1] + 3.5 * HOUR_S)
+    assert view.stale  # 3 usual intervals of an hour, not of 14
+    assert view.crossing_time_s == pytest.approx(stamps[-1] + 100 * HOUR_S)
+    assert view.as_json()['usual_interval_basis'].startswith('median of the last 15 intervals')

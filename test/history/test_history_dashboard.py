@@ -18,6 +18,7 @@ import pytest
 from robot_wear_monitor.history import (
     AlarmEvent, HistoryError, HistoryRecord, is_postgresql_url, POSTGRESQL_MIGRATIONS,
     SCHEMA_VERSION, WearHistory)
+from robot_wear_monitor.history.alarms import UnknownJointError
 
 HISTORY_V4 = Path(__file__).resolve().parent / 'data' / 'history_v4.db'
 V4_EVENTS = [  # (robot, joint, event, estimate id, note) as the released code stored them
@@ -149,8 +150,8 @@ def test_acknowledge_keeps_the_alarm_latched_and_reset_clears_it(history_locatio
     with WearHistory(history_location, robot='cell_1') as history:
         history.append(_record(0, wear=20.0))
         estimate = _raise(history, 1)
-        with pytest.raises(HistoryError, match="joint 'joint_3' has no latched alarm to "
-                                               'acknowledge'):
+        with pytest.raises(UnknownJointError, match="no estimates of robot 'cell_1' joint "
+                                                    "'joint_3'"):
             history.acknowledge_alarm(joint='joint_3', user='ana', owner='ben', comment='x')
         before = time.time()
         ack = history.acknowledge_alarm(joint='joint_2', user='ana', owner='ben',
@@ -188,7 +189,8 @@ def test_acknowledge_keeps_the_alarm_latched_and_reset_clears_it(history_locatio
         [row] = history.fleet()
         assert not row.alarm and not row.acknowledged and math.isnan(row.alarm_since_stamp_s)
         assert row.acknowledged_by == '' and row.planned_maintenance == ''
-        with pytest.raises(HistoryError, match='no latched alarm to reset'):
+        with pytest.raises(HistoryError, match="was reset already by 'ana' and awaits its "
+                                               'first experiment'):
             history.reset_alarm(joint='joint_2', user='ana', reason='again')
         with pytest.raises(HistoryError, match='no latched alarm to acknowledge'):
             history.acknowledge_alarm(joint='joint_2', user='ana', owner='ben', comment='')
@@ -385,11 +387,11 @@ def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_p
     assert (payload[1]['acknowledged'], payload[1]['acknowledged_by'],
             payload[1]['acknowledged_time_s']) == (False, None, None)
     table = fleet_table(rows).splitlines()
-    assert 'acknowledged by ana, service planned 2026-12-01' in table[1]
+    assert 'acknowledged by ana, maintenance planned 2026-12-01' in table[1]
     assert 'acknowledged' not in table[2] and 'LATCHED' in table[2]
     csv_rows = fleet_csv_rows(rows)
     first = csv_rows[0].index('acknowledged_by')
-    assert csv_rows[0][first:first + 4] == ['acknowledged_by', 'planned_service_date',
+    assert csv_rows[0][first:first + 4] == ['acknowledged_by', 'planned_maintenance',
                                             'reescalated', 'life_started']
     assert [r[first:first + 2] for r in csv_rows[1:]] == [['ana', '2026-12-01'], ['', ''],
                                                           ['', '']]
@@ -459,7 +461,7 @@ def test_people_acting_at_once_store_one_acknowledgement_and_one_reset(history_l
     resets = _at_once(history_location, lambda h: h.reset_alarm(joint='joint_2', user='cy',
                                                                 reason='replaced'))
     assert sum(isinstance(o, AlarmEvent) for o in resets) == 1
-    assert sum('no latched alarm to reset' in str(o) for o in resets) == 5
+    assert sum('was reset already' in str(o) for o in resets) == 5
     with WearHistory(history_location, robot='cell_1') as history:
         assert [e.event for e in history.events(joint='joint_2')] == [
             'raised', 'acknowledged', 'reset']

@@ -1,0 +1,32 @@
+"""
+The recent experiment stamps of every joint, for an interval an outage does not stretch.
+
+The usual interval of a joint (:attr:`FleetRow.usual_interval_s`) is the median of its last
+:data:`RECENT_INTERVALS` intervals: a nine-day outage in an hourly rhythm is one interval among
+twenty and leaves the median at an hour, where the mean of every interval grew to hours (the
+stale limit and the forecast crossing's date with it).  One query for the fleet, each joint's
+rows found by the (robot, joint, id) index.
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from robot_wear_monitor.history.backends import HistoryBackend
+
+#: The intervals the usual interval is the median of (the last ones of the joint, all lives).
+RECENT_INTERVALS = 20
+
+
+def recent_stamps(backend: HistoryBackend, *, robot: Optional[str] = None
+                  ) -> dict[tuple[str, str], tuple[float, ...]]:
+    """Return per (robot, joint) the stamps [s] of its last experiments, oldest first."""
+    where, params = ('WHERE s.robot = ? ', (robot,)) if robot is not None else ('', ())
+    rows = backend.execute(
+        'SELECT s.robot, s.joint, e.stamp_s FROM joint_summary s JOIN estimates e ON '
+        'e.id IN (SELECT x.id FROM estimates x WHERE x.robot = s.robot AND x.joint = s.joint '
+        f'ORDER BY x.id DESC LIMIT {RECENT_INTERVALS + 1}) ' + where, params)
+    found: dict[tuple[str, str], list[float]] = {}
+    for r in rows:
+        found.setdefault((r[0], r[1]), []).append(float(r[2]))
+    return {key: tuple(sorted(stamps)) for key, stamps in found.items()}
