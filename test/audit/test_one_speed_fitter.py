@@ -146,3 +146,14 @@ def test_a_clamped_value_is_printed_on_its_bound(tmp_path, capsys):
     assert re.search(r'^    F_v\s+0 \[N\.m/\(rad/s\)\]  identified, .*on its bound \(F_v >= 0\)',
                      printed, re.MULTILINE), printed
     assert 'warning: all F_v = 0 is on its bound (F_v >= 0)' in printed
+
+
+def test_plots_with_speed_only_are_refused_naming_the_audit(tmp_path, capsys):
+    table = tmp_path / 'levels.csv'
+    speed = np.geomspace(0.5, 20.0, 8)
+    table.write_text('speed,friction\n' + ''.join(
+        f'{float(v)!r},{float(1.0 + 0.05 * v)!r}\n' for v in speed))
+    assert main(['identify', '--speed-only', str(table), '--out', str(tmp_path / 'x.yaml'),
+                 '--plots', str(tmp_path / 'figures')]) == 2
+    assert 'audit BASELINE --plots DIR' in capsys.readouterr().err
+    assert not (tmp_path / 'x.yaml').exists() and not (tmp_path / 'figures').exists()
