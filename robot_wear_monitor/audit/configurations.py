@@ -17,15 +17,20 @@ Units: speeds motor side [rad/s]; load in the levels' unit; temperature [degC].
 
 from __future__ import annotations
 
+from dataclasses import replace
 import math
 import re
 from typing import Any, Sequence
 
 import numpy as np
+from robot_wear_monitor.audit.export import parameter_set_yaml
 from robot_wear_monitor.audit.fitting import as_text, AuditTable
+from robot_wear_monitor.audit.identification_result import Identification
 from robot_wear_monitor.audit.operating_range import operating_range, pooled_load_prior
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.model.params import parameter_set_from_mapping
 from robot_wear_monitor.yaml_files import shorten
+import yaml
 
 #: Longest configuration label in a file or set name.
 MAX_LABEL_CHARS = 40
@@ -152,3 +157,39 @@ def pooled_header(cost: dict[str, Any], column: str) -> str:
                   for key, f in cost['pooled_by_configuration'].items()
                   if math.isfinite(f['mean'])]
     return '\n'.join(lines)
+
+
+def for_configuration(result: Identification, index: int) -> Identification:
+    """
+    Return the identification's set for one configuration (e.g. without the payload).
+
+    The model, sigma, bounds and the wear model (scaled once, at the pooled load) are the
+    same; the load estimate of eq. (14) is the configuration's mean and standard deviation.
+    A configuration named by a column (``identify --configuration-column``) also has its own
+    operating range and the name ``<name>_<label>``; one of a gap in the load column is named
+    ``<name>_load<index + 1>``.  ``index`` counts ``result.extra['load_configurations']``
+    (from the lightest load, or in the sorted order of the column's values).
+    """
+    configurations = result.extra.get('load_configurations') or []
+    cluster = configurations[index]
+    overrides: dict[str, Any] = {}
+    if 'label' in cluster:
+        name = f"{result.params.name}_{cluster['label']}"
+        where = (f"the baseline's load column where {cluster['column']} = {cluster['value']} "
+                 f"({cluster['n_levels']} levels, loads {cluster['low']:.4g}-"
+                 f"{cluster['high']:.4g}): its mean and standard deviation")
+        overrides = {k: float(cluster[k]) for k in ('speed_min_rad_s', 'speed_max_rad_s',
+                                                    'speed_separation_rad_s')}
+    else:
+        name = f'{result.params.name}_load{index + 1}'
+        where = (f"the baseline's load column, configuration {index + 1} of "
+                 f"{len(configurations)} (loads {cluster['low']:.4g}-{cluster['high']:.4g}, "
+                 f"{cluster['n_levels']} levels): its mean and standard deviation")
+    provenance = {**result.provenance, 'load': where}
+    params = replace(result.params, name=name, load_mean=float(cluster['mean']),
+                     load_std=float(cluster['std']), **overrides)
+    candidate = replace(result, params=params, provenance=provenance,
+                        extra={**result.extra, 'configuration': index + 1})
+    checked = parameter_set_from_mapping(yaml.safe_load(parameter_set_yaml(candidate)),
+                                         source=f'identified set {name!r}')
+    return replace(candidate, params=checked)

@@ -38,7 +38,7 @@ from robot_wear_monitor.audit.configurations import column_configurations
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
 from robot_wear_monitor.audit.export import parameter_set_yaml
 from robot_wear_monitor.audit.fitting import (as_text, AuditTable, Base, fit_model, multistart_fit,
-                                              nominal_base, parameter_errors, wear_base)
+                                              nominal_base, wear_base)
 from robot_wear_monitor.audit.identification_result import (CRITICAL_WEAR, Identification,
                                                             NOMINAL_PARAMETERS,
                                                             NominalIdentification, Parameter,
@@ -48,6 +48,7 @@ from robot_wear_monitor.audit.identify_inputs import (check_baseline, check_wear
                                                       distinct_count, experiment_order)
 from robot_wear_monitor.audit.operating_range import (load_clusters, operating_range,
                                                       pooled_load_prior, scaled_wear_model)
+from robot_wear_monitor.audit.parameter_errors import parameter_errors
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, parameter_set_from_mapping,
@@ -568,40 +569,3 @@ def _identified_text(p: Parameter, *, dropped: bool = False) -> str:
     if p.at_bound:
         text += ', held at a bound of its domain'
     return text
-
-
-def for_configuration(result: Identification, index: int) -> Identification:
-    """
-    Return the identification's set for one configuration (e.g. without the payload).
-
-    The model, sigma, bounds and the wear model (scaled once, at the pooled load) are the
-    same; the load estimate of eq. (14) is the configuration's mean and standard deviation.
-    A configuration named by a column (``identify --configuration-column``) also has its own
-    operating range and the name ``<name>_<label>``; one of a gap in the load column is named
-    ``<name>_load<index + 1>``.  ``index`` counts ``result.extra['load_configurations']``
-    (from the lightest load, or in the sorted order of the column's values).
-    """
-    configurations = result.extra.get('load_configurations') or []
-    cluster = configurations[index]
-    overrides: dict[str, Any] = {}
-    if 'label' in cluster:
-        name = f"{result.params.name}_{cluster['label']}"
-        where = (f"the baseline's load column where {cluster['column']} = {cluster['value']} "
-                 f"({cluster['n_levels']} levels, loads {cluster['low']:.4g}-"
-                 f"{cluster['high']:.4g}): its mean and standard deviation")
-        overrides = {k: float(cluster[k]) for k in ('speed_min_rad_s', 'speed_max_rad_s',
-                                                    'speed_separation_rad_s')}
-    else:
-        name = f'{result.params.name}_load{index + 1}'
-        where = (f"the baseline's load column, configuration {index + 1} of "
-                 f"{len(configurations)} (loads {cluster['low']:.4g}-{cluster['high']:.4g}, "
-                 f"{cluster['n_levels']} levels): its mean and standard deviation")
-    provenance = {**result.provenance, 'load': where}
-    params = replace(result.params, name=name, load_mean=float(cluster['mean']),
-                     load_std=float(cluster['std']), **overrides)
-    candidate = replace(result, params=params, provenance=provenance,
-                        extra={**result.extra, 'configuration': index + 1})
-    import yaml
-    checked = parameter_set_from_mapping(yaml.safe_load(parameter_set_yaml(candidate)),
-                                         source=f'identified set {name!r}')
-    return replace(candidate, params=checked)

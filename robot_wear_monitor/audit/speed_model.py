@@ -15,8 +15,9 @@ from typing import Mapping, Optional
 
 import numpy as np
 from robot_wear_monitor.audit.cross_validation import cv_rms, fold_indices
-from robot_wear_monitor.audit.fitting import as_text, AuditTable, parameter_errors
+from robot_wear_monitor.audit.fitting import as_text, AuditTable
 from robot_wear_monitor.audit.identification_result import Parameter
+from robot_wear_monitor.audit.parameter_errors import parameter_errors
 from robot_wear_monitor.audit.speed_fit import fit_speed_model
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.json_values import json_clean

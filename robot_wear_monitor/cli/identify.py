@@ -192,7 +192,7 @@ def main(args: argparse.Namespace) -> int:
     if len(configurations) > 1 and args.load_mean is None:
         from pathlib import Path
 
-        from robot_wear_monitor.audit.identification import for_configuration
+        from robot_wear_monitor.audit.configurations import for_configuration
         out = Path(args.out)
         for index in range(len(configurations)):
             label = configurations[index].get('label') or f'load{index + 1}'
@@ -238,7 +238,7 @@ def _column_sets(result: Any, baseline: Any, column: str) -> tuple[Any, list]:
     from dataclasses import replace
 
     from robot_wear_monitor.audit.configurations import pooled_header, temperature_cost
-    from robot_wear_monitor.audit.identification import for_configuration
+    from robot_wear_monitor.audit.configurations import for_configuration
     configurations = result.extra.get('load_configurations') or []
     configured = [for_configuration(result, i) for i in range(len(configurations))]
     cost = temperature_cost(table=baseline, residual=result.nominal.residual,
