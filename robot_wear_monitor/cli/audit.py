@@ -11,10 +11,11 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
-from robot_wear_monitor.cli.options import (add_friction_unit, add_json, add_level_source,
-                                            add_params, emit_json, FINITE, friction_unit,
-                                            level_source_scales, params_from, print_notes, PROG,
-                                            write_levels_out)
+from robot_wear_monitor.cli.level_options import (add_friction_unit, add_level_source,
+                                                  friction_unit, level_source_scales, print_notes,
+                                                  write_levels_out)
+from robot_wear_monitor.cli.options import (add_json, add_params, emit_json, FINITE, params_from,
+                                            PROG)
 from robot_wear_monitor.errors import InputError
 
 HELP = 'find and model what the friction model misses in measured friction levels'

@@ -13,11 +13,12 @@ import argparse
 import math
 from typing import Any
 
-from robot_wear_monitor.cli.options import (add_configuration_column, add_friction_unit,
-                                            add_json, add_level_source, BAG_SCALE_DEFAULT,
-                                            emit_json, FINITE, friction_unit, level_source_scales,
-                                            parse_float_list, print_notes, PROG,
-                                            write_levels_out)
+from robot_wear_monitor.cli.level_options import (add_configuration_column, add_friction_unit,
+                                                  add_level_source, friction_unit,
+                                                  level_source_scales, print_notes,
+                                                  write_levels_out)
+from robot_wear_monitor.cli.options import (add_json, BAG_SCALE_DEFAULT, emit_json, FINITE,
+                                            parse_float_list, PROG)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import EXPERIMENT_GAPS_S
 from robot_wear_monitor.yaml_files import shorten

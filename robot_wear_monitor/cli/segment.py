@@ -10,12 +10,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from robot_wear_monitor.cli.level_options import add_raw_reading, RAW_STANDSTILL_DEFAULT
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
-                                            add_joints, add_raw_reading, add_robot,
-                                            BAG_SCALE_DEFAULT, BAG_TORQUE_SCALE_DEFAULT,
-                                            joint_selection,
-                                            parse_float_list, RAW_STANDSTILL_DEFAULT,
-                                            STANDSTILL_SPEED)
+                                            add_joints, add_robot, BAG_SCALE_DEFAULT,
+                                            BAG_TORQUE_SCALE_DEFAULT, joint_selection,
+                                            parse_float_list, STANDSTILL_SPEED)
 from robot_wear_monitor.cli.replay import joint_summary_line
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.text import escaped

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 from robot_wear_monitor import cli
-from robot_wear_monitor.cli.options import level_source_scales
+from robot_wear_monitor.cli.level_options import level_source_scales
 import test_identify_cli as levels
 
 REPLAY_DEPRECATED = ('robot-wear-monitor replay: warning: --json PATH is deprecated; use '
