@@ -104,7 +104,7 @@ def test_the_node_parameters_are_the_declarations():
                 PlanConfig, 'min_duration_s'),
             (node_config.FRICTION_EXPERIMENT_NODE, 'idle_gap_s'): (ExperimentGrouping,
                                                                    'idle_gap_s'),
-            (node_config.WEAR_ESTIMATOR_NODE, 'wear_threshold'): (AlarmPolicy, 'threshold'),
+            (node_config.WEAR_ESTIMATOR_NODE, 'wear_healthy'): (AlarmPolicy, 'healthy'),
             (node_config.WEAR_ESTIMATOR_NODE, 'alarm_rule'): (AlarmPolicy, 'rule'),
             (node_config.FRICTION_EXPERIMENT_RUNNER_NODE, 'end_margin_s'): (RunnerConfig,
                                                                             'end_margin_s')}
@@ -122,6 +122,9 @@ def test_the_node_parameters_are_the_declarations():
     assert friction['gear_ratio'].default == NODE_SCALES['gear_ratio'] == 150.0
     assert friction['torque_scale'].default == NODE_SCALES['torque_scale'] == 10.0
     assert setting_of(SegmenterConfig, 'gear_ratio').default == 1.0
+    # the alarm's levels: the node's default 0 stands for the parameter set's (issue 42)
+    estimator = _specs(node_config.WEAR_ESTIMATOR_NODE)
+    assert estimator['wear_threshold'].default == estimator['wear_warning'].default == 0.0
 
 
 @pytest.mark.parametrize('value, problem', [(0.0, 'must be > 0 and <= 10000'),

@@ -19,10 +19,12 @@ from typing import Any, Mapping, Optional, Sequence
 from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.experiment.segmentation_settings import (ExperimentGrouping,
                                                                  SegmenterConfig)
+from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        joint_parameters, load_node_parameters,
                                                        monitored_joints, validate_parameters,
                                                        WEAR_ESTIMATOR_NODE)
+from robot_wear_monitor.monitoring.wear_update import node_alarm_levels
 
 
 @dataclass(frozen=True)
@@ -147,7 +149,9 @@ class MonitorConfig:
     def alarm_policy(self, joint: str | None = None) -> AlarmPolicy:
         """Return the alarm rule a joint's estimates are judged by (its threshold [-])."""
         values = self._estimator_values(joint)
-        return AlarmPolicy(threshold=values['wear_threshold'], healthy=values['wear_healthy'],
+        threshold, _ = node_alarm_levels(values, load_parameter_set(
+            self.parameter_set_file(joint)))
+        return AlarmPolicy(threshold=threshold, healthy=values['wear_healthy'],
                            evidence_to_raise=values['alarm_evidence'],
                            rule=values['alarm_rule'], probability=values['alarm_probability'])
 

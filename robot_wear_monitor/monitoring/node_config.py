@@ -166,8 +166,14 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     _JOINTS,
     ParameterSpec('parameter_set_file', 'string', '',
                   'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
-    ParameterSpec.of(AlarmPolicy, 'threshold', parameter='wear_threshold'),
-    ParameterSpec.of(EstimatorConfig, 'wear_warning'),
+    ParameterSpec('wear_threshold', 'double', 0.0,
+                  "alarm level of the wear w [-]: the alarm is raised by an estimate >= it; 0 "
+                  "(the default): the parameter set's alarm.wear_threshold (35 for the packaged "
+                  'set)', non_negative),
+    ParameterSpec('wear_warning', 'double', 0.0,
+                  'diagnostics WARN when the wear estimate reaches this level [-]; 0 (the '
+                  "default): the parameter set's alarm.wear_warning (28 for the packaged set)",
+                  non_negative),
     ParameterSpec.of(AlarmPolicy, 'healthy', parameter='wear_healthy'),
     ParameterSpec.of(AlarmPolicy, 'evidence_to_raise', parameter='alarm_evidence'),
     ParameterSpec.of(AlarmPolicy, 'rule', parameter='alarm_rule'),
@@ -338,7 +344,9 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
     Return defaults overridden by ``values``, each checked; reject unknown names.
 
     Cross-parameter rule of the estimator: wear_healthy < wear_threshold and
-    wear_warning <= wear_threshold.
+    wear_warning <= wear_threshold, where both are set (0: the parameter set's, checked when
+    the set is known, :meth:`~robot_wear_monitor.monitoring.wear_update.EstimatorConfig.
+    from_node_parameters`).
     """
     specs = {spec.name: spec for spec in _specs(node_name)}
     values = renamed_parameters(node_name, values, source=source)
@@ -357,11 +365,11 @@ def validate_parameters(node_name: str, values: Mapping[str, Any], *,
         coerced = coerce_value(spec, value, source=f'{source}: {name.rpartition(".")[0]}'
                                if name not in specs else source)
         result[name] = coerced
-    if node_name == WEAR_ESTIMATOR_NODE:
+    if node_name == WEAR_ESTIMATOR_NODE and result['wear_threshold'] > 0:
         if not result['wear_healthy'] < result['wear_threshold']:
             raise ParameterError(f'{source}: wear_healthy: must be < wear_threshold, got '
                                  f'{result["wear_healthy"]} >= {result["wear_threshold"]}')
-        if not result['wear_warning'] <= result['wear_threshold']:
+        if result['wear_warning'] > 0 and not result['wear_warning'] <= result['wear_threshold']:
             raise ParameterError(f'{source}: wear_warning: must be <= wear_threshold, got '
                                  f'{result["wear_warning"]} > {result["wear_threshold"]}')
     return result

@@ -18,7 +18,7 @@ from robot_wear_monitor.estimation.alarm import (AlarmPolicy, DEFAULT_ALARM_PROB
 from robot_wear_monitor.estimation.plausibility import INVALID_P_VALUE, Plausibility, VALID
 from robot_wear_monitor.estimation.wear_report import meaningful_std
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
+from robot_wear_monitor.model.params import load_parameter_set, ParameterError, ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import DiagnosticReport
 from robot_wear_monitor.recordings import messages
 from robot_wear_monitor.setting_fields import fraction, non_negative, setting
@@ -27,6 +27,24 @@ if TYPE_CHECKING:
     from robot_wear_monitor.estimation.intervals import WearInterval
     from robot_wear_monitor.estimation.trend import TrendEstimate
     from robot_wear_monitor.estimation.wear_estimates import WearEstimate
+
+
+def node_alarm_levels(values: Mapping[str, Any], params: ParameterSet) -> tuple[float, float]:
+    """
+    Return (threshold, warning level) [w] a joint is judged by: the node's, else the set's.
+
+    The node parameters ``wear_threshold`` and ``wear_warning`` win (they are what a site
+    sets); where one is 0, its default, the parameter set's ``alarm.wear_threshold`` /
+    ``alarm.wear_warning`` stands.
+
+    :raises ParameterError: the warning level above the threshold.
+    """
+    threshold = float(values['wear_threshold']) or params.wear_threshold
+    warning = float(values['wear_warning']) or params.wear_warning
+    if not warning <= threshold:
+        raise ParameterError(f'wear_warning: must be <= wear_threshold, got {warning:g} > '
+                             f'{threshold:g} (0: the parameter set {params.name[:80]!r}\'s)')
+    return threshold, warning
 
 
 @dataclass(frozen=True)
@@ -58,14 +76,15 @@ class EstimatorConfig:
         if params is None:
             params = load_parameter_set(values.get('parameter_set_file') or None)
         params.require_estimator(purpose='the wear estimator')
+        threshold, warning = node_alarm_levels(values, params)
         return cls(joint=values['joint'], params=params,
-                   alarm=AlarmPolicy(threshold=values['wear_threshold'],
+                   alarm=AlarmPolicy(threshold=threshold,
                                      healthy=values['wear_healthy'],
                                      evidence_to_raise=values['alarm_evidence'],
                                      rule=values.get('alarm_rule', DEFAULT_ALARM_RULE),
                                      probability=values.get('alarm_probability',
                                                             DEFAULT_ALARM_PROBABILITY)),
-                   wear_warning=values['wear_warning'],
+                   wear_warning=warning,
                    min_fit_p_value=values['min_fit_p_value'],
                    invalid_fit_p_value=values.get('invalid_fit_p_value', INVALID_P_VALUE),
                    experiment_speeds_rad_s=tuple(values['experiment_speeds_rad_s']),
@@ -78,7 +97,7 @@ class EstimatorConfig:
         The node parameters ``wear_threshold`` and ``wear_warning`` win: they are what a site
         sets, what the alarm and the trend use and what is stored with every estimate (and
         shown by the fleet view and the dashboard); the parameter set's ``alarm`` values are
-        only their defaults.  '' when both agree.
+        their defaults (a parameter left at 0).  '' when both agree.
         """
         differ = [f'{name} {node:g} (the set says {stated:g})' for name, node, stated in (
             ('wear_threshold', self.alarm.threshold, self.params.wear_threshold),

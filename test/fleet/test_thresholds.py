@@ -47,8 +47,8 @@ def _site_config(path):
     """Write the packaged node configuration with its wear_threshold line set to 30."""
     text = default_node_config_file().read_text(encoding='utf-8')
     lines = [line for line in text.splitlines() if line.strip().startswith('wear_threshold:')]
-    assert len(lines) == 1 and 'wear_threshold: 35.0' in lines[0]
-    path.write_text(text.replace('wear_threshold: 35.0', 'wear_threshold: 30.0'),
+    assert len(lines) == 1 and 'wear_threshold: 0.0' in lines[0]  # 0: the set's (35)
+    path.write_text(text.replace('wear_threshold: 0.0', 'wear_threshold: 30.0'),
                     encoding='utf-8')
     return path
 

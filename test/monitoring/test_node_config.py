@@ -12,7 +12,13 @@ def test_packaged_node_config_is_valid_for_both_nodes():
     # the speeds are found in the data by default; configured, they filter the levels
     assert experiment['experiment_speeds_rad_s'] == estimator['experiment_speeds_rad_s'] == ()
     assert experiment['idle_gap_s'] == 3.0 and experiment['joints'] == ()
-    assert estimator['wear_threshold'] == 35.0
+    # the alarm's levels default to the parameter set's: 0 in the node, 35 and 28 judged by
+    assert estimator['wear_threshold'] == estimator['wear_warning'] == 0.0
+    from robot_wear_monitor.monitoring.wear_update import EstimatorConfig
+    config = EstimatorConfig.from_node_parameters(estimator)
+    assert (config.alarm.threshold, config.wear_warning) == (
+        config.params.wear_threshold, config.params.wear_warning) == (35.0, 28.0)
+    assert config.levels_warning() == ''
     for specs in node_config.NODE_PARAMETERS.values():
         assert all(spec.description for spec in specs)
     for name in node_config.NODE_PARAMETERS:
@@ -21,8 +27,9 @@ def test_packaged_node_config_is_valid_for_both_nodes():
 
 @pytest.mark.parametrize('node, values, match', [
     ('wear_estimator_node', {'wear_threshold': 35}, 'write it with a decimal point'),
-    ('wear_estimator_node', {'wear_threshold': -1.0}, 'must be > 0'),
-    ('wear_estimator_node', {'wear_healthy': 40.0}, 'must be < wear_threshold'),
+    ('wear_estimator_node', {'wear_threshold': -1.0}, 'must be >= 0'),
+    ('wear_estimator_node', {'wear_healthy': 40.0, 'wear_threshold': 35.0},
+     'must be < wear_threshold'),
     ('wear_estimator_node', {'min_fit_p_value': 1.5}, r'in \[0, 1\)'),
     ('wear_estimator_node', {'alarm_treshold': 1.0}, 'unknown parameter'),
     ('friction_experiment_node', {'gear_ratio': 0.0}, 'must be > 0'),
@@ -54,10 +61,11 @@ def test_parameter_file_layout_errors(tmp_path):
 
 def test_the_node_defaults_are_the_owning_constants():
     estimator = node_config.validate_parameters(node_config.WEAR_ESTIMATOR_NODE, {})
+    # wear_threshold and wear_warning: 0, the parameter set's (issue 42)
     assert (estimator['wear_threshold'], estimator['wear_healthy'], estimator['wear_warning'],
             estimator['alarm_rule'], estimator['alarm_probability'],
             estimator['alarm_evidence']) == (
-        alarm.WEAR_THRESHOLD, alarm.WEAR_HEALTHY, alarm.WEAR_WARNING, alarm.DEFAULT_ALARM_RULE,
+        0.0, alarm.WEAR_HEALTHY, 0.0, alarm.DEFAULT_ALARM_RULE,
         alarm.DEFAULT_ALARM_PROBABILITY, alarm.DEFAULT_ALARM_EVIDENCE)
     experiment = node_config.validate_parameters(node_config.FRICTION_EXPERIMENT_NODE, {})
     assert experiment['idle_gap_s'] == node_config.IDLE_GAP_S
@@ -83,3 +91,17 @@ def test_min_samples_has_one_check_on_every_node(node):
     with pytest.raises(ParameterError, match='min_samples: must be >= 3, got 2'):
         node_config.validate_parameters(node, {'min_samples': 2})
     assert node_config.validate_parameters(node, {'min_samples': 3})['min_samples'] == 3
+
+
+def test_the_sets_levels_are_checked_against_the_nodes_where_the_node_leaves_them_to_it():
+    """wear_threshold 0 takes the set's 35: a healthy level of 40 is refused then."""
+    from robot_wear_monitor.errors import InputError
+    from robot_wear_monitor.monitoring.wear_update import EstimatorConfig
+    values = node_config.validate_parameters(node_config.WEAR_ESTIMATOR_NODE,
+                                             {'wear_healthy': 40.0})
+    with pytest.raises(InputError, match='healthy < threshold'):
+        EstimatorConfig.from_node_parameters(values)
+    values = node_config.validate_parameters(node_config.WEAR_ESTIMATOR_NODE,
+                                             {'wear_warning': 36.0})
+    with pytest.raises(InputError, match='wear_warning: must be <= wear_threshold, got 36 > 35'):
+        EstimatorConfig.from_node_parameters(values)

@@ -84,14 +84,18 @@ def _pop_new_state_keys(summary: dict) -> list:
 
 
 def test_the_replay_gives_the_fixed_outputs_bit_for_bit(tmp_path, capsys):
+    from robot_wear_monitor.model.params import load_parameter_set
     from robot_wear_monitor.monitoring.node_config import (load_node_parameters,
                                                            WEAR_ESTIMATOR_NODE)
+    from robot_wear_monitor.monitoring.wear_update import node_alarm_levels
     got = json.loads(json.dumps(replay_outputs(tmp_path)))
     capsys.readouterr()
     fixed = json.loads(FIXED.read_text(encoding='utf-8'))
     packaged = load_node_parameters(WEAR_ESTIMATOR_NODE)  # the replay ran with this file
-    levels = [(packaged['wear_threshold'], packaged['wear_warning'])] * len(
-        fixed['summary']['state'])
+    # its levels are 0: the packaged parameter set's, 35 and 28, judged by and stored
+    judged = node_alarm_levels(packaged, load_parameter_set(None))
+    assert judged == (35.0, 28.0)
+    levels = [judged] * len(fixed['summary']['state'])
     assert _pop_new_state_keys(got['summary']) == levels
     assert _pop_new_state_keys(fixed['summary']) in (levels, [(None, None)] * len(levels))
     assert got['summary'] == fixed['summary']
