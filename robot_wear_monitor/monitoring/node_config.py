@@ -167,7 +167,7 @@ WEAR_ESTIMATOR_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('parameter_set_file', 'string', '',
                   'friction-model parameter-set YAML; empty: the packaged IRB 6620 joint 2 set'),
     ParameterSpec('wear_threshold', 'double', 0.0,
-                  "alarm level of the wear w [-]: the alarm is raised by an estimate >= it; 0 "
+                  'alarm level of the wear w [-]: the alarm is raised by an estimate >= it; 0 '
                   "(the default): the parameter set's alarm.wear_threshold (35 for the packaged "
                   'set)', non_negative),
     ParameterSpec('wear_warning', 'double', 0.0,

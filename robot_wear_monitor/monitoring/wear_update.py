@@ -43,7 +43,8 @@ def node_alarm_levels(values: Mapping[str, Any], params: ParameterSet) -> tuple[
     warning = float(values['wear_warning']) or params.wear_warning
     if not warning <= threshold:
         raise ParameterError(f'wear_warning: must be <= wear_threshold, got {warning:g} > '
-                             f'{threshold:g} (0: the parameter set {params.name[:80]!r}\'s)')
+                             f'{threshold:g} (0: the value of parameter set '
+                             f'{params.name[:80]!r})')
     return threshold, warning
 
 
