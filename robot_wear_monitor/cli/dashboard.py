@@ -27,7 +27,7 @@ import sys
 from typing import Any
 
 from robot_wear_monitor.cli.options import PROG, shown_location
-from robot_wear_monitor.dashboard.server import HEADER_TIMEOUT_S, LIMIT_CONCURRENCY
+from robot_wear_monitor.dashboard.server_limits import HEADER_TIMEOUT_S, LIMIT_CONCURRENCY
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES

@@ -21,7 +21,7 @@ from robot_wear_monitor.cli.options import (add_json, BAG_SCALE_DEFAULT, emit_js
                                             parse_float_list, PROG)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import EXPERIMENT_GAPS_S
-from robot_wear_monitor.yaml_files import shorten
+from robot_wear_monitor.text import shorten
 
 HELP = 'identify a parameter set (models (5), (7), sigma) from friction levels'
 

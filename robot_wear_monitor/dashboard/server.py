@@ -26,15 +26,10 @@ import ipaddress
 import socket
 from typing import Any, Optional
 
+from robot_wear_monitor.dashboard.server_limits import (HEADER_TIMEOUT_S,
+                                                        LIMIT_CONCURRENCY, MAX_HEADER_BYTES)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.input_files import MAX_PEM_BYTES, read_text_file
-
-#: How long a request's headers may take to arrive, from their first byte [s].
-HEADER_TIMEOUT_S = 10.0
-#: The largest request head (request line and headers) h11 takes [bytes]; more is 400.
-MAX_HEADER_BYTES = 16 * 1024
-#: How many connections and requests at once the server takes (``--limit-concurrency``).
-LIMIT_CONCURRENCY = 200
 
 
 def is_loopback(host: str) -> bool:
