@@ -37,10 +37,10 @@ same on every pass and in every process:
 
 An acknowledged alarm holds back the joint's other notifications (not ended: not resolved)
 until it is reset.  The first pass on a channel (``first_pass_summary``) sends the events due
-as one summary (:func:`_send_summary`).  After a reset the fleet row is the joint's new life (no wear, trend,
-crossing or alarm of the old life; stale counted from the reset), so nothing of the old life is
-notified.  Robot and joint names are percent-encoded in the keys (replaced by their SHA-256
-when very long).
+as one summary (:func:`_send_summary`).  After a reset the fleet row is the joint's new life
+(no wear, trend, crossing or alarm of the old life; stale counted from the reset), so nothing
+of the old life is notified.  Robot and joint names are percent-encoded in the keys (replaced
+by their SHA-256 when very long).
 
 Each event goes to every channel (``webhook:NAME``, ``email``) of the configuration.  Before a
 send the notifier claims ``KEY@CHANNEL`` in the history (:meth:`WearHistory.claim_notification`,
