@@ -72,6 +72,7 @@ from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR, threshold_text
+from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
 from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import HistoryError, open_history, WearHistory
 from robot_wear_monitor.text import iso_time, shorten
@@ -201,6 +202,8 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
                        reescalation_margin=config.reescalation_margin,
                        parameter_sets=parameter_sets,
                        forecast_horizon_s=config.forecast_horizon_s)
+    if 'alarm_raised' in config.events:  # the audit trail: each re-escalation, once
+        try_log_reescalations(history, views, source='notify')
     resolved = ({(r[0], r[1]): r[2:] for r in history.resolved_raises()}
                 if 'alarm_raised' in config.events else {})
     for view in views:

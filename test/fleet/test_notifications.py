@@ -789,6 +789,13 @@ def test_a_postponed_planned_date_missed_again_is_notified_again(tmp_path, webho
         [again] = notify_once(history=history, config=config, now_s=day('2026-12-06'))
     assert (missed.kind, again.kind) == ('alarm_reescalated', 'alarm_reescalated')
     assert ended.kind == 'reescalation_resolved'
+    # the audit trail: each missed date once, as the notifier saw it (schema version 11)
+    with WearHistory(tmp_path / 'h.db') as history:
+        logged = [e for e in history.events(robot='cell_1', joint='joint_2')
+                  if e.event == 'reescalated']
+    assert [(e.note, e.source) for e in logged] == [
+        ('the planned maintenance date 2026-12-01 has passed', 'notify'),
+        ('the planned maintenance date 2026-12-05 has passed', 'notify')]
     assert ended.event_key == f'reescalation_resolved/{missed.event_key}'
     [body] = [b for b in webhook.alerts() if b['status'] == 'resolved']
     assert body['groupKey'] == missed.event_key
