@@ -94,7 +94,7 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                          robot=robot or None, state=_state(state), cache=cache, page=page,
                          limit=limit, reescalation_margin=reescalation_margin(request),
-                         forecast_horizon_s=forecast_horizon_s(request))
+                         forecast_horizon_s=forecast_horizon_s(request), source='api')
     if robot and robot not in payload['robots']:
         raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
     return json_with_etag(request, payload)

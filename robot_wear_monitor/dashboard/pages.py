@@ -106,7 +106,7 @@ def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterS
                        robot=robot or None, state=state if state in STATES else None,
                        cache=cache, page=page, limit=limit,
                        reescalation_margin=reescalation_margin(request),
-                       forecast_horizon_s=forecast_horizon_s(request))
+                       forecast_horizon_s=forecast_horizon_s(request), source='web')
     return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html,
                   page_links=page_links(fleet))
 

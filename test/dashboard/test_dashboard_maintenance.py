@@ -220,3 +220,27 @@ def test_judged_two_months_later_no_crossing_date_is_shown_passed_without_overdu
     table = capsys.readouterr().out
     assert 'overdue since' in table
     assert table.splitlines()[0].startswith('3 robots, 5 joints: 1 alarm, 4 stale')
+
+
+def test_a_reescalation_is_written_to_the_alarm_log_once_by_whoever_sees_it_first(
+        client, history, bearer):
+    """Issue 44 (d): the audit trail shows a re-escalation, once, with who saw it."""
+    assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
+        'owner': 'Team B', 'planned_maintenance': '2020-01-01'}).status_code == 200
+    with open_history(history, init=False) as stored:
+        assert not [e for e in stored.events(joint='joint_2', robot='press_line')
+                    if e.event == 'reescalated']
+    for _ in range(2):  # the API sees it first; the second poll and the page add nothing
+        assert client.get('/api/fleet', headers=bearer).status_code == 200
+    assert login(client, 'mia').status_code == 303
+    assert client.get('/').status_code == 200
+    with open_history(history, init=False) as stored:
+        logged = [e for e in stored.events(joint='joint_2', robot='press_line')
+                  if e.event == 'reescalated']
+    assert [(e.note, e.source) for e in logged] == [
+        ('the planned maintenance date 2020-01-01 has passed', 'api')]
+    kinds = [e['event'] for e in client.get('/api/alarms', headers=bearer).json()]
+    assert kinds[0] == 'reescalated'
+    log = client.get('/alarms')
+    assert log.status_code == 200
+    assert 're-escalated: the planned maintenance date 2020-01-01 has passed' in log.text
