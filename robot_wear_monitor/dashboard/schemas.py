@@ -184,6 +184,8 @@ class AcknowledgeRequest(_Shape):
     planned_maintenance: str = Field('', description="YYYY-MM-DD or ''")
     work_order: str = Field('', description="the maintenance system's work order (at most "
                                             "128 printable characters, '' for none)")
+    allow_past_date: bool = Field(
+        False, description='record a planned_maintenance date that has passed (else 422)')
 
 
 class EditRequest(_Shape):
@@ -193,6 +195,8 @@ class EditRequest(_Shape):
     comment: Optional[str] = Field(None, description='free text (at most 2000 characters)')
     planned_maintenance: Optional[str] = Field(None, description="YYYY-MM-DD ('' clears it)")
     work_order: Optional[str] = Field(None, description="the work order ('' clears it)")
+    allow_past_date: bool = Field(
+        False, description='record a planned_maintenance date that has passed (else 422)')
 
 
 class ResetRequest(_Shape):

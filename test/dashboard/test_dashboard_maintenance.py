@@ -104,6 +104,7 @@ def test_the_joint_page_offers_the_reset_on_any_joint_and_the_form_records_it(
 def test_an_edit_changes_only_the_fields_it_sends(client, history, bearer):
     assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
         'owner': 'Team B', 'comment': 'gearbox ordered', 'planned_maintenance': '2026-12-01',
+        'allow_past_date': True,
         'work_order': 'WO-4711'}).status_code == 200
     edited = client.post(ALARMED + '/acknowledgement/edit', headers=bearer,
                          json={'owner': 'Team D'})
@@ -166,7 +167,8 @@ def test_a_polling_system_gets_the_events_stored_since_its_last_poll(client, his
 def test_an_acknowledged_alarm_past_its_planned_date_is_an_alarm_everywhere(
         client, history, bearer, capsys):
     assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
-        'owner': 'Team B', 'planned_maintenance': '2026-12-01'}).status_code == 200
+        'owner': 'Team B', 'planned_maintenance': '2026-12-01',
+        'allow_past_date': True}).status_code == 200
     acknowledged = _row(_fleet_json(history, capsys, '--now', '2026-11-30T12:00:00Z'),
                         'press_line', 'joint_2')
     assert (acknowledged['state'], acknowledged['reescalated']) == ('acknowledged', False)
@@ -225,8 +227,19 @@ def test_judged_two_months_later_no_crossing_date_is_shown_passed_without_overdu
 def test_a_reescalation_is_written_to_the_alarm_log_once_by_whoever_sees_it_first(
         client, history, bearer):
     """Issue 44 (d): the audit trail shows a re-escalation, once, with who saw it."""
+    refused = client.post(ALARMED + '/acknowledge', headers=bearer, json={
+        'owner': 'Team B', 'planned_maintenance': '2020-01-01'})
+    assert refused.status_code == 422 and 'has passed' in refused.json()['detail']
     assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
-        'owner': 'Team B', 'planned_maintenance': '2020-01-01'}).status_code == 200
+        'owner': 'Team B', 'planned_maintenance': '2020-01-01',
+        'allow_past_date': True}).status_code == 200
+    # an edit keeping the passed date is not refused; one moving it to another passed date is
+    assert client.post(ALARMED + '/acknowledgement/edit', headers=bearer, json={
+        'owner': 'Team C'}).status_code == 200
+    assert client.post(ALARMED + '/acknowledgement/edit', headers=bearer, json={
+        'planned_maintenance': '2020-01-01', 'comment': 'late'}).status_code == 200
+    assert client.post(ALARMED + '/acknowledgement/edit', headers=bearer, json={
+        'planned_maintenance': '2021-01-01'}).status_code == 422
     with open_history(history, init=False) as stored:
         assert not [e for e in stored.events(joint='joint_2', robot='press_line')
                     if e.event == 'reescalated']
