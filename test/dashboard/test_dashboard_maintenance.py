@@ -257,3 +257,23 @@ def test_a_reescalation_is_written_to_the_alarm_log_once_by_whoever_sees_it_firs
     log = client.get('/alarms')
     assert log.status_code == 200
     assert 're-escalated: the planned maintenance date 2020-01-01 has passed' in log.text
+
+
+def test_the_acknowledge_form_refuses_a_passed_date_unless_its_box_is_ticked(client, history):
+    assert login(client, 'mia').status_code == 303
+    page = client.get(joint_url('press_line', 'joint_2'))
+    assert 'id="ack-allow-past"' in page.text
+    token = csrf_of(page.text)
+    form = {'csrf_token': token, 'owner': 'Team B', 'comment': 'late entry',
+            'planned_maintenance': '2020-01-01'}
+    refused = client.post(joint_url('press_line', 'joint_2') + '/acknowledge', data=form,
+                          follow_redirects=True)
+    assert refused.status_code == 200 and '2020-01-01 has passed' in refused.text
+    with open_history(history, init=False) as stored:
+        assert stored.acknowledgement(joint='joint_2', robot='press_line') is None
+    done = client.post(joint_url('press_line', 'joint_2') + '/acknowledge',
+                       data={**form, 'allow_past_date': '1'}, follow_redirects=True)
+    assert done.status_code == 200 and 'alarm acknowledged' in done.text
+    with open_history(history, init=False) as stored:
+        ack = stored.acknowledgement(joint='joint_2', robot='press_line')
+    assert (ack.planned_maintenance, ack.source) == ('2020-01-01', 'web')
