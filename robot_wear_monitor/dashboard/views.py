@@ -342,6 +342,8 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
         'acknowledged': bool(getattr(state, 'acknowledged', False)),
         'acknowledged_by': getattr(state, 'acknowledged_by', '') or None,
         'acknowledged_s': _number(getattr(state, 'acknowledged_wall_time_s', math.nan)),
+        'acknowledged_at': utc_text(getattr(state, 'acknowledged_wall_time_s', math.nan)),
+        'edited_by': getattr(state, 'edited_by', '') or None,
         'planned_maintenance': getattr(state, 'planned_maintenance', '') or None,
         'parameter_set': state.parameter_set,
         'alarm_since': utc_text(state.alarm_since_stamp_s) if state.alarm else None,

@@ -191,6 +191,9 @@ class FleetRow:
     acknowledged_by: str = ''
     acknowledged_wall_time_s: float = math.nan
     planned_maintenance: str = ''
+    #: who edited the acknowledgement last ('' when not edited since; ``acknowledged_by`` is
+    #: who acknowledged first, ``acknowledged_wall_time_s`` when)
+    edited_by: str = ''
     #: the value at the acknowledgement: w-hat and the trend of the joint's latest estimate
     #: then (NaN when unknown); the fleet view re-escalates the alarm when the wear rises a
     #: set margin past it

@@ -277,3 +277,21 @@ def test_the_acknowledge_form_refuses_a_passed_date_unless_its_box_is_ticked(cli
     with open_history(history, init=False) as stored:
         ack = stored.acknowledgement(joint='joint_2', robot='press_line')
     assert (ack.planned_maintenance, ack.source) == ('2020-01-01', 'web')
+
+
+def test_acknowledged_by_is_the_first_acknowledger_and_edited_by_the_last_editor(
+        client, history, bearer, capsys):
+    """Issue 44: "acknowledged by" named the last editor with the first acknowledgement's time."""
+    with open_history(history, init=False) as stored:
+        stored.add_user(name='ben', role='maintainer', password='correct horse battery')
+        first = stored.acknowledge_alarm(joint='joint_2', robot='press_line', user='ana',
+                                         owner='Team B', comment='ordered')
+        time.sleep(0.01)
+        stored.edit_acknowledgement(joint='joint_2', robot='press_line', user='ben',
+                                    owner='Team C')
+    row = _row(_fleet_json(history, capsys), 'press_line', 'joint_2')
+    assert (row['acknowledged_by'], row['edited_by']) == ('ana', 'ben')
+    assert row['acknowledged_time_s'] == pytest.approx(first.wall_time_s)
+    assert login(client, 'mia').status_code == 303
+    page = client.get(joint_url('press_line', 'joint_2')).text
+    assert '<b id="ack-by">ana</b>' in page and '<b id="ack-edited-by">ben</b>' in page
