@@ -358,9 +358,13 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
                  'life': life_text(state),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
-                 'crossing': crossing_words(view), 'alarm': _alarm_text(view),
+                 # a new life awaiting its first experiment: nothing of the old life
+                 'crossing': ('no experiment since the reset'
+                              if state.awaiting_first_experiment else crossing_words(view)),
+                 'alarm': _alarm_text(view),
                  'threshold': threshold_text(view),
-                 'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
+                 'last': ('none since the reset' if state.awaiting_first_experiment
+                          else utc_text(state.last_stamp_s)) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })
     return row

@@ -295,3 +295,17 @@ def test_acknowledged_by_is_the_first_acknowledger_and_edited_by_the_last_editor
     assert login(client, 'mia').status_code == 303
     page = client.get(joint_url('press_line', 'joint_2')).text
     assert '<b id="ack-by">ana</b>' in page and '<b id="ack-edited-by">ben</b>' in page
+
+
+def test_after_a_reset_the_joint_page_shows_nothing_of_the_old_life(client, history, bearer):
+    """Issue 44: no "last experiment" of the old life beside "experiments 0", no horizon text."""
+    old = _row(client.get('/api/fleet', headers=bearer).json()['rows'], 'welder_7', 'joint_3')
+    assert client.post(NEVER_ALARMED + '/reset', headers=bearer,
+                       json={'reason': 'gearbox replaced'}).status_code == 200
+    assert login(client, 'mia').status_code == 303
+    page = client.get(joint_url('welder_7', 'joint_3')).text
+    assert '<dd id="f-experiments">0</dd>' in page
+    assert 'id="f-last">none since the reset' in page
+    assert old['last_experiment'] not in page.split('id="f-last">')[1].split('</dd>')[0]
+    crossing = page.split('id="f-crossing">')[1].split('</dd>')[0]
+    assert crossing == 'no experiment since the reset'
