@@ -35,6 +35,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='time of the first sample: ISO 8601 (UTC when no zone) or seconds '
                              'since the epoch (default 2024-01-01T00:00:00Z); consecutive '
                              'recordings of one robot start where the previous one ended')
+    parser.add_argument('--joints', metavar='all|NAME[,NAME]',
+                        help='the joints to test, one after another in each interval, each '
+                             'with its own wear: "all" (the 6 joints of the simulated arm) or '
+                             'names (default: joint_2 alone)')
+    parser.add_argument('--start-wear', type=FINITE, metavar='W',
+                        help='the true wear of every tested joint at the first experiment '
+                             '(default about 1, a new joint)')
+    parser.add_argument('--continue-from', metavar='TRUTH.json',
+                        help="an earlier recording's truth file (<bag>.truth.json): each "
+                             "joint's wear starts where it ended, and the first experiment one "
+                             '--interval after its last sample (unless --start-time)')
     add_params(parser)
 
 
@@ -101,6 +112,8 @@ def main(args: argparse.Namespace) -> int:
             raise InputError(f'--start-time: must be between 1970 and 2099, got '
                              f'{args.start_time[:40]}')
         config = replace(config, start_time_s=start_s)
+    if args.joints is not None or args.start_wear is not None or args.continue_from:
+        return _plant(args, config=config, params=params)
     scenario = _simulate(simulate_scenario, config=config, params=params, args=args)
     bag = write_joint_state_bag(args.out, stamps_s=scenario.time_s, names=scenario.joint_names,
                                 position=scenario.position_rad,
@@ -111,4 +124,62 @@ def main(args: argparse.Namespace) -> int:
           f'({len(scenario.truth)} experiments, joint {scenario.joint}, gear ratio '
           f'{scenario.config.gear_ratio:g}, torque scale {scenario.config.torque_scale:g}); '
           f'truth: {truth} (replay ... --truth {truth})')
+    return 0
+
+
+def _plant(args: argparse.Namespace, *, config: Any, params: Any) -> int:
+    """Run ``simulate --joints/--start-wear/--continue-from``: several joints, wear continued."""
+    # imported when the verb runs: numpy loads after the one-BLAS-thread setting
+    from robot_wear_monitor.atomic_files import write_json_atomic
+    from robot_wear_monitor.experiment.plant_simulation import (continuation, plant_truth,
+                                                                simulate_joints)
+    from robot_wear_monitor.experiment.simulation import truth_path_for
+    from robot_wear_monitor.recordings.bags import write_joint_state_bag
+    names = config.joint.joint_names
+    if args.joints is None:
+        joints = [config.joint.joint]
+    elif args.joints.strip() == 'all':
+        joints = list(names)
+    else:
+        joints = [name.strip() for name in args.joints.split(',') if name.strip()]
+        if not joints or len(set(joints)) != len(joints):
+            raise InputError('--joints: give "all" or distinct joint names, NAME[,NAME]')
+    start_wear: dict[str, float] = {}
+    start_s = config.start_time_s
+    if args.start_wear is not None:
+        check_option(args.start_wear, option='--start-wear', low=0.0, high=1000.0)
+        start_wear = {joint: args.start_wear for joint in joints}
+    if args.continue_from:
+        if args.start_wear is not None:
+            raise InputError('--start-wear and --continue-from: give one of them')
+        final, end_s = continuation(args.continue_from)
+        missing = [joint for joint in joints if joint not in final]
+        if missing:
+            raise InputError(f'--continue-from {args.continue_from[:200]}: no wear of '
+                             f'{", ".join(missing)[:200]} (it holds '
+                             f'{", ".join(sorted(final))[:200]})')
+        start_wear = {joint: final[joint] for joint in joints}
+        if args.start_time is None:
+            start_s = end_s + args.interval
+    try:
+        scenario = simulate_joints(
+            joints=joints, n_experiments=args.experiments, speeds_rad_s=args.speeds,
+            params=params, seed=args.seed, wear_final=args.wear_final,
+            experiment_interval_s=args.interval, base=config.joint, start_time_s=start_s,
+            start_wear=start_wear)
+    except InputError as error:
+        if str(error).startswith('ScenarioConfig.experiment_interval_s:'):
+            raise InputError(f'--interval {args.interval:g} s: '
+                             f'{str(error).split(":", 1)[1].strip()} (raise --interval)') \
+                from None
+        raise
+    bag = write_joint_state_bag(args.out, stamps_s=scenario.time_s, names=scenario.joint_names,
+                                position=scenario.position_rad,
+                                velocity=scenario.velocity_rad_s, effort=scenario.effort,
+                                storage=args.storage, overwrite=args.overwrite)
+    truth = write_json_atomic(truth_path_for(bag), plant_truth(scenario))
+    starts = ', '.join(f'{joint} from w {start_wear.get(joint, 1.0):.1f}' for joint in joints)
+    print(f'{bag}: {scenario.n_samples} JointState messages on /joint_states '
+          f'({args.experiments} experiments of each of {len(joints)} joints: {starts}); '
+          f'truth: {truth} (replay ... --joint all)')
     return 0

@@ -33,6 +33,7 @@ from robot_wear_monitor.dashboard.api_checks import BEARER, reject_unknown_query
 from robot_wear_monitor.dashboard.auth import csrf_token, is_token_request
 from robot_wear_monitor.dashboard.deps import (check_api_csrf, CurrentUser, FleetCacheDep,
                                                HistoryDep, MaintainerUser, ParameterSetsDep)
+from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
                                                   EditRequest, FleetJson, JointJson, MeJson,
                                                   ResetRequest, WithdrawRequest)
@@ -94,7 +95,7 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                          robot=robot or None, state=_state(state), cache=cache, page=page,
                          limit=limit, reescalation_margin=reescalation_margin(request),
-                         forecast_horizon_s=forecast_horizon_s(request))
+                         forecast_horizon_s=forecast_horizon_s(request), source='api')
     if robot and robot not in payload['robots']:
         raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
     return json_with_etag(request, payload)
@@ -183,10 +184,10 @@ _WRITE: dict[str, Any] = {'response_model': AlarmEventJson, 'responses': WRITE_E
 def api_acknowledge(robot: str, joint: str, body: AcknowledgeRequest, user: MaintainerUser,
                     history: HistoryDep) -> dict[str, Any]:
     """Acknowledge the latched alarm: owner, comment, planned maintenance date, work order."""
-    return _act(history, lambda: history.acknowledge_alarm(
+    return _act(history, checked_date(lambda: history.acknowledge_alarm(
         joint=joint, robot=robot, user=user['name'], owner=body.owner, comment=body.comment,
         planned_maintenance=body.planned_maintenance, work_order=body.work_order,
-        source='api'))
+        source='api'), planned=body.planned_maintenance, allow_past=body.allow_past_date))
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
@@ -199,10 +200,14 @@ def api_edit_acknowledgement(robot: str, joint: str, body: EditRequest,
     The event answered (and stored in the log) holds the acknowledgement as it stands after
     the edit and ``changes``, what the edit changed.
     """
-    return _act(history, lambda: history.edit_acknowledgement(
+    def kept() -> str:
+        current = history.acknowledgement(joint=joint, robot=robot)
+        return current.planned_maintenance if current is not None else ''
+    return _act(history, checked_date(lambda: history.edit_acknowledgement(
         joint=joint, robot=robot, user=user['name'], owner=body.owner, comment=body.comment,
         planned_maintenance=body.planned_maintenance, work_order=body.work_order,
-        source='api'))
+        source='api'), planned=body.planned_maintenance, allow_past=body.allow_past_date,
+        kept=kept))
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',

@@ -28,6 +28,7 @@ from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_se
                                                get_templates, HistoryDep, LimiterDep,
                                                MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.guards import public_message
+from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
                                                 fleet_json, fleet_row_html, forecast_horizon_s,
                                                 joint_json, joint_url, MAX_PAGE_ROWS,
@@ -106,7 +107,7 @@ def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterS
                        robot=robot or None, state=state if state in STATES else None,
                        cache=cache, page=page, limit=limit,
                        reescalation_margin=reescalation_margin(request),
-                       forecast_horizon_s=forecast_horizon_s(request))
+                       forecast_horizon_s=forecast_horizon_s(request), source='web')
     return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html,
                   page_links=page_links(fleet))
 
@@ -144,12 +145,14 @@ def _flash_outcome(request: Request, robot: str, joint: str, action: Any,
 @router.post('/robots/{robot}/joints/{joint}/acknowledge', dependencies=[Depends(check_csrf)])
 def acknowledge(request: Request, robot: str, joint: str, user: MaintainerUser,
                 history: HistoryDep, owner: str = Form(''), comment: str = Form(''),
-                planned_maintenance: str = Form(''), work_order: str = Form('')) -> Response:
+                planned_maintenance: str = Form(''), work_order: str = Form(''),
+                allow_past_date: str = Form('')) -> Response:
     """Acknowledge the latched alarm: owner, comment, planned maintenance date, work order."""
-    return _flash_outcome(request, robot, joint, lambda: history.acknowledge_alarm(
+    return _flash_outcome(request, robot, joint, checked_date(lambda: history.acknowledge_alarm(
         joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
         comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
-        work_order=work_order.strip(), source='web'), 'alarm acknowledged')
+        work_order=work_order.strip(), source='web'), planned=planned_maintenance.strip(),
+        allow_past=bool(allow_past_date)), 'alarm acknowledged')
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/edit',
@@ -157,12 +160,18 @@ def acknowledge(request: Request, robot: str, joint: str, user: MaintainerUser,
 def edit_acknowledgement(request: Request, robot: str, joint: str, user: MaintainerUser,
                          history: HistoryDep, owner: str = Form(''), comment: str = Form(''),
                          planned_maintenance: str = Form(''),
-                         work_order: str = Form('')) -> Response:
+                         work_order: str = Form(''),
+                         allow_past_date: str = Form('')) -> Response:
     """Edit the acknowledgement (the values after the edit); recorded with who and when."""
-    return _flash_outcome(request, robot, joint, lambda: history.edit_acknowledgement(
-        joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
-        comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
-        work_order=work_order.strip(), source='web'), 'acknowledgement edited')
+    def kept() -> str:
+        current = history.acknowledgement(joint=joint, robot=robot)
+        return current.planned_maintenance if current is not None else ''
+    return _flash_outcome(request, robot, joint, checked_date(
+        lambda: history.edit_acknowledgement(
+            joint=joint, robot=robot, user=user['name'], owner=owner.strip(),
+            comment=comment.strip(), planned_maintenance=planned_maintenance.strip(),
+            work_order=work_order.strip(), source='web'), planned=planned_maintenance.strip(),
+        allow_past=bool(allow_past_date), kept=kept), 'acknowledgement edited')
 
 
 @router.post('/robots/{robot}/joints/{joint}/acknowledgement/withdraw',

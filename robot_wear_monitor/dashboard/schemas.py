@@ -90,8 +90,10 @@ class FleetRowJson(_Shape):
     valid: bool
     invalid_reason: Optional[str]
     acknowledged: bool
-    acknowledged_by: Optional[str]
+    acknowledged_by: Optional[str] = Field(description='who acknowledged first')
     acknowledged_time_s: Optional[float]
+    edited_by: Optional[str] = Field(description='who edited the acknowledgement last (null: '
+                                                 'not edited)')
     planned_maintenance: Optional[str] = Field(description='YYYY-MM-DD')
     reescalated: bool = Field(description='an acknowledged alarm back on top: its wear rose '
                                           'the margin past its value at the acknowledgement, '
@@ -115,6 +117,7 @@ class FleetRowJson(_Shape):
         description='the history stores no threshold for the row (an older history): '
                     "threshold and warning_level are the parameter set's, assumed")
     acknowledged_s: Optional[float] = Field(description='when acknowledged [s, wall clock]')
+    acknowledged_at: str = Field(description='acknowledged_s as ISO 8601 UTC (- when not)')
     parameter_set: str
     alarm_since: Optional[str] = Field(description='alarm_since_s as ISO 8601 UTC')
     last_experiment: str = Field(description='last_stamp_s as ISO 8601 UTC')
@@ -184,6 +187,8 @@ class AcknowledgeRequest(_Shape):
     planned_maintenance: str = Field('', description="YYYY-MM-DD or ''")
     work_order: str = Field('', description="the maintenance system's work order (at most "
                                             "128 printable characters, '' for none)")
+    allow_past_date: bool = Field(
+        False, description='record a planned_maintenance date that has passed (else 422)')
 
 
 class EditRequest(_Shape):
@@ -193,6 +198,8 @@ class EditRequest(_Shape):
     comment: Optional[str] = Field(None, description='free text (at most 2000 characters)')
     planned_maintenance: Optional[str] = Field(None, description="YYYY-MM-DD ('' clears it)")
     work_order: Optional[str] = Field(None, description="the work order ('' clears it)")
+    allow_past_date: bool = Field(
+        False, description='record a planned_maintenance date that has passed (else 422)')
 
 
 class ResetRequest(_Shape):

@@ -21,6 +21,7 @@ from markupsafe import escape, Markup
 import numpy as np
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
                                               fleet_view, FleetView, plural, threshold_text)
+from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
 from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
 from robot_wear_monitor.fleet.thresholds import ParameterSets, threshold_words
 from robot_wear_monitor.history.alarms import event_time_s, note_text
@@ -341,6 +342,8 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
         'acknowledged': bool(getattr(state, 'acknowledged', False)),
         'acknowledged_by': getattr(state, 'acknowledged_by', '') or None,
         'acknowledged_s': _number(getattr(state, 'acknowledged_wall_time_s', math.nan)),
+        'acknowledged_at': utc_text(getattr(state, 'acknowledged_wall_time_s', math.nan)),
+        'edited_by': getattr(state, 'edited_by', '') or None,
         'planned_maintenance': getattr(state, 'planned_maintenance', '') or None,
         'parameter_set': state.parameter_set,
         'alarm_since': utc_text(state.alarm_since_stamp_s) if state.alarm else None,
@@ -355,9 +358,13 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
                  'life': life_text(state),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
-                 'crossing': crossing_words(view), 'alarm': _alarm_text(view),
+                 # a new life awaiting its first experiment: nothing of the old life
+                 'crossing': ('no experiment since the reset'
+                              if state.awaiting_first_experiment else crossing_words(view)),
+                 'alarm': _alarm_text(view),
                  'threshold': threshold_text(view),
-                 'last': utc_text(state.last_stamp_s) + (' STALE' if view.stale else ''),
+                 'last': ('none since the reset' if state.awaiting_first_experiment
+                          else utc_text(state.last_stamp_s)) + (' STALE' if view.stale else ''),
                  'invalid': state.invalid_reason or ''},
     })
     return row
@@ -368,8 +375,8 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
                cache: Optional[FleetCache] = None, page: Optional[int] = None,
                limit: Optional[int] = None,
                reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
-               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S
-               ) -> dict[str, Any]:
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
+               source: str = '') -> dict[str, Any]:
     """
     Return the fleet worst first, the counts per state and the robots, as one dict.
 
@@ -378,12 +385,16 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     and ``limit`` (rows per page) give one page of the filtered rows (a page past the last is
     the last); without both, every row.  ``total`` counts the filtered rows, ``pages`` their
     pages.  Only the rows sent are made into JSON.  ``reescalation_margin``: see
-    :func:`~robot_wear_monitor.fleet.ranking.fleet_view`.
+    :func:`~robot_wear_monitor.fleet.ranking.fleet_view`.  ``source`` ('web', 'api'): log
+    each re-escalation not yet in the alarm log, with it (:mod:`~robot_wear_monitor.fleet.
+    reescalation_log`); '' logs nothing.
     """
     views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
                        now_s=now_s, reescalation_margin=reescalation_margin,
                        forecast_horizon_s=forecast_horizon_s,
                        parameter_sets=parameter_sets)
+    if source:  # the audit trail: a re-escalation this request is the first to see, once
+        try_log_reescalations(history, views, source=source)
     make = cache.row_json if cache is not None else fleet_row_json
     states = [row_state(v) for v in views]
     counts = dict.fromkeys(STATES, 0)

@@ -501,6 +501,9 @@ def truth_to_dict(scenario: Scenario) -> dict:
         'joint_config': asdict(config),
         'metadata': scenario.metadata,
         'experiments': [asdict(t) for t in scenario.truth],
+        # what ``simulate --continue-from`` reads: the last true wear and the last sample [s]
+        'final_wear': {scenario.joint: scenario.truth[-1].wear},
+        'end_time_s': float(scenario.time_s[-1]),
     }
 
 

@@ -28,11 +28,19 @@ same on every pass and in every process:
   alert, once per reset (key ``alarm_resolved/ROBOT/JOINT/reset-ID``), on the channels that
   were sent the raise (a reset of an alarm never notified sends nothing).
 
-Otherwise an acknowledged alarm (the dashboard's acknowledge) stops every notification of that
-joint until it is reset.  After a reset the fleet row is the joint's new life (no wear, trend,
-crossing or alarm of the old life; stale counted from the reset), so nothing of the old life is
-notified.  Robot and joint names are percent-encoded in the keys (replaced by their SHA-256
-when very long).
+* ``alarm_acknowledged`` (sent when ``alarm_raised`` is configured): the dashboard's
+  acknowledgement, once (key ``alarm_acknowledged/ROBOT/JOINT/ack-WALLTIME``);
+* resolved (``RESOLVES``): an alert sent before whose key is no longer active (its cause ended:
+  the crossing no longer due or a new cycle, a new experiment of a stale joint, a re-escalation
+  acknowledged anew or reset, an acknowledged alarm reset) is sent once more as ``resolved``
+  (key ``KIND/FIRING_KEY``), on the channels that were sent it.
+
+An acknowledged alarm holds back the joint's other notifications (not ended: not resolved)
+until it is reset.  The first pass on a channel (``first_pass_summary``) sends the events due
+as one summary (:func:`_send_summary`).  After a reset the fleet row is the joint's new life
+(no wear, trend, crossing or alarm of the old life; stale counted from the reset), so nothing
+of the old life is notified.  Robot and joint names are percent-encoded in the keys (replaced
+by their SHA-256 when very long).
 
 Each event goes to every channel (``webhook:NAME``, ``email``) of the configuration.  Before a
 send the notifier claims ``KEY@CHANNEL`` in the history (:meth:`WearHistory.claim_notification`,
@@ -58,15 +66,16 @@ from typing import Any, Callable, Optional
 from urllib.parse import quote
 
 from robot_wear_monitor.fleet.notify_channels import (
-    describe_wear, DueEvent, email_message, email_subject, KINDS, post_webhook,
-    send_email, SendResult, webhook_payload)
+    describe_wear, DueEvent, email_message, email_subject, KINDS, post_webhook, RESOLVES,
+    send_email, SendResult, summary_email, SUMMARY_KEY, summary_payload, webhook_payload)
 from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR, threshold_text
+from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
 from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import HistoryError, open_history, WearHistory
-from robot_wear_monitor.text import iso_time
+from robot_wear_monitor.text import iso_time, shorten
 
 __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
            'load_notification_config', 'NotificationConfig', 'NotificationConfigError',
@@ -173,32 +182,44 @@ def _where(robot: str, joint: str) -> str:
 
 
 def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float,
-               parameter_sets: Optional[ParameterSets] = None) -> list[DueEvent]:
+               parameter_sets: Optional[ParameterSets] = None,
+               sent: Optional[dict[str, str]] = None) -> list[DueEvent]:
     """
     Return the events due at ``now_s`` [s since the epoch] that the configuration names.
 
     Worst joint first (the fleet's order); see the module's text for the events and keys.
     Sent or not, an event stays due while its condition holds: :func:`notify_once` keeps it
     from being sent twice.  ``parameter_sets``: where a row without a stored threshold finds
-    its parameter set's (None: the packaged sets; see :func:`fleet_view`).
+    its parameter set's (None: the packaged sets; see :func:`fleet_view`).  ``sent``: the keys
+    of the firing events sent before (key -> kind, from the history's log): each whose cause
+    has ended (its key no longer active) is due as its ``resolved`` event (``RESOLVES``).
     """
     events: list[DueEvent] = []
+    #: keys whose cause holds now, sent or not, notified now or held back by an acknowledgement
+    active: set[str] = set()
+    views_by_joint: dict[tuple[str, str], FleetView] = {}
     views = fleet_view(history.fleet(), now_s=now_s,
                        reescalation_margin=config.reescalation_margin,
                        parameter_sets=parameter_sets,
                        forecast_horizon_s=config.forecast_horizon_s)
+    if 'alarm_raised' in config.events:  # the audit trail: each re-escalation, once
+        try_log_reescalations(history, views, source='notify')
     resolved = ({(r[0], r[1]): r[2:] for r in history.resolved_raises()}
                 if 'alarm_raised' in config.events else {})
     for view in views:
         s = view.state
+        views_by_joint[(s.robot, s.joint)] = view
         where = _where(s.robot, s.joint)
         facts = _facts(view)
 
-        def add(kind: str, key: str, starts_s: float, summary: str, **more: Any) -> None:
-            events.append(DueEvent(kind=kind, key=f'{kind}/{where}/{key}', robot=s.robot,
-                                   joint=s.joint, starts_s=starts_s,
-                                   summary=f'{s.robot} {s.joint}: {summary}',
-                                   description=facts, view=view, **more))
+        def add(kind: str, key: str, starts_s: float, summary: str, *, send: bool = True,
+                **more: Any) -> None:
+            active.add(f'{kind}/{where}/{key}')
+            if send:
+                events.append(DueEvent(kind=kind, key=f'{kind}/{where}/{key}', robot=s.robot,
+                                       joint=s.joint, starts_s=starts_s,
+                                       summary=f'{s.robot} {s.joint}: {summary}',
+                                       description=facts, view=view, **more))
         ended = resolved.get((s.robot, s.joint))
         if ended is not None:
             raised_s, reset_wall_s, reset_id = ended
@@ -207,17 +228,19 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
             add('alarm_resolved', f'reset-{reset_id}', raised_s,
                 f'wear alarm resolved: reset{by}{why}, a new life',
                 firing_key=f'alarm_raised/{where}/{_stamp(raised_s)}', ends_s=reset_wall_s)
-        if s.acknowledged:
-            if view.reescalated and 'alarm_raised' in config.events:
+        quiet = bool(s.acknowledged)  # its forecast and staleness: held back, not ended
+        if s.acknowledged and 'alarm_raised' in config.events:
+            ack = f'ack-{_stamp(s.acknowledged_wall_time_s)}'
+            add('alarm_acknowledged', ack, s.acknowledged_wall_time_s,
+                f'wear alarm acknowledged{_acknowledgement(s)}')
+            if view.reescalated:
                 reasons = [why for why, word in (
                     ('margin', 'rose'), (f'date-{s.planned_maintenance}', 'passed'))
                     if word in view.reescalated]
                 for reason in reasons:
-                    add('alarm_reescalated',
-                        f'ack-{_stamp(s.acknowledged_wall_time_s)}/{reason}', now_s,
+                    add('alarm_reescalated', f'{ack}/{reason}', now_s,
                         f'acknowledged wear alarm re-escalated: {view.reescalated}')
-            continue
-        if 'alarm_raised' in config.events and s.alarm:
+        if 'alarm_raised' in config.events and s.alarm and not s.acknowledged:
             add('alarm_raised', _stamp(s.alarm_since_stamp_s), s.alarm_since_stamp_s,
                 f'wear alarm raised ({describe_wear(view)})')
         if 'forecast_crossing' in config.events and _crossing_inside(
@@ -233,9 +256,11 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
                 date = iso_time(view.crossing_time_s)[:10]
                 add('forecast_crossing', f'{cycle}/overdue-{date}', view.crossing_time_s,
                     f'the forecast crossing of the wear threshold is overdue since {date}: '
-                    f'no experiment since {iso_time(s.last_stamp_s)} to confirm it')
+                    f'no experiment since {iso_time(s.last_stamp_s)} to confirm it',
+                    send=not quiet)
+                active.add(f'forecast_crossing/{where}/{cycle}')  # still due, now overdue
             else:
-                add('forecast_crossing', cycle, s.last_stamp_s, when)
+                add('forecast_crossing', cycle, s.last_stamp_s, when, send=not quiet)
         if 'joint_stale' in config.events and view.stale:
             last = s.last_stamp_s
             if math.isfinite(s.life_started_s):
@@ -243,8 +268,48 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
             since = last + STALE_FACTOR * s.usual_interval_s
             add('joint_stale', f'last-{_stamp(last)}', since,
                 f'no experiment since {iso_time(last)} (usual interval '
-                f'{s.usual_interval_s / 3600.0:.1f} h)')
+                f'{s.usual_interval_s / 3600.0:.1f} h)', send=not quiet)
+    if sent:
+        events += _resolutions(sent=sent, active=active, views=views_by_joint,
+                               config=config, now_s=now_s)
     return events
+
+
+def _acknowledgement(s: Any) -> str:
+    """Return who acknowledged the alarm and the planned maintenance date (for a summary)."""
+    by = f' by {shorten(s.acknowledged_by, 60)}' if s.acknowledged_by else ''
+    planned = (f', maintenance planned {s.planned_maintenance}'
+               if s.planned_maintenance else '')
+    return by + planned
+
+
+def _resolutions(*, sent: dict[str, str], active: set[str],
+                 views: dict[tuple[str, str], FleetView], config: NotificationConfig,
+                 now_s: float) -> list[DueEvent]:
+    """Return the ``resolved`` events of the sent alerts whose cause has ended."""
+    out = []
+    for key, kind in sorted(sent.items()):
+        ending = RESOLVES.get(kind)
+        own = kind in config.events or kind in ('forecast_crossing', 'joint_stale')
+        judged = kind if own else 'alarm_raised'
+        if ending is None or key in active or judged not in config.events:
+            continue  # still due, or a kind this configuration does not judge
+        view = next((v for (robot, joint), v in views.items()
+                     if key.startswith(f'{kind}/{_where(robot, joint)}/')), None)
+        if view is None:
+            continue  # a joint no longer in the history: nothing to say of it
+        s = view.state
+        why = {'forecast_resolved': 'the forecast crossing is no longer due',
+               'stale_resolved': f'experiments again (the last {iso_time(s.last_stamp_s)})',
+               'reescalation_resolved': 'the re-escalation ended (acknowledged anew, or reset)',
+               'acknowledgement_resolved': 'the acknowledged alarm ended (reset)'}[ending]
+        if math.isfinite(s.life_started_s) and ending != 'stale_resolved':
+            why += f'; a new life since the reset {iso_time(s.life_started_s)}'
+        out.append(DueEvent(kind=ending, key=f'{ending}/{key}', robot=s.robot, joint=s.joint,
+                            starts_s=now_s, summary=f'{s.robot} {s.joint}: resolved: {why}',
+                            description=_facts(view), view=view, firing_key=key,
+                            ends_s=now_s))
+    return out
 
 
 # --------------------------------------------------------------------------- one pass
@@ -286,13 +351,22 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     read or written; a channel that fails never raises.  ``parameter_sets``: see
     :func:`due_events`.
     """
+    rows = history.notifications()
+    log = {str(row['event_key']) for row in rows}
+    fired = {_base_key(key): str(row['kind']) for row in rows
+             if '@' in (key := str(row['event_key']))}
     events = due_events(history=history, config=config, now_s=now_s,
-                        parameter_sets=parameter_sets)
+                        parameter_sets=parameter_sets, sent=fired)
     if not events:
         return []
-    log = {str(row['event_key']) for row in history.notifications()}
     failed_channels: set[str] = set()
-    sent = []
+    sent: list[SentNotification] = []
+    if config.first_pass_summary:
+        used = {str(row['channel']) for row in rows}
+        for channel in config.channels:
+            if channel not in used and len(events) > 1:
+                sent += _send_summary(events, channel=channel, history=history, config=config,
+                                      sleep=sleep, failed_channels=failed_channels, log=log)
     for event in events:
         for channel in config.channels:
             base = f'{event.key}@{channel}'
@@ -328,6 +402,71 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
                 delivered=result.delivered, attempts=result.attempts, pass_number=number,
                 error=result.error, passes=config.retry.passes))
     return sent
+
+
+def _base_key(claim_key: str) -> str:
+    """Return the event key of a claim (``KEY@CHANNEL``, ``#passN`` / ``#failedN``)."""
+    return claim_key.split('#', 1)[0].rsplit('@', 1)[0]
+
+
+def _send_summary(events: list[DueEvent], *, channel: str, history: WearHistory,
+                  config: NotificationConfig, sleep: Callable[[float], None],
+                  failed_channels: set[str], log: set[str]) -> list[SentNotification]:
+    """
+    Send the first pass's events on ``channel`` as one summary; their claims say so.
+
+    The summary is claimed (``first-pass-summary@CHANNEL``), then every event's
+    ``KEY@CHANNEL`` (payload: the summary's key), so the events are not sent one by one and
+    their later ``resolved`` ends the alerts the summary held.  When the send fails every
+    claim is released: the next pass is again a first pass (a summary again).
+    """
+    summary_key = f'{SUMMARY_KEY}@{channel}'
+    if channel == 'email':
+        mail = config.email
+        if mail is None:
+            return []
+        message = summary_email(events, config=config, mail=mail)
+        record: dict[str, Any] = {'subject': message['Subject'], 'from': mail.sender,
+                                  'to': list(mail.to), 'events': len(events)}
+
+        def send() -> SendResult:
+            return send_email(mail, message, retry=config.retry, sleep=sleep)
+    else:
+        hook = next(h for h in config.webhooks if f'webhook:{h.name}' == channel)
+        record = summary_payload(events, config=config, receiver=hook.receiver)
+
+        def send() -> SendResult:
+            return post_webhook(hook, record, retry=config.retry, sleep=sleep)
+    if not history.claim_notification(event_key=summary_key, robot=None, joint=None,
+                                      kind='first_pass_summary', channel=channel,
+                                      payload=record):
+        failed_channels.add(channel)  # another notifier sends it: nothing more here this pass
+        return []
+    claims = [summary_key]
+    for event in events:
+        key = f'{event.key}@{channel}'
+        if history.claim_notification(event_key=key, robot=event.robot, joint=event.joint,
+                                      kind=event.kind, channel=channel,
+                                      payload={'in_summary': summary_key}):
+            claims.append(key)
+            log.add(key)
+    try:
+        result = send()
+    except Exception as problem:  # a channel never stops the pass
+        result = SendResult(delivered=False, attempts=1,
+                            error=f'{type(problem).__name__}: {str(problem)[:200]}')
+    if not result.delivered:
+        failed_channels.add(channel)
+        for key in claims:
+            history.release_notification(event_key=key)
+            log.discard(key)
+        _LOG.warning('%s: the first-pass summary via %s failed after %d tries: %s',
+                     config.source, channel, result.attempts, result.error)
+    return [SentNotification(
+        event_key=event.key, claim_key=summary_key, kind=event.kind, robot=event.robot,
+        joint=event.joint, channel=channel, summary=event.summary,
+        delivered=result.delivered, attempts=result.attempts, pass_number=1,
+        error=result.error, passes=config.retry.passes) for event in events]
 
 
 def notify_forever(*, location: str, config: NotificationConfig, interval_s: float,

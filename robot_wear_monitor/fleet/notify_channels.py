@@ -43,9 +43,24 @@ KINDS = {
                           'acknowledged wear alarm re-escalated'),
     'alarm_resolved': ('WearAlarmRaised', 'critical',
                        'wear alarm resolved (reset after maintenance)'),
+    'alarm_acknowledged': ('WearAlarmAcknowledged', 'info', 'wear alarm acknowledged'),
+    'forecast_resolved': ('WearForecastCrossing', 'warning',
+                          'forecast crossing no longer due (resolved)'),
+    'stale_resolved': ('WearJointStale', 'warning', 'experiments again (stale resolved)'),
+    'reescalation_resolved': ('WearAlarmRaised', 'critical',
+                              're-escalation ended (resolved)'),
+    'acknowledgement_resolved': ('WearAlarmAcknowledged', 'info',
+                                 'acknowledged alarm ended (resolved)'),
 }
+#: Per firing kind: the kind that ends its alert once its cause ends (the raise of an alarm:
+#: ``alarm_resolved``, by its reset).
+RESOLVES = {'forecast_crossing': 'forecast_resolved', 'joint_stale': 'stale_resolved',
+            'alarm_reescalated': 'reescalation_resolved',
+            'alarm_acknowledged': 'acknowledgement_resolved'}
 #: The kinds sent as Alertmanager ``status: resolved`` (the end of the alert of ``firing_key``).
-RESOLVED_KINDS = ('alarm_resolved',)
+RESOLVED_KINDS = ('alarm_resolved',) + tuple(RESOLVES.values())
+#: The key of the summary a channel's first pass sends (``first_pass_summary``).
+SUMMARY_KEY = 'first-pass-summary'
 _USER_AGENT = f'robot-wear-monitor/{__version__}'
 
 
@@ -120,6 +135,58 @@ def webhook_payload(event: DueEvent, *, config: NotificationConfig,
             'receiver': receiver, 'groupLabels': {'alertname': name},
             'commonLabels': dict(labels), 'commonAnnotations': dict(annotations),
             'externalURL': config.dashboard_url, 'alerts': [alert]}
+
+
+def summary_payload(events: list[DueEvent], *, config: NotificationConfig,
+                    receiver: str) -> dict[str, Any]:
+    """
+    Return one Alertmanager-like body (version 4) holding the alerts of all ``events``.
+
+    The first pass on a channel: each alert as :func:`webhook_payload` gives it (its own
+    fingerprint, so a later ``resolved`` ends it), the labels all alerts share as
+    ``commonLabels`` and a ``summary`` annotation counting them.
+    """
+    bodies = [webhook_payload(event, config=config, receiver=receiver) for event in events]
+    alerts = [body['alerts'][0] for body in bodies]
+    common = {key: value for key, value in alerts[0]['labels'].items()
+              if all(a['labels'].get(key) == value for a in alerts)}
+    text = summary_text(events)
+    return {'version': '4', 'groupKey': SUMMARY_KEY, 'truncatedAlerts': 0,
+            'status': 'firing', 'receiver': receiver, 'groupLabels': {},
+            'commonLabels': common,
+            'commonAnnotations': {'summary': text.splitlines()[0], 'description': text},
+            'externalURL': config.dashboard_url, 'alerts': alerts}
+
+
+def summary_text(events: list[DueEvent]) -> str:
+    """Return the first pass's summary: a count by kind, then one line per event."""
+    counts: dict[str, int] = {}
+    for event in events:
+        counts[event.kind] = counts.get(event.kind, 0) + 1
+    by_kind = ', '.join(f'{n} {KINDS[kind][2]}' for kind, n in counts.items())
+    lines = [f'{len(events)} events due at the first pass: {by_kind}']
+    lines += [f'- {event.summary}' for event in events]
+    return '\n'.join(lines)
+
+
+def summary_email(events: list[DueEvent], *, config: NotificationConfig,
+                  mail: EmailConfig) -> EmailMessage:
+    """Return the first pass's one e-mail: the summary, then each event's facts and link."""
+    message = EmailMessage()
+    message['Subject'] = (f'[robot-wear-monitor] first pass: {len(events)} events due')
+    message['From'] = mail.sender
+    message['To'] = ', '.join(mail.to)
+    message['Date'] = email.utils.formatdate(localtime=False, usegmt=True)
+    message['Message-ID'] = email.utils.make_msgid(domain='robot-wear-monitor.invalid')
+    parts = [summary_text(events)]
+    for event in events:
+        link = joint_url(config, robot=event.robot, joint=event.joint)
+        parts.append(f'{event.summary}\n{event.description}' +
+                     (f'\nDashboard: {link}' if link else '') + f'\nEvent: {event.key}')
+    parts.append(f'Sent once by robot-wear-monitor notify ({config.source}); later events '
+                 'are sent one by one.')
+    message.set_content('\n\n'.join(parts) + '\n')
+    return message
 
 
 def email_subject(event: DueEvent) -> str:

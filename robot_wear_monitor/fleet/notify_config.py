@@ -115,6 +115,9 @@ class NotificationConfig:
     #: at the acknowledgement [wear units] (or its planned maintenance date passes)
     reescalation_margin: float = DEFAULT_REESCALATION_MARGIN
     dashboard_url: str = ''
+    #: the first pass on a channel (nothing sent on it before) sends the events due then as
+    #: one summary message (one webhook POST with every alert, one e-mail), not one each
+    first_pass_summary: bool = True
     retry: RetryPolicy = RetryPolicy()
     webhooks: tuple[WebhookConfig, ...] = ()
     email: Optional[EmailConfig] = None
@@ -374,8 +377,8 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
     ``base``: the folder relative password files are read from (default: the current one).
     """
     reader = _Reader(source, values, '', ('events', 'forecast_horizon_days', 'dashboard_url',
-                                          'reescalation_margin', 'retry', 'webhooks',
-                                          'email'))
+                                          'reescalation_margin', 'first_pass_summary',
+                                          'retry', 'webhooks', 'email'))
     events = values.get('events', list(EVENTS))
     if not isinstance(events, list) or not events:
         raise reader.error('events', f'must be a non-empty list of {", ".join(EVENTS)}, got '
@@ -396,7 +399,9 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
         reescalation_margin=reader.number('reescalation_margin', DEFAULT_REESCALATION_MARGIN,
                                           low=0.0, high=100.0, unit='wear units',
                                           low_open=True),
-        dashboard_url=dashboard_url, retry=_retry(source, values.get('retry')),
+        dashboard_url=dashboard_url,
+        first_pass_summary=reader.flag('first_pass_summary', True),
+        retry=_retry(source, values.get('retry')),
         webhooks=webhooks, email=mail, source=source)
 
 

@@ -94,6 +94,7 @@ class FleetView:
             'valid': not s.invalid_reason, 'invalid_reason': s.invalid_reason or None,
             'acknowledged': bool(s.acknowledged), 'acknowledged_by': s.acknowledged_by or None,
             'acknowledged_time_s': finite_or_none(s.acknowledged_wall_time_s),
+            'edited_by': getattr(s, 'edited_by', '') or None,
             'planned_maintenance': s.planned_maintenance or None,
             'reescalated': bool(self.reescalated), 'reescalated_reason': self.reescalated or None,
             'life_started_s': finite_or_none(s.life_started_s),

@@ -474,6 +474,8 @@ def note_text(event: AlarmEvent) -> str:
         if what == 'edited' and event.planned_maintenance:
             text += f', maintenance planned {event.planned_maintenance}'
         return text + (f': {note}' if note else '')
+    if event.event == 'reescalated':
+        return f're-escalated: {note}'
     if event.event == 'reset':
         who = f'reset by {event.user}' if event.user else 'reset'
         return f'{who}: {note}' if note else who

@@ -33,14 +33,15 @@ in old rows); a user's role may also be 'admin' (SQLite rebuilds ``alarm_events`
 so).  Version 9 (maintenance states): alarm events carry their ``source`` (web, api, cli,
 ros; '' for the monitor's raises and old rows) and ``changes`` (what an edit changed, ''
 otherwise).  Version 10: ``account_audit`` (every change of a dashboard account: when,
-who, from where, what, whom; never a secret).
+who, from where, what, whom; never a secret).  Version 11: the alarm event kind
+``reescalated`` (an acknowledged alarm back on top, logged once with its source).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 10
+SCHEMA_VERSION = 11
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
@@ -261,6 +262,42 @@ _ACCOUNT_AUDIT = (
     'CREATE INDEX account_audit_time ON account_audit (time_s, id)',
 )
 
+#: Version 11: a re-escalated acknowledged alarm is an event of the alarm log ('reescalated',
+#: recorded once by whoever sees it first: the notifier, the dashboard, the command line).
+_EVENT_KINDS_V11_CHECK = ("CHECK (event IN ('raised', 'reset', 'acknowledged', "
+                          "'acknowledgement_edited', 'acknowledgement_withdrawn', "
+                          "'reescalated'))")
+_EVENT_V11_COLUMNS = _EVENT_V7_COLUMNS + ', work_order, source, changes'
+_SQLITE_V11 = (
+    f"""CREATE TABLE alarm_events_v11 (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    robot TEXT NOT NULL DEFAULT 'default',
+    joint TEXT NOT NULL,
+    stamp_s REAL NOT NULL,
+    wall_time_s REAL NOT NULL,
+    event TEXT NOT NULL {_EVENT_KINDS_V11_CHECK},
+    wear REAL,
+    estimate_id INTEGER REFERENCES estimates (id),
+    note TEXT NOT NULL DEFAULT '',
+    user_name TEXT NOT NULL DEFAULT '',
+    owner TEXT NOT NULL DEFAULT '',
+    planned_maintenance TEXT NOT NULL DEFAULT '',
+    work_order TEXT NOT NULL DEFAULT '',
+    source TEXT NOT NULL DEFAULT '',
+    changes TEXT NOT NULL DEFAULT '')""",
+    f'INSERT INTO alarm_events_v11 ({_EVENT_V11_COLUMNS}) SELECT {_EVENT_V11_COLUMNS} '
+    'FROM alarm_events ORDER BY id',
+    'DROP TABLE alarm_events',
+    'ALTER TABLE alarm_events_v11 RENAME TO alarm_events',
+    'CREATE INDEX alarm_events_robot_joint ON alarm_events (robot, joint, id)',
+    'CREATE INDEX alarm_events_robot ON alarm_events (robot, id)',
+)
+_POSTGRESQL_V11 = (
+    'ALTER TABLE alarm_events DROP CONSTRAINT IF EXISTS alarm_events_event_check',
+    f'ALTER TABLE alarm_events ADD CONSTRAINT alarm_events_event_check '
+    f'{_EVENT_KINDS_V11_CHECK}',
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
@@ -268,7 +305,8 @@ SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3
                                                  10: (_ACCOUNT_AUDIT[0].format(
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
-                                                      _ACCOUNT_AUDIT[1])}
+                                                      _ACCOUNT_AUDIT[1]),
+                                                 11: _SQLITE_V11}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -364,4 +402,5 @@ POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      10: (_ACCOUNT_AUDIT[0].format(
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),
-                                                          _ACCOUNT_AUDIT[1])}
+                                                          _ACCOUNT_AUDIT[1]),
+                                                     11: _POSTGRESQL_V11}

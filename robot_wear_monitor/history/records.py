@@ -88,10 +88,15 @@ class HistoryRecord:
 ACKNOWLEDGEMENT_EVENTS = ('acknowledged', 'acknowledgement_edited', 'acknowledgement_withdrawn')
 #: The kinds of alarm events: the latch is the last 'raised' or 'reset' (the
 #: :data:`ACKNOWLEDGEMENT_EVENTS` are remarks on a raised alarm: they never unlatch it).
-ALARM_EVENT_KINDS = ('raised', 'reset', *ACKNOWLEDGEMENT_EVENTS)
+ALARM_EVENT_KINDS = ('raised', 'reset', *ACKNOWLEDGEMENT_EVENTS, 'reescalated')
+#: Schema version 11: an acknowledged alarm back on top (its wear rose past the margin, or its
+#: planned date passed), logged once per acknowledgement and reason by whoever saw it first;
+#: a remark like the acknowledgement's: it never unlatches nor acknowledges the alarm.
+REESCALATED = 'reescalated'
 #: Where a person's alarm event came from (schema version 9): the dashboard's forms, its API,
-#: the command line, the ROS reset service ('' for the monitor's own raises and older rows).
-EVENT_SOURCES = ('web', 'api', 'cli', 'ros')
+#: the command line, the ROS reset service, the notifier (version 11: who saw a re-escalation
+#: first); '' for the monitor's own raises and older rows.
+EVENT_SOURCES = ('web', 'api', 'cli', 'ros', 'notify')
 
 
 @dataclass(frozen=True)
@@ -186,6 +191,9 @@ class FleetRow:
     acknowledged_by: str = ''
     acknowledged_wall_time_s: float = math.nan
     planned_maintenance: str = ''
+    #: who edited the acknowledgement last ('' when not edited since; ``acknowledged_by`` is
+    #: who acknowledged first, ``acknowledged_wall_time_s`` when)
+    edited_by: str = ''
     #: the value at the acknowledgement: w-hat and the trend of the joint's latest estimate
     #: then (NaN when unknown); the fleet view re-escalates the alarm when the wear rises a
     #: set margin past it

@@ -686,8 +686,9 @@ class WearHistory:
                 'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
             # the acknowledgement itself (not an edit): the baseline of the re-escalation
             baselines = self._backend.execute(
-                'SELECT a.robot, a.joint, a.id, a.wall_time_s, a.wear, t.trend_wear '
-                'FROM alarm_events a JOIN (SELECT MAX(id) AS last_id FROM alarm_events '
+                'SELECT a.robot, a.joint, a.id, a.wall_time_s, a.wear, t.trend_wear, '
+                'a.user_name FROM alarm_events a JOIN (SELECT MAX(id) AS last_id '
+                'FROM alarm_events '
                 "WHERE event = 'acknowledged' " + event_where
                 + 'GROUP BY robot, joint) l ON a.id = l.last_id '
                 'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
@@ -724,7 +725,10 @@ def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[S
         int(ack[0]) > latch[2] and ack[6] != 'acknowledgement_withdrawn'
     if acknowledged and ack is not None and baseline is not None and latch is not None and \
             int(ack[0]) >= int(baseline[0]) > latch[2]:
-        ack = (ack[0], ack[1], baseline[1], ack[3], baseline[2], baseline[3], ack[6])
+        # who acknowledged first and when; the last editor apart (``edited_by``)
+        edited_by = ack[1] if ack[6] == 'acknowledgement_edited' else ''
+        ack = (ack[0], baseline[4], baseline[1], ack[3], baseline[2], baseline[3], ack[6],
+               edited_by)
     row = FleetRow(
         robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
         last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),
@@ -740,6 +744,7 @@ def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[S
         planned_maintenance=ack[3] if acknowledged and ack else '',
         acknowledged_wear=_nan_if_none(ack[4]) if acknowledged and ack else math.nan,
         acknowledged_trend_wear=_nan_if_none(ack[5]) if acknowledged and ack else math.nan,
+        edited_by=ack[7] if acknowledged and ack and len(ack) > 7 else '',
         threshold=_nan_if_none(r[20]), warning_level=_nan_if_none(r[21]))
     if event != 'reset' or latch is None:
         return row

@@ -53,6 +53,7 @@ def test_a_maintenance_system_acknowledges_edits_withdraws_and_resets_with_a_tok
     bearer = _token(history, 'mia')
     done = client.post(API + '/acknowledge', headers=bearer, json={
         'owner': 'Team B', 'comment': 'gearbox ordered', 'planned_maintenance': '2026-12-01',
+        'allow_past_date': True,
         'work_order': 'WO-4711'})
     assert done.status_code == 200, done.text
     event = done.json()
@@ -68,6 +69,7 @@ def test_a_maintenance_system_acknowledges_edits_withdraws_and_resets_with_a_tok
                        json={'owner': 'Team B', 'extra': 1}).status_code == 422
     edited = client.post(API + '/acknowledgement/edit', headers=bearer, json={
         'owner': 'Team C', 'comment': 'gearbox ordered', 'planned_maintenance': '2026-12-08',
+        'allow_past_date': True,
         'work_order': 'WO-4712'})
     assert edited.status_code == 200 and edited.json()['event'] == 'acknowledgement_edited'
     row = next(r for r in client.get('/api/fleet', headers=bearer).json()['rows']

@@ -104,6 +104,7 @@ def test_the_joint_page_offers_the_reset_on_any_joint_and_the_form_records_it(
 def test_an_edit_changes_only_the_fields_it_sends(client, history, bearer):
     assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
         'owner': 'Team B', 'comment': 'gearbox ordered', 'planned_maintenance': '2026-12-01',
+        'allow_past_date': True,
         'work_order': 'WO-4711'}).status_code == 200
     edited = client.post(ALARMED + '/acknowledgement/edit', headers=bearer,
                          json={'owner': 'Team D'})
@@ -166,7 +167,8 @@ def test_a_polling_system_gets_the_events_stored_since_its_last_poll(client, his
 def test_an_acknowledged_alarm_past_its_planned_date_is_an_alarm_everywhere(
         client, history, bearer, capsys):
     assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
-        'owner': 'Team B', 'planned_maintenance': '2026-12-01'}).status_code == 200
+        'owner': 'Team B', 'planned_maintenance': '2026-12-01',
+        'allow_past_date': True}).status_code == 200
     acknowledged = _row(_fleet_json(history, capsys, '--now', '2026-11-30T12:00:00Z'),
                         'press_line', 'joint_2')
     assert (acknowledged['state'], acknowledged['reescalated']) == ('acknowledged', False)
@@ -220,3 +222,90 @@ def test_judged_two_months_later_no_crossing_date_is_shown_passed_without_overdu
     table = capsys.readouterr().out
     assert 'overdue since' in table
     assert table.splitlines()[0].startswith('3 robots, 5 joints: 1 alarm, 4 stale')
+
+
+def test_a_reescalation_is_written_to_the_alarm_log_once_by_whoever_sees_it_first(
+        client, history, bearer):
+    """Issue 44 (d): the audit trail shows a re-escalation, once, with who saw it."""
+    refused = client.post(ALARMED + '/acknowledge', headers=bearer, json={
+        'owner': 'Team B', 'planned_maintenance': '2020-01-01'})
+    assert refused.status_code == 422 and 'has passed' in refused.json()['detail']
+    assert client.post(ALARMED + '/acknowledge', headers=bearer, json={
+        'owner': 'Team B', 'planned_maintenance': '2020-01-01',
+        'allow_past_date': True}).status_code == 200
+    # an edit keeping the passed date is not refused; one moving it to another passed date is
+    assert client.post(ALARMED + '/acknowledgement/edit', headers=bearer, json={
+        'owner': 'Team C'}).status_code == 200
+    assert client.post(ALARMED + '/acknowledgement/edit', headers=bearer, json={
+        'planned_maintenance': '2020-01-01', 'comment': 'late'}).status_code == 200
+    assert client.post(ALARMED + '/acknowledgement/edit', headers=bearer, json={
+        'planned_maintenance': '2021-01-01'}).status_code == 422
+    with open_history(history, init=False) as stored:
+        assert not [e for e in stored.events(joint='joint_2', robot='press_line')
+                    if e.event == 'reescalated']
+    for _ in range(2):  # the API sees it first; the second poll and the page add nothing
+        assert client.get('/api/fleet', headers=bearer).status_code == 200
+    assert login(client, 'mia').status_code == 303
+    assert client.get('/').status_code == 200
+    with open_history(history, init=False) as stored:
+        logged = [e for e in stored.events(joint='joint_2', robot='press_line')
+                  if e.event == 'reescalated']
+    assert [(e.note, e.source) for e in logged] == [
+        ('the planned maintenance date 2020-01-01 has passed', 'api')]
+    kinds = [e['event'] for e in client.get('/api/alarms', headers=bearer).json()]
+    assert kinds[0] == 'reescalated'
+    log = client.get('/alarms')
+    assert log.status_code == 200
+    assert 're-escalated: the planned maintenance date 2020-01-01 has passed' in log.text
+
+
+def test_the_acknowledge_form_refuses_a_passed_date_unless_its_box_is_ticked(client, history):
+    assert login(client, 'mia').status_code == 303
+    page = client.get(joint_url('press_line', 'joint_2'))
+    assert 'id="ack-allow-past"' in page.text
+    token = csrf_of(page.text)
+    form = {'csrf_token': token, 'owner': 'Team B', 'comment': 'late entry',
+            'planned_maintenance': '2020-01-01'}
+    refused = client.post(joint_url('press_line', 'joint_2') + '/acknowledge', data=form,
+                          follow_redirects=True)
+    assert refused.status_code == 200 and '2020-01-01 has passed' in refused.text
+    with open_history(history, init=False) as stored:
+        assert stored.acknowledgement(joint='joint_2', robot='press_line') is None
+    done = client.post(joint_url('press_line', 'joint_2') + '/acknowledge',
+                       data={**form, 'allow_past_date': '1'}, follow_redirects=True)
+    assert done.status_code == 200 and 'alarm acknowledged' in done.text
+    with open_history(history, init=False) as stored:
+        ack = stored.acknowledgement(joint='joint_2', robot='press_line')
+    assert (ack.planned_maintenance, ack.source) == ('2020-01-01', 'web')
+
+
+def test_acknowledged_by_is_the_first_acknowledger_and_edited_by_the_last_editor(
+        client, history, bearer, capsys):
+    """Issue 44: "acknowledged by" named the last editor with the first acknowledgement's time."""
+    with open_history(history, init=False) as stored:
+        stored.add_user(name='ben', role='maintainer', password='correct horse battery')
+        first = stored.acknowledge_alarm(joint='joint_2', robot='press_line', user='ana',
+                                         owner='Team B', comment='ordered')
+        time.sleep(0.01)
+        stored.edit_acknowledgement(joint='joint_2', robot='press_line', user='ben',
+                                    owner='Team C')
+    row = _row(_fleet_json(history, capsys), 'press_line', 'joint_2')
+    assert (row['acknowledged_by'], row['edited_by']) == ('ana', 'ben')
+    assert row['acknowledged_time_s'] == pytest.approx(first.wall_time_s)
+    assert login(client, 'mia').status_code == 303
+    page = client.get(joint_url('press_line', 'joint_2')).text
+    assert '<b id="ack-by">ana</b>' in page and '<b id="ack-edited-by">ben</b>' in page
+
+
+def test_after_a_reset_the_joint_page_shows_nothing_of_the_old_life(client, history, bearer):
+    """Issue 44: no "last experiment" of the old life beside "experiments 0", no horizon text."""
+    old = _row(client.get('/api/fleet', headers=bearer).json()['rows'], 'welder_7', 'joint_3')
+    assert client.post(NEVER_ALARMED + '/reset', headers=bearer,
+                       json={'reason': 'gearbox replaced'}).status_code == 200
+    assert login(client, 'mia').status_code == 303
+    page = client.get(joint_url('welder_7', 'joint_3')).text
+    assert '<dd id="f-experiments">0</dd>' in page
+    assert 'id="f-last">none since the reset' in page
+    assert old['last_experiment'] not in page.split('id="f-last">')[1].split('</dd>')[0]
+    crossing = page.split('id="f-crossing">')[1].split('</dd>')[0]
+    assert crossing == 'no experiment since the reset'

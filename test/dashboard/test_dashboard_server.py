@@ -306,6 +306,7 @@ def test_maintainer_acknowledges_then_resets(client, history):
     token = csrf_of(client.get(url).text)
     done = client.post(url + '/acknowledge', data={
         'owner': 'Team B', 'comment': 'gearbox ordered', 'planned_maintenance': '2026-12-01',
+        'allow_past_date': True,
         'csrf_token': token}, follow_redirects=False)
     assert done.status_code == 303
     with open_history(history, init=False) as stored:

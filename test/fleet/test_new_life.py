@@ -121,12 +121,15 @@ def test_a_reset_starts_a_new_life_and_notifies_resolved_once(tmp_path, capsys, 
     assert (row['life_started_s'], row['reset_by'], row['reset_reason'],
             row['experiments']) == (reset.stamp_s, 'mia', 'gearbox replaced', 0)
     assert rows[-1] == row  # nothing of it to judge yet: last
-    # the notifier: the raise resolved (once), nothing else of the old life
+    # the notifier: the raise resolved (once), and the old life's forecast alert (issue 44:
+    # a reset resolves all of the joint's alerts), nothing else of the old life
     webhook.bodies.clear()
     sent = _notify(capsys, path, config)
     assert [(s['kind'], s['joint']) for s in sent if s['robot'] == 'press_line'] == [
-        ('alarm_resolved', 'joint_2')]
-    [body] = [b for b in webhook.bodies if b['commonLabels']['robot'] == 'press_line']
+        ('alarm_resolved', 'joint_2'), ('forecast_resolved', 'joint_2')]
+    [body, forecast] = [b for b in webhook.bodies if b['commonLabels']['robot'] == 'press_line']
+    assert (forecast['status'], forecast['commonLabels']['alertname']) == (
+        'resolved', 'WearForecastCrossing')
     alert = body['alerts'][0]
     assert (body['status'], alert['status'], alert['labels']['alertname']) == (
         'resolved', 'resolved', 'WearAlarmRaised')
@@ -220,4 +223,5 @@ def test_an_acknowledged_alarm_is_reescalated_when_its_planned_date_passes(
     rows = json.loads(capsys.readouterr().out)
     assert (rows[1]['joint'], rows[1]['reescalated']) == ('joint_2', False)
     sent = _notify(capsys, path, config)
-    assert [s['kind'] for s in sent if s['robot'] == 'press_line'] == ['alarm_reescalated']
+    assert [s['kind'] for s in sent if s['robot'] == 'press_line'] == [
+        'alarm_acknowledged', 'alarm_reescalated']  # the acknowledgement is notified too

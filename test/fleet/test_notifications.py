@@ -132,7 +132,9 @@ def smtp():
 
 
 def _config(tmp_path, *, webhook=None, smtp=None, name='notifications.yaml', **extra):
+    # one send per event from the first pass on (the default summary: its own tests below)
     document = {'forecast_horizon_days': 30, 'dashboard_url': DASHBOARD,
+                'first_pass_summary': False,
                 'retry': {'attempts': 3, 'backoff_initial_s': 0.01, 'backoff_max_s': 0.02,
                           'total_s': 30, 'passes': 2}}
     if webhook is not None:
@@ -320,23 +322,39 @@ def test_an_acknowledged_joint_gets_nothing_until_its_reset_starts_a_new_cycle(
         history.acknowledge_alarm(robot='cell_1', joint='joint_2', user='ana', owner='ben',
                                   comment='bearing ordered', planned_maintenance='2026-12-01')
         notify_once(history=history, config=config, now_s=NOW)
-        assert _kinds(webhook) == [('cell_1', 'joint_3', 'WearForecastCrossing'),
+        # the acknowledgement itself is notified (issue 44), the joint's alarm, forecast and
+        # staleness are not
+        assert _kinds(webhook) == [('cell_1', 'joint_2', 'WearAlarmAcknowledged'),
+                                   ('cell_1', 'joint_3', 'WearForecastCrossing'),
                                    ('cell_2', 'joint_2', 'WearJointStale')]
+        [ack] = [b for b in webhook.alerts() if b['commonLabels']['joint'] == 'joint_2'
+                 and b['commonLabels']['robot'] == 'cell_1']
+        assert ack['status'] == 'firing' and ack['commonLabels']['severity'] == 'info'
+        assert ack['alerts'][0]['annotations']['summary'] == (
+            'cell_1 joint_2: wear alarm acknowledged by ana, maintenance planned 2026-12-01')
         # stale as well: still nothing for the acknowledged joint
         assert notify_once(history=history, config=config, now_s=NOW + 30 * DAY) != []
         labels = [b['commonLabels'] for b in webhook.alerts()]
-        assert ('cell_1', 'joint_2') not in {(b['robot'], b['joint']) for b in labels}
+        assert [b['alertname'] for b in labels if (b['robot'], b['joint']) == (
+            'cell_1', 'joint_2')] == ['WearAlarmAcknowledged']
         history.reset_alarm(robot='cell_1', joint='joint_2', user='ana',
                             reason='gearbox replaced', stamp_s=T0 + 5 * HOUR)
         # the new life: its trend again past the threshold soon -> a crossing of a new cycle
         history.append(_record('cell_1', 'joint_2', T0 + 6 * HOUR, wear=70.0, crossing=3.0))
         before = len(webhook.bodies)
         sent = notify_once(history=history, config=config, now_s=T0 + 6 * HOUR + 60)
-        assert [(s.robot, s.joint, s.kind) for s in sent] == [
-            ('cell_1', 'joint_2', 'forecast_crossing')]
-        [body] = webhook.alerts()[before:]
+        # the reset ends the acknowledgement's alert (resolved; the raise was never sent);
+        # (judged back at T0 + 6 h, cell_1/joint_3's overdue crossing is no longer overdue)
+        assert sorted((s.robot, s.joint, s.kind) for s in sent) == [
+            ('cell_1', 'joint_2', 'acknowledgement_resolved'),
+            ('cell_1', 'joint_2', 'forecast_crossing'),
+            ('cell_1', 'joint_3', 'forecast_resolved')]
+        body, ended, _ = webhook.alerts()[before:]
         assert body['groupKey'] == (
             f'forecast_crossing/cell_1/joint_2/cycle-{T0 + 5 * HOUR:.6f}')
+        assert ended['status'] == 'resolved' and ended['alerts'][0]['fingerprint'] == \
+            ack['alerts'][0]['fingerprint'] and ended['groupKey'] == ack['groupKey']
+        assert ended['alerts'][0]['endsAt'] == iso_time(T0 + 6 * HOUR + 60)
         assert notify_once(history=history, config=config, now_s=T0 + 6 * HOUR + 120) == []
 
 
@@ -350,10 +368,18 @@ def test_a_joint_is_stale_once_per_episode_judged_at_the_given_time(tmp_path, we
         [sent] = notify_once(history=history, config=config, now_s=limit + 1)
         assert sent.kind == 'joint_stale' and sent.delivered
         assert notify_once(history=history, config=config, now_s=limit + DAY) == []
-        history.append(_record('r', 'j', limit + DAY))  # back, then quiet again
-        assert notify_once(history=history, config=config, now_s=limit + DAY + 60) == []
+        history.append(_record('r', 'j', limit + DAY))  # back: the episode resolves, once
+        [back] = notify_once(history=history, config=config, now_s=limit + DAY + 60)
+        assert back.kind == 'stale_resolved' and back.delivered
+        assert notify_once(history=history, config=config, now_s=limit + DAY + 120) == []
         [again] = notify_once(history=history, config=config, now_s=limit + 30 * DAY)
-    first, second = webhook.alerts()
+    first, ended, second = webhook.alerts()
+    assert ended['status'] == 'resolved' == ended['alerts'][0]['status']
+    assert ended['groupKey'] == first['groupKey']
+    assert ended['alerts'][0]['fingerprint'] == first['alerts'][0]['fingerprint']
+    assert ended['commonLabels']['alertname'] == 'WearJointStale'
+    assert ended['alerts'][0]['endsAt'] == iso_time(limit + DAY + 60)
+    assert ended['alerts'][0]['startsAt'] == iso_time(limit + DAY + 60)
     assert first['groupKey'] == f'joint_stale/r/j/last-{T0 + 2 * HOUR:.6f}'
     assert second['groupKey'] == f'joint_stale/r/j/last-{limit + DAY:.6f}'
     assert first['alerts'][0]['startsAt'] == iso_time(limit)
@@ -757,9 +783,111 @@ def test_a_postponed_planned_date_missed_again_is_notified_again(tmp_path, webho
         [missed] = notify_once(history=history, config=config, now_s=day('2026-12-02'))
         history.edit_acknowledgement(robot='cell_1', joint='joint_2', user='ana',
                                      planned_maintenance='2026-12-05')
-        assert notify_once(history=history, config=config, now_s=day('2026-12-03')) == []
+        # the new date ends the re-escalation (acknowledged anew): resolved, once
+        [ended] = notify_once(history=history, config=config, now_s=day('2026-12-03'))
+        assert notify_once(history=history, config=config, now_s=day('2026-12-04')) == []
         [again] = notify_once(history=history, config=config, now_s=day('2026-12-06'))
     assert (missed.kind, again.kind) == ('alarm_reescalated', 'alarm_reescalated')
+    assert ended.kind == 'reescalation_resolved'
+    # the audit trail: each missed date once, as the notifier saw it (schema version 11)
+    with WearHistory(tmp_path / 'h.db') as history:
+        logged = [e for e in history.events(robot='cell_1', joint='joint_2')
+                  if e.event == 'reescalated']
+    assert [(e.note, e.source) for e in logged] == [
+        ('the planned maintenance date 2026-12-01 has passed', 'notify'),
+        ('the planned maintenance date 2026-12-05 has passed', 'notify')]
+    assert ended.event_key == f'reescalation_resolved/{missed.event_key}'
+    [body] = [b for b in webhook.alerts() if b['status'] == 'resolved']
+    assert body['groupKey'] == missed.event_key
+    assert body['alerts'][0]['endsAt'] == iso_time(day('2026-12-03'))
     assert missed.event_key.endswith('/date-2026-12-01')
     assert again.event_key.endswith('/date-2026-12-05')
     assert 'the planned maintenance date 2026-12-05 has passed' in again.summary
+
+
+# --------------------------------------------------------------------------- incidents (issue 44)
+
+def test_the_first_pass_sends_one_summary_then_events_one_by_one(history_location, tmp_path,
+                                                                 webhook, smtp):
+    """Issue 44: a first pass on a history sends one message per channel, not a flood."""
+    config = _config(tmp_path, webhook=webhook, smtp=smtp, first_pass_summary=True)
+    assert notification_config_from_mapping(
+        {'webhooks': [{'url': webhook.url}]}).first_pass_summary is True  # the default
+    with WearHistory(history_location) as history:
+        _fleet(history)
+        sent = notify_once(history=history, config=config, now_s=NOW)
+        # the four events due, as one webhook POST and one e-mail
+        assert len(sent) == 8 and all(s.delivered for s in sent)
+        assert {s.claim_key for s in sent} == {'first-pass-summary@webhook:ops',
+                                               'first-pass-summary@email'}
+        [body] = webhook.alerts()
+        assert len(smtp.messages) == 1
+        assert body['groupKey'] == 'first-pass-summary' and body['status'] == 'firing'
+        assert sorted((a['labels']['robot'], a['labels']['joint'], a['labels']['alertname'])
+                      for a in body['alerts']) == EXPECTED
+        keys = {a['labels']['alertname'] + a['labels']['joint']: a['fingerprint']
+                for a in body['alerts']}
+        assert keys['WearAlarmRaisedjoint_2'] == hashlib.sha256(
+            f'alarm_raised/cell_1/joint_2/{RAISE_S:.6f}'.encode()).hexdigest()[:16]
+        assert body['commonAnnotations']['summary'].startswith('4 events due at the first pass')
+        [message] = smtp.messages
+        assert message['Subject'] == '[robot-wear-monitor] first pass: 4 events due'
+        text = message.get_content()
+        assert all(s.summary in text for s in sent)
+        assert notify_once(history=history, config=config, now_s=NOW + 60) == []
+        # later events one by one, and the summary's alerts resolve one by one
+        history.reset_alarm(robot='cell_1', joint='joint_2', user='ana', reason='new gearbox')
+        later = notify_once(history=history, config=config, now_s=NOW + 120)
+    assert sorted((s.kind, s.channel) for s in later) == [
+        ('alarm_resolved', 'email'), ('alarm_resolved', 'webhook:ops'),
+        ('forecast_resolved', 'email'), ('forecast_resolved', 'webhook:ops')]
+    ends = {b['commonLabels']['alertname']: b for b in webhook.alerts()[1:]}
+    assert ends['WearAlarmRaised']['alerts'][0]['fingerprint'] == keys['WearAlarmRaisedjoint_2']
+    assert ends['WearForecastCrossing']['alerts'][0]['fingerprint'] == \
+        keys['WearForecastCrossingjoint_2']
+    assert all(b['status'] == 'resolved' for b in ends.values())
+
+
+def test_a_failed_first_pass_summary_is_sent_again_as_a_summary(tmp_path, webhook):
+    webhook.fail_first = 3  # every try of the first pass
+    config = _config(tmp_path, webhook=webhook, first_pass_summary=True)
+    with WearHistory(tmp_path / 'h.db') as history:
+        _fleet(history)
+        failed = notify_once(history=history, config=config, now_s=NOW)
+        assert len(failed) == 4 and not any(s.delivered for s in failed)
+        assert history.notifications() == []  # every claim released
+        again = notify_once(history=history, config=config, now_s=NOW + 60)
+    assert len(again) == 4 and all(s.delivered for s in again)
+    [body] = webhook.alerts()
+    assert body['groupKey'] == 'first-pass-summary' and len(body['alerts']) == 4
+
+
+def test_a_crossing_no_longer_due_and_a_reset_resolve_their_alerts_once(tmp_path, webhook):
+    """Issue 44: every alert kind ends when its cause does; a reset ends all of a joint's."""
+    config = _config(tmp_path, webhook=webhook)
+    with WearHistory(tmp_path / 'h.db') as history:
+        for k in range(3):
+            history.append(_record('r', 'j', T0 + k * HOUR, wear=20.0, crossing=5.0))
+        [ahead] = notify_once(history=history, config=config, now_s=T0 + 2 * HOUR + 60)
+        assert ahead.kind == 'forecast_crossing'
+        # a better estimate: the crossing now 2000 experiments (83 days) away, outside 30
+        history.append(_record('r', 'j', T0 + 3 * HOUR, wear=15.0, crossing=2000.0))
+        [ended] = notify_once(history=history, config=config, now_s=T0 + 3 * HOUR + 60)
+        assert ended.kind == 'forecast_resolved'
+        assert notify_once(history=history, config=config, now_s=T0 + 3 * HOUR + 120) == []
+        # stale, then a reset (no alarm): the stale alert and nothing else ends
+        [stale] = notify_once(history=history, config=config, now_s=T0 + 7 * HOUR)
+        history.reset_alarm(robot='r', joint='j', user='ana', reason='preventive',
+                            stamp_s=T0 + 7 * HOUR + 10)
+        ends = notify_once(history=history, config=config, now_s=T0 + 7 * HOUR + 60)
+    assert stale.kind == 'joint_stale'
+    assert [s.kind for s in ends] == ['stale_resolved']
+    first, end, stale_body, stale_end = webhook.alerts()
+    assert (first['status'], end['status']) == ('firing', 'resolved')
+    assert end['groupKey'] == first['groupKey'] == 'forecast_crossing/r/j/cycle-0'
+    assert end['alerts'][0]['fingerprint'] == first['alerts'][0]['fingerprint']
+    assert end['alerts'][0]['labels']['alertname'] == 'WearForecastCrossing'
+    assert end['alerts'][0]['endsAt'] == iso_time(T0 + 3 * HOUR + 60)
+    assert end['alerts'][0]['annotations']['summary'] == (
+        'r j: resolved: the forecast crossing is no longer due')
+    assert stale_end['groupKey'] == stale_body['groupKey'] and stale_end['status'] == 'resolved'
