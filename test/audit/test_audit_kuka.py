@@ -49,8 +49,9 @@ def test_speed_model_misses_the_window_and_gravity_load_effects(kuka_table, kuka
     named = {v for effect in result.effects for v in effect.variables}
     assert named & {'position_span', 'load_torque', 'position_centre'}
     # model (4) in its domain with unsupported Stribeck terms dropped (issue 43) starts lower
-    # (0.096 N.m held out, was 0.137), so the effects' share is smaller
-    assert result.rms_after < 0.85 * result.rms_before
+    # (0.096-0.099 N.m held out, was 0.137), so the effects' share is smaller: 0.099 -> 0.088
+    # on the 784 levels of issue 43's reading of the runs (0.096 -> 0.074 on the 781 before)
+    assert result.rms_after < 0.92 * result.rms_before
     # issue 10: a candidate whose effect raises the held-out error is rejected, the next tried
     # (with the one fitter of issue 43 the first two candidates are both added, so the
     # two-effect audit may end at its maximum before any is rejected)
