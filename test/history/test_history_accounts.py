@@ -184,8 +184,9 @@ def test_an_acknowledgement_is_edited_and_withdrawn_each_an_event(history_locati
                                          comment='gearbox ordered, 2 weeks',
                                          planned_maintenance='2026-12-24', work_order='WO-2')
         row = history.fleet()[0]
-        assert (row.acknowledged, row.acknowledged_by, row.planned_maintenance) == (
-            True, 'carl', '2026-12-24')
+        # issue 44: "acknowledged by" is the first acknowledger, the last editor apart
+        assert (row.acknowledged, row.acknowledged_by, row.edited_by,
+                row.planned_maintenance) == (True, 'ana', 'carl', '2026-12-24')
         with pytest.raises(HistoryError, match='already acknowledged'):
             history.acknowledge_alarm(joint='joint_2', user='ana', owner='ben', comment='')
         with pytest.raises(HistoryError, match='withdrawal reason must be a non-empty'):
