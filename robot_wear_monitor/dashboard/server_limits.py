@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from robot_wear_monitor.setting_fields import at_least, check_settings, in_range, non_empty, setting
+from robot_wear_monitor.setting_fields import (at_least, check_settings, in_range, non_empty,
+                                               setting)
 
 #: How long a request's headers may take to arrive, from their first byte [s].
 HEADER_TIMEOUT_S = 10.0

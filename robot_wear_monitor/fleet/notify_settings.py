@@ -129,12 +129,12 @@ class EmailConfig:
     """
 
     host: str
+    sender: str
+    to: tuple[str, ...]
     port: int = setting(check=in_range(1, 65535),
                         description='TCP port of the SMTP server (587 with STARTTLS, else 25 '
                                     'when not given)')
-    sender: str
-    to: tuple[str, ...]
-    starttls: bool = setting(True, description='STARTTLS before anything else; the server\'s '
+    starttls: bool = setting(True, description="STARTTLS before anything else; the server's "
                                                'certificate is verified')
     user: str = ''
     password_file: str = ''
@@ -165,7 +165,7 @@ class NotificationConfig:
     events: tuple[str, ...] = EVENTS
     forecast_horizon_days: float = setting(
         DEFAULT_FORECAST_HORIZON_DAYS, unit='days', check=in_range(0.0, 3650.0),
-        description="how far ahead a forecast crossing of the wear threshold counts (the "
+        description='how far ahead a forecast crossing of the wear threshold counts (the '
                     "notifications' forecast_crossing, the fleet's warning state)")
     reescalation_margin: float = setting(
         DEFAULT_REESCALATION_MARGIN, unit='wear units', check=in_range(0.0, 100.0,

@@ -29,10 +29,10 @@ import math
 from typing import Any, Iterable, Optional, Sequence
 
 from robot_wear_monitor.csv_cells import csv_text
-from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
-                                             DEFAULT_FORECAST_HORIZON_DAYS, joint_state)
 from robot_wear_monitor.fleet.notify_settings import (
     DEFAULT_REESCALATION_MARGIN as NOTIFY_REESCALATION_MARGIN)
+from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
+                                             DEFAULT_FORECAST_HORIZON_DAYS, joint_state)
 from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, threshold_words
 from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.history.recent import RECENT_INTERVALS

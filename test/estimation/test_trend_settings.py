@@ -19,8 +19,8 @@ from wear_testing import docs_settings
 
 def test_every_trend_setting_is_declared_with_a_text_and_a_valid_default():
     declared = declared_settings(TrendConfig)
-    assert set(declared) == {f.name for f in TrendConfig.__dataclass_fields__.values()} - {
-        'wear_grid'}
+    fields = {f.name for f in TrendConfig.__dataclass_fields__.values()}
+    assert set(declared) == fields - {'wear_grid'}
     for name, setting in declared.items():
         assert setting.description and not setting.description.endswith('.'), name
         assert '[' not in setting.description, f'{name}: the unit goes in unit='
@@ -35,7 +35,8 @@ def test_every_trend_setting_is_declared_with_a_text_and_a_valid_default():
 
 @pytest.mark.parametrize('changes, message', [
     ({'forecast_horizon': -3}, 'trend: forecast_horizon: must be >= 1, got -3 [experiments]'),
-    ({'forecast_horizon': 2.5}, 'trend: forecast_horizon: expected an integer, got 2.5 [experiments]'),
+    ({'forecast_horizon': 2.5},
+     'trend: forecast_horizon: expected an integer, got 2.5 [experiments]'),
     ({'rate_step': math.nan},
      'trend: rate_step: expected a finite number (must be > 0), got nan'),
     ({'likelihood_power': 1.5},

@@ -159,7 +159,7 @@ def test_the_options_of_notify_and_the_pages_state_the_declared_defaults():
     dashboard = ' '.join((docs_settings.DOCS / 'dashboard.md').read_text().split())
     assert f'`reescalation_margin` of the `--notify` configuration, default {margin:g} ' \
            'wear' in dashboard
-    assert f"`forecast_horizon_days`, {horizon:g} without one" in dashboard
+    assert f'`forecast_horizon_days`, {horizon:g} without one' in dashboard
 
 
 def test_the_settings_module_loads_no_yaml_or_ssl():
