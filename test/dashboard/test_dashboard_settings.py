@@ -87,3 +87,6 @@ def test_the_options_table_of_the_docs_is_the_declarations():
     text = ' '.join((docs_settings.DOCS / 'dashboard.md').read_text().split())
     assert f'`--header-timeout-s` ({HEADER_TIMEOUT_S:g} s)' in text
     assert f'`--limit-concurrency` ({LIMIT_CONCURRENCY})' in text
+    security = ' '.join((docs_settings.DOCS / 'security.md').read_text().split())
+    assert f'`server.header_timeout_protocol`, {HEADER_TIMEOUT_S:g} s)' in security
+    assert f'`--limit-concurrency` (503 past {LIMIT_CONCURRENCY})' in security
