@@ -28,6 +28,7 @@ import math
 from typing import Any, Callable, Optional
 
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.text import shorten
 
 #: A check: the value -> an error text (``'must be > 0'``), or None when the value is valid.
 Check = Callable[[Any], Optional[str]]
@@ -130,9 +131,11 @@ def problem_of(declared: Setting, value: Any) -> Optional[str]:
     if value is None:
         return None if declared.optional else 'must be given'
     if declared.kind == 'float':
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
             return 'expected a finite number'
+        if not math.isfinite(value):  # the range too: comparisons with NaN fail
+            ranged = declared.check(value) if declared.check is not None else None
+            return 'expected a finite number' + (f' ({ranged})' if ranged else '')
     elif declared.kind == 'int':
         if isinstance(value, bool) or not isinstance(value, int):
             return 'expected an integer'
@@ -148,15 +151,18 @@ def check_settings(instance: Any, *, prefix: str | None = None) -> None:
     """
     Check every declared setting of a configuration dataclass instance.
 
-    :raises InputError: ``<prefix><name>: <problem>, got <value>`` for the first bad one
-        (``prefix`` default: ``'<Class>.'``).
+    :raises InputError: ``<prefix><name>: <problem>, got <value> [<unit>]`` for the first bad
+        one (``prefix`` default: ``'<Class>.'``; the value cut short and escaped, the unit
+        when the setting has one).
     """
     prefix = f'{type(instance).__name__}.' if prefix is None else prefix
     for name, declared in declared_settings(instance).items():
         value = getattr(instance, name)
         problem = problem_of(declared, value)
         if problem:
-            raise InputError(f'{prefix}{name}: {problem}, got {str(repr(value))[:60]}')
+            unit = f' [{declared.unit}]' if declared.unit not in ('', '-') else ''
+            raise InputError(f'{prefix}{name}: {problem}, got {shorten(repr(value), 60)}'
+                             f'{unit}')
 
 
 # ----------------------------------------------------------------------------- checks

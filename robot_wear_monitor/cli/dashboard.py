@@ -26,8 +26,9 @@ import json
 import sys
 from typing import Any
 
+from robot_wear_monitor.cli.fleet_options import add_declared_options
 from robot_wear_monitor.cli.options import PROG, shown_location
-from robot_wear_monitor.dashboard.server_limits import HEADER_TIMEOUT_S, LIMIT_CONCURRENCY
+from robot_wear_monitor.dashboard.server_limits import ServerSettings
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
@@ -51,10 +52,8 @@ def _history_option(parser: argparse.ArgumentParser, *, top: bool) -> None:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of ``dashboard`` and its ``user`` subcommands."""
     _history_option(parser, top=True)
-    parser.add_argument('--host', default='127.0.0.1',
-                        help='address to listen on (default 127.0.0.1; another address needs '
-                             '--tls-cert/--tls-key or --insecure-http)')
-    parser.add_argument('--port', type=int, default=8080, help='TCP port (default 8080)')
+    # --host, --port, --limit-concurrency, --header-timeout-s, --notify-interval-s: declared
+    add_declared_options(parser, 'dashboard')
     parser.add_argument('--tls-cert', metavar='PEM', help='TLS certificate: serve HTTPS')
     parser.add_argument('--tls-key', metavar='PEM', help='private key of --tls-cert')
     parser.add_argument('--insecure-http', action='store_true',
@@ -65,20 +64,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--trusted-proxy', action='append', default=[], metavar='ADDRESS',
                         help="a proxy's address whose X-Forwarded-For names the client (for "
                              'the login rate limit; none trusted by default); repeatable')
-    parser.add_argument('--limit-concurrency', type=int, default=None, metavar='N',
-                        help='connections and requests at once; past it 503 (default '
-                             f'{LIMIT_CONCURRENCY})')
-    parser.add_argument('--header-timeout-s', type=float, default=None, metavar='S',
-                        help='close a connection whose request headers take longer (default '
-                             f'{HEADER_TIMEOUT_S:g})')
     parser.add_argument('--params', action='append', default=[], metavar='FILE',
                         help='a parameter set the estimates name (for the model curve; the '
                              'packaged sets are known already); repeatable')
     parser.add_argument('--notify', metavar='CONFIG',
                         help='send notifications in the server process (the configuration of '
                              '`notify`), one pass every --notify-interval-s')
-    parser.add_argument('--notify-interval-s', type=float, default=60.0, metavar='S',
-                        help='seconds between notification passes (default 60)')
     users = parser.add_subparsers(dest='dashboard_command', metavar='user|token|audit')
     user = users.add_parser('user', help='add, list or remove dashboard users; a new password '
                                          'or role')
@@ -244,20 +235,12 @@ def main(args: argparse.Namespace) -> int:
     except ImportError as error:
         raise InputError(f'the dashboard needs {error.name}: pip install '
                          '"robot_wear_monitor[dashboard]"') from None
-    if not 0 < args.port < 65536:
-        raise InputError(f'--port must be 1-65535, got {args.port}')
-    if not args.notify_interval_s >= 1.0:
-        raise InputError(f'--notify-interval-s must be >= 1, got {args.notify_interval_s}')
-    check_listen(host=args.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
+    # the options' types checked each value with its declared check; the dataclass again
+    server = ServerSettings(host=args.host, port=args.port,
+                            limit_concurrency=args.limit_concurrency,
+                            header_timeout_s=args.header_timeout_s)
+    check_listen(host=server.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
                  insecure_http=args.insecure_http)
-    limit_concurrency = LIMIT_CONCURRENCY if args.limit_concurrency is None \
-        else args.limit_concurrency
-    header_timeout_s = HEADER_TIMEOUT_S if args.header_timeout_s is None \
-        else args.header_timeout_s
-    if limit_concurrency < 1:
-        raise InputError(f'--limit-concurrency must be >= 1, got {limit_concurrency}')
-    if not 0.5 <= header_timeout_s <= 600.0:
-        raise InputError(f'--header-timeout-s must be 0.5-600, got {header_timeout_s:g}')
     notifications = None
     if args.notify:
         # imported when the verb runs: --help and the parse load none of it, and numpy loads after
@@ -278,7 +261,7 @@ def main(args: argparse.Namespace) -> int:
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
           '(Ctrl-C stops)', file=sys.stderr)
-    serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key,
-          listener=listener, limit_concurrency=limit_concurrency,
-          header_timeout_s=header_timeout_s)
+    serve(app, host=server.host, port=server.port, tls_cert=args.tls_cert,
+          tls_key=args.tls_key, listener=listener, limit_concurrency=server.limit_concurrency,
+          header_timeout_s=server.header_timeout_s)
     return 0

@@ -14,6 +14,7 @@ import io
 import math
 import time
 
+from robot_wear_monitor.cli.fleet_options import add_declared_options
 from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
                                             emit_json, shown_location)
 from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
@@ -33,13 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='judge staleness at this time: ISO 8601 (e.g. '
                              '2026-11-24T12:00:00Z) or seconds since the epoch '
                              '(default: the clock)')
-    parser.add_argument('--forecast-horizon-days', type=float, default=None, metavar='DAYS',
-                        help='a forecast crossing this soon makes a joint a warning (default: '
-                             "30, the notifications' forecast_horizon_days)")
-    parser.add_argument('--reescalation-margin', type=float, default=None, metavar='W',
-                        help='an acknowledged alarm goes back to the top when its wear rises '
-                             'W wear units past its value at the acknowledgement (default: '
-                             '5; its planned maintenance date passing does too)')
+    # --forecast-horizon-days, --reescalation-margin: the notification configuration's
+    add_declared_options(parser, 'fleet')
     add_local(parser)
     add_json(parser, what='the rows (a list of objects)')
 
@@ -67,21 +63,14 @@ def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
     # one-BLAS-thread setting
-    from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
-                                                  fleet_table, fleet_view, plural)
-    from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
+    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view, plural
+    from robot_wear_monitor.fleet.states import DAY_S, STATES
     now_s = parse_time(args.now) if args.now else time.time()
-    margin = (DEFAULT_REESCALATION_MARGIN if args.reescalation_margin is None
-              else args.reescalation_margin)
-    if not (math.isfinite(margin) and margin > 0):
-        raise InputError(f'--reescalation-margin must be > 0 wear units, got {margin:.6g}')
-    horizon = (DEFAULT_FORECAST_HORIZON_DAYS if args.forecast_horizon_days is None
-               else args.forecast_horizon_days)
-    if not (math.isfinite(horizon) and horizon >= 0):
-        raise InputError(f'--forecast-horizon-days must be >= 0, got {horizon:.6g}')
+    # checked by the options' types: the notification configuration's declared ranges
     with open_history(args.history, init=False) as history:
         rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s,
-                          reescalation_margin=margin, forecast_horizon_s=horizon * DAY_S)
+                          reescalation_margin=args.reescalation_margin,
+                          forecast_horizon_s=args.forecast_horizon_days * DAY_S)
     if args.robot and not rows:
         raise InputError(f'{shown_location(args.history)}: no estimates of robot '
                          f'{args.robot!r}')

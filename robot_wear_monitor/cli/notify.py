@@ -18,6 +18,7 @@ import threading
 import time
 from typing import Any, TYPE_CHECKING
 
+from robot_wear_monitor.cli.fleet_options import add_declared_options
 from robot_wear_monitor.cli.options import (add_history, add_json, bounded, emit_json,
                                             shown_location)
 from robot_wear_monitor.errors import InputError
@@ -30,8 +31,6 @@ if TYPE_CHECKING:
 HELP = ("send the fleet's events (alarm raised, forecast crossing within a horizon, stale "
         'joint) by webhook and e-mail, once per event')
 
-#: ``--interval-s``: from 1 s to one day.
-INTERVAL_S = bounded(1.0, 86400.0, unit='s')
 #: ``--log N``: rows of the notification log.
 LOG_ROWS = bounded(1, 100000, integer=True)
 
@@ -45,8 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--once', action='store_true',
                         help='one pass, then exit (for cron): 0 all delivered, 1 a send '
                              'failed (retried on the next pass)')
-    parser.add_argument('--interval-s', type=INTERVAL_S, default=60.0, metavar='S',
-                        help='seconds between two passes without --once (default 60 s)')
+    add_declared_options(parser, 'notify')  # --interval-s (the loop without --once)
     parser.add_argument('--now', metavar='TIME',
                         help='with --once: judge the events at this time: ISO 8601 or seconds '
                              'since the epoch (default: the clock)')

@@ -18,7 +18,10 @@ import threading
 import time
 from typing import Iterator, Optional, TYPE_CHECKING
 
+from robot_wear_monitor.dashboard.auth import MAX_FAILURES, WINDOW_S
+from robot_wear_monitor.fleet.notify_settings import NotifierSettings
 from robot_wear_monitor.history import open_history, WearHistory
+from robot_wear_monitor.setting_fields import check_settings, in_range, setting, shared_setting
 
 if TYPE_CHECKING:  # the type only; the configuration is read by the command that starts
     from robot_wear_monitor.fleet.notify_config import NotificationConfig
@@ -100,25 +103,39 @@ class DashboardSettings:
 
     ``history``: an SQLite path or a ``postgresql://`` URL; ``params``: parameter-set files
     the estimates may name (beside the packaged ones); ``secret_key``: the session key (a new
-    random one when None); ``https``: the session cookie is Secure (served over TLS);
-    ``notifications``: the notification configuration (``dashboard --notify CONFIG``, read
-    once with :func:`~robot_wear_monitor.fleet.notify_config.load_notification_config` where
-    the server starts): the background loop sends with it every ``notify_interval_s``, and
-    the pages order by its re-escalation margin; ``max_failures`` and ``window_s``: the login
-    rate limit;
-    ``behind_tls``: a TLS proxy is in front (the session cookie is Secure although this
-    server speaks plain HTTP); ``trusted_proxies``: peer addresses whose ``X-Forwarded-For``
-    names the client (the login rate limit counts per client address).
+    random one when None); ``notifications``: the notification configuration (``dashboard
+    --notify CONFIG``, read once with
+    :func:`~robot_wear_monitor.fleet.notify_config.load_notification_config` where the server
+    starts): the background loop sends with it every ``notify_interval_s``, and the pages
+    order by its re-escalation margin; ``trusted_proxies``: peer addresses whose
+    ``X-Forwarded-For`` names the client (the login rate limit counts per client address).
+    The other fields are declared settings (default, unit, description, check: a bad value is
+    an :class:`~robot_wear_monitor.errors.InputError` naming the field, the value and the
+    range, from Python as from the command line).
     """
 
     history: str
     params: tuple[str, ...] = ()
     secret_key: Optional[str] = None
-    https: bool = False
+    https: bool = setting(False, description='serve HTTPS: the session cookie is Secure')
     notifications: Optional[NotificationConfig] = None
-    notify_interval_s: float = 60.0
-    max_failures: int = 5
-    window_s: float = 300.0
-    poll_interval_ms: int = POLL_INTERVAL_MS
-    behind_tls: bool = False
+    notify_interval_s: float = shared_setting(
+        NotifierSettings, 'interval_s',
+        description='time between two notification passes of the server (with --notify)')
+    max_failures: int = setting(
+        MAX_FAILURES, check=in_range(1, 1000),
+        description='failed logins allowed per user name and per client address within the '
+                    'login window')
+    window_s: float = setting(WINDOW_S, unit='s', check=in_range(1.0, 86400.0),
+                              description='the window of the login rate limit')
+    poll_interval_ms: int = setting(
+        POLL_INTERVAL_MS, unit='ms', check=in_range(100, 600000),
+        description='how often the pages ask for news (304 while nothing changed)')
+    behind_tls: bool = setting(
+        False, description='a TLS proxy is in front: the session cookie is Secure although '
+                           'this server speaks plain HTTP')
     trusted_proxies: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        """Check the declared settings (InputError naming the setting, value and range)."""
+        check_settings(self, prefix='dashboard settings: ')

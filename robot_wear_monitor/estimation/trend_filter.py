@@ -17,9 +17,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.estimation.alarm import WEAR_THRESHOLD
+from robot_wear_monitor.estimation.alarm import AlarmPolicy
 from robot_wear_monitor.estimation.profile_likelihood import wear_grid
 from robot_wear_monitor.estimation.special_functions import erf
+from robot_wear_monitor.setting_fields import (at_least, check_settings, fraction, in_range,
+                                               positive, setting, shared_setting)
 
 _LOG_FLOOR = -1e30  # stands for log 0 (-inf) in the interpolation of the rows
 #: rate transition tables kept per filter, one per distinct elapsed value (18 kB each)
@@ -31,48 +33,66 @@ class TrendConfig:
     """
     Parameters of the trend filter (rates are in w per experiment).
 
-    :ivar wear_grid: strictly increasing wear grid starting at >= 0, shape (G,), G >= 3; the
-        likelihood rows must be given on it (default: ``profile_likelihood.wear_grid()``, 0 .. 150,
-        321 points).
-    :ivar threshold: alarm threshold of w (default: the paper's 35, ``alarm.WEAR_THRESHOLD``).
-    :ivar initial_wear_scale: scale of the half-normal new-joint prior of w [w].
-    :ivar initial_rate_mean: mean of the (exponential) new-joint prior of the rate [w/experiment].
-    :ivar rate_offset: r0 of the log-rate random walk u = log(r + r0) [w/experiment].
-    :ivar rate_step: sd of the usual log-rate change per experiment.
-    :ivar rate_jump_step: sd of the rare large log-rate change per experiment.
-    :ivar rate_jump_probability: probability of a large log-rate change per experiment.
-    :ivar rate_max: largest rate of the grid [w/experiment].
-    :ivar rate_points: number R of rate grid points (0 and a geometric grid up to ``rate_max``).
-    :ivar outlier_probability: eps of the likelihood mixture (1 - eps) L + eps max L.
-    :ivar likelihood_power: the rows are tempered, L^a (0 < a <= 1), before the mixture.
-    :ivar filter_wear_step: step of the filter's own equidistant wear grid over the range of
-        ``wear_grid`` [w]; the rows are interpolated onto it (linearly in log L).
-    :ivar experiment_interval_s: the time of one experiment [s] for the dynamics; None: the median
-        of the last ``spacing_window`` time differences.
-    :ivar spacing_window: number of recent time differences whose median is the spacing.
-    :ivar forecast_horizon: experiments the forecast looks ahead.
-
+    ``wear_grid``: strictly increasing wear grid starting at >= 0, shape (G,), G >= 3; the
+    likelihood rows must be given on it (default: ``profile_likelihood.wear_grid()``, 0 .. 150,
+    321 points).  Every other field is a declared setting (default, unit, description, check:
+    :mod:`robot_wear_monitor.setting_fields`); a bad value is an
+    :class:`~robot_wear_monitor.errors.InputError` ``trend: <name>: <range>, got <value>``.
+    ``threshold`` is the alarm policy's (:class:`~robot_wear_monitor.estimation.alarm.
+    AlarmPolicy`, the paper's 35) and must lie inside the wear grid.
     """
 
     wear_grid: FloatArray = field(default_factory=wear_grid)
-    threshold: float = WEAR_THRESHOLD
-    initial_wear_scale: float = 4.0
-    initial_rate_mean: float = 0.02
-    rate_offset: float = 0.02
-    rate_step: float = 0.15
-    rate_jump_step: float = 2.5
-    rate_jump_probability: float = 0.1
-    rate_max: float = 40.0
-    rate_points: int = 48
-    outlier_probability: float = 1e-3
-    likelihood_power: float = 0.5
-    filter_wear_step: float = 0.5
-    experiment_interval_s: Optional[float] = None
-    spacing_window: int = 8
-    forecast_horizon: int = 200
+    threshold: float = shared_setting(
+        AlarmPolicy, 'threshold',
+        description="alarm level of the wear w that the trend's probability and forecast are "
+                    'about (inside the wear grid)')
+    initial_wear_scale: float = setting(
+        4.0, unit='-', check=positive,
+        description='scale of the half-normal new-joint prior of the wear w')
+    initial_rate_mean: float = setting(
+        0.02, unit='w/experiment', check=positive,
+        description='mean of the exponential new-joint prior of the wear rate')
+    rate_offset: float = setting(
+        0.02, unit='w/experiment', check=positive,
+        description='r0 of the log-rate random walk u = log(r + r0)')
+    rate_step: float = setting(
+        0.15, unit='-', check=positive,
+        description='sd of the usual log-rate change per experiment')
+    rate_jump_step: float = setting(
+        2.5, unit='-', check=positive,
+        description='sd of the rare large log-rate change per experiment')
+    rate_jump_probability: float = setting(
+        0.1, unit='-', check=fraction,
+        description='probability of a large log-rate change per experiment')
+    rate_max: float = setting(40.0, unit='w/experiment', check=positive,
+                              description='largest rate of the rate grid')
+    rate_points: int = setting(
+        48, check=at_least(3),
+        description='points of the rate grid (0 and a geometric grid up to the largest rate)')
+    outlier_probability: float = setting(
+        1e-3, unit='-', check=fraction,
+        description='eps of the likelihood mixture (1 - eps) L + eps max L')
+    likelihood_power: float = setting(
+        0.5, unit='-', check=in_range(0.0, 1.0, low_open=True),
+        description='power a of the tempered likelihood rows, L^a, before the mixture')
+    filter_wear_step: float = setting(
+        0.5, unit='-', check=positive,
+        description="step of the filter's equidistant wear grid over the range of the wear "
+                    'grid (the rows are interpolated onto it, linearly in log L)')
+    experiment_interval_s: Optional[float] = setting(
+        None, unit='s', check=positive,
+        description='time of one experiment for the dynamics; unset: the median of the '
+                    'last spacing_window time differences')
+    spacing_window: int = setting(
+        8, check=at_least(1),
+        description='recent time differences whose median is the experiment spacing')
+    forecast_horizon: int = setting(
+        200, unit='experiments', check=at_least(1),
+        description='experiments the forecast looks ahead (beyond it: inf)')
 
     def __post_init__(self) -> None:
-        """Validate the grid and the scalars (InputError naming the field)."""
+        """Validate the grid and the declared settings (InputError naming the field)."""
         grid = np.asarray(self.wear_grid, dtype=float)
         object.__setattr__(self, 'wear_grid', grid)
         if grid.ndim != 1 or grid.size < 3 or not np.all(np.isfinite(grid)):
@@ -80,28 +100,10 @@ class TrendConfig:
                              f'{grid.shape}')
         if grid[0] < 0 or np.any(np.diff(grid) <= 0):
             raise InputError('trend: wear_grid must be strictly increasing and start >= 0')
+        check_settings(self, prefix='trend: ')
         if not grid[0] < self.threshold < grid[-1]:
             raise InputError(f'trend: threshold {self.threshold} must lie inside the wear grid '
                              f'[{grid[0]}, {grid[-1]}]')
-        positive = ('filter_wear_step', 'initial_wear_scale', 'initial_rate_mean',
-                    'rate_offset', 'rate_step', 'rate_jump_step', 'rate_max')
-        for name in positive:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise InputError(f'trend: {name} must be > 0, got {value}')
-        if not 0 < self.likelihood_power <= 1:
-            raise InputError(f'trend: likelihood_power must be in (0, 1], got '
-                             f'{self.likelihood_power}')
-        for name in ('rate_jump_probability', 'outlier_probability'):
-            value = getattr(self, name)
-            if not 0 <= value < 1:
-                raise InputError(f'trend: {name} must be in [0, 1), got {value}')
-        if self.rate_points < 3 or self.spacing_window < 1 or self.forecast_horizon < 1:
-            raise InputError('trend: rate_points >= 3, spacing_window >= 1 and '
-                             'forecast_horizon >= 1 are required')
-        interval = self.experiment_interval_s
-        if interval is not None and not (math.isfinite(interval) and interval > 0):
-            raise InputError(f'trend: experiment_interval_s must be > 0, got {interval}')
 
     @property
     def rate_grid(self) -> FloatArray:

@@ -10,11 +10,14 @@ channels: ``webhooks`` (JSON POSTs) and ``email`` (one SMTP server).  Secrets ne
 file: the SMTP password is read from ``email.password_file`` (relative paths are relative to
 the configuration file's folder).  A problem raises :class:`NotificationConfigError` naming the
 file and the dotted field (``email.port``), with the value echoed cut short.
+
+The settings themselves (default, unit, description and range of each field) are declared once
+on the dataclasses of :mod:`robot_wear_monitor.fleet.notify_settings`; this reader checks a
+file's values with those declarations.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 import email.utils
 import ipaddress
 import math
@@ -22,117 +25,24 @@ import os
 from pathlib import Path
 import re
 import ssl
-from typing import Any, Mapping, Optional
+from typing import Any, Mapping, Optional, Type
 from urllib.parse import urlsplit
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.fleet.ranking import DEFAULT_REESCALATION_MARGIN
+from robot_wear_monitor.fleet.notify_settings import (EmailConfig, EVENTS, NotificationConfig,
+                                                      NotificationConfigError, RetryPolicy,
+                                                      SMTP_PORTS, WebhookConfig)
 from robot_wear_monitor.input_files import MAX_PEM_BYTES, read_text_file
+from robot_wear_monitor.setting_fields import setting_of
 from robot_wear_monitor.yaml_files import load_yaml_file, shorten
 
-#: The events a configuration may name: an alarm latched, a forecast crossing of the wear
-#: threshold inside the horizon, a joint without experiments for too long.
-EVENTS = ('alarm_raised', 'forecast_crossing', 'joint_stale')
+__all__ = ['EmailConfig', 'EVENTS', 'load_notification_config', 'MAX_PASSWORD_BYTES',
+           'notification_config_from_mapping', 'NotificationConfig', 'NotificationConfigError',
+           'RetryPolicy', 'WebhookConfig']
+
 #: The largest password file read [bytes].
 MAX_PASSWORD_BYTES = 4096
 _CHANNEL_NAME = re.compile(r'[A-Za-z0-9_.-]{1,64}')
-
-
-class NotificationConfigError(InputError):
-    """The notification configuration is invalid; the message names the file and the field."""
-
-
-@dataclass(frozen=True)
-class RetryPolicy:
-    """
-    How hard one send is tried.
-
-    Within a pass: up to ``attempts`` tries, the n-th retry after ``backoff_initial_s`` x 2^(n-1)
-    [s] (at most ``backoff_max_s``), all tries of a send within ``total_s`` [s]; a send whose
-    tries all failed is recorded as failed and tried again on later passes, in all on at most
-    ``passes`` passes.
-    """
-
-    attempts: int = 4
-    backoff_initial_s: float = 1.0
-    backoff_max_s: float = 30.0
-    total_s: float = 120.0
-    passes: int = 3
-
-    def delay_s(self, retry: int) -> float:
-        """Return the wait before retry number ``retry`` (1 = the second try) [s]."""
-        return min(self.backoff_max_s, self.backoff_initial_s * 2.0 ** (retry - 1))
-
-
-@dataclass(frozen=True)
-class WebhookConfig:
-    """
-    One webhook: a JSON POST of an Alertmanager-like payload to ``url``.
-
-    ``name`` identifies the channel in the history's notification log (renaming it sends the
-    current events again); ``receiver`` is the payload's ``receiver``; ``timeout_s`` bounds each
-    request (connect, read, write) [s].
-    """
-
-    name: str
-    url: str
-    receiver: str = 'robot-wear-monitor'
-    timeout_s: float = 10.0
-
-
-@dataclass(frozen=True)
-class EmailConfig:
-    """
-    E-mail through one SMTP server (plain text, one message per event to every ``to``).
-
-    ``starttls``: upgrade the connection with STARTTLS before anything else (required for a
-    login unless the server is on the loopback), verifying the server's certificate against
-    ``ca_file`` (PEM; '' for the system's authorities); ``user`` with the password of
-    ``password_file`` logs in; ``timeout_s`` bounds each connection [s].
-    """
-
-    host: str
-    port: int
-    sender: str
-    to: tuple[str, ...]
-    starttls: bool = True
-    user: str = ''
-    password_file: str = ''
-    password: str = field(default='', repr=False)
-    ca_file: str = ''
-    timeout_s: float = 30.0
-    ca_pem: str = field(default='', repr=False)
-    name: str = 'email'
-
-
-@dataclass(frozen=True)
-class NotificationConfig:
-    """The whole configuration (see the module's text); ``source``: the file it came from."""
-
-    events: tuple[str, ...] = EVENTS
-    forecast_horizon_days: float = 30.0
-    #: an acknowledged alarm is notified again when its wear rises this much past its value
-    #: at the acknowledgement [wear units] (or its planned maintenance date passes)
-    reescalation_margin: float = DEFAULT_REESCALATION_MARGIN
-    dashboard_url: str = ''
-    #: the first pass on a channel (nothing sent on it before) sends the events due then as
-    #: one summary message (one webhook POST with every alert, one e-mail), not one each
-    first_pass_summary: bool = True
-    retry: RetryPolicy = RetryPolicy()
-    webhooks: tuple[WebhookConfig, ...] = ()
-    email: Optional[EmailConfig] = None
-    source: str = '<config>'
-
-    @property
-    def forecast_horizon_s(self) -> float:
-        """Return the forecast horizon [s]."""
-        return self.forecast_horizon_days * 86400.0
-
-    @property
-    def channels(self) -> tuple[str, ...]:
-        """Return the channel names (``webhook:NAME`` ..., ``email``)."""
-        names = tuple(f'webhook:{hook.name}' for hook in self.webhooks)
-        return names + (('email',) if self.email is not None else ())
 
 
 # --------------------------------------------------------------------------- field readers
@@ -158,20 +68,35 @@ class _Reader:
     def has(self, name: str) -> bool:
         return self.values.get(name) is not None
 
-    def number(self, name: str, default: float, *, low: float, high: float,
-               unit: str, integer: bool = False, low_open: bool = False) -> Any:
-        value = self.values.get(name, default)
+    def setting(self, owner: Type[Any], name: str, *, key: Optional[str] = None,
+                default: Any = None) -> Any:
+        """
+        Return the value of the declared setting ``name`` of ``owner``, checked by its check.
+
+        ``key``: the file's key (default ``name``); ``default``: when the file has none
+        (default: the declared one).  The error names the field, the value (cut short and
+        escaped), the range and the unit.
+        """
+        declared = setting_of(owner, name)
+        key = key or name
+        value = self.values.get(key)
         if value is None:
-            value = default
+            value = declared.default if default is None else default
+        unit = f' {declared.unit}' if declared.unit not in ('', '-') else ''
+        if declared.kind == 'bool':
+            if not isinstance(value, bool):
+                raise self.error(key, f'must be true or false, got {shorten(repr(value))}')
+            return value
+        integer = declared.kind == 'int'
         kind_ok = isinstance(value, int) if integer else isinstance(value, (int, float))
         if isinstance(value, bool) or not kind_ok:
-            raise self.error(name, f'must be {"an integer" if integer else "a number"} '
-                                   f'[{unit}], got {shorten(repr(value))}')
-        inside = math.isfinite(value) and (value > low if low_open else value >= low) \
-            and value <= high
-        if not inside:
-            raise self.error(name, f'must be {">" if low_open else ">="} {low:g} and <= '
-                                   f'{high:g} {unit}, got {shorten(value)} {unit}')
+            raise self.error(key, f'must be {"an integer" if integer else "a number"}'
+                                  f'{unit}, got {shorten(repr(value))}')
+        problem = declared.check(value) if declared.check is not None else None
+        if problem is None and not math.isfinite(value):
+            problem = 'must be finite'
+        if problem:
+            raise self.error(key, f'{problem}{unit}, got {shorten(value)}{unit}')
         return int(value) if integer else float(value)
 
     def text(self, name: str, default: Optional[str] = None, *, limit: int = 500) -> str:
@@ -184,12 +109,6 @@ class _Reader:
             raise self.error(name, f'must be at most {limit} printable characters, got '
                                    f'{shorten(repr(value))}')
         return value.strip()
-
-    def flag(self, name: str, default: bool) -> bool:
-        value = self.values.get(name, default)
-        if not isinstance(value, bool):
-            raise self.error(name, f'must be true or false, got {shorten(repr(value))}')
-        return value
 
 
 def _kind(value: Any) -> str:
@@ -281,18 +200,8 @@ def _retry(source: str, values: Any) -> RetryPolicy:
         return RetryPolicy()
     reader = _Reader(source, values, 'retry', ('attempts', 'backoff_initial_s',
                                                'backoff_max_s', 'total_s', 'passes'))
-    default = RetryPolicy()
-    return RetryPolicy(
-        attempts=reader.number('attempts', default.attempts, low=1, high=20, unit='tries',
-                               integer=True),
-        backoff_initial_s=reader.number('backoff_initial_s', default.backoff_initial_s,
-                                        low=0.0, high=3600.0, unit='s'),
-        backoff_max_s=reader.number('backoff_max_s', default.backoff_max_s, low=0.0,
-                                    high=3600.0, unit='s'),
-        total_s=reader.number('total_s', default.total_s, low=0.0, high=86400.0, unit='s',
-                              low_open=True),
-        passes=reader.number('passes', default.passes, low=1, high=1000, unit='passes',
-                             integer=True))
+    return RetryPolicy(**{name: reader.setting(RetryPolicy, name) for name in (
+        'attempts', 'backoff_initial_s', 'backoff_max_s', 'total_s', 'passes')})
 
 
 def _webhooks(source: str, values: Any) -> tuple[WebhookConfig, ...]:
@@ -308,9 +217,9 @@ def _webhooks(source: str, values: Any) -> tuple[WebhookConfig, ...]:
         hooks.append(WebhookConfig(
             name=_channel_name(reader, f'webhook-{index + 1}'),
             url=_http_url(reader, 'url', required=True),
-            receiver=reader.text('receiver', WebhookConfig.receiver, limit=200),
-            timeout_s=reader.number('timeout_s', WebhookConfig.timeout_s, low=0.0,
-                                    high=600.0, unit='s', low_open=True)))
+            receiver=reader.text('receiver', setting_of(WebhookConfig, 'receiver').default,
+                                 limit=200),
+            timeout_s=reader.setting(WebhookConfig, 'timeout_s')))
     names = [hook.name for hook in hooks]
     for name in names:
         if names.count(name) > 1:
@@ -328,7 +237,7 @@ def _email(source: str, values: Any, base: Path) -> Optional[EmailConfig]:
     host = reader.text('host', limit=253)
     if any(c in host for c in ' /@:') and not _is_ip(host):
         raise reader.error('host', f'must be a host name or address, got {shorten(host)}')
-    starttls = reader.flag('starttls', True)
+    starttls = reader.setting(EmailConfig, 'starttls')
     user = reader.text('user') if reader.has('user') else ''
     password_file = reader.text('password_file', limit=4096) if reader.has('password_file') \
         else ''
@@ -350,15 +259,13 @@ def _email(source: str, values: Any, base: Path) -> Optional[EmailConfig]:
     ca_file, ca_pem = _ca_file(reader, base, starttls)
     return EmailConfig(
         host=host,
-        port=reader.number('port', 587 if starttls else 25, low=1, high=65535, unit='(TCP)',
-                           integer=True),
+        port=reader.setting(EmailConfig, 'port', default=SMTP_PORTS[starttls]),
         sender=_address(reader, 'from', values.get('from')),
         to=tuple(_address(reader, f'to[{i}]', item) for i, item in enumerate(to_value)),
         starttls=starttls, user=user, password_file=password_file,
         password=_read_password(reader, password_file, base) if password_file else '',
         ca_file=ca_file, ca_pem=ca_pem,
-        timeout_s=reader.number('timeout_s', EmailConfig.timeout_s, low=0.0, high=600.0,
-                                unit='s', low_open=True))
+        timeout_s=reader.setting(EmailConfig, 'timeout_s'))
 
 
 def _is_ip(host: str) -> bool:
@@ -394,13 +301,10 @@ def notification_config_from_mapping(values: Any, *, source: str = '<config>',
     dashboard_url = _http_url(reader, 'dashboard_url', required=False).rstrip('/')
     return NotificationConfig(
         events=tuple(e for e in EVENTS if e in events),
-        forecast_horizon_days=reader.number('forecast_horizon_days', 30.0, low=0.0,
-                                            high=3650.0, unit='days'),
-        reescalation_margin=reader.number('reescalation_margin', DEFAULT_REESCALATION_MARGIN,
-                                          low=0.0, high=100.0, unit='wear units',
-                                          low_open=True),
+        forecast_horizon_days=reader.setting(NotificationConfig, 'forecast_horizon_days'),
+        reescalation_margin=reader.setting(NotificationConfig, 'reescalation_margin'),
         dashboard_url=dashboard_url,
-        first_pass_summary=reader.flag('first_pass_summary', True),
+        first_pass_summary=reader.setting(NotificationConfig, 'first_pass_summary'),
         retry=_retry(source, values.get('retry')),
         webhooks=webhooks, email=mail, source=source)
 

@@ -29,6 +29,8 @@ import math
 from typing import Any, Iterable, Optional, Sequence
 
 from robot_wear_monitor.csv_cells import csv_text
+from robot_wear_monitor.fleet.notify_settings import (
+    DEFAULT_REESCALATION_MARGIN as NOTIFY_REESCALATION_MARGIN)
 from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
                                              DEFAULT_FORECAST_HORIZON_DAYS, joint_state)
 from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, threshold_words
@@ -40,8 +42,8 @@ from robot_wear_monitor.text import iso_time, shorten
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
 STALE_FACTOR = 3.0
 #: An acknowledged alarm is re-escalated when its wear rises this much past its value at the
-#: acknowledgement [wear units, w 0..100].
-DEFAULT_REESCALATION_MARGIN = 5.0
+#: acknowledgement [wear units, w 0..100]: the notification configuration's declared default.
+DEFAULT_REESCALATION_MARGIN = NOTIFY_REESCALATION_MARGIN
 
 
 @dataclass(frozen=True)

@@ -26,13 +26,15 @@ from __future__ import annotations
 import math
 from typing import Optional
 
+from robot_wear_monitor.fleet.notify_settings import (
+    DEFAULT_FORECAST_HORIZON_DAYS as NOTIFY_FORECAST_HORIZON_DAYS)
 from robot_wear_monitor.history import FleetRow
 
 #: The states, worst first (the filter and the counts name them so).
 STATES = ('alarm', 'acknowledged', 'cannot judge', 'stale', 'warning', 'new life', 'ok')
 #: How far ahead a forecast crossing makes a joint a ``warning`` unless configured [days]
-#: (the notifications' default ``forecast_horizon_days``).
-DEFAULT_FORECAST_HORIZON_DAYS = 30.0
+#: (the notifications' declared default ``forecast_horizon_days``).
+DEFAULT_FORECAST_HORIZON_DAYS = NOTIFY_FORECAST_HORIZON_DAYS
 #: Seconds per day.
 DAY_S = 86400.0
 

@@ -573,7 +573,7 @@ GOOD = {'webhooks': [{'url': 'https://hooks.example/x'}],
     ({'colour': 'red'}, "(top level): unknown key 'colour'"),
     ({'email': {**GOOD['email'], 'password': 'x'}}, "email: unknown key 'password'"),
     ({'email': {**GOOD['email'], 'port': 70000}},
-     'email.port: must be >= 1 and <= 65535 (TCP), got 70000'),
+     'email.port: must be >= 1 and <= 65535, got 70000'),
     ({'email': {**GOOD['email'], 'port': '25'}}, 'email.port: must be an integer'),
     ({'email': {**GOOD['email'], 'user': 'u'}}, 'email.password_file: user and password_file '
                                                 'go together'),
