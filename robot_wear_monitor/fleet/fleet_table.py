@@ -27,8 +27,11 @@ __all__ = ['DEFAULT_WIDTH', 'fleet_table', 'MIN_WIDTH']
 DEFAULT_WIDTH = 100
 #: The narrowest table made (a terminal narrower gets lines this wide) [characters].
 MIN_WIDTH = 80
-#: The narrowest a column is squeezed to before its text wraps in it [characters].
-MIN_COLUMN = 6
+#: The narrowest each column of :data:`HEADER` is squeezed to [characters] (their sum with
+#: the spaces between fits :data:`MIN_WIDTH`): a date is 10, the longest state 12.
+MIN_COLUMNS = (12, 8, 12, 10, 9, 12, 10)
+#: The columns squeezed first (robot, joint, forecast crossing): long texts that wrap well.
+SQUEEZED_FIRST = (0, 1, 5)
 #: The indent of a joint's detail line.
 DETAIL_INDENT = '    '
 #: The note under a default table with an assumed threshold ('35*').
@@ -125,13 +128,19 @@ def threshold_words_short(view: FleetView) -> str:
 
 
 def _fit(widths: list[int], limit: int) -> list[int]:
-    """Return ``widths`` narrowed, the widest first, until the row (1 space apart) fits."""
+    """
+    Return ``widths`` narrowed until the row (1 space apart) fits ``limit``.
+
+    The widest of :data:`SQUEEZED_FIRST` first, then the widest of all, none below its
+    :data:`MIN_COLUMNS`.
+    """
     widths = list(widths)
-    while sum(widths) + len(widths) - 1 > limit:
-        widest = max(range(len(widths)), key=lambda i: widths[i])
-        if widths[widest] <= MIN_COLUMN:
-            break
-        widths[widest] -= 1
+    for columns in (SQUEEZED_FIRST, range(len(widths))):
+        while sum(widths) + len(widths) - 1 > limit:
+            widest = max(columns, key=lambda i: widths[i] if widths[i] > MIN_COLUMNS[i] else 0)
+            if widths[widest] <= MIN_COLUMNS[widest]:
+                break
+            widths[widest] -= 1
     return widths
 
 
@@ -157,7 +166,7 @@ def fleet_table(rows: Sequence[FleetView], *, local: bool = False, zone: Zone = 
     """
     found = acknowledgements or {}
     if wide:
-        lines = [(shorten(v.state.robot, 40), shorten(v.state.joint, 40),
+        lines = [(shorten(v.state.robot, 128), shorten(v.state.joint, 128),
                   *_cells(v, local=local, zone=zone)[2:4],
                   f'{v.state.trend_wear:.1f}' if math.isfinite(v.state.trend_wear) else '-',
                   threshold_text(v), alarm_text(v, local=local, zone=zone),
