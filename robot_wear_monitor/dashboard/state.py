@@ -18,7 +18,9 @@ import threading
 import time
 from typing import Iterator, Optional, TYPE_CHECKING
 
+from robot_wear_monitor.display_time import DisplayTimeConfig
 from robot_wear_monitor.history import open_history, WearHistory
+from robot_wear_monitor.setting_fields import shared_setting
 
 if TYPE_CHECKING:  # the type only; the configuration is read by the command that starts
     from robot_wear_monitor.fleet.notify_config import NotificationConfig
@@ -108,7 +110,9 @@ class DashboardSettings:
     rate limit;
     ``behind_tls``: a TLS proxy is in front (the session cookie is Secure although this
     server speaks plain HTTP); ``trusted_proxies``: peer addresses whose ``X-Forwarded-For``
-    names the client (the login rate limit counts per client address).
+    names the client (the login rate limit counts per client address);
+    ``display_timezone``: the IANA zone of the times the pages show (declared by
+    :class:`~robot_wear_monitor.display_time.DisplayTimeConfig`; the API's times stay UTC).
     """
 
     history: str
@@ -122,3 +126,4 @@ class DashboardSettings:
     poll_interval_ms: int = POLL_INTERVAL_MS
     behind_tls: bool = False
     trusted_proxies: tuple[str, ...] = ()
+    display_timezone: str = shared_setting(DisplayTimeConfig, 'display_timezone')
