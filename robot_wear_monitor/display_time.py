@@ -21,7 +21,10 @@ from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.setting_fields import check_settings, setting
 from robot_wear_monitor.text import shorten
 
-__all__ = ['DisplayTimeConfig', 'DEFAULT_TIMEZONE', 'time_zone', 'zone_problem']
+__all__ = ['DisplayTimeConfig', 'DEFAULT_TIMEZONE', 'time_zone', 'Zone', 'zone_problem']
+
+#: A zone for people's times (None: ISO 8601 UTC), as :func:`time_zone` returns it.
+Zone = Optional[datetime.tzinfo]
 
 #: The zone shown unless configured (ISO 8601 UTC, as before the setting).
 DEFAULT_TIMEZONE = 'UTC'
@@ -47,7 +50,7 @@ def zone_problem(name: str) -> Optional[str]:
     return _zone_or_error(name)[1]
 
 
-def time_zone(name: str, *, where: str = 'display_timezone') -> Optional[datetime.tzinfo]:
+def time_zone(name: str, *, where: str = 'display_timezone') -> Zone:
     """
     Return the zone ``name`` names for :func:`~robot_wear_monitor.text.shown_time`.
 
@@ -76,6 +79,6 @@ class DisplayTimeConfig:
         check_settings(self, prefix='')
 
     @property
-    def zone(self) -> Optional[datetime.tzinfo]:
+    def zone(self) -> Zone:
         """Return the zone for :func:`~robot_wear_monitor.text.shown_time` (None: UTC)."""
         return time_zone(self.display_timezone)

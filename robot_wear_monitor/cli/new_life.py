@@ -18,8 +18,8 @@ from robot_wear_monitor.cli.history import alarm_log_rows
 from robot_wear_monitor.cli.options import add_json
 from robot_wear_monitor.history import open_history
 
-HELP = ("record maintenance or a replacement of a joint (with or without an alarm): its new "
-        'life starts, as the dashboard\'s reset')
+HELP = ('record maintenance or a replacement of a joint (with or without an alarm): its new '
+        "life starts, as the dashboard's reset")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

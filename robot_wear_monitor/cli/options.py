@@ -350,7 +350,7 @@ def display_zone(args: argparse.Namespace) -> Any:
     if name is None:
         return None
     if getattr(args, 'local', False):
-        raise InputError('give --local (the machine\'s zone) or --display-timezone, not both')
+        raise InputError("give --local (the machine's zone) or --display-timezone, not both")
     return time_zone(name, where='--display-timezone')
 
 

@@ -27,7 +27,6 @@ from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, curre
 from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_display_zone,
                                                get_settings, get_templates, HistoryDep,
                                                LimiterDep, MaintainerUser, ParameterSetsDep)
-from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.dashboard.guards import public_message
 from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
@@ -35,6 +34,7 @@ from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, ev
                                                 joint_json, joint_url, MAX_PAGE_ROWS,
                                                 page_links, PAGE_ROWS, reescalation_margin,
                                                 STATES)
+from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.users import ACTING_ROLES
 from starlette.responses import HTMLResponse, RedirectResponse, Response
@@ -63,7 +63,7 @@ def for_people(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def times_text(display_timezone: str) -> str:
     """Return the footer's words on the times: 'UTC (ISO 8601)' or the zone's name."""
     zone = time_zone(display_timezone)
-    return 'UTC (ISO 8601)' if zone is None else f'{display_timezone} (the plant\'s clock)'
+    return 'UTC (ISO 8601)' if zone is None else f"{display_timezone} (the plant's clock)"
 
 
 @router.get('/login')
@@ -234,8 +234,8 @@ def alarms_page(request: Request, history: HistoryDep, robot: Optional[str] = No
     """Show the fleet's alarm log, newest first: raised, acknowledged and reset, who and why."""
     events = alarm_log(history, robot=robot or None, joint=joint or None, limit=limit,
                        zone=get_display_zone(request))
-    return render(request, 'alarms.html', events=for_people(events), robot=robot or '', joint=joint or '',
-                  limit=limit)
+    return render(request, 'alarms.html', events=for_people(events), robot=robot or '',
+                  joint=joint or '', limit=limit)
 
 
 @router.get('/alarms.csv')

@@ -6,13 +6,12 @@ two stories.  The fleet keeps the order of ``robot-wear-monitor fleet``
 (:func:`robot_wear_monitor.fleet.ranking.fleet_view`, worst first).  Numbers that are not
 finite become None (JSON null).  Wear is the model's w (0 new, 100 failure), temperatures in
 degC, speeds motor side in rad/s, frictions normalised, times in seconds since the epoch and
-ISO 8601 UTC; the ``text`` of a fleet row and an event's ``time_text`` (the words people read)
-are in the dashboard's ``display_timezone`` (``zone``, :func:`~robot_wear_monitor.text.shown_time`).
+ISO 8601 UTC; the ``text`` of a fleet row and an event's ``time_text`` (words people read) are
+in the dashboard's ``display_timezone`` (``zone``, :func:`robot_wear_monitor.text.shown_time`).
 """
 
 from __future__ import annotations
 
-import datetime
 import math
 import re
 import threading
@@ -22,6 +21,7 @@ from urllib.parse import quote, urlencode
 
 from markupsafe import escape, Markup
 import numpy as np
+from robot_wear_monitor.display_time import Zone
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
                                               fleet_view, FleetView, plural, threshold_text)
 from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
@@ -31,9 +31,6 @@ from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.text import iso_time, shorten, shown_time
-
-#: A time zone for people's words (None: ISO 8601 UTC): :mod:`robot_wear_monitor.display_time`.
-Zone = Optional[datetime.tzinfo]
 
 #: An experiment whose model check has a p-value below this is marked on the joint page.
 MODEL_CHECK_P_VALUE = 0.01

@@ -13,11 +13,11 @@ shown by :func:`robot_wear_monitor.text.shown_time` (the plant's ``display_timez
 
 from __future__ import annotations
 
-import datetime
 import math
 import textwrap
 from typing import Any, Mapping, Optional, Sequence
 
+from robot_wear_monitor.display_time import Zone
 from robot_wear_monitor.fleet.ranking import crossing_text, FleetView, threshold_text
 from robot_wear_monitor.text import escaped, shorten, shown_time
 
@@ -43,8 +43,6 @@ HEADER = ('robot', 'joint', 'state', 'w [95 %]', 'threshold', 'forecast crossing
 #: The columns of ``--wide`` (one line per joint).
 WIDE_HEADER = ('robot', 'joint', 'state', 'w [95 %]', 'trend w', 'threshold', 'alarm',
                'forecast crossing', 'experiments', 'last experiment', 'details')
-
-Zone = Optional[datetime.tzinfo]
 
 
 def _wear_text(view: FleetView) -> str:
@@ -150,7 +148,7 @@ def _block(cells: Sequence[str], widths: Sequence[int]) -> list[str]:
                for cell, w in zip(cells, widths)]
     height = max(len(lines) for lines in wrapped)
     return [' '.join((lines[k] if k < len(lines) else '').ljust(w)
-                      for lines, w in zip(wrapped, widths)).rstrip() for k in range(height)]
+                     for lines, w in zip(wrapped, widths)).rstrip() for k in range(height)]
 
 
 def fleet_table(rows: Sequence[FleetView], *, local: bool = False, zone: Zone = None,

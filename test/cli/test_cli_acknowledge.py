@@ -43,8 +43,8 @@ def _future(days: int) -> str:
             + datetime.timedelta(days=days)).isoformat()
 
 
-def test_an_acknowledgement_and_an_edit_from_the_cli_are_in_the_api_log_as_cli(history,
-                                                                                capsys):
+def test_an_acknowledgement_and_an_edit_from_the_cli_are_in_the_api_log_as_cli(
+        history, capsys):
     planned = _future(10)
     code, out, err = _run(capsys, 'acknowledge', '--history', history, '--robot', 'press_line',
                           '--joint', 'joint_2', '--by', 'ana', '--owner', 'Team D',
@@ -78,7 +78,7 @@ def test_the_cli_refuses_what_the_api_refuses(history, capsys):
     base = ('acknowledge', '--history', history, '--by', 'ana')
     # an unknown robot, an unknown joint: a clear error, exit code 2, nothing stored
     code, _, err = _run(capsys, *base, '--robot', 'no_such_robot', '--joint', 'joint_2')
-    assert code == 2 and "no_such_robot" in err and 'Traceback' not in err
+    assert code == 2 and 'no_such_robot' in err and 'Traceback' not in err
     code, _, err = _run(capsys, *base, '--robot', 'press_line', '--joint', 'joint_9')
     assert code == 2 and 'joint_9' in err
     # no latched alarm on a joint that never alarmed (the API's 409)

@@ -65,7 +65,7 @@ def test_the_pages_show_the_plants_clock_and_the_api_stays_utc(tmp_path, last_s,
 
 def test_a_bad_zone_stops_the_start_with_a_clear_error(tmp_path, capsys):
     history = make_fleet(str(tmp_path / 'fleet.sqlite3'))
-    with pytest.raises(InputError, match=r"display_timezone: not an IANA time zone name.*"
+    with pytest.raises(InputError, match=r'display_timezone: not an IANA time zone name.*'
                                          r"got 'Mars/Olympus_Mons'"):
         create_app(DashboardSettings(history=history, display_timezone='Mars/Olympus_Mons'))
     capsys.readouterr()

@@ -1,6 +1,8 @@
 """
-``fleet``'s text table (issue 44): it fits the terminal, long texts on a detail line, the
-plant's clock (``--display-timezone``), ``--wide`` one line per joint; JSON stays UTC.
+``fleet``'s text table (issue 44): it fits the terminal, the plant's clock, JSON in UTC.
+
+Long texts go on a detail line, ``--display-timezone`` shows the plant's clock, ``--wide``
+keeps one line per joint.
 
 A history of known stamps: two joints with a latched alarm (one acknowledged with a long
 note, a long owner and a work order) and long robot names.
@@ -81,7 +83,7 @@ def test_no_line_is_wider_than_the_terminal_and_every_value_is_there(history, ca
     lines = out.splitlines()
     assert max(len(line) for line in lines) <= columns, max(lines, key=len)
     header = lines[1]
-    assert header.startswith("robot")
+    assert header.startswith('robot')
     first = next(i for i, line in enumerate(lines) if line.startswith(LONG_ROBOT[:6]))
     # the first row (the acknowledged alarm): its lines up to the detail line
     row = []
