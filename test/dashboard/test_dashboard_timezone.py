@@ -7,6 +7,7 @@ day: 12:30 in Stockholm both times, CET in winter and CEST in summer.
 """
 
 import datetime
+import re
 
 from fastapi import testclient as fastapi_testclient
 import pytest
@@ -52,6 +53,15 @@ def test_the_pages_show_the_plants_clock_and_the_api_stays_utc(tmp_path, last_s,
         assert shown in log and iso not in log
         joint = client.get(joint_url('press_line', 'joint_2')).text
         assert shown in joint and day in joint
+    with _client(history, display_timezone='Europe/Stockholm') as client:
+        # the users page and the account audit (an admin's): on the plant's clock too
+        from robot_wear_monitor.history import open_history
+        with open_history(history, init=False) as stored:
+            stored.add_user(name='ada', role='admin', password='admin-pass-333')
+        assert login(client, 'ada', 'admin-pass-333').status_code == 303
+        users = client.get('/users').text
+        assert '<th>created</th>' in users and 'Z</td>' not in users
+        assert re.search(r'\d{4}-\d{2}-\d{2} \d{2}:\d{2} CES?T', users)
     with _client(history) as client:  # the default: UTC, ISO 8601, as before the setting
         assert login(client, 'vic').status_code == 303
         page = client.get('/').text
