@@ -4,7 +4,9 @@ Text a person reads: values echoed safely, numbers and times in words.
 The package's one owner of these helpers, below everything that prints (the command line,
 the nodes, the fleet, the dashboard): :func:`escaped` and :func:`shorten` for values from
 other people's files (a joint's name, a path, an error's text), :func:`fmt_number` for a
-number (never 'nan' or 'inf') and :func:`iso_time` for a stamp.
+number (never 'nan' or 'inf'), :func:`iso_time` for a stamp in a machine's output (UTC) and
+:func:`shown_time` for a stamp a person reads (in the plant's time zone, the setting
+``display_timezone`` of :mod:`robot_wear_monitor.display_time`).
 """
 
 import datetime
@@ -61,3 +63,21 @@ def iso_time(stamp_s: Optional[float], *, local: bool = False) -> str:
     if local:
         moment = moment.astimezone()
     return moment.isoformat(timespec='seconds').replace('+00:00', 'Z')
+
+
+def shown_time(stamp_s: Optional[float], *, zone: Optional[datetime.tzinfo] = None,
+               local: bool = False, date_only: bool = False) -> str:
+    """
+    Return a stamp [s since the epoch] as a person reads it ('-' when unknown).
+
+    ``zone`` (a :class:`zoneinfo.ZoneInfo`, the plant's ``display_timezone``): the time there
+    to the minute with the zone's abbreviation or offset, ``2026-11-28 13:30 CET`` (summer
+    ``CEST``); None: UTC, ISO 8601 to the second as :func:`iso_time` (``2026-11-28T12:30:00Z``);
+    ``local``: the machine's zone, ISO 8601 with its offset (``--local``).  ``date_only``:
+    the day ``YYYY-MM-DD`` in that zone.
+    """
+    if zone is None or stamp_s is None or not math.isfinite(stamp_s):
+        text = iso_time(stamp_s, local=local)
+        return text[:10] if date_only and text != '-' else text
+    moment = datetime.datetime.fromtimestamp(stamp_s, tz=zone)
+    return moment.strftime('%Y-%m-%d' if date_only else '%Y-%m-%d %H:%M %Z')

@@ -29,10 +29,11 @@ from robot_wear_monitor.text import escaped, shorten
 __all__ = ['build_parser', 'main', 'parse_float_list', 'parse_range', 'PROG', 'verb_module',
            'VERBS']
 
-#: The verbs in the order of ``--help``; each is the module ``robot_wear_monitor.cli.<verb>``.
+#: The verbs in the order of ``--help``; each is the module ``robot_wear_monitor.cli.<verb>``
+#: (a hyphen in the verb an underscore in the module: ``new-life``, ``new_life``).
 VERBS = ('design', 'plan', 'estimate', 'study', 'simulate', 'segment', 'replay', 'demo',
-         'examples', 'audit', 'history', 'fleet', 'live', 'play', 'call', 'identify', 'notify',
-         'dashboard')
+         'examples', 'audit', 'history', 'fleet', 'acknowledge', 'new-life', 'live', 'play',
+         'call', 'identify', 'notify', 'dashboard')
 
 #: Verbs that pass a ``--ros-args ...`` tail to rclpy.
 _ROS_VERBS = ('live', 'play', 'call')
@@ -47,7 +48,7 @@ class OneLineParser(argparse.ArgumentParser):
 
 def verb_module(name: str) -> ModuleType:
     """Return the module of the verb ``name`` (one of :data:`VERBS`), loaded when first asked."""
-    return importlib.import_module(f'{__name__}.{name}')
+    return importlib.import_module(f'{__name__}.{name.replace("-", "_")}')
 
 
 def build_parser(verbs: Sequence[str] = VERBS) -> argparse.ArgumentParser:

@@ -27,7 +27,7 @@ import sys
 from typing import Any
 
 from robot_wear_monitor.cli.fleet_options import add_declared_options
-from robot_wear_monitor.cli.options import PROG, shown_location
+from robot_wear_monitor.cli.options import add_display_timezone, PROG, shown_location
 from robot_wear_monitor.dashboard.server_limits import ServerSettings
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
@@ -70,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--notify', metavar='CONFIG',
                         help='send notifications in the server process (the configuration of '
                              '`notify`), one pass every --notify-interval-s')
+    add_display_timezone(parser)
     users = parser.add_subparsers(dest='dashboard_command', metavar='user|token|audit')
     user = users.add_parser('user', help='add, list or remove dashboard users; a new password '
                                          'or role')
@@ -256,7 +257,9 @@ def main(args: argparse.Namespace) -> int:
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
         https=bool(args.tls_cert), notifications=notifications,
         notify_interval_s=args.notify_interval_s, behind_tls=args.behind_tls,
-        trusted_proxies=tuple(args.trusted_proxy)))
+        trusted_proxies=tuple(args.trusted_proxy),
+        **({} if args.display_timezone is None else
+           {'display_timezone': args.display_timezone})))
     scheme = 'https' if args.tls_cert else 'http'
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '

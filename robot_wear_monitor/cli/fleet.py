@@ -2,7 +2,9 @@
 ``robot-wear-monitor fleet``: every robot joint of a history, worst first.
 
 The ranking and its texts are :mod:`robot_wear_monitor.fleet.ranking`; this verb reads the
-options and prints a text table (default), ``--json`` (a list of objects) or ``--csv``.
+options and prints a text table (default: it fits the terminal, or 100 columns; ``--wide``: one
+line per joint, :mod:`robot_wear_monitor.fleet.fleet_table`), ``--json`` (a list of objects) or
+``--csv``.  The table's times are in ``--display-timezone``; JSON and CSV stay UTC.
 """
 
 from __future__ import annotations
@@ -12,11 +14,13 @@ import csv
 import datetime
 import io
 import math
+import shutil
 import time
 
 from robot_wear_monitor.cli.fleet_options import add_declared_options
-from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
-                                            emit_json, shown_location)
+from robot_wear_monitor.cli.options import (add_display_timezone, add_history, add_json,
+                                            add_local, add_robot, display_zone, emit_json,
+                                            shown_location)
 from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
@@ -36,7 +40,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              '(default: the clock)')
     # --forecast-horizon-days, --reescalation-margin: the notification configuration's
     add_declared_options(parser, 'fleet')
+    parser.add_argument('--wide', action='store_true',
+                        help='one line per joint with every column, however wide (default: '
+                             'the table fits the terminal, at least 80 columns, or 100 when '
+                             'not a terminal; long texts on a detail line below each joint)')
     add_local(parser)
+    add_display_timezone(parser)
     add_json(parser, what='the rows (a list of objects)')
 
 
@@ -63,14 +72,21 @@ def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
     # one-BLAS-thread setting
-    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view, plural
+    from robot_wear_monitor.fleet.fleet_table import DEFAULT_WIDTH, fleet_table
+    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_view, plural
     from robot_wear_monitor.fleet.states import DAY_S, STATES
     now_s = parse_time(args.now) if args.now else time.time()
+    zone = display_zone(args)
     # checked by the options' types: the notification configuration's declared ranges
     with open_history(args.history, init=False) as history:
         rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s,
                           reescalation_margin=args.reescalation_margin,
                           forecast_horizon_s=args.forecast_horizon_days * DAY_S)
+        # the owner, comment and work order of each acknowledgement (the table's detail lines)
+        acknowledgements = {} if args.json or args.json_out or args.csv else {
+            (row.state.robot, row.state.joint): history.acknowledgement(
+                joint=row.state.joint, robot=row.state.robot)
+            for row in rows if row.state.acknowledged}
     if args.robot and not rows:
         raise InputError(f'{shown_location(args.history)}: no estimates of robot '
                          f'{args.robot!r}')
@@ -90,5 +106,7 @@ def main(args: argparse.Namespace) -> int:
     counts = [(name, sum(1 for row in rows if row.condition == name)) for name in STATES]
     print(f'{plural(robots, "robot")}, {plural(len(rows), "joint")}: '
           + ', '.join(f'{count} {name}' for name, count in counts if count) + ' (worst first)')
-    print(fleet_table(rows, local=args.local))
+    print(fleet_table(rows, local=args.local, zone=zone, wide=args.wide,
+                      width=shutil.get_terminal_size((DEFAULT_WIDTH, 24)).columns,
+                      acknowledgements=acknowledgements))
     return 0

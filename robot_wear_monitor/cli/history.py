@@ -14,14 +14,15 @@ import math
 from pathlib import Path
 from typing import Any, Sequence
 
-from robot_wear_monitor.cli.options import (add_json, add_local, add_robot, emit_json, PROG,
+from robot_wear_monitor.cli.options import (add_display_timezone, add_json, add_local,
+                                            add_robot, display_zone, emit_json, PROG,
                                             shown_location)
 from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import is_postgresql_url, open_history, write_levels_csv
 from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.text import iso_time, LINE_LIMIT, shorten
+from robot_wear_monitor.text import iso_time, LINE_LIMIT, shorten, shown_time
 
 HELP = 'show the stored wear history and export its friction levels for audit'
 
@@ -49,6 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         'newest first, with user, owner, planned maintenance, note and work '
                         'order')
     add_local(parser)
+    add_display_timezone(parser)
     add_json(parser)
 
 
@@ -58,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'{shown_location(args.database)}: no such wear history database')
     if args.last is not None and args.last < 1:
         raise InputError(f'--last must be >= 1, got {args.last}')
+    display_zone(args)  # --local with --display-timezone: exit 2 before anything is read
     if args.alarms:
         return alarm_log_main(args)
     if args.csv == '-':
@@ -106,12 +109,14 @@ def main(args: argparse.Namespace) -> int:
     print(f'robot {shorten(robot, LINE_LIMIT)}, joint {shorten(joint, LINE_LIMIT)}: '
           f'{len(records)} estimate(s) '
           f'shown; alarm {"LATCHED" if state.alarm_active else "clear"}; times '
-          f'{"local" if args.local else "UTC"}')
+          f'{times_in(args)}')
     header = ('id', 'time', 'w', '95 % interval of w', 'std w', 'T [degC]', 'p-value')
 
     def cell(value: float, spec: str) -> str:  # '-' where the estimate reported none
         return format(value, spec) if math.isfinite(value) else '-'
-    lines = [(str(r.id), iso_time(r.stamp_s, local=args.local), cell(r.wear, '.2f'),
+    zone = display_zone(args)
+    lines = [(str(r.id), shown_time(r.stamp_s, local=args.local, zone=zone),
+              cell(r.wear, '.2f'),
               f'[{cell(r.wear_low, ".1f")}, {cell(r.wear_high, ".1f")}]'
               if math.isfinite(r.wear_low) else '-',
               cell(std, '.2f'), cell(r.temperature_degc, '.2f'), cell(r.p_value, '.3g'),
@@ -168,6 +173,13 @@ def audit_hint(csv: str, records: Any) -> str:
             f'speeds (`{PROG} plan --speeds ...`) to audit the model on this joint')
 
 
+def times_in(args: argparse.Namespace) -> str:
+    """Return the zone the text's times are in, in words ('UTC', 'local', the zone's name)."""
+    if getattr(args, 'display_timezone', None):
+        return shorten(args.display_timezone, 60)
+    return 'local' if args.local else 'UTC'
+
+
 def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
     """
     Return the alarm events as rows of :data:`ALARM_LOG_COLUMNS` (plus raw times, ids).
@@ -212,11 +224,12 @@ def alarm_log_main(args: argparse.Namespace) -> int:
         if write_text_output(args.csv, buffer.getvalue()):
             print(f'{len(rows)} alarm events written to {args.csv}')
         return 0
-    print(f'{len(rows)} alarm event(s), newest first; times '
-          f'{"local" if args.local else "UTC"}')
+    print(f'{len(rows)} alarm event(s), newest first; times {times_in(args)}')
+    zone = display_zone(args)
     header = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'owner', 'planned',
               'work_order', 'note')
-    lines = [(str(r['id']), r['time'], shorten(r['robot'], 40),
+    lines = [(str(r['id']), shown_time(r['event_time_s'], local=args.local, zone=zone),
+              shorten(r['robot'], 40),
               shorten(r['joint'], 40), r['event'],
               '-' if r['wear'] is None else f'{r["wear"]:.1f}', shorten(r['user'], 40),
               shorten(r['owner'], 40), r['planned_maintenance'] or '-',

@@ -19,8 +19,8 @@ import time
 from typing import Any, TYPE_CHECKING
 
 from robot_wear_monitor.cli.fleet_options import add_declared_options
-from robot_wear_monitor.cli.options import (add_history, add_json, bounded, emit_json,
-                                            shown_location)
+from robot_wear_monitor.cli.options import (add_display_timezone, add_history, add_json,
+                                            bounded, display_zone, emit_json, shown_location)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
 from robot_wear_monitor.text import iso_time, shorten
@@ -52,6 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar='N', help="print the history's notification log instead "
                                           '(the last N rows, default 50, newest first: sent, '
                                           'failed with the error, retries); sends nothing')
+    add_display_timezone(parser)
     add_json(parser, what='the sends of the pass (with --once) or the log (with --log)')
 
 
@@ -111,6 +112,7 @@ def main(args: argparse.Namespace) -> int:
     if not args.config:
         raise InputError('--config FILE is required (the notification configuration)')
     config = load_notification_config(args.config)
+    zone = display_zone(args)  # of the messages' texts; the payloads' times stay UTC
     if args.now and not args.once:
         raise InputError('--now goes with --once (the loop judges at the clock)')
     if args.json and not args.once:
@@ -118,7 +120,7 @@ def main(args: argparse.Namespace) -> int:
     if args.once:
         now_s = parse_time(args.now) if args.now else time.time()
         with open_history(args.history, init=False) as history:
-            sent = notify_once(history=history, config=config, now_s=now_s)
+            sent = notify_once(history=history, config=config, now_s=now_s, zone=zone)
         if not args.json:
             for item in sent:
                 print(_line(item), file=sys.stdout if item.delivered else sys.stderr)
@@ -137,5 +139,5 @@ def main(args: argparse.Namespace) -> int:
         print(f'notify: pass failed: {str(error).splitlines()[0]}; next pass in '
               f'{args.interval_s:g} s', file=sys.stderr, flush=True)
     notify_forever(location=args.history, config=config, interval_s=args.interval_s,
-                   stop=threading.Event(), report=report, on_error=on_error)
+                   stop=threading.Event(), report=report, on_error=on_error, zone=zone)
     return 0

@@ -237,14 +237,16 @@ def setting_type(owner: Any, name: str) -> Callable[[str], Any]:
 
     def parse(text: str) -> Any:
         try:
-            value: Any = int(text) if declared.kind == 'int' else float(text)
+            value: Any = (text if declared.kind == 'str' else
+                          int(text) if declared.kind == 'int' else float(text))
         except ValueError:
             kind = 'an integer' if declared.kind == 'int' else 'a number'
             raise argparse.ArgumentTypeError(f'not {kind}: {shorten(repr(text))}') from None
         problem = problem_of(declared, value)
         if problem:
             unit = f' {declared.unit}' if declared.unit not in ('', '-') else ''
-            raise argparse.ArgumentTypeError(f'{problem}{unit}, got {shorten(text)}{unit}')
+            shown = shorten(repr(text), 60) if declared.kind == 'str' else shorten(text)
+            raise argparse.ArgumentTypeError(f'{problem}{unit}, got {shown}{unit}')
         return value
     return parse
 
@@ -328,6 +330,28 @@ def add_local(parser: argparse.ArgumentParser) -> None:
     """Add ``--local``: times in the local time zone instead of UTC (ISO 8601 either way)."""
     parser.add_argument('--local', action='store_true',
                         help='times in the local time zone (default UTC)')
+
+
+def add_display_timezone(parser: argparse.ArgumentParser) -> None:
+    """Add ``--display-timezone ZONE``: the times people read in that IANA zone (not --local)."""
+    from robot_wear_monitor.display_time import DisplayTimeConfig
+    add_setting_option(parser, '--display-timezone', DisplayTimeConfig, 'display_timezone',
+                       metavar='ZONE')
+
+
+def display_zone(args: argparse.Namespace) -> Any:
+    """
+    Return the zone of ``--display-timezone`` for :func:`~robot_wear_monitor.text.shown_time`.
+
+    None: UTC (ISO 8601, or the machine's zone with ``--local``).  Both options: an error.
+    """
+    from robot_wear_monitor.display_time import time_zone
+    name = getattr(args, 'display_timezone', None)
+    if name is None:
+        return None
+    if getattr(args, 'local', False):
+        raise InputError("give --local (the machine's zone) or --display-timezone, not both")
+    return time_zone(name, where='--display-timezone')
 
 
 def add_history(parser: argparse.ArgumentParser, *, help_text: str,

@@ -15,12 +15,12 @@ from __future__ import annotations
 from typing import Any, Callable
 
 from fastapi import APIRouter, Depends, Form, Request
-from robot_wear_monitor.dashboard.deps import AdminUser, check_csrf, HistoryDep
+from robot_wear_monitor.dashboard.deps import AdminUser, check_csrf, get_display_zone, HistoryDep
 from robot_wear_monitor.dashboard.pages import render
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.account_audit import Actor
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
-from robot_wear_monitor.text import iso_time
+from robot_wear_monitor.text import shown_time
 from starlette.responses import HTMLResponse, RedirectResponse, Response
 
 router = APIRouter(include_in_schema=False)
@@ -32,7 +32,9 @@ def users_page(request: Request, admin: AdminUser, history: HistoryDep) -> HTMLR
     tokens: dict[str, int] = {}
     for token in history.tokens():
         tokens[token.user] = tokens.get(token.user, 0) + 1
-    users = [{'name': u.name, 'role': u.role, 'created': iso_time(u.created_wall_time_s),
+    zone = get_display_zone(request)
+    users = [{'name': u.name, 'role': u.role,
+              'created': shown_time(u.created_wall_time_s, zone=zone),
               'tokens': tokens.get(u.name, 0), 'self': u.name == admin['name']}
              for u in history.users()]
     return render(request, 'users.html', users=users, roles=ROLES, role_texts=ROLE_TEXTS)
@@ -110,6 +112,7 @@ AUDIT_PAGE_ROWS = 500
 @router.get('/users/audit')
 def audit_page(request: Request, admin: AdminUser, history: HistoryDep) -> HTMLResponse:
     """Show who changed which account when (page and command line), newest first."""
-    records = [{**item.as_dict(), 'time': iso_time(item.time_s)}
+    records = [{**item.as_dict(), 'time': shown_time(item.time_s,
+                                                     zone=get_display_zone(request))}
                for item in history.account_audit(limit=AUDIT_PAGE_ROWS)]
     return render(request, 'audit.html', records=records, rows=AUDIT_PAGE_ROWS)

@@ -32,7 +32,8 @@ from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from robot_wear_monitor.dashboard.api_checks import BEARER, reject_unknown_query
 from robot_wear_monitor.dashboard.auth import csrf_token, is_token_request
 from robot_wear_monitor.dashboard.deps import (check_api_csrf, CurrentUser, FleetCacheDep,
-                                               HistoryDep, MaintainerUser, ParameterSetsDep)
+                                               get_display_zone, HistoryDep, MaintainerUser,
+                                               ParameterSetsDep)
 from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
                                                   EditRequest, FleetJson, JointJson, MeJson,
@@ -95,7 +96,8 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
                          robot=robot or None, state=_state(state), cache=cache, page=page,
                          limit=limit, reescalation_margin=reescalation_margin(request),
-                         forecast_horizon_s=forecast_horizon_s(request), source='api')
+                         forecast_horizon_s=forecast_horizon_s(request), source='api',
+                         zone=get_display_zone(request))
     if robot and robot not in payload['robots']:
         raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
     return json_with_etag(request, payload)
@@ -114,7 +116,8 @@ def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
     payload = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
                          parameter_sets=parameter_sets,
                          reescalation_margin=reescalation_margin(request),
-                         forecast_horizon_s=forecast_horizon_s(request))
+                         forecast_horizon_s=forecast_horizon_s(request),
+                         zone=get_display_zone(request))
     if payload is None:
         raise HTTPException(status_code=404, detail=f'no estimates of robot {robot[:80]!r} '
                                                     f'joint {joint[:80]!r}')
@@ -123,7 +126,8 @@ def api_joint(request: Request, robot: str, joint: str, history: HistoryDep,
 
 @router.get('/alarms', summary='The alarm log of the fleet, newest first',
             response_model=list[AlarmEventJson])
-def api_alarms(history: HistoryDep, robot: Optional[str] = None, joint: Optional[str] = None,
+def api_alarms(request: Request, history: HistoryDep, robot: Optional[str] = None,
+               joint: Optional[str] = None,
                limit: Optional[int] = Query(None, ge=1, le=100000),
                since: Optional[float] = Query(None, ge=0, le=1e11, description=(
                    'only the events stored after this time [s since the epoch] (for a '
@@ -135,7 +139,7 @@ def api_alarms(history: HistoryDep, robot: Optional[str] = None, joint: Optional
     ``since``: the events stored after that wall time only (a late-replayed raise too).
     """
     return alarm_log(history, robot=robot or None, joint=joint or None, limit=limit,
-                     stored_after_s=since)
+                     stored_after_s=since, zone=get_display_zone(request))
 
 
 @router.get('/me', summary='The logged-in user', response_model=MeJson)

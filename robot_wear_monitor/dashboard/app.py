@@ -29,6 +29,7 @@ from robot_wear_monitor.dashboard.guards import (BodyGuard, history_error_answer
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool, POLL_INTERVAL_MS
 from robot_wear_monitor.dashboard.views import FleetCache, time_spans
+from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import HistoryError
 from starlette.middleware.sessions import SessionMiddleware
@@ -74,6 +75,7 @@ def create_app(settings: DashboardSettings) -> FastAPI:
     The shared objects go on ``app.state``, where the routers' dependencies
     (:mod:`robot_wear_monitor.dashboard.deps`) find them.
     """
+    time_zone(settings.display_timezone)  # a bad name: InputError naming the setting
     pool = HistoryPool(settings.history)
     app = FastAPI(title='robot_wear_monitor dashboard', version=__version__,
                   description="The fleet of a wear history: joints worst first, one joint's "

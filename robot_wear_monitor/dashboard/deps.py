@@ -22,7 +22,8 @@ builds the application and puts the shared objects on ``app.state``:
 
 from __future__ import annotations
 
-from typing import Annotated, Iterator
+import datetime
+from typing import Annotated, Iterator, Optional
 
 from fastapi import Depends, Form, HTTPException, Request
 import jinja2
@@ -30,6 +31,7 @@ from robot_wear_monitor.dashboard.auth import (csrf_ok, current_user, is_token_r
                                                LoginLimiter, SessionUser)
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool
 from robot_wear_monitor.dashboard.views import FleetCache
+from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.history.users import ACTING_ROLES, ADMIN_ROLE
@@ -39,6 +41,11 @@ def get_settings(request: Request) -> DashboardSettings:
     """Return the app's settings."""
     settings: DashboardSettings = request.app.state.settings
     return settings
+
+
+def get_display_zone(request: Request) -> Optional[datetime.tzinfo]:
+    """Return the zone of the settings' ``display_timezone`` for people's times (None: UTC)."""
+    return time_zone(get_settings(request).display_timezone)
 
 
 def get_history(request: Request) -> Iterator[WearHistory]:

@@ -16,6 +16,7 @@ import logging
 import time
 from typing import Any, AsyncIterator
 
+from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.history import open_history
 
 LOGGER = logging.getLogger('robot_wear_monitor.dashboard')
@@ -28,27 +29,29 @@ def load_config(path: str) -> Any:
     return load_notification_config(path)
 
 
-def notify_pass(*, location: str, config: Any, parameter_sets: Any = None) -> int:
+def notify_pass(*, location: str, config: Any, parameter_sets: Any = None,
+                zone: Any = None) -> int:
     """
     Run one notification pass on the history at ``location``; return the notices sent.
 
-    ``parameter_sets``: the dashboard's (``--params``), for the rows without a stored threshold.
+    ``parameter_sets``: the dashboard's (``--params``), for the rows without a stored threshold;
+    ``zone``: its ``display_timezone``'s, for the texts' times.
     """
     # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.fleet.notifications import notify_once
     with open_history(location, init=False) as history:
         sent = notify_once(history=history, config=config, now_s=time.time(),
-                           parameter_sets=parameter_sets)
+                           parameter_sets=parameter_sets, zone=zone)
     return len(sent)
 
 
 async def notification_loop(*, location: str, config: Any, interval_s: float,
-                            parameter_sets: Any = None) -> None:
+                            parameter_sets: Any = None, zone: Any = None) -> None:
     """Run a notification pass every ``interval_s`` [s] until cancelled."""
     while True:
         try:
             count = await asyncio.to_thread(notify_pass, location=location, config=config,
-                                            parameter_sets=parameter_sets)
+                                            parameter_sets=parameter_sets, zone=zone)
             if count:
                 LOGGER.info('notifications: %d sent', count)
         except asyncio.CancelledError:
@@ -67,7 +70,8 @@ async def notification_lifespan(app: Any) -> AsyncIterator[None]:
         task = asyncio.create_task(notification_loop(
             location=settings.history, config=settings.notifications,
             interval_s=settings.notify_interval_s,
-            parameter_sets=getattr(app.state, 'parameter_sets', None)))
+            parameter_sets=getattr(app.state, 'parameter_sets', None),
+            zone=time_zone(settings.display_timezone)))
     try:
         yield
     finally:

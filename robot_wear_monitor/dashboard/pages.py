@@ -24,9 +24,9 @@ from fastapi import APIRouter, Depends, Form, Query, Request
 from robot_wear_monitor.csv_cells import spreadsheet_text
 from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, current_user,
                                                end_session, safe_next, start_session)
-from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_settings,
-                                               get_templates, HistoryDep, LimiterDep,
-                                               MaintainerUser, ParameterSetsDep)
+from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_display_zone,
+                                               get_settings, get_templates, HistoryDep,
+                                               LimiterDep, MaintainerUser, ParameterSetsDep)
 from robot_wear_monitor.dashboard.guards import public_message
 from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
@@ -34,6 +34,7 @@ from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, ev
                                                 joint_json, joint_url, MAX_PAGE_ROWS,
                                                 page_links, PAGE_ROWS, reescalation_margin,
                                                 STATES)
+from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.users import ACTING_ROLES
 from starlette.responses import HTMLResponse, RedirectResponse, Response
@@ -48,9 +49,21 @@ def render(request: Request, template: str, *, status_code: int = 200,
     html = get_templates(request).get_template(template).render(
         user=current_user(request), csrf_token=csrf_token(request), flash=flash,
         joint_url=joint_url, poll_ms=get_settings(request).poll_interval_ms,
+        times_text=times_text(get_settings(request).display_timezone),
         acting_roles=ACTING_ROLES,
         path=request.url.path, **context)
     return HTMLResponse(html, status_code=status_code)
+
+
+def for_people(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Return events whose ``time`` is their ``time_text`` (the plant's zone) for a page."""
+    return [{**event, 'time': event['time_text']} for event in events]
+
+
+def times_text(display_timezone: str) -> str:
+    """Return the footer's words on the times: 'UTC (ISO 8601)' or the zone's name."""
+    zone = time_zone(display_timezone)
+    return 'UTC (ISO 8601)' if zone is None else f"{display_timezone} (the plant's clock)"
 
 
 @router.get('/login')
@@ -107,7 +120,8 @@ def fleet_page(request: Request, history: HistoryDep, parameter_sets: ParameterS
                        robot=robot or None, state=state if state in STATES else None,
                        cache=cache, page=page, limit=limit,
                        reescalation_margin=reescalation_margin(request),
-                       forecast_horizon_s=forecast_horizon_s(request), source='web')
+                       forecast_horizon_s=forecast_horizon_s(request), source='web',
+                       zone=get_display_zone(request))
     return render(request, 'fleet.html', fleet=fleet, states=STATES, row_html=fleet_row_html,
                   page_links=page_links(fleet))
 
@@ -119,15 +133,18 @@ def joint_page(request: Request, robot: str, joint: str, history: HistoryDep,
     data = joint_json(history, robot=robot, joint=joint, now_s=time.time(),
                       parameter_sets=parameter_sets,
                       reescalation_margin=reescalation_margin(request),
-                      forecast_horizon_s=forecast_horizon_s(request))
+                      forecast_horizon_s=forecast_horizon_s(request),
+                      zone=get_display_zone(request))
     if data is None:
         return render(request, 'error.html', status_code=404,
                       message=f'no estimates of robot {robot!r} joint {joint!r}')
     acknowledgement = history.acknowledgement(joint=joint, robot=robot)
-    return render(request, 'joint.html', data=data,
+    if data['state'] is not None:  # the page shows the time in the plant's zone
+        data['state']['acknowledged_at'] = data['state']['acknowledged_at_text']
+    return render(request, 'joint.html', data={**data, 'events': for_people(data['events'])},
                   api_url='/api' + joint_url(robot, joint),
-                  acknowledgement=None if acknowledgement is None
-                  else event_json(acknowledgement))
+                  acknowledgement=None if acknowledgement is None else for_people(
+                      [event_json(acknowledgement, zone=get_display_zone(request))])[0])
 
 
 def _flash_outcome(request: Request, robot: str, joint: str, action: Any,
@@ -215,9 +232,10 @@ def alarms_page(request: Request, history: HistoryDep, robot: Optional[str] = No
                 joint: Optional[str] = None,
                 limit: int = Query(500, ge=1, le=100000)) -> HTMLResponse:
     """Show the fleet's alarm log, newest first: raised, acknowledged and reset, who and why."""
-    events = alarm_log(history, robot=robot or None, joint=joint or None, limit=limit)
-    return render(request, 'alarms.html', events=events, robot=robot or '', joint=joint or '',
-                  limit=limit)
+    events = alarm_log(history, robot=robot or None, joint=joint or None, limit=limit,
+                       zone=get_display_zone(request))
+    return render(request, 'alarms.html', events=for_people(events), robot=robot or '',
+                  joint=joint or '', limit=limit)
 
 
 @router.get('/alarms.csv')

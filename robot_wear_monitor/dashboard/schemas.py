@@ -118,6 +118,8 @@ class FleetRowJson(_Shape):
                     "threshold and warning_level are the parameter set's, assumed")
     acknowledged_s: Optional[float] = Field(description='when acknowledged [s, wall clock]')
     acknowledged_at: str = Field(description='acknowledged_s as ISO 8601 UTC (- when not)')
+    acknowledged_at_text: str = Field(description="acknowledged_s in the dashboard's "
+                                                  'display_timezone, as the page shows it')
     parameter_set: str
     alarm_since: Optional[str] = Field(description='alarm_since_s as ISO 8601 UTC')
     last_experiment: str = Field(description='last_stamp_s as ISO 8601 UTC')
@@ -159,6 +161,8 @@ class AlarmEventJson(_Shape):
     stamp_s: Optional[float] = Field(description="a raise: its experiment's stamp [s]; "
                                                  'else the moment [s]')
     time: str = Field(description='event_time_s as ISO 8601 UTC')
+    time_text: str = Field(description="event_time_s as people read it: in the dashboard's "
+                                       'display_timezone (ISO 8601 UTC by default)')
     event_time_s: Optional[float] = Field(
         description="the event's time in the log (newest first): a raise's experiment "
                     "stamp, an acknowledgement's or a reset's wall time [s]")

@@ -19,6 +19,7 @@ import time
 from typing import Iterator, Optional, TYPE_CHECKING
 
 from robot_wear_monitor.dashboard.auth import MAX_FAILURES, WINDOW_S
+from robot_wear_monitor.display_time import DisplayTimeConfig
 from robot_wear_monitor.fleet.notify_settings import NotifierSettings
 from robot_wear_monitor.history import open_history, WearHistory
 from robot_wear_monitor.setting_fields import check_settings, in_range, setting, shared_setting
@@ -108,7 +109,9 @@ class DashboardSettings:
     :func:`~robot_wear_monitor.fleet.notify_config.load_notification_config` where the server
     starts): the background loop sends with it every ``notify_interval_s``, and the pages
     order by its re-escalation margin; ``trusted_proxies``: peer addresses whose
-    ``X-Forwarded-For`` names the client (the login rate limit counts per client address).
+    ``X-Forwarded-For`` names the client (the login rate limit counts per client address);
+    ``display_timezone``: the IANA zone of the times the pages show (declared by
+    :class:`~robot_wear_monitor.display_time.DisplayTimeConfig`; the API's times stay UTC).
     The other fields are declared settings (default, unit, description, check: a bad value is
     an :class:`~robot_wear_monitor.errors.InputError` naming the field, the value and the
     range, from Python as from the command line).
@@ -135,6 +138,7 @@ class DashboardSettings:
         False, description='a TLS proxy is in front: the session cookie is Secure although '
                            'this server speaks plain HTTP')
     trusted_proxies: tuple[str, ...] = ()
+    display_timezone: str = shared_setting(DisplayTimeConfig, 'display_timezone')
 
     def __post_init__(self) -> None:
         """Check the declared settings (InputError naming the setting, value and range)."""

@@ -5,7 +5,9 @@ The pages and the ``/api/`` routes both render these, so that a page and its API
 two stories.  The fleet keeps the order of ``robot-wear-monitor fleet``
 (:func:`robot_wear_monitor.fleet.ranking.fleet_view`, worst first).  Numbers that are not
 finite become None (JSON null).  Wear is the model's w (0 new, 100 failure), temperatures in
-degC, speeds motor side in rad/s, frictions normalised, times in seconds since the epoch.
+degC, speeds motor side in rad/s, frictions normalised, times in seconds since the epoch and
+ISO 8601 UTC; the ``text`` of a fleet row and an event's ``time_text`` (words people read) are
+in the dashboard's ``display_timezone`` (``zone``, :func:`robot_wear_monitor.text.shown_time`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from urllib.parse import quote, urlencode
 
 from markupsafe import escape, Markup
 import numpy as np
+from robot_wear_monitor.display_time import Zone
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
                                               fleet_view, FleetView, plural, threshold_text)
 from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
@@ -27,7 +30,7 @@ from robot_wear_monitor.fleet.thresholds import ParameterSets, threshold_words
 from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.model.params import ParameterSet
-from robot_wear_monitor.text import iso_time, shorten
+from robot_wear_monitor.text import iso_time, shorten, shown_time
 
 #: An experiment whose model check has a p-value below this is marked on the joint page.
 MODEL_CHECK_P_VALUE = 0.01
@@ -94,15 +97,15 @@ class FleetCache:
         self._rows: list = []
         self._json: dict[tuple, dict[str, Any]] = {}
 
-    def row_json(self, view: FleetView) -> dict[str, Any]:
+    def row_json(self, view: FleetView, *, zone: Zone = None) -> dict[str, Any]:
         """Return :func:`fleet_row_json` of ``view``, made once per row state."""
         key = (repr(view.state), view.stale, view.crossing_time_s, view.reescalated,
                view.threshold, view.threshold_assumed, view.condition,
-               view.crossing_overdue)
+               view.crossing_overdue, str(zone))
         with self._lock:
             found = self._json.get(key)
         if found is None:
-            found = RowJson(fleet_row_json(view))
+            found = RowJson(fleet_row_json(view, zone=zone))
             with self._lock:
                 if len(self._json) > 4 * max(1000, len(self._rows)):
                     self._json.clear()  # rows of states long gone
@@ -174,7 +177,8 @@ def fleet_row_html(row: dict[str, Any]) -> Markup:
 
 
 #: A date or an ISO 8601 UTC time in a text (kept on one line by :func:`time_spans`).
-TIME_TOKEN = re.compile(r'\d{4}-\d{2}-\d{2}(?:T\d{2}:\d{2}(?::\d{2})?Z?)?')
+TIME_TOKEN = re.compile(r'\d{4}-\d{2}-\d{2}(?:T\d{2}:\d{2}(?::\d{2})?Z?'
+                        r'| \d{2}:\d{2} (?:[A-Z]{2,6}|[+-]\d{2,4})\b)?')
 
 
 def time_spans(text: str) -> Markup:
@@ -193,13 +197,15 @@ def joint_url(robot: str, joint: str) -> str:
     return f'/robots/{quote(robot, safe="")}/joints/{quote(joint, safe="")}'
 
 
-def utc_text(stamp_s: Optional[float]) -> str:
+def utc_text(stamp_s: Optional[float], zone: Zone = None) -> str:
     """
     Return a stamp [s since the epoch] as ISO 8601 UTC to the second ('-' when unknown).
 
     The text of :func:`robot_wear_monitor.text.iso_time`, made faster (the fleet page
-    writes thousands).
+    writes thousands); with a ``zone``, :func:`~robot_wear_monitor.text.shown_time`'s.
     """
+    if zone is not None:
+        return shown_time(stamp_s, zone=zone)
     if stamp_s is None or not math.isfinite(stamp_s) or not -1e11 < stamp_s < 2.5e11:
         return iso_time(stamp_s)
     return time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime(stamp_s))
@@ -278,7 +284,7 @@ def crossing_days(view: FleetView) -> Optional[float]:
     return (view.crossing_time_s - view.state.last_stamp_s) / DAY_S
 
 
-def crossing_words(view: FleetView) -> str:
+def crossing_words(view: FleetView, zone: Zone = None) -> str:
     """
     Return the forecast crossing as the page shows it: days, the date, and experiments.
 
@@ -287,17 +293,17 @@ def crossing_words(view: FleetView) -> str:
     """
     days = crossing_days(view)
     if view.crossing_overdue or days is None or view.crossing_time_s is None:
-        text = crossing_text(view)
+        text = crossing_text(view, zone=zone)
         if math.isfinite(view.state.crossing_experiments) and \
                 view.state.crossing_experiments > 0:
             text += ' (no date: the experiment interval is not known yet)'
         return text
     amount = f'{days:.1f}' if days < 10 else f'{days:,.0f}'
     return (f'in {plural(round(view.state.crossing_experiments), "experiment")} \u2248 '
-            f'{amount} days (~{utc_text(view.crossing_time_s)[:10]})')
+            f'{amount} days (~{shown_time(view.crossing_time_s, zone=zone, date_only=True)})')
 
 
-def life_text(state: Any) -> str:
+def life_text(state: Any, zone: Zone = None) -> str:
     """
     Return the line of a joint reset after maintenance ('' when never reset or latched again).
 
@@ -309,15 +315,16 @@ def life_text(state: Any) -> str:
     who = f' by {shorten(state.reset_by, 60)}' if state.reset_by else ''
     why = f' ({shorten(state.reset_reason, 120)})' if state.reset_reason else ''
     if state.awaiting_first_experiment:
-        return f'reset {utc_text(state.life_started_s)}{who}{why}: awaiting the first experiment'
-    return f'new life since the reset {utc_text(state.life_started_s)}{who}{why}'
+        return (f'reset {utc_text(state.life_started_s, zone)}{who}{why}: awaiting the first '
+                'experiment')
+    return f'new life since the reset {utc_text(state.life_started_s, zone)}{who}{why}'
 
 
-def _alarm_text(view: FleetView) -> str:
+def _alarm_text(view: FleetView, zone: Zone = None) -> str:
     state = view.state
     if not state.alarm:
         return 'clear'
-    text = f'LATCHED since {utc_text(state.alarm_since_stamp_s)}'
+    text = f'LATCHED since {utc_text(state.alarm_since_stamp_s, zone)}'
     if getattr(state, 'acknowledged', False):
         text += f'; acknowledged by {getattr(state, "acknowledged_by", "")}'
         if getattr(state, 'planned_maintenance', ''):
@@ -327,9 +334,11 @@ def _alarm_text(view: FleetView) -> str:
     return text
 
 
-def fleet_row_json(view: FleetView) -> dict[str, Any]:
+def fleet_row_json(view: FleetView, *, zone: Zone = None) -> dict[str, Any]:
     """
     Return one fleet row for the page and ``/api/fleet`` (``fleet --json`` keys and more).
+
+    The times of ``text`` (and ``acknowledged_at_text``) are in ``zone``; the others UTC.
 
     The bar is drawn on the threshold the row's latest estimate was judged by (the row's
     ``threshold``; the parameter set's when ``threshold_assumed``).
@@ -343,6 +352,8 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
         'acknowledged_by': getattr(state, 'acknowledged_by', '') or None,
         'acknowledged_s': _number(getattr(state, 'acknowledged_wall_time_s', math.nan)),
         'acknowledged_at': utc_text(getattr(state, 'acknowledged_wall_time_s', math.nan)),
+        'acknowledged_at_text': utc_text(getattr(state, 'acknowledged_wall_time_s', math.nan),
+                                         zone),
         'edited_by': getattr(state, 'edited_by', '') or None,
         'planned_maintenance': getattr(state, 'planned_maintenance', '') or None,
         'parameter_set': state.parameter_set,
@@ -352,19 +363,20 @@ def fleet_row_json(view: FleetView) -> dict[str, Any]:
                           if view.crossing_time_s is not None else None),
         'crossing_days': _number(crossing_days(view)),
         'bar': _bar(state, threshold), 'url': joint_url(state.robot, state.joint),
-        'text': {'wear': (life_text(state) if state.awaiting_first_experiment else
+        'text': {'wear': (life_text(state, zone) if state.awaiting_first_experiment else
                           _interval_text(state.wear if not state.invalid_reason else math.nan,
                                          state.wear_low, state.wear_high)),
-                 'life': life_text(state),
+                 'life': life_text(state, zone),
                  'trend': (f'{trend_arrow(view)} {state.trend_wear:.1f}'
                            if math.isfinite(state.trend_wear) else '?'),
                  # a new life awaiting its first experiment: nothing of the old life
                  'crossing': ('no experiment since the reset'
-                              if state.awaiting_first_experiment else crossing_words(view)),
-                 'alarm': _alarm_text(view),
+                              if state.awaiting_first_experiment else crossing_words(view, zone)),
+                 'alarm': _alarm_text(view, zone),
                  'threshold': threshold_text(view),
                  'last': ('none since the reset' if state.awaiting_first_experiment
-                          else utc_text(state.last_stamp_s)) + (' STALE' if view.stale else ''),
+                          else utc_text(state.last_stamp_s, zone)) + (' STALE' if view.stale
+                                                                      else ''),
                  'invalid': state.invalid_reason or ''},
     })
     return row
@@ -376,7 +388,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
                limit: Optional[int] = None,
                reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
                forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
-               source: str = '') -> dict[str, Any]:
+               source: str = '', zone: Zone = None) -> dict[str, Any]:
     """
     Return the fleet worst first, the counts per state and the robots, as one dict.
 
@@ -387,7 +399,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     pages.  Only the rows sent are made into JSON.  ``reescalation_margin``: see
     :func:`~robot_wear_monitor.fleet.ranking.fleet_view`.  ``source`` ('web', 'api'): log
     each re-escalation not yet in the alarm log, with it (:mod:`~robot_wear_monitor.fleet.
-    reescalation_log`); '' logs nothing.
+    reescalation_log`); '' logs nothing.  ``zone``: of the rows' texts (None: UTC).
     """
     views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
                        now_s=now_s, reescalation_margin=reescalation_margin,
@@ -411,7 +423,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
         page = min(max(1, page if page is not None else 1), pages)
         first = (page - 1) * limit
         chosen = chosen[first:first + limit]
-    rows = [make(v) for v in chosen]
+    rows = [make(v, zone=zone) for v in chosen]
     return {'counts': counts, 'joints': len(views), 'robots': robots,
             'robot': robot, 'state': state, 'rows': rows, 'total': total,
             'page': page if limit is not None else 1, 'pages': pages, 'limit': limit,
@@ -447,20 +459,20 @@ def page_links(fleet: dict[str, Any]) -> list[dict[str, Any]]:
     return links
 
 
-def event_json(event: Any) -> dict[str, Any]:
+def event_json(event: Any, *, zone: Zone = None) -> dict[str, Any]:
     """
     Return one alarm event (raised, reset, an acknowledgement, its edit or withdrawal).
 
     ``time``/``event_time_s``: the event's time in the log (a raise's experiment stamp, an
-    acknowledgement's, an edit's, a withdrawal's or a reset's wall time); ``note_text``: its
-    note in words.
+    acknowledgement's, an edit's, a withdrawal's or a reset's wall time; ``time_text``: in
+    ``zone``, as people read it); ``note_text``: its note in words.
     """
     wall = _number(getattr(event, 'wall_time_s', math.nan))
     when = _number(event_time_s(event))
     return {
         'id': getattr(event, 'id', None), 'robot': event.robot, 'joint': event.joint,
         'event': event.event, 'stamp_s': _number(event.stamp_s),
-        'time': utc_text(when), 'event_time_s': when,
+        'time': utc_text(when), 'time_text': utc_text(when, zone), 'event_time_s': when,
         'wall_time_s': wall, 'wear': _number(event.wear), 'note': event.note,
         'note_text': note_text(event),
         'user': getattr(event, 'user', '') or '', 'owner': getattr(event, 'owner', '') or '',
@@ -481,7 +493,8 @@ ALARM_CSV_COLUMNS = ('id', 'time', 'robot', 'joint', 'event', 'wear', 'user', 'o
 
 def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str] = None,
               limit: Optional[int] = None,
-              stored_after_s: Optional[float] = None) -> list[dict[str, Any]]:
+              stored_after_s: Optional[float] = None, zone: Zone = None
+              ) -> list[dict[str, Any]]:
     """
     Return the fleet's alarm events newest first (one robot's joint with ``joint``).
 
@@ -497,7 +510,7 @@ def alarm_log(history: Any, *, robot: Optional[str] = None, joint: Optional[str]
         events = sorted((e for r, j in pairs for e in history.events(joint=j, robot=r)),
                         key=lambda e: (event_time_s(e), e.id or 0), reverse=True)
         events = events[:limit] if limit is not None else events
-    return [event_json(e) for e in events]
+    return [event_json(e, zone=zone) for e in events]
 
 
 def _experiment_json(record: Any) -> dict[str, Any]:
@@ -596,8 +609,8 @@ def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dic
 def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
                parameter_sets: ParameterSets,
                reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
-               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S
-               ) -> Optional[dict[str, Any]]:
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
+               zone: Zone = None) -> Optional[dict[str, Any]]:
     """
     Return one joint's story (None when the history holds no estimate of it).
 
@@ -622,7 +635,7 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
         assumed = not math.isfinite(last.threshold)
         threshold = params.wear_threshold if assumed else last.threshold
         warning = params.wear_warning if assumed else last.warning_level
-    events = alarm_log(history, robot=robot, joint=joint)
+    events = alarm_log(history, robot=robot, joint=joint, zone=zone)
     # the joint's current life: the experiments after the estimate its last reset is tied to
     last_reset = max((e for e in events if e['event'] == 'reset'), key=lambda e: e['id'] or 0,
                      default=None)
@@ -636,7 +649,7 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
         'threshold_text': threshold_words(threshold, assumed=assumed),
         'parameter_set': records[-1].parameter_set, 'model_note': note or None,
         'model_check_p_value': MODEL_CHECK_P_VALUE,
-        'state': fleet_row_json(state) if state is not None else None,
+        'state': fleet_row_json(state, zone=zone) if state is not None else None,
         'experiments': [{**_experiment_json(r), 'current_life': life_after is None
                          or (r.id or 0) > life_after} for r in records],
         'forecast': forecast_cone(life, threshold=threshold,

@@ -65,6 +65,7 @@ import time
 from typing import Any, Callable, Optional
 from urllib.parse import quote
 
+from robot_wear_monitor.display_time import Zone
 from robot_wear_monitor.fleet.notify_channels import (
     describe_wear, DueEvent, email_message, email_subject, KINDS, post_webhook, RESOLVES,
     send_email, SendResult, summary_email, SUMMARY_KEY, summary_payload, webhook_payload)
@@ -75,7 +76,7 @@ from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR
 from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
 from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import HistoryError, open_history, WearHistory
-from robot_wear_monitor.text import iso_time, shorten
+from robot_wear_monitor.text import iso_time, shorten, shown_time
 
 __all__ = ['DueEvent', 'due_events', 'EmailConfig', 'EVENTS', 'KINDS',
            'load_notification_config', 'NotificationConfig', 'NotificationConfigError',
@@ -149,7 +150,7 @@ def _cycle(history: WearHistory, *, robot: str, joint: str) -> str:
     return f'cycle-{_stamp(resets[-1].stamp_s)}' if resets else 'cycle-0'
 
 
-def _facts(view: FleetView) -> str:
+def _facts(view: FleetView, zone: Zone = None) -> str:
     s = view.state
     lines = [f'Robot: {s.robot}', f'Joint: {s.joint}',
              f'Latest wear: {describe_wear(view)} (0 new .. 100 failure)',
@@ -162,14 +163,14 @@ def _facts(view: FleetView) -> str:
         when = ' trend past the threshold' if crossing <= 0 else \
             f' in {crossing:.0f} experiments'
         if crossing > 0 and view.crossing_time_s is not None:
-            when += f' (~{iso_time(view.crossing_time_s)})'
+            when += f' (~{shown_time(view.crossing_time_s, zone=zone)})'
         lines.append(f'Forecast crossing of the wear threshold:{when}')
     if s.alarm:
-        lines.append(f'Alarm latched since {iso_time(s.alarm_since_stamp_s)}')
+        lines.append(f'Alarm latched since {shown_time(s.alarm_since_stamp_s, zone=zone)}')
     if math.isfinite(s.life_started_s):
-        lines.append(f'New life since the reset {iso_time(s.life_started_s)} '
+        lines.append(f'New life since the reset {shown_time(s.life_started_s, zone=zone)} '
                      f'({s.experiments} experiments since)')
-    lines.append(f'Last experiment: {iso_time(s.last_stamp_s)} '
+    lines.append(f'Last experiment: {shown_time(s.last_stamp_s, zone=zone)} '
                  f'({max(s.total_experiments, s.experiments)} in all)')
     return '\n'.join(lines)
 
@@ -183,7 +184,7 @@ def _where(robot: str, joint: str) -> str:
 
 def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float,
                parameter_sets: Optional[ParameterSets] = None,
-               sent: Optional[dict[str, str]] = None) -> list[DueEvent]:
+               sent: Optional[dict[str, str]] = None, zone: Zone = None) -> list[DueEvent]:
     """
     Return the events due at ``now_s`` [s since the epoch] that the configuration names.
 
@@ -193,6 +194,7 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
     its parameter set's (None: the packaged sets; see :func:`fleet_view`).  ``sent``: the keys
     of the firing events sent before (key -> kind, from the history's log): each whose cause
     has ended (its key no longer active) is due as its ``resolved`` event (``RESOLVES``).
+    ``zone``: the texts' times in the plant's ``display_timezone`` (None: UTC; keys stay UTC).
     """
     events: list[DueEvent] = []
     #: keys whose cause holds now, sent or not, notified now or held back by an acknowledgement
@@ -210,7 +212,7 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
         s = view.state
         views_by_joint[(s.robot, s.joint)] = view
         where = _where(s.robot, s.joint)
-        facts = _facts(view)
+        facts = _facts(view, zone)
 
         def add(kind: str, key: str, starts_s: float, summary: str, *, send: bool = True,
                 **more: Any) -> None:
@@ -249,14 +251,16 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
             when = (f'the trend is past the wear threshold {threshold}'
                     if s.crossing_experiments <= 0
                     else f'the wear threshold {threshold} is forecast to be crossed by '
-                         f'{iso_time(view.crossing_time_s)} (within '
+                         f'{shown_time(view.crossing_time_s, zone=zone)} (within '
                          f'{config.forecast_horizon_days:g} days)')
             cycle = _cycle(history, robot=s.robot, joint=s.joint)
             if view.crossing_overdue and view.crossing_time_s is not None:
                 date = iso_time(view.crossing_time_s)[:10]
+                day = shown_time(view.crossing_time_s, zone=zone, date_only=True)
                 add('forecast_crossing', f'{cycle}/overdue-{date}', view.crossing_time_s,
-                    f'the forecast crossing of the wear threshold is overdue since {date}: '
-                    f'no experiment since {iso_time(s.last_stamp_s)} to confirm it',
+                    f'the forecast crossing of the wear threshold is overdue since {day}: '
+                    f'no experiment since {shown_time(s.last_stamp_s, zone=zone)} to '
+                    'confirm it',
                     send=not quiet)
                 active.add(f'forecast_crossing/{where}/{cycle}')  # still due, now overdue
             else:
@@ -267,11 +271,11 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
                 last = max(last, s.life_started_s)  # a new life: counted from its reset
             since = last + STALE_FACTOR * s.usual_interval_s
             add('joint_stale', f'last-{_stamp(last)}', since,
-                f'no experiment since {iso_time(last)} (usual interval '
+                f'no experiment since {shown_time(last, zone=zone)} (usual interval '
                 f'{s.usual_interval_s / 3600.0:.1f} h)', send=not quiet)
     if sent:
         events += _resolutions(sent=sent, active=active, views=views_by_joint,
-                               config=config, now_s=now_s)
+                               config=config, now_s=now_s, zone=zone)
     return events
 
 
@@ -285,7 +289,7 @@ def _acknowledgement(s: Any) -> str:
 
 def _resolutions(*, sent: dict[str, str], active: set[str],
                  views: dict[tuple[str, str], FleetView], config: NotificationConfig,
-                 now_s: float) -> list[DueEvent]:
+                 now_s: float, zone: Zone = None) -> list[DueEvent]:
     """Return the ``resolved`` events of the sent alerts whose cause has ended."""
     out = []
     for key, kind in sorted(sent.items()):
@@ -300,14 +304,15 @@ def _resolutions(*, sent: dict[str, str], active: set[str],
             continue  # a joint no longer in the history: nothing to say of it
         s = view.state
         why = {'forecast_resolved': 'the forecast crossing is no longer due',
-               'stale_resolved': f'experiments again (the last {iso_time(s.last_stamp_s)})',
+               'stale_resolved': 'experiments again (the last '
+                                 f'{shown_time(s.last_stamp_s, zone=zone)})',
                'reescalation_resolved': 'the re-escalation ended (acknowledged anew, or reset)',
                'acknowledgement_resolved': 'the acknowledged alarm ended (reset)'}[ending]
         if math.isfinite(s.life_started_s) and ending != 'stale_resolved':
-            why += f'; a new life since the reset {iso_time(s.life_started_s)}'
+            why += f'; a new life since the reset {shown_time(s.life_started_s, zone=zone)}'
         out.append(DueEvent(kind=ending, key=f'{ending}/{key}', robot=s.robot, joint=s.joint,
                             starts_s=now_s, summary=f'{s.robot} {s.joint}: resolved: {why}',
-                            description=_facts(view), view=view, firing_key=key,
+                            description=_facts(view, zone), view=view, firing_key=key,
                             ends_s=now_s))
     return out
 
@@ -340,7 +345,8 @@ def _send(event: DueEvent, channel: str, config: NotificationConfig,
 
 def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: float,
                 sleep: Callable[[float], None] = time.sleep,
-                parameter_sets: Optional[ParameterSets] = None) -> list[SentNotification]:
+                parameter_sets: Optional[ParameterSets] = None,
+                zone: Zone = None) -> list[SentNotification]:
     """
     Send what is due at ``now_s`` [s since the epoch], once per event and channel.
 
@@ -348,7 +354,7 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     was sent already, by this process or another).  Failed sends are stored in the history
     and tried again on later passes (see the module's text).  Raises
     :class:`~robot_wear_monitor.history.HistoryError` when the history cannot be
-    read or written; a channel that fails never raises.  ``parameter_sets``: see
+    read or written; a channel that fails never raises.  ``parameter_sets``, ``zone``: see
     :func:`due_events`.
     """
     rows = history.notifications()
@@ -356,7 +362,7 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     fired = {_base_key(key): str(row['kind']) for row in rows
              if '@' in (key := str(row['event_key']))}
     events = due_events(history=history, config=config, now_s=now_s,
-                        parameter_sets=parameter_sets, sent=fired)
+                        parameter_sets=parameter_sets, sent=fired, zone=zone)
     if not events:
         return []
     failed_channels: set[str] = set()
@@ -473,7 +479,7 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
                    stop: threading.Event,
                    report: Callable[[list[SentNotification]], None] = lambda sent: None,
                    on_error: Callable[[Exception], None] = lambda error: None,
-                   clock: Callable[[], float] = time.time) -> None:
+                   clock: Callable[[], float] = time.time, zone: Zone = None) -> None:
     """
     Run a pass every ``interval_s`` [s] until ``stop`` is set (the loop of ``notify``).
 
@@ -488,7 +494,7 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
         try:
             with open_history(location, init=False) as history:
                 report(notify_once(history=history, config=config, now_s=clock(),
-                                   sleep=wait))
+                                   sleep=wait, zone=zone))
         except HistoryError as error:
             on_error(error)
         stop.wait(interval_s)

@@ -37,7 +37,7 @@ from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, th
 from robot_wear_monitor.history import FleetRow
 from robot_wear_monitor.history.recent import RECENT_INTERVALS
 from robot_wear_monitor.json_values import finite_or_none
-from robot_wear_monitor.text import iso_time, shorten
+from robot_wear_monitor.text import iso_time, shown_time
 
 #: A joint is stale after this many of its usual experiment intervals without an experiment.
 STALE_FACTOR = 3.0
@@ -193,8 +193,14 @@ def fleet_view(states: Iterable[FleetRow], *, now_s: float,
     return sorted(rows, key=FleetView.rank_key)
 
 
-def crossing_text(row: FleetView, *, local: bool = False) -> str:
-    """Return the forecast crossing in words: experiments to go and the date it falls on."""
+def crossing_text(row: FleetView, *, local: bool = False,
+                  zone: Optional[datetime.tzinfo] = None) -> str:
+    """
+    Return the forecast crossing in words: experiments to go and the date it falls on.
+
+    The date is the day in ``zone`` (the plant's, :func:`~robot_wear_monitor.text.shown_time`;
+    None: UTC, or the machine's with ``local``).
+    """
     crossing = row.state.crossing_experiments
     if row.state.awaiting_first_experiment:
         return 'no forecast yet (new life)'
@@ -203,32 +209,20 @@ def crossing_text(row: FleetView, *, local: bool = False) -> str:
     if crossing <= 0:
         return 'crossed (trend past the threshold)'
     if row.crossing_overdue and row.crossing_time_s is not None:
-        return f'overdue since {iso_time(row.crossing_time_s, local=local)[:10]}'
+        return f'overdue since {_day(row.crossing_time_s, local, zone)}'
     text = f'in {plural(round(crossing), "experiment")}'
     if row.crossing_time_s is not None:
-        text += f' (~{iso_time(row.crossing_time_s, local=local)[:10]})'
+        text += f' (~{_day(row.crossing_time_s, local, zone)})'
     return text
+
+
+def _day(stamp_s: float, local: bool, zone: Optional[datetime.tzinfo]) -> str:
+    return shown_time(stamp_s, local=local, zone=zone, date_only=True)
 
 
 def plural(count: int, noun: str) -> str:
     """Return '1 robot', '2 robots' (``count`` and ``noun``, with an s unless one)."""
     return f'{count} {noun}' if count == 1 else f'{count} {noun}s'
-
-
-def _wear_text(state: FleetRow) -> str:
-    if state.awaiting_first_experiment:
-        return 'new life: awaiting the first experiment'
-    if not math.isfinite(state.wear) or state.invalid_reason:
-        return 'CANNOT JUDGE'
-    if math.isfinite(state.wear_low) and math.isfinite(state.wear_high):
-        return f'{state.wear:5.1f} [{state.wear_low:5.1f}, {state.wear_high:5.1f}]'
-    return f'{state.wear:5.1f} [interval unknown]'
-
-
-def _trend_text(state: FleetRow) -> str:
-    if not math.isfinite(state.trend_wear):
-        return '-'
-    return f'{state.trend_wear:.1f}'
 
 
 FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear', 'alarm',
@@ -238,45 +232,9 @@ FLEET_COLUMNS = ('robot', 'joint', 'wear', 'wear_low', 'wear_high', 'trend_wear'
                  'crossing_overdue', 'reset_by', 'reset_reason')
 
 
-def _alarm_text(row: FleetView, local: bool) -> str:
-    state = row.state
-    if not state.alarm:
-        if math.isfinite(state.life_started_s):
-            return f'no (reset {iso_time(state.life_started_s, local=local)})'
-        return 'no'
-    text = f'LATCHED since {iso_time(state.alarm_since_stamp_s, local=local)}'
-    if state.acknowledged:
-        text += f', acknowledged by {shorten(state.acknowledged_by, 40)}'
-        if state.planned_maintenance:
-            text += f', maintenance planned {state.planned_maintenance}'
-        if row.reescalated:
-            text += ', RE-ESCALATED'
-    return text
-
-
 def threshold_text(row: FleetView) -> str:
     """Return the row's threshold as people read it: '30', or '35 (assumed)' when not stored."""
     return threshold_words(row.threshold, assumed=row.threshold_assumed)
-
-
-def fleet_table(rows: Sequence[FleetView], *, local: bool = False) -> str:
-    """Return the fleet as a text table, one line per robot joint, worst first."""
-    header = ('robot', 'joint', 'state', 'w [95 %]', 'trend w', 'threshold', 'alarm',
-              'forecast crossing', 'experiments', 'last experiment')
-    lines = []
-    for row in rows:
-        s = row.state
-        alarm = _alarm_text(row, local)
-        lines.append((shorten(s.robot, 40), shorten(s.joint, 40),
-                      row.condition.upper() if row.condition != 'ok' else 'ok',
-                      _wear_text(s), _trend_text(s), threshold_text(row), alarm,
-                      crossing_text(row, local=local),
-                      str(s.experiments), iso_time(s.last_stamp_s, local=local)))
-    widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h)
-              for i, h in enumerate(header)]
-    out = ['  '.join(h.ljust(w) for h, w in zip(header, widths)).rstrip()]
-    out += ['  '.join(c.ljust(w) for c, w in zip(line, widths)).rstrip() for line in lines]
-    return '\n'.join(out)
 
 
 def fleet_csv_rows(rows: Sequence[FleetView], *, local: bool = False,

@@ -150,3 +150,22 @@ def test_csv_exports_of_the_command_line_carry_no_live_formula(tmp_path, capsys,
     assert float(fleet_row['wear']) == pytest.approx(40.0)
     alarm_rows = list(csv.DictReader(io.StringIO(alarms_csv.read_text(encoding='utf-8'))))
     assert {float(r['wear']) for r in alarm_rows if r['wear']} == {40.0}
+
+
+def test_the_text_shows_the_plants_clock_and_the_json_stays_utc(history_path, capsys):
+    # the raise of r1 joint_2 at 2023-11-14T22:13:20Z is 23:13 CET in Stockholm (winter)
+    code, out, err = _run(capsys, history_path, '--alarms', '--display-timezone',
+                          'Europe/Stockholm')
+    assert code == 0, err
+    assert out.splitlines()[0].endswith('times Europe/Stockholm')
+    raised = next(line for line in out.splitlines() if 'raised' in line and 'joint_2' in line)
+    assert raised.split()[1:4] == ['2023-11-14', '23:13', 'CET'], raised
+    assert 'Z ' not in out
+    code, plain, _ = _run(capsys, history_path, '--alarms', '--json')
+    code, zoned, _ = _run(capsys, history_path, '--alarms', '--json', '--display-timezone',
+                          'Europe/Stockholm')
+    assert json.loads(zoned) == json.loads(plain)
+    # the estimates of a joint too
+    code, out, _ = _run(capsys, history_path, '--robot', 'r1', '--joint', 'joint_2',
+                        '--display-timezone', 'Asia/Kolkata')
+    assert code == 0 and '2023-11-15 03:43 IST' in out

@@ -289,6 +289,31 @@ def test_the_webhook_payload_and_the_email_say_what_the_history_holds(tmp_path, 
     assert key in text
 
 
+def test_the_texts_show_the_plants_clock_the_payload_stays_utc(tmp_path, webhook, capsys):
+    # the raise at 2026-09-21T17:13:20Z is 19:13 CEST in Stockholm (summer time)
+    from robot_wear_monitor.display_time import time_zone
+    config = _config(tmp_path, webhook=webhook, events=['alarm_raised'])
+    with WearHistory(tmp_path / 'h.db') as history:
+        _fleet(history)
+        notify_once(history=history, config=config, now_s=NOW,
+                    zone=time_zone('Europe/Stockholm'))
+    [(_, _, body)] = webhook.bodies
+    [alert] = body['alerts']
+    assert alert['startsAt'] == '2026-09-21T17:13:20Z'  # the machine's time: UTC
+    assert body['groupKey'] == f'alarm_raised/cell_1/joint_2/{RAISE_S:.6f}'  # keys: no zone
+    description = alert['annotations']['description']
+    assert 'Alarm latched since 2026-09-21 19:13 CEST' in description
+    assert 'Last experiment: 2026-09-21 19:13 CEST (4 in all)' in description
+    assert 'T17:13' not in description
+    # the verb's option; a bad zone is exit 2 naming the option and the value
+    capsys.readouterr()
+    assert cli_main(['notify', '--history', str(tmp_path / 'h.db'), '--config',
+                     str(tmp_path / 'notifications.yaml'), '--once', '--display-timezone',
+                     'Europe/Sthlm']) == 2
+    err = capsys.readouterr().err
+    assert '--display-timezone: not an IANA time zone name' in err and 'Europe/Sthlm' in err
+
+
 def test_names_from_recordings_are_encoded_in_links_and_kept_out_of_mail_headers(
         tmp_path, webhook, smtp):
     config = _config(tmp_path, webhook=webhook, smtp=smtp, events=['alarm_raised'])

@@ -4,7 +4,8 @@ import json
 import math
 
 import pytest
-from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view, STALE_FACTOR
+from robot_wear_monitor.fleet.fleet_table import fleet_table
+from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_view, STALE_FACTOR
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, WearHistory
 from robot_wear_monitor.text import iso_time
 

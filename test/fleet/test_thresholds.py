@@ -148,9 +148,12 @@ def test_fleet_json_the_api_and_the_pages_all_say_30(replays, capsys):
     assert (row['threshold'], row['warning_level'], row['threshold_assumed']) == (
         30.0, 28.0, False)
     assert row['alarm'] is True
-    assert main(['fleet', '--history', history]) == 0
+    assert main(['fleet', '--history', history, '--wide']) == 0  # threshold, then alarm
     table = capsys.readouterr().out
     assert re.search(r'\b30\s+LATCHED', table) and not CALLS_35_THE_THRESHOLD.search(table)
+    assert main(['fleet', '--history', history]) == 0  # the default: the alarm below the row
+    table = capsys.readouterr().out
+    assert re.search(r'ALARM .* 30 ', table) and not CALLS_35_THE_THRESHOLD.search(table)
     assert main(['fleet', '--history', history, '--csv']) == 0
     [line] = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
     assert (line['threshold'], line['threshold_assumed']) == ('30', 'no')

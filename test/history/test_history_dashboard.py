@@ -364,7 +364,8 @@ def test_a_history_of_the_next_version_is_refused(history_location):
 
 
 def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_path):
-    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_table, fleet_view
+    from robot_wear_monitor.fleet.fleet_table import fleet_table
+    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_view
     with WearHistory(tmp_path / 'h.db', robot='cell_1') as history:
         _raise(history, 0, joint='joint_2')
         _raise(history, 1, joint='joint_3', wear=60.0)
@@ -386,7 +387,7 @@ def test_the_fleet_view_shows_who_acknowledged_and_the_planned_maintenance(tmp_p
     assert payload[0]['acknowledged_time_s'] == rows[0].state.acknowledged_wall_time_s
     assert (payload[1]['acknowledged'], payload[1]['acknowledged_by'],
             payload[1]['acknowledged_time_s']) == (False, None, None)
-    table = fleet_table(rows).splitlines()
+    table = fleet_table(rows, wide=True).splitlines()  # one line per joint
     assert 'acknowledged by ana, maintenance planned 2026-12-01' in table[1]
     assert 'acknowledged' not in table[2] and 'LATCHED' in table[2]
     csv_rows = fleet_csv_rows(rows)

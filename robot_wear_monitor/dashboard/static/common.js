@@ -12,7 +12,7 @@ function setText(node, text) {
 
 // Set a text whose dates and times each go in a <span class="t"> (kept on one line by the
 // style sheet); the text itself is unchanged.  The pattern of views.TIME_TOKEN.
-const TIME_TOKEN = /(\d{4}-\d{2}-\d{2}(?:T\d{2}:\d{2}(?::\d{2})?Z?)?)/;
+const TIME_TOKEN = /(\d{4}-\d{2}-\d{2}(?:T\d{2}:\d{2}(?::\d{2})?Z?| \d{2}:\d{2} (?:[A-Z]{2,6}|[+-]\d{2,4})\b)?)/;
 
 function setTimes(node, text) {
   if (!node || node.textContent === text) { return; }

@@ -75,7 +75,7 @@ function markers(data, nowMs) {
   const shapes = [];
   const annotations = [];
   const items = data.events.filter((e) => e.stamp_s !== null && MARKERS[e.event])
-    .map((e) => ({x: ms(e.stamp_s), kind: e.event, hover: plotlyText(e.time + ' ' + e.event +
+    .map((e) => ({x: ms(e.stamp_s), kind: e.event, hover: plotlyText((e.time_text || e.time) + ' ' + e.event +
       (e.user ? ' by ' + e.user : '') + (e.note ? ': ' + e.note : ''))}));
   items.push({x: nowMs, kind: 'now', hover: 'now'});
   items.sort((a, b) => a.x - b.x);
@@ -130,7 +130,7 @@ function showEvents(events) {
     const tr = document.createElement('tr');
     tr.className = 'event-' + e.event;
     tr.dataset.id = String(e.id);
-    const cells = [e.time, e.event, e.wear === null ? '-' : e.wear.toFixed(1), e.user,
+    const cells = [e.time_text || e.time, e.event, e.wear === null ? '-' : e.wear.toFixed(1), e.user,
       e.owner, e.planned_maintenance, e.work_order, e.note_text];
     cells.forEach((text, index) => {
       const td = document.createElement('td');
