@@ -105,7 +105,7 @@ function layout(xtitle, ytitle) {
     font: {size: small ? 11 : 12},
     xaxis: {type: 'date', title: {text: xtitle}, automargin: true},
     yaxis: {title: {text: ytitle}, automargin: true},
-    legend: {orientation: 'h', x: 0, xanchor: 'left', yref: 'container', y: 0,
+    legend: {orientation: 'h', xref: 'container', x: 0, xanchor: 'left', yref: 'container', y: 0,
       yanchor: 'bottom'},
     uirevision: 'keep', hovermode: 'closest'};
 }
@@ -193,7 +193,7 @@ function showJoint(data) {
     layout('experiment end (UTC)', 'T [degC]'), config);
   const friction = layout('motor-side speed [rad/s]', 'friction [normalised]');
   friction.xaxis = {title: {text: 'motor-side speed [rad/s]'}, automargin: true};
-  friction.legend.title = {text: 'experiment (UTC)', side: 'top left'};
+  friction.legend.title = {text: 'experiment (UTC)', side: 'top'};
   Plotly.react('friction-chart', frictionTraces(data), friction, config);
   showEvents(data.events);
 }
