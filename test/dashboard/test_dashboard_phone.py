@@ -12,9 +12,9 @@ events: a long acknowledgement whose planned date has passed (re-escalated), the
 import time
 
 import pytest
-import test_dashboard_browser as browser_tests
 from robot_wear_monitor.dashboard.pages import joint_url
 from robot_wear_monitor.history import open_history
+import test_dashboard_browser as browser_tests
 
 # the shared fixtures (a module-level name is what pytest looks fixtures up by)
 history = browser_tests.history
@@ -34,7 +34,7 @@ RESET_REASON = ('gearbox replaced during the planned stop of line 3, serial '
 
 def _a_week(history: str, base: str, driver) -> None:
     """
-    A week on press_line/joint_2: acknowledged with a long note and a passed date, re-escalated.
+    Live a week of press_line/joint_2: acknowledged (long note, passed date), re-escalated, reset.
 
     The re-escalation is logged by whoever sees it first: here the fleet page, opened by the
     admin (who stays logged in); then the joint is reset with a long reason.
@@ -101,7 +101,7 @@ def _joint_log_drawn(driver) -> bool:
 
 
 def _check_table(page: dict, width: int, what: str) -> None:
-    """A table at 1366 px, a card per row at 390 px; each inside the viewport, label: value."""
+    """Check a table at 1366 px, a card per row at 390 px: inside the viewport, label: value."""
     assert page['scroll'] <= page['viewport'], (what, page['scroll'], page['viewport'])
     for inner, outer in page['boxes']:  # no table wider than its box (no sideways box)
         assert inner <= outer, (what, inner, outer)
@@ -168,7 +168,7 @@ def test_the_joint_log_drawn_again_by_the_page_is_the_same_cards(server, browser
     joint = joint_url('press_line', 'joint_2')
     served = _measure(browser, server, joint, '#joint-events', _joint_log_drawn)
     browser.execute_script(  # as on news: the log one event shorter, rows made by the script
-        "window.notReloaded = true; showEvents(pageData().data.events.slice(1));")
+        'window.notReloaded = true; showEvents(pageData().data.events.slice(1));')
     drawn = browser.execute_script(MEASURE, '#joint-events')
     assert browser.execute_script('return window.notReloaded === true;')
     assert len(drawn['rows']) == len(served['rows']) - 1 == 3

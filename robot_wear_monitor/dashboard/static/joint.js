@@ -103,7 +103,7 @@ function layout(xtitle, ytitle) {
   const small = narrow();
   return {margin: small ? {l: 44, r: 8, t: 8, b: 8} : {l: 60, r: 20, t: 34, b: 10},
     font: {size: small ? 11 : 12},
-    xaxis: {type: 'date', title: {text: xtitle}, automargin: true},
+    xaxis: {type: 'date', title: {text: xtitle}, automargin: true, nticks: small ? 4 : 0},
     yaxis: {title: {text: ytitle}, automargin: true},
     legend: {orientation: 'h', xref: 'container', x: 0, xanchor: 'left', yref: 'container', y: 0,
       yanchor: 'bottom'},
