@@ -207,43 +207,67 @@ def _overlap(a, b) -> bool:
     return a[0] < b[2] - 0.5 and b[0] < a[2] - 0.5 and a[1] < b[3] - 0.5 and b[1] < a[3] - 0.5
 
 
+def _charts_drawn(driver) -> bool:
+    return driver.execute_script(
+        "return ['wear-chart', 'temperature-chart', 'friction-chart'].every((id) =>"
+        " document.getElementById(id).querySelector('.xtitle'));")
+
+
+def _check_charts(driver, width: int, what: str) -> None:
+    """Check each chart: its title clear of the mode bar, its legend of its axis, in its box."""
+    time.sleep(0.5)  # a responsive redraw after the load or the resize settles
+    # hovering shows the mode bar where it is shown (on a laptop: over the chart's top)
+    from selenium.webdriver.common.action_chains import ActionChains
+    ActionChains(driver).move_to_element(driver.find_element(_by('ID'), 'wear-chart')).perform()
+    viewport = driver.execute_script('return document.documentElement.clientWidth;')
+    for chart in driver.execute_script(CHART_BOXES):
+        where = (what, width, chart['id'])
+        assert chart['title'] and chart['xtitle'] and chart['ticks'], chart
+        # a legend where there is more than one trace (T-hat's chart has one: none)
+        assert (chart['legend'] is not None) == (chart['id'] != 'temperature-chart'), chart
+        left, top, right, bottom = chart['chart']
+        assert right <= viewport, where
+        # the title above the chart, the legend and the axis title inside it
+        assert chart['title'][3] <= top + 0.5, where
+        for part in ('legend', 'xtitle'):
+            box = chart[part] or chart['xtitle']
+            assert left - 0.5 <= box[0] and box[2] <= right + 0.5, (where, part, box)
+            assert top - 0.5 <= box[1] and box[3] <= bottom + 0.5, (where, part, box)
+        for other in [chart['xtitle'], chart['plot'], *chart['ticks']] * bool(chart['legend']):
+            assert not _overlap(chart['legend'], other), (where, chart['legend'], other)
+        if width <= 760:  # no mode bar on a phone: zoom and pan by touch
+            assert chart['config'] is False and chart['modebar'] is None, where
+        else:  # above the plot area, beside nothing the page wrote
+            assert chart['config'] is not False and chart['modebar'], (where, chart)
+            assert chart['modebar'][3] <= chart['plot'][1] + 0.5, (where, chart)
+        if chart['modebar']:
+            assert not _overlap(chart['modebar'], chart['title']), where
+    # the wear chart was hovered: on a laptop its mode bar is seen, on a phone there is none
+    wear = driver.execute_script(CHART_BOXES)[0]
+    assert (wear['modebar'] is not None and float(wear['seen']) > 0.5) == (width > 760), wear
+
+
 @pytest.mark.parametrize('width,height', SIZES)
 def test_the_charts_titles_stand_clear_of_the_mode_bar_and_the_legends(
         server, browser, history, width, height):
     _a_week(history, server, browser)
     _resize(browser, width, height)
     browser.get(server + joint_url('press_line', 'joint_2'))
+    _wait(browser, _charts_drawn, 'the three charts')
+    _check_charts(browser, width, 'loaded')
+
+
+def test_the_charts_follow_a_window_narrowed_to_a_phone(server, browser, history):
+    """Drawn at 1366 px, then the window made 390 px wide: redrawn for it without a reload."""
+    _a_week(history, server, browser)
+    _resize(browser, *SIZES[0])
+    browser.get(server + joint_url('press_line', 'joint_2'))
+    _wait(browser, _charts_drawn, 'the three charts')
+    _check_charts(browser, SIZES[0][0], 'loaded')
+    browser.execute_script('window.notReloaded = true;')
+    _resize(browser, *SIZES[1])
     _wait(browser, lambda d: d.execute_script(
-        "return ['wear-chart', 'temperature-chart', 'friction-chart'].every((id) =>"
-        " document.getElementById(id).querySelector('.xtitle'));"), 'the three charts')
-    time.sleep(0.5)  # a responsive redraw after the load settles
-    # hovering shows the mode bar where it is shown (on a laptop: over the chart's top)
-    from selenium.webdriver.common.action_chains import ActionChains
-    ActionChains(browser).move_to_element(
-        browser.find_element(_by('ID'), 'wear-chart')).perform()
-    viewport = browser.execute_script('return document.documentElement.clientWidth;')
-    for chart in browser.execute_script(CHART_BOXES):
-        what = (width, chart['id'])
-        assert chart['title'] and chart['xtitle'] and chart['ticks'], chart
-        # a legend where there is more than one trace (T-hat's chart has one: none)
-        assert (chart['legend'] is not None) == (chart['id'] != 'temperature-chart'), chart
-        left, top, right, bottom = chart['chart']
-        assert right <= viewport, what
-        # the title above the chart, the legend and the axis title inside it
-        assert chart['title'][3] <= top + 0.5, what
-        for part in ('legend', 'xtitle'):
-            box = chart[part] or chart['xtitle']
-            assert left - 0.5 <= box[0] and box[2] <= right + 0.5, (what, part, box)
-            assert top - 0.5 <= box[1] and box[3] <= bottom + 0.5, (what, part, box)
-        for other in [chart['xtitle'], chart['plot'], *chart['ticks']] * bool(chart['legend']):
-            assert not _overlap(chart['legend'], other), (what, chart['legend'], other)
-        if width <= 760:  # no mode bar on a phone: zoom and pan by touch
-            assert chart['config'] is False and chart['modebar'] is None, what
-        else:  # above the plot area, beside nothing the page wrote
-            assert chart['config'] is not False and chart['modebar'], (what, chart)
-            assert chart['modebar'][3] <= chart['plot'][1] + 0.5, (what, chart)
-        if chart['modebar']:
-            assert not _overlap(chart['modebar'], chart['title']), what
-    # the wear chart was hovered: on a laptop its mode bar is seen, on a phone there is none
-    wear = browser.execute_script(CHART_BOXES)[0]
-    assert (wear['modebar'] is not None and float(wear['seen']) > 0.5) == (width > 760), wear
+        "return document.getElementById('wear-chart')._context.displayModeBar === false;"),
+        'the charts redrawn for a phone')
+    _check_charts(browser, SIZES[1][0], 'narrowed')
+    assert browser.execute_script('return window.notReloaded === true;')
