@@ -91,11 +91,27 @@ function markers(data, nowMs) {
   return {shapes: shapes, annotations: annotations};
 }
 
-function layout(title, ytitle) {
-  return {title: {text: title, font: {size: 15}}, margin: {l: 60, r: 20, t: 40, b: 45},
-    xaxis: {type: 'date', title: {text: 'experiment end (UTC)'}},
-    yaxis: {title: {text: ytitle}}, legend: {orientation: 'h', y: -0.22},
+// The charts' titles are the page's (h3.chart-title above each chart), never in the plot, so
+// the mode bar and the legend cannot cover them.  On a narrow screen (dashboard.css's phone
+// layout, up to 760 px) the mode bar is left out (zoom and pan stay: touch), the margins
+// shrink and every legend sits below its plot, under the axis title.
+const NARROW = '(max-width: 760px)';
+
+function narrow() { return window.matchMedia(NARROW).matches; }
+
+function layout(xtitle, ytitle) {
+  const small = narrow();
+  return {margin: small ? {l: 44, r: 8, t: 8, b: 8} : {l: 60, r: 20, t: 34, b: 10},
+    font: {size: small ? 11 : 12},
+    xaxis: {type: 'date', title: {text: xtitle}, automargin: true, nticks: small ? 4 : 0},
+    yaxis: {title: {text: ytitle}, automargin: true},
+    legend: {orientation: 'h', xref: 'container', x: 0, xanchor: 'left', yref: 'container', y: 0,
+      yanchor: 'bottom'},
     uirevision: 'keep', hovermode: 'closest'};
+}
+
+function chartConfig() {
+  return {displaylogo: false, responsive: true, displayModeBar: narrow() ? false : 'hover'};
 }
 
 function temperatureTraces(data) {
@@ -124,6 +140,11 @@ function frictionTraces(data) {
   return traces;
 }
 
+// The joint log's cells as _events.html draws them: class and label (a card's on a phone).
+const EVENT_CELLS = [['c-time', 'time'], ['c-event', 'event'], ['c-w', 'w'], ['c-user', 'user'],
+  ['c-owner', 'owner'], ['c-time c-planned', 'planned maintenance'],
+  ['c-work-order', 'work order'], ['c-note', 'note']];
+
 function showEvents(events) {
   const body = document.querySelector('#joint-events tbody');
   const rows = events.map((e) => {
@@ -134,7 +155,8 @@ function showEvents(events) {
       e.owner, e.planned_maintenance, e.work_order, e.note_text];
     cells.forEach((text, index) => {
       const td = document.createElement('td');
-      if (index === 0 || index === 5) { td.className = 'c-time'; }
+      td.className = EVENT_CELLS[index][0];
+      td.dataset.label = EVENT_CELLS[index][1];
       td.textContent = text;
       tr.appendChild(td);
     });
@@ -159,26 +181,29 @@ function showJoint(data) {
   }
   setText(document.getElementById('f-threshold'), data.threshold_text);
   const threshold = data.threshold;
-  const wearLayout = layout('w per experiment, 95 % intervals, trend and forecast', 'wear w');
+  const wearLayout = layout('experiment end (UTC)', 'wear w');
   wearLayout.yaxis.range = [0, Math.max(threshold * 1.3,
     ...data.experiments.map((e) => (e.wear_high === null ? e.wear : e.wear_high)))];
   const marks = markers(data, Date.now());
   wearLayout.shapes = marks.shapes;
   wearLayout.annotations = marks.annotations;
-  const config = {displaylogo: false, responsive: true};
+  const config = chartConfig();
   Plotly.react('wear-chart', wearTraces(data), wearLayout, config);
   Plotly.react('temperature-chart', temperatureTraces(data),
-    layout('T-hat per experiment (95 %)', 'T [degC]'), config);
-  const friction = layout('Friction levels of the last experiments and the model at their T-hat, w-hat',
-    'friction [normalised]');
-  friction.xaxis = {title: {text: 'motor-side speed [rad/s]'}};
-  friction.legend = {orientation: 'v', title: {text: 'experiment (UTC)'}};
+    layout('experiment end (UTC)', 'T [degC]'), config);
+  const friction = layout('motor-side speed [rad/s]', 'friction [normalised]');
+  friction.xaxis = {title: {text: 'motor-side speed [rad/s]'}, automargin: true};
+  friction.legend.title = {text: 'experiment (UTC)', side: 'top'};
   Plotly.react('friction-chart', frictionTraces(data), friction, config);
   showEvents(data.events);
 }
 
 (function () {
   const config = pageData();
-  showJoint(config.data);
-  poll(config.api, config.poll_ms, showJoint);
+  let latest = config.data;
+  const show = (data) => { latest = data; showJoint(data); };
+  show(latest);
+  poll(config.api, config.poll_ms, show);
+  // a window turned or resized across the phone layout's edge: the charts drawn for it
+  window.matchMedia(NARROW).addEventListener('change', () => showJoint(latest));
 })();
