@@ -26,6 +26,7 @@ from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
 from robot_wear_monitor.history.account_audit import Actor, audit_log, AuditRecord
 from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
+from robot_wear_monitor.history.login_failures import LoginFailures
 from robot_wear_monitor.history.backends import (
     HistoryBackend, is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend,
     SqliteBackend)
@@ -444,6 +445,11 @@ class WearHistory:
         """Return who an API token acts as, with their role now (None: no such token)."""
         with self._guard('cannot check the token'):
             return api_tokens.find_token(self._backend, token=token)
+
+    def login_failures(self, *, max_failures: int, window_s: float) -> LoginFailures:
+        """Return the login rate limit's counts kept here (shared by every dashboard worker)."""
+        return LoginFailures(self._backend, guard=self._guard, max_failures=max_failures,
+                             window_s=window_s)
 
     def users(self) -> list[user_accounts.User]:
         """Return the dashboard users, sorted by name (no hashes)."""
