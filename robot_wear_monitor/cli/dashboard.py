@@ -15,7 +15,9 @@ Every such change (and those of the Users page) is recorded in the history's acc
 (``cli:<login name>`` for the command line); ``dashboard audit [--json] [--limit N]`` lists it,
 newest first.  Serving: ``--behind-tls`` (a TLS proxy in front: Secure cookie),
 ``--trusted-proxy ADDRESS`` (whose X-Forwarded-For names the client),
-``--limit-concurrency N`` and ``--header-timeout-s S`` (slow and many clients).
+``--limit-concurrency N`` and ``--header-timeout-s S`` (slow and many clients, per worker);
+``--workers N`` (N server processes on one PostgreSQL history, uvicorn's supervisor; an SQLite
+history is served by one: see :mod:`robot_wear_monitor.dashboard.workers`).
 """
 
 from __future__ import annotations
@@ -27,9 +29,10 @@ import sys
 from typing import Any
 
 from robot_wear_monitor.cli.options import PROG, shown_location
-from robot_wear_monitor.dashboard.server_limits import HEADER_TIMEOUT_S, LIMIT_CONCURRENCY
+from robot_wear_monitor.dashboard.server_limits import (HEADER_TIMEOUT_S, LIMIT_CONCURRENCY,
+                                                        MAX_WORKERS)
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.history import open_history
+from robot_wear_monitor.history import is_postgresql_url, open_history
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
 from robot_wear_monitor.text import iso_time, shorten
 
@@ -71,6 +74,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--header-timeout-s', type=float, default=None, metavar='S',
                         help='close a connection whose request headers take longer (default '
                              f'{HEADER_TIMEOUT_S:g})')
+    parser.add_argument('--workers', type=int, default=1, metavar='N',
+                        help='server processes sharing the port (default 1; more than 1 needs '
+                             'a postgresql:// history: sessions, login limits, notifications '
+                             f'and the pages\' news are shared through it; at most '
+                             f'{MAX_WORKERS})')
     parser.add_argument('--params', action='append', default=[], metavar='FILE',
                         help='a parameter set the estimates name (for the model curve; the '
                              'packaged sets are known already); repeatable')
@@ -254,6 +262,7 @@ def main(args: argparse.Namespace) -> int:
         else args.limit_concurrency
     header_timeout_s = HEADER_TIMEOUT_S if args.header_timeout_s is None \
         else args.header_timeout_s
+    _check_workers(args)
     if limit_concurrency < 1:
         raise InputError(f'--limit-concurrency must be >= 1, got {limit_concurrency}')
     if not 0.5 <= header_timeout_s <= 600.0:
@@ -269,16 +278,40 @@ def main(args: argparse.Namespace) -> int:
             print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '
                   f'add NAME --role maintainer --history {shown_location(args.history)}`',
                   file=sys.stderr)
-    app = create_app(DashboardSettings(
+    settings = DashboardSettings(
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
         https=bool(args.tls_cert), notifications=notifications,
         notify_interval_s=args.notify_interval_s, behind_tls=args.behind_tls,
-        trusted_proxies=tuple(args.trusted_proxy)))
+        trusted_proxies=tuple(args.trusted_proxy), workers=args.workers)
+    app = create_app(settings) if args.workers == 1 else None
     scheme = 'https' if args.tls_cert else 'http'
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
+    workers = f'{args.workers} workers; ' if args.workers > 1 else ''
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
-          '(Ctrl-C stops)', file=sys.stderr)
-    serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert, tls_key=args.tls_key,
-          listener=listener, limit_concurrency=limit_concurrency,
-          header_timeout_s=header_timeout_s)
+          f'({workers}Ctrl-C stops)', file=sys.stderr)
+    if app is not None:
+        serve(app, host=args.host, port=args.port, tls_cert=args.tls_cert,
+              tls_key=args.tls_key, listener=listener, limit_concurrency=limit_concurrency,
+              header_timeout_s=header_timeout_s)
+        return 0
+    # imported when the verb runs (uvicorn's supervisor)
+    from dataclasses import replace
+    from robot_wear_monitor.dashboard.auth import new_secret_key
+    from robot_wear_monitor.dashboard.workers import serve_workers
+    # one session key for every worker: a cookie signed by one is good on the others
+    serve_workers(replace(settings, secret_key=settings.secret_key or new_secret_key()),
+                  workers=args.workers, host=args.host, port=args.port, listener=listener,
+                  tls_cert=args.tls_cert, tls_key=args.tls_key,
+                  limit_concurrency=limit_concurrency, header_timeout_s=header_timeout_s)
     return 0
+
+
+def _check_workers(args: argparse.Namespace) -> None:
+    """Refuse a bad ``--workers``, and more than one worker on an SQLite history."""
+    if not 1 <= args.workers <= MAX_WORKERS:
+        raise InputError(f'--workers must be 1-{MAX_WORKERS}, got {args.workers}')
+    if args.workers > 1 and not is_postgresql_url(args.history):
+        raise InputError(f'--workers {args.workers} needs a PostgreSQL history '
+                         '(postgresql://USER@HOST:PORT/DB): an SQLite file is written by one '
+                         'process at a time, so more workers would only wait on its lock; '
+                         'serve an SQLite history with one worker (the default)')

@@ -11,3 +11,5 @@ HEADER_TIMEOUT_S = 10.0
 MAX_HEADER_BYTES = 16 * 1024
 #: How many connections and requests at once the server takes (``--limit-concurrency``).
 LIMIT_CONCURRENCY = 200
+#: The most server processes ``dashboard --workers`` starts.
+MAX_WORKERS = 64

@@ -18,7 +18,9 @@ import threading
 import time
 from typing import Iterator, Optional, TYPE_CHECKING
 
+from robot_wear_monitor.dashboard.server_limits import MAX_WORKERS
 from robot_wear_monitor.history import open_history, WearHistory
+from robot_wear_monitor.setting_fields import check_settings, in_range, setting
 
 if TYPE_CHECKING:  # the type only; the configuration is read by the command that starts
     from robot_wear_monitor.fleet.notify_config import NotificationConfig
@@ -108,7 +110,8 @@ class DashboardSettings:
     rate limit;
     ``behind_tls``: a TLS proxy is in front (the session cookie is Secure although this
     server speaks plain HTTP); ``trusted_proxies``: peer addresses whose ``X-Forwarded-For``
-    names the client (the login rate limit counts per client address).
+    names the client (the login rate limit counts per client address); ``workers``: server
+    processes (``dashboard --workers``; more than 1 needs a PostgreSQL history).
     """
 
     history: str
@@ -122,3 +125,11 @@ class DashboardSettings:
     poll_interval_ms: int = POLL_INTERVAL_MS
     behind_tls: bool = False
     trusted_proxies: tuple[str, ...] = ()
+    workers: int = setting(1, check=in_range(1, MAX_WORKERS),
+                           description='server processes on one history (each a uvicorn worker '
+                                       'with its own connections; more than 1 needs '
+                                       'PostgreSQL)')
+
+    def __post_init__(self) -> None:
+        """Check the declared settings (InputError naming the first bad one)."""
+        check_settings(self)
