@@ -37,7 +37,9 @@ who, from where, what, whom; never a secret).  Version 11: the alarm event kind
 ``reescalated`` (an acknowledged alarm back on top, logged once with its source).
 Version 12: (issue 46's fleet ranking keys; an empty step on this branch).  Version 13
 (the dashboard on several workers): ``login_failures`` (the login rate limit's counted
-attempts, per client address and per user name from an address, shared by every worker).
+attempts, per client address and per user name from an address, shared by every worker);
+``notifications.pending_until_s`` (the lease of a claimed send until it is settled: NULL once
+settled and in older rows; a claim whose notifier died is taken over after it).
 """
 
 from __future__ import annotations
@@ -314,6 +316,7 @@ _LOGIN_FAILURES = (
     time_s DOUBLE PRECISION NOT NULL)""",
     'CREATE INDEX login_failures_key ON login_failures (address, scope, user_name, time_s)',
     'CREATE INDEX login_failures_time ON login_failures (time_s)',
+    'ALTER TABLE notifications ADD COLUMN pending_until_s DOUBLE PRECISION',
 )
 
 #: SQLite: version -> its steps, oldest first.
