@@ -77,7 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--workers', type=int, default=1, metavar='N',
                         help='server processes sharing the port (default 1; more than 1 needs '
                              'a postgresql:// history: sessions, login limits, notifications '
-                             f'and the pages\' news are shared through it; at most '
+                             "and the pages' news are shared through it; at most "
                              f'{MAX_WORKERS})')
     parser.add_argument('--params', action='append', default=[], metavar='FILE',
                         help='a parameter set the estimates name (for the model curve; the '

@@ -52,7 +52,7 @@ _SETTINGS: Optional[DashboardSettings] = None
 class WorkerHeaderTimeoutProtocol(header_timeout_protocol()):  # type: ignore[misc]
     """The request-header timer of ``server.py``, its timeout read from :class:`WorkerConfig`."""
 
-    @property  # type: ignore[override]
+    @property
     def header_timeout_s(self) -> float:
         """Return how long a request's headers may take [s]."""
         return float(getattr(self.config, 'header_timeout_s', HEADER_TIMEOUT_S))

@@ -132,6 +132,6 @@ class LoginFailures:
                                       'user_name = ?', (name,))
                 return
             by_address, (_, name, where) = _key_rows(user, address)
-            self._backend.execute("DELETE FROM login_failures WHERE address = ? AND "
+            self._backend.execute('DELETE FROM login_failures WHERE address = ? AND '
                                   "scope = 'user' AND user_name = ?", (where, name))
             self._drop_newest(by_address)
