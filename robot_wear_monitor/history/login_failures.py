@@ -93,9 +93,9 @@ class LoginFailures:
         counted.
         """
         keys = _key_rows(user, address)
-        now = self._clock()
         with self._guard('cannot count the login'), self._backend.transaction():
             self._backend.lock_in_transaction(_LOGIN_LOCK_KEY)
+            now = self._clock()  # read under the lock: the counts' times grow in its order
             wait = self._wait(keys, now)
             if wait > 0.0:
                 return max(wait, 1e-3)
