@@ -334,6 +334,7 @@ def _settled_log(rows: list[dict[str, Any]], *, wall_s: float) -> set[str]:
     return {str(row['event_key']) for row in rows
             if row.get('pending_until_s') is None or row['pending_until_s'] >= wall_s}
 
+
 def _next_pass(base: str, log: set[str], passes: int) -> Optional[int]:
     """Return the pass number of the next send of ``base``; None when done (or given up)."""
     for number in range(1, passes + 1):

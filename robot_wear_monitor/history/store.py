@@ -26,10 +26,10 @@ from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
 from robot_wear_monitor.history.account_audit import Actor, audit_log, AuditRecord
 from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
-from robot_wear_monitor.history.login_failures import LoginFailures
 from robot_wear_monitor.history.backends import (
     HistoryBackend, is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend,
     SqliteBackend)
+from robot_wear_monitor.history.login_failures import LoginFailures
 from robot_wear_monitor.history.migrations import (
     JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.history.records import (

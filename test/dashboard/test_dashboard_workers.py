@@ -137,8 +137,8 @@ def _kinds(received: list) -> list[tuple[str, str]]:
             for body in received for alert in body['alerts']]
 
 
-def test_two_workers_share_sessions_limits_notifications_and_news(tmp_path, postgresql_url,
-                                                                    receiver):
+def test_two_workers_share_sessions_limits_notifications_and_news(
+        tmp_path, postgresql_url, receiver):
     url, received = receiver
     history = make_fleet(postgresql_url)
     config = tmp_path / 'notifications.yaml'
