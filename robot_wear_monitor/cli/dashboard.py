@@ -15,7 +15,9 @@ Every such change (and those of the Users page) is recorded in the history's acc
 (``cli:<login name>`` for the command line); ``dashboard audit [--json] [--limit N]`` lists it,
 newest first.  Serving: ``--behind-tls`` (a TLS proxy in front: Secure cookie),
 ``--trusted-proxy ADDRESS`` (whose X-Forwarded-For names the client),
-``--limit-concurrency N`` and ``--header-timeout-s S`` (slow and many clients).
+``--limit-concurrency N`` and ``--header-timeout-s S`` (slow and many clients, per worker);
+``--workers N`` (N server processes on one PostgreSQL history, uvicorn's supervisor; an SQLite
+history is served by one: see :mod:`robot_wear_monitor.dashboard.workers`).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from robot_wear_monitor.cli.fleet_options import add_declared_options
 from robot_wear_monitor.cli.options import add_display_timezone, PROG, shown_location
 from robot_wear_monitor.dashboard.server_limits import ServerSettings
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.history import open_history
+from robot_wear_monitor.history import is_postgresql_url, open_history
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
 from robot_wear_monitor.text import iso_time, shorten
 
@@ -242,6 +244,7 @@ def main(args: argparse.Namespace) -> int:
                             header_timeout_s=args.header_timeout_s)
     check_listen(host=server.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
                  insecure_http=args.insecure_http)
+    _check_workers(args)  # the range by the option's type; SQLite serves one worker
     notifications = None
     if args.notify:
         # imported when the verb runs: --help and the parse load none of it, and numpy loads after
@@ -253,18 +256,41 @@ def main(args: argparse.Namespace) -> int:
             print(f'{PROG} dashboard: note: no users yet; add one with `{PROG} dashboard user '
                   f'add NAME --role maintainer --history {shown_location(args.history)}`',
                   file=sys.stderr)
-    app = create_app(DashboardSettings(
+    settings = DashboardSettings(
         history=args.history, params=tuple(args.params), secret_key=environment_secret(),
         https=bool(args.tls_cert), notifications=notifications,
         notify_interval_s=args.notify_interval_s, behind_tls=args.behind_tls,
-        trusted_proxies=tuple(args.trusted_proxy),
+        trusted_proxies=tuple(args.trusted_proxy), workers=server.workers,
         **({} if args.display_timezone is None else
-           {'display_timezone': args.display_timezone})))
+           {'display_timezone': args.display_timezone}))
+    app = create_app(settings) if server.workers == 1 else None
     scheme = 'https' if args.tls_cert else 'http'
     listener = bind_listener(host=args.host, port=args.port)  # a taken port: one line, exit 2
+    workers = f'{args.workers} workers; ' if args.workers > 1 else ''
     print(f'dashboard of {shown_location(args.history)} on {scheme}://{args.host}:{args.port}/ '
-          '(Ctrl-C stops)', file=sys.stderr)
-    serve(app, host=server.host, port=server.port, tls_cert=args.tls_cert,
-          tls_key=args.tls_key, listener=listener, limit_concurrency=server.limit_concurrency,
-          header_timeout_s=server.header_timeout_s)
+          f'({workers}Ctrl-C stops)', file=sys.stderr)
+    if app is not None:
+        serve(app, host=server.host, port=server.port, tls_cert=args.tls_cert,
+              tls_key=args.tls_key, listener=listener, limit_concurrency=server.limit_concurrency,
+              header_timeout_s=server.header_timeout_s)
+        return 0
+    # imported when the verb runs (uvicorn's supervisor)
+    from dataclasses import replace
+    from robot_wear_monitor.dashboard.auth import new_secret_key
+    from robot_wear_monitor.dashboard.workers import serve_workers
+    # one session key for every worker: a cookie signed by one is good on the others
+    serve_workers(replace(settings, secret_key=settings.secret_key or new_secret_key()),
+                  workers=server.workers, host=server.host, port=server.port, listener=listener,
+                  tls_cert=args.tls_cert, tls_key=args.tls_key,
+                  limit_concurrency=server.limit_concurrency,
+                  header_timeout_s=server.header_timeout_s)
     return 0
+
+
+def _check_workers(args: argparse.Namespace) -> None:
+    """Refuse more than one worker on an SQLite history (the range: the option's type)."""
+    if args.workers > 1 and not is_postgresql_url(args.history):
+        raise InputError(f'--workers {args.workers} needs a PostgreSQL history '
+                         '(postgresql://USER@HOST:PORT/DB): an SQLite file is written by one '
+                         'process at a time, so more workers would only wait on its lock; '
+                         'serve an SQLite history with one worker (the default)')

@@ -13,7 +13,8 @@ the same in every verb that takes it:
   between two notification passes (:class:`~robot_wear_monitor.fleet.notify_settings.
   NotifierSettings`; the dashboard's ``DashboardSettings.notify_interval_s`` is the same
   setting);
-* ``--host``, ``--port``, ``--limit-concurrency``, ``--header-timeout-s`` (``dashboard``):
+* ``--host``, ``--port``, ``--limit-concurrency``, ``--header-timeout-s``, ``--workers``
+  (``dashboard``):
   :class:`~robot_wear_monitor.dashboard.server_limits.ServerSettings`.
 
 :data:`DECLARED_OPTIONS` lists them (flag, owner, setting): the tests compare the verbs' defaults
@@ -39,10 +40,12 @@ DECLARED_OPTIONS: dict[str, tuple[tuple[str, Any, str], ...]] = {
     'dashboard': (('--host', ServerSettings, 'host'), ('--port', ServerSettings, 'port'),
                   ('--limit-concurrency', ServerSettings, 'limit_concurrency'),
                   ('--header-timeout-s', ServerSettings, 'header_timeout_s'),
+                  ('--workers', ServerSettings, 'workers'),
                   ('--notify-interval-s', NotifierSettings, 'interval_s'))}
 
 _METAVARS = {'forecast_horizon_days': 'DAYS', 'reescalation_margin': 'W', 'interval_s': 'S',
-             'host': 'H', 'port': 'P', 'limit_concurrency': 'N', 'header_timeout_s': 'S'}
+             'host': 'H', 'port': 'P', 'limit_concurrency': 'N', 'header_timeout_s': 'S',
+             'workers': 'N'}
 
 
 def _text_type(owner: Any, name: str) -> Callable[[str], str]:

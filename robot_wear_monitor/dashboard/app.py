@@ -22,8 +22,8 @@ from fastapi.staticfiles import StaticFiles
 import jinja2
 from robot_wear_monitor import __version__
 from robot_wear_monitor.dashboard import accounts, api, pages
-from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, LoginLimiter, new_secret_key,
-                                               RequireSession, SESSION_MAX_AGE_S)
+from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, new_secret_key, RequireSession,
+                                               SESSION_MAX_AGE_S)
 from robot_wear_monitor.dashboard.guards import (BodyGuard, history_error_answer,
                                                  validation_error_answer)
 from robot_wear_monitor.dashboard.notifier import notification_lifespan
@@ -88,8 +88,6 @@ def create_app(settings: DashboardSettings) -> FastAPI:
     app.state.pool = pool
     app.state.parameter_sets = ParameterSets(settings.params)
     app.state.fleet_cache = FleetCache()
-    app.state.limiter = LoginLimiter(max_failures=settings.max_failures,
-                                     window_s=settings.window_s)
     app.state.templates = _templates()
     # the session must be read before RequireSession looks at it: added last = outermost
     app.add_middleware(RequireSession)

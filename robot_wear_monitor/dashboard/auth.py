@@ -4,18 +4,22 @@ Who may see and do what: sessions, roles, the CSRF token and the login rate limi
 Sessions are kept server-side, in the wear history (``history.sessions``): a login stores a
 session (user, CSRF token, expiry after :data:`SESSION_MAX_AGE_S`) and puts only its random id
 in Starlette's signed cookie (itsdangerous; HttpOnly, SameSite=Strict, Secure under TLS; the
-key is made at every server start, so a restart logs everybody out).  Every request looks the
+key is made at every server start, so a restart logs everybody out; the workers of
+``dashboard --workers N`` share the key their parent made).  Every request looks the
 session up (:class:`RequireSession`): a logout or the removal of the user ends it at once, so a
 copied cookie is worth nothing after either.  Every request but ``/login`` and the login
 page's style needs a session: pages redirect to ``/login``, the API answers 401.  Every POST
 carries the session's CSRF token (form field ``csrf_token`` or header ``X-CSRF-Token``) or gets
-403.  Login attempts are counted per client address and per (user name, address) in this
-process's memory (:class:`LoginLimiter`) before the password is checked: after
+403.  Login attempts are counted per client address and per (user name, address) in the wear
+history (schema version 13, :class:`~robot_wear_monitor.history.login_failures.LoginFailures`:
+every worker of ``dashboard --workers N`` counts in the same table) before the password is
+checked: after
 :data:`MAX_FAILURES` attempts that did not succeed within :data:`WINDOW_S` the login from that
 address (of any name, or of that name) answers 429 until the window has passed, however many
 arrive at once; the same name from another address is not refused (nobody locks the owner
-out), a login the history could not check (503) does not count, and the limiter keeps at most
-:data:`MAX_LIMITER_KEYS` keys.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
+out), a login the history could not check (503) does not count.  :class:`LoginLimiter` is the
+same rule in one process's memory (at most :data:`MAX_LIMITER_KEYS` keys), for a caller
+without a history.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
 multipart or over :data:`MAX_LOGIN_BODY_BYTES` before its body is read.
 
 The JSON API (``/api/``) also takes a per-user API token (``Authorization: Bearer TOKEN``,
@@ -74,6 +78,9 @@ class SessionUser(TypedDict):
 class LoginLimiter:
     """
     Failed logins per client address and per (user name, address), in this process's memory.
+
+    (The dashboard counts in the history instead, where all its workers see the counts:
+    :class:`~robot_wear_monitor.history.login_failures.LoginFailures`, the same methods.)
 
     The owner of an account is never locked out by somebody else: wrong passwords count
     against the address they came from (any name) and against that address's tries of the

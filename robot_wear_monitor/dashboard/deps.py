@@ -7,7 +7,8 @@ builds the application and puts the shared objects on ``app.state``:
 
 * :data:`HistoryDep`: an open wear history lent to the request (:class:`HistoryPool`);
 * :data:`SettingsDep`, :data:`ParameterSetsDep`, :data:`FleetCacheDep`, :data:`LimiterDep`:
-  the settings, the parameter sets, the fleet cache and the login rate limit;
+  the settings, the parameter sets, the fleet cache and the login rate limit (its counts
+  kept in the history, so that every worker of ``dashboard --workers N`` shares them);
 * :data:`CurrentUser`: the session's user (``RequireSession`` has refused requests without);
 * :func:`check_csrf`: 403 unless the form field ``csrf_token`` (or the header
   ``X-CSRF-Token``) is the session's CSRF token; routes add it as
@@ -28,12 +29,13 @@ from typing import Annotated, Iterator, Optional
 from fastapi import Depends, Form, HTTPException, Request
 import jinja2
 from robot_wear_monitor.dashboard.auth import (csrf_ok, current_user, is_token_request,
-                                               LoginLimiter, SessionUser)
+                                               SessionUser)
 from robot_wear_monitor.dashboard.state import DashboardSettings, HistoryPool
 from robot_wear_monitor.dashboard.views import FleetCache
 from robot_wear_monitor.display_time import time_zone
 from robot_wear_monitor.fleet.thresholds import ParameterSets
 from robot_wear_monitor.history import WearHistory
+from robot_wear_monitor.history.login_failures import LoginFailures
 from robot_wear_monitor.history.users import ACTING_ROLES, ADMIN_ROLE
 
 
@@ -67,10 +69,12 @@ def get_fleet_cache(request: Request) -> FleetCache:
     return cache
 
 
-def get_limiter(request: Request) -> LoginLimiter:
-    """Return the login rate limit of this process."""
-    limiter: LoginLimiter = request.app.state.limiter
-    return limiter
+def get_limiter(request: Request,
+                history: Annotated[WearHistory, Depends(get_history)]) -> LoginFailures:
+    """Return the login rate limit: its counts in the history (every worker shares them)."""
+    settings: DashboardSettings = request.app.state.settings
+    return history.login_failures(max_failures=settings.max_failures,
+                                  window_s=settings.window_s)
 
 
 def get_templates(request: Request) -> jinja2.Environment:
@@ -108,7 +112,7 @@ SettingsDep = Annotated[DashboardSettings, Depends(get_settings)]
 HistoryDep = Annotated[WearHistory, Depends(get_history)]
 ParameterSetsDep = Annotated[ParameterSets, Depends(get_parameter_sets)]
 FleetCacheDep = Annotated[FleetCache, Depends(get_fleet_cache)]
-LimiterDep = Annotated[LoginLimiter, Depends(get_limiter)]
+LimiterDep = Annotated[LoginFailures, Depends(get_limiter)]
 CurrentUser = Annotated[SessionUser, Depends(get_current_user)]
 
 

@@ -19,6 +19,8 @@ HEADER_TIMEOUT_S = 10.0
 MAX_HEADER_BYTES = 16 * 1024
 #: How many connections and requests at once the server takes (``--limit-concurrency``).
 LIMIT_CONCURRENCY = 200
+#: The most server processes ``dashboard --workers`` starts.
+MAX_WORKERS = 64
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,11 @@ class ServerSettings:
         HEADER_TIMEOUT_S, unit='s', check=in_range(0.5, 600.0),
         description='close a connection whose request headers take longer, from their first '
                     'byte')
+    workers: int = setting(
+        1, check=in_range(1, MAX_WORKERS),
+        description='server processes sharing the port (more than 1 needs a postgresql:// '
+                    "history: sessions, login limits, notifications and the pages' news are "
+                    'shared through it)')
 
     def __post_init__(self) -> None:
         """Check every setting (InputError naming it, with the value and the range)."""

@@ -19,6 +19,7 @@ import time
 from typing import Iterator, Optional, TYPE_CHECKING
 
 from robot_wear_monitor.dashboard.auth import MAX_FAILURES, WINDOW_S
+from robot_wear_monitor.dashboard.server_limits import ServerSettings
 from robot_wear_monitor.display_time import DisplayTimeConfig
 from robot_wear_monitor.fleet.notify_settings import NotifierSettings
 from robot_wear_monitor.history import open_history, WearHistory
@@ -112,9 +113,10 @@ class DashboardSettings:
     ``X-Forwarded-For`` names the client (the login rate limit counts per client address);
     ``display_timezone``: the IANA zone of the times the pages show (declared by
     :class:`~robot_wear_monitor.display_time.DisplayTimeConfig`; the API's times stay UTC).
-    The other fields are declared settings (default, unit, description, check: a bad value is
-    an :class:`~robot_wear_monitor.errors.InputError` naming the field, the value and the
-    range, from Python as from the command line).
+    ``workers``: server processes (``dashboard --workers``; more than 1 needs a PostgreSQL
+    history). The other fields are declared settings (default, unit, description, check: a
+    bad value is an :class:`~robot_wear_monitor.errors.InputError` naming the field, the value
+    and the range, from Python as from the command line).
     """
 
     history: str
@@ -139,6 +141,7 @@ class DashboardSettings:
                            'this server speaks plain HTTP')
     trusted_proxies: tuple[str, ...] = ()
     display_timezone: str = shared_setting(DisplayTimeConfig, 'display_timezone')
+    workers: int = shared_setting(ServerSettings, 'workers')
 
     def __post_init__(self) -> None:
         """Check the declared settings (InputError naming the setting, value and range)."""

@@ -50,8 +50,13 @@ history.  When every try of a send fails (see :class:`RetryPolicy`) the failure 
 row ``KEY@CHANNEL#failed1`` (its payload holds the error) and the send is claimed and tried
 again on the next pass (``KEY@CHANNEL#pass2``, ...) up to ``retry.passes`` passes in all; a
 channel that failed is not tried again in the same pass (its other events wait for the next
-one).  A notifier killed between its claim and its send loses that notification (at most once,
-never twice).
+one).  A claim is pending, with a lease (:func:`claim_lease_s`: the retry policy's
+``total_s`` and :data:`CLAIM_MARGIN_S`), until its send has ended, delivered or failed; then it
+is settled (:meth:`WearHistory.settle_notification`).  A notifier killed between its claim and
+the end of its send (a dashboard worker that died mid-pass) leaves its claim pending: once the
+lease has passed, the next pass of any notifier takes the claim over and sends (one notifier
+does: the takeover is one statement).  Only a notifier killed in the instant between a
+delivered send and its settling makes a second send after the lease.
 """
 
 from __future__ import annotations
@@ -319,6 +324,22 @@ def _resolutions(*, sent: dict[str, str], active: set[str],
 
 # --------------------------------------------------------------------------- one pass
 
+#: How long a claim outlasts the retry policy's ``total_s`` before another notifier takes a
+#: claim left pending over (its notifier died mid-send) [s].
+CLAIM_MARGIN_S = 300.0
+
+
+def claim_lease_s(config: NotificationConfig) -> float:
+    """Return how long a claimed send stays pending before another notifier may take it [s]."""
+    return float(config.retry.total_s) + CLAIM_MARGIN_S
+
+
+def _settled_log(rows: list[dict[str, Any]], *, wall_s: float) -> set[str]:
+    """Return the claimed keys but those pending past their lease (their notifier died)."""
+    return {str(row['event_key']) for row in rows
+            if row.get('pending_until_s') is None or row['pending_until_s'] >= wall_s}
+
+
 def _next_pass(base: str, log: set[str], passes: int) -> Optional[int]:
     """Return the pass number of the next send of ``base``; None when done (or given up)."""
     for number in range(1, passes + 1):
@@ -358,7 +379,7 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     :func:`due_events`.
     """
     rows = history.notifications()
-    log = {str(row['event_key']) for row in rows}
+    log = _settled_log(rows, wall_s=time.time())
     fired = {_base_key(key): str(row['kind']) for row in rows
              if '@' in (key := str(row['event_key']))}
     events = due_events(history=history, config=config, now_s=now_s,
@@ -385,7 +406,8 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
             record, send = _send(event, channel, config, sleep)
             if not history.claim_notification(event_key=claim_key, robot=event.robot,
                                               joint=event.joint, kind=event.kind,
-                                              channel=channel, payload=record):
+                                              channel=channel, payload=record,
+                                              lease_s=claim_lease_s(config)):
                 continue  # another notifier has it
             try:
                 result = send()
@@ -402,6 +424,7 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
                              'passes': config.retry.passes})
                 _LOG.warning('%s: %s via %s failed after %d tries: %s', config.source,
                              event.key, channel, result.attempts, result.error)
+            history.settle_notification(event_key=claim_key)  # the send has ended
             sent.append(SentNotification(
                 event_key=event.key, claim_key=claim_key, kind=event.kind, robot=event.robot,
                 joint=event.joint, channel=channel, summary=event.summary,
@@ -443,9 +466,10 @@ def _send_summary(events: list[DueEvent], *, channel: str, history: WearHistory,
 
         def send() -> SendResult:
             return post_webhook(hook, record, retry=config.retry, sleep=sleep)
+    lease_s = claim_lease_s(config)
     if not history.claim_notification(event_key=summary_key, robot=None, joint=None,
                                       kind='first_pass_summary', channel=channel,
-                                      payload=record):
+                                      payload=record, lease_s=lease_s):
         failed_channels.add(channel)  # another notifier sends it: nothing more here this pass
         return []
     claims = [summary_key]
@@ -453,7 +477,7 @@ def _send_summary(events: list[DueEvent], *, channel: str, history: WearHistory,
         key = f'{event.key}@{channel}'
         if history.claim_notification(event_key=key, robot=event.robot, joint=event.joint,
                                       kind=event.kind, channel=channel,
-                                      payload={'in_summary': summary_key}):
+                                      payload={'in_summary': summary_key}, lease_s=lease_s):
             claims.append(key)
             log.add(key)
     try:
@@ -468,6 +492,9 @@ def _send_summary(events: list[DueEvent], *, channel: str, history: WearHistory,
             log.discard(key)
         _LOG.warning('%s: the first-pass summary via %s failed after %d tries: %s',
                      config.source, channel, result.attempts, result.error)
+    else:
+        for key in claims:
+            history.settle_notification(event_key=key)
     return [SentNotification(
         event_key=event.key, claim_key=summary_key, kind=event.kind, robot=event.robot,
         joint=event.joint, channel=channel, summary=event.summary,

@@ -15,14 +15,17 @@ adds what the maintenance team's dashboard stores: acknowledgements and resets b
 (user, owner, reason, planned maintenance date), the dashboard's users and the notifications
 sent; version 6 its server-side sessions; version 7 the edit and withdrawal of an
 acknowledgement, a work order on acknowledgements and resets, the admin role and per-user API
-tokens; version 10 the audit of the accounts (who changed a user, role, password or token).
+tokens; version 10 the audit of the accounts (who changed a user, role, password or token);
+version 13 the login rate limit's counts (``login_failures``: every dashboard worker shares
+them).
 
 Modules: ``records`` (the row types), ``migrations`` (the layout per version and backend),
 ``backends`` (SQLite and PostgreSQL connections), ``store`` (:class:`WearHistory`),
 ``alarms`` (acknowledge, reset, the fleet's alarm log), ``users`` (dashboard users, argon2
 hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens), ``account_audit`` (the
 changes of accounts),
-``notifications_store`` (each notification event once), ``levels_csv`` (export for ``audit``).
+``notifications_store`` (each notification event once), ``login_failures`` (the login rate
+limit's counts), ``levels_csv`` (export for ``audit``).
 """
 
 from robot_wear_monitor.history.backends import is_postgresql_url, redact_url

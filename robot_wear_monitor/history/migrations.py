@@ -35,18 +35,24 @@ ros; '' for the monitor's raises and old rows) and ``changes`` (what an edit cha
 otherwise).  Version 10: ``account_audit`` (every change of a dashboard account: when,
 who, from where, what, whom; never a secret).  Version 11: the alarm event kind
 ``reescalated`` (an acknowledged alarm back on top, logged once with its source).
+Version 12: (issue 46's fleet ranking keys; an empty step on this branch).  Version 13
+(the dashboard on several workers): ``login_failures`` (the login rate limit's counted
+attempts, per client address and per user name from an address, shared by every worker);
+``notifications.pending_until_s`` (the lease of a claimed send until it is settled: NULL once
+settled and in older rows; a claim whose notifier died is taken over after it).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 11
+SCHEMA_VERSION = 13
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
-          'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit')
+          'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit',
+          'login_failures')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -298,6 +304,21 @@ _POSTGRESQL_V11 = (
     f'{_EVENT_KINDS_V11_CHECK}',
 )
 
+#: Version 13: the login rate limit's counted attempts (``history.login_failures``), one row
+#: per attempt and key: ``scope`` 'address' (any name from ``address``; ``user_name`` '') or
+#: 'user' (``user_name`` from ``address``); rows older than the window are swept.
+_LOGIN_FAILURES = (
+    """CREATE TABLE login_failures (
+    id {id_column},
+    scope TEXT NOT NULL CHECK (scope IN ('address', 'user')),
+    user_name TEXT NOT NULL,
+    address TEXT NOT NULL,
+    time_s DOUBLE PRECISION NOT NULL)""",
+    'CREATE INDEX login_failures_key ON login_failures (address, scope, user_name, time_s)',
+    'CREATE INDEX login_failures_time ON login_failures (time_s)',
+    'ALTER TABLE notifications ADD COLUMN pending_until_s DOUBLE PRECISION',
+)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
@@ -306,7 +327,11 @@ SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
                                                       _ACCOUNT_AUDIT[1]),
-                                                 11: _SQLITE_V11}
+                                                 11: _SQLITE_V11, 12: (),
+                                                 13: (_LOGIN_FAILURES[0].format(
+                                                     id_column='INTEGER PRIMARY KEY '
+                                                               'AUTOINCREMENT'),
+                                                      *_LOGIN_FAILURES[1:])}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -403,4 +428,8 @@ POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),
                                                           _ACCOUNT_AUDIT[1]),
-                                                     11: _POSTGRESQL_V11}
+                                                     11: _POSTGRESQL_V11, 12: (),
+                                                     13: (_LOGIN_FAILURES[0].format(
+                                                         id_column='BIGINT GENERATED ALWAYS '
+                                                                   'AS IDENTITY PRIMARY KEY'),
+                                                          *_LOGIN_FAILURES[1:])}

@@ -5,6 +5,14 @@ A notifier claims an event before it sends it: the claim inserts one row under t
 key (``INSERT ... ON CONFLICT DO NOTHING``, a unique key), so of any number of notifiers at
 once, and across restarts, exactly one gets True and sends.  A notifier whose sending failed
 for good may release its claim, so that a later pass tries again.
+
+A claim made with a lease (``lease_s``, schema version 13) is pending until the notifier
+settles it (:func:`settle_notification`, after the send, delivered or failed):
+``pending_until_s`` holds the end of the lease, NULL once settled (and in the rows of older
+versions).  A pending claim whose lease has passed belongs to a notifier that died between its
+claim and the end of its send (a dashboard worker killed mid-pass): the next claim of the same
+key takes it over in one statement (``ON CONFLICT ... DO UPDATE ... WHERE`` the lease has
+passed), so of several notifiers exactly one sends it again; a settled claim is never taken.
 """
 
 from __future__ import annotations
@@ -18,7 +26,8 @@ from robot_wear_monitor.history.records import HistoryError
 
 #: Longest event key [characters].
 MAX_EVENT_KEY_CHARS = 512
-_COLUMNS = 'id, event_key, robot, joint, kind, wall_time_s, channel, payload'
+_COLUMNS = ('id, event_key, robot, joint, kind, wall_time_s, channel, payload, '
+            'pending_until_s')
 
 
 def _event_key(value: Any) -> str:
@@ -31,12 +40,14 @@ def _event_key(value: Any) -> str:
 
 def claim_notification(backend: HistoryBackend, *, event_key: str, robot: Optional[str],
                        joint: Optional[str], kind: str, channel: str,
-                       payload: dict[str, Any]) -> bool:
+                       payload: dict[str, Any], lease_s: Optional[float] = None) -> bool:
     """
     Store the notification of ``event_key``; True when this call stored it (send it).
 
-    False when the event was claimed before (by this or another notifier): do not send.
-    ``payload``: what is sent, as JSON (kept for the audit).
+    False when the event was claimed before (by this or another notifier) and that claim is
+    settled or its lease runs: do not send.  ``payload``: what is sent, as JSON (kept for the
+    audit).  ``lease_s``: the claim stays pending this long [s] unless settled (None: settled
+    at once); a pending claim past its lease is taken over (True).
     """
     key = _event_key(event_key)
     try:
@@ -44,11 +55,28 @@ def claim_notification(backend: HistoryBackend, *, event_key: str, robot: Option
     except (TypeError, ValueError) as error:
         raise HistoryError(f'the payload of notification {key[:80]!r} is not JSON: '
                            f'{error}') from None
+    now = time.time()
+    until = None if lease_s is None else now + float(lease_s)
     with backend.transaction():
         rows = backend.execute(
             'INSERT INTO notifications (event_key, robot, joint, kind, wall_time_s, channel, '
-            'payload) VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (event_key) DO NOTHING '
-            'RETURNING id', (key, robot, joint, str(kind), time.time(), str(channel), body))
+            'payload, pending_until_s) VALUES (?, ?, ?, ?, ?, ?, ?, ?) '
+            'ON CONFLICT (event_key) DO UPDATE SET robot = excluded.robot, '
+            'joint = excluded.joint, kind = excluded.kind, wall_time_s = excluded.wall_time_s, '
+            'channel = excluded.channel, payload = excluded.payload, '
+            'pending_until_s = excluded.pending_until_s '
+            'WHERE notifications.pending_until_s IS NOT NULL '
+            'AND notifications.pending_until_s < excluded.wall_time_s RETURNING id',
+            (key, robot, joint, str(kind), now, str(channel), body, until))
+    return bool(rows)
+
+
+def settle_notification(backend: HistoryBackend, *, event_key: str) -> bool:
+    """End the lease of the claim of ``event_key`` (its send ended); True when it was pending."""
+    with backend.transaction():
+        rows = backend.execute('UPDATE notifications SET pending_until_s = NULL WHERE '
+                               'event_key = ? AND pending_until_s IS NOT NULL RETURNING id',
+                               (_event_key(event_key),))
     return bool(rows)
 
 
@@ -75,5 +103,6 @@ def list_notifications(backend: HistoryBackend, *,
     for row in backend.execute(query, params):
         out.append({'id': int(row[0]), 'event_key': row[1], 'robot': row[2], 'joint': row[3],
                     'kind': row[4], 'wall_time_s': row[5], 'channel': row[6],
-                    'payload': json.loads(row[7]) if row[7] else None})
+                    'payload': json.loads(row[7]) if row[7] else None,
+                    'pending_until_s': None if row[8] is None else float(row[8])})
     return out

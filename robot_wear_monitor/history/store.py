@@ -29,6 +29,7 @@ from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.history.backends import (
     HistoryBackend, is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend,
     SqliteBackend)
+from robot_wear_monitor.history.login_failures import LoginFailures
 from robot_wear_monitor.history.migrations import (
     JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.history.records import (
@@ -445,6 +446,11 @@ class WearHistory:
         with self._guard('cannot check the token'):
             return api_tokens.find_token(self._backend, token=token)
 
+    def login_failures(self, *, max_failures: int, window_s: float) -> LoginFailures:
+        """Return the login rate limit's counts kept here (shared by every dashboard worker)."""
+        return LoginFailures(self._backend, guard=self._guard, max_failures=max_failures,
+                             window_s=window_s)
+
     def users(self) -> list[user_accounts.User]:
         """Return the dashboard users, sorted by name (no hashes)."""
         with self._guard('cannot read the users'):
@@ -475,16 +481,22 @@ class WearHistory:
 
     def claim_notification(self, *, event_key: str, robot: Optional[str],
                            joint: Optional[str], kind: str, channel: str,
-                           payload: dict[str, Any]) -> bool:
+                           payload: dict[str, Any], lease_s: Optional[float] = None) -> bool:
         """
         Claim the notification of ``event_key``: True when this call stored it (send it).
 
-        False when it was claimed before, by any notifier, also before a restart.
+        False when it was claimed before, by any notifier, also before a restart (unless that
+        claim's ``lease_s`` [s] passed unsettled: its notifier died; this call takes it).
         """
         with self._guard('cannot store the notification'):
             return notifications_store.claim_notification(
                 self._backend, event_key=event_key, robot=robot, joint=joint, kind=kind,
-                channel=channel, payload=payload)
+                channel=channel, payload=payload, lease_s=lease_s)
+
+    def settle_notification(self, *, event_key: str) -> bool:
+        """End the lease of the claim of ``event_key`` (its send ended, delivered or not)."""
+        with self._guard('cannot store the notification'):
+            return notifications_store.settle_notification(self._backend, event_key=event_key)
 
     def release_notification(self, *, event_key: str) -> bool:
         """Drop the claim of ``event_key`` (its sending failed for good), so it is retried."""

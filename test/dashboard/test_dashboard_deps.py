@@ -20,9 +20,10 @@ from wear_testing.fleet_history import csrf_of, login, make_fleet, ORDER
 from wear_testing.paths import REPO_ROOT
 
 DASHBOARD = REPO_ROOT / 'robot_wear_monitor' / 'dashboard'
-#: The modules that may import the app: those that start a server (none inside the package
-#: does today; ``robot_wear_monitor.cli.dashboard`` is outside it).
-ENTRY_POINTS = {'server'}
+#: The modules that may import the app: those that start a server (``workers``: the app
+#: factory uvicorn's workers import, ``dashboard --workers N``;
+#: ``robot_wear_monitor.cli.dashboard`` is outside the package).
+ENTRY_POINTS = {'server', 'workers'}
 
 
 def _imports(path: Path) -> list[tuple[str, bool]]:
