@@ -241,7 +241,7 @@ def main(args: argparse.Namespace) -> int:
     # the options' types checked each value with its declared check; the dataclass again
     server = ServerSettings(host=args.host, port=args.port,
                             limit_concurrency=args.limit_concurrency,
-                            header_timeout_s=args.header_timeout_s)
+                            header_timeout_s=args.header_timeout_s, workers=args.workers)
     check_listen(host=server.host, tls_cert=args.tls_cert, tls_key=args.tls_key,
                  insecure_http=args.insecure_http)
     _check_workers(args)  # the range by the option's type; SQLite serves one worker

@@ -237,4 +237,4 @@ def test_more_than_one_worker_needs_postgresql(tmp_path, capsys):
     assert '--workers 2 needs a PostgreSQL history' in error
     assert len(error.strip().splitlines()) == 1
     assert cli_main(['dashboard', '--history', history, '--workers', '0']) == 2
-    assert '--workers must be 1-64, got 0' in capsys.readouterr().err
+    assert 'argument --workers: must be >= 1 and <= 64, got 0' in capsys.readouterr().err
