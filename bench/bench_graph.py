@@ -18,7 +18,8 @@ package's ``FrictionExperimentNode``, default parameters, plus a message counter
 (the same node with the callback replaced by the counter: imports, entities and executor
 without the work) and a do-nothing rclpy subscriber of the same topic and QoS that only counts.
 All subscribers of a run use the same executor (the variant's first word); the do-nothing
-subscriber is always a plain callback per message (typed, or raw with ``-raw``/``-cdr``/``-batch``):
+subscriber is always a plain callback per message (typed; raw with ``-raw``, ``-cdr``,
+``-batch``):
 
 * ``single``: rclpy's SingleThreadedExecutor (what ``rclpy.spin`` and the nodes use), the node
   with its defaults: it drains /joint_states every ``drain_period_s`` (0.05 s) and segments each

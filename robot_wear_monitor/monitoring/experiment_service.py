@@ -173,9 +173,10 @@ class FrictionExperimentService:
         or after its ``end`` (the chunk is split there), as sample by sample.
         """
         time_s = np.asarray(time_s, dtype=float)
+        end_s = math.inf if self._open is None else self._open.end_s
         with np.errstate(invalid='ignore'):  # NaN stamps never reach the end
-            reached = np.flatnonzero(time_s >= self._open.end_s) if self._open else ()
-        if not len(reached):
+            reached = np.flatnonzero(time_s >= end_s) if end_s < math.inf else np.zeros(0, int)
+        if not reached.size:
             return self._add_chunk(time_s, position_rad, velocity_rad_s, effort)
         cut = int(reached[0]) + 1
         q, v, e = (np.asarray(a, dtype=float) for a in (position_rad, velocity_rad_s, effort))

@@ -5,10 +5,11 @@ rclpy's executor costs about 290 us of CPU per callback on the reference machine
 (docs/benchmarks.md), whatever the callback does; at 1 kHz that is most of a bare
 subscriber's cost.  :class:`DrainedSubscription` is an ordinary rclpy subscription (same topic
 resolution, remapping and QoS) in a :class:`DrainedCallbackGroup`, which keeps it out of the
-executor's wait set, and without QoS event handlers (rclpy's default one only logs a publisher
-of incompatible QoS; with Fast DDS its wait woke the executor on every message): the middleware queues its messages (up to the QoS
-depth) and :meth:`DrainedSubscription.take_all`, called from a timer, takes every queued
-message as serialised CDR bytes with its reception time.  The executor then wakes once per
+executor's wait set, and without QoS event handlers (rclpy's default one only logs a
+publisher of incompatible QoS; with Fast DDS its wait woke the executor on every message).
+The middleware queues its messages (up to the QoS depth) and
+:meth:`DrainedSubscription.take_all`, called from a timer, takes every queued message as
+serialised CDR bytes with its reception time.  The executor then wakes once per
 timer period, not once per message.
 
 rclpy is imported at the top: only the rclpy nodes import this module.

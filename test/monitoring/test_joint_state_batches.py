@@ -57,7 +57,7 @@ def _replayed(configuration, bag):
 
 
 def _published(done):
-    """The friction_levels a node publishes: (joint, stamp, speeds, frictions), by end time."""
+    """Return the friction_levels a node publishes: (joint, stamp, speeds, frictions)."""
     rows = [(service.joint, experiment.end_time_s, tuple(experiment.speeds_rad_s),
              tuple(experiment.frictions)) for service, experiment in done]
     return sorted(rows, key=lambda row: row[1])
