@@ -28,6 +28,7 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
@@ -88,7 +89,9 @@ class FrictionExperimentNode(Node):
                                                JOINT_STATES_QOS)
             self.subscription = self.drained.subscription
             self.batches = JointStateBatches(self.joints)
-            self.drain_timer = self.create_timer(self.drain_period_s, self.drain_joint_states)
+            # on the steady clock: a paused /clock (use_sim_time) must not stop the drain
+            self.drain_timer = self.create_timer(self.drain_period_s, self.drain_joint_states,
+                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
             self.subscription = self.create_subscription(JointState, 'joint_states',
                                                          self.on_joint_state, JOINT_STATES_QOS)
