@@ -168,8 +168,27 @@ class FrictionExperimentService:
         move in progress between chunks; the levels then go through the same experiment
         assembler as on the robot.  Use it on a fresh service (not mixed with ``add_sample``
         or ``add_joint_state``), then ``finish()``.  Arrays: shape (n,), time [s], joint
-        position [rad], joint speed [rad/s], effort.
+        position [rad], joint speed [rad/s], effort.  The node feeds its drained batches
+        here, events between them: an event experiment closes at the first sample stamped at
+        or after its ``end`` (the chunk is split there), as sample by sample.
         """
+        time_s = np.asarray(time_s, dtype=float)
+        end_s = math.inf if self._open is None else self._open.end_s
+        with np.errstate(invalid='ignore'):  # NaN stamps never reach the end
+            reached = np.flatnonzero(time_s >= end_s) if end_s < math.inf else np.zeros(0, int)
+        if not reached.size:
+            return self._add_chunk(time_s, position_rad, velocity_rad_s, effort)
+        cut = int(reached[0]) + 1
+        q, v, e = (np.asarray(a, dtype=float) for a in (position_rad, velocity_rad_s, effort))
+        done = self._add_chunk(time_s[:cut], q[:cut], v[:cut], e[:cut])
+        done += self._after_sample(float(time_s[cut - 1]), [])
+        return done + self.add_recording(time_s=time_s[cut:], position_rad=q[cut:],
+                                         velocity_rad_s=v[cut:], effort=e[cut:])
+
+    def _add_chunk(self, time_s: FloatArray, position_rad: Sequence[float] | FloatArray,
+                   velocity_rad_s: Sequence[float] | FloatArray,
+                   effort: Sequence[float] | FloatArray) -> list[FrictionExperiment]:
+        """Segment and assemble one chunk (see :meth:`add_recording`)."""
         if self._chunks is None:
             self._chunks = ChunkSegmenter(self.segmenter_config)
             self._segmenter = self._chunks
@@ -190,7 +209,17 @@ class FrictionExperimentService:
             self._last_pause_end_s = float(pauses[-1])
         if len(time_s):
             experiments += self._idle(float(time_s[-1]))
+            finite = time_s[np.isfinite(time_s)]
+            if finite.size:  # what an ``end`` event is compared with
+                self._latest_stamp_s = max(self._latest_stamp_s, float(finite.max()))
         return experiments
+
+    def add_reader_rejections(self, counts: Mapping[str, int]) -> None:
+        """Count messages the CDR reader refused for the joint, by reason (a drained batch)."""
+        for reason, count in counts.items():
+            if count > 0:
+                self.rejections[reason] += int(count)
+                self.messages += int(count)
 
     def _rests(self, time_s: Sequence[float] | FloatArray,
                velocity_rad_s: Sequence[float] | FloatArray,

@@ -143,6 +143,14 @@ class JointExperiments:
         except InputError as error:  # its parameters: the other joints go on
             self.refused[joint] = str(error).splitlines()[0]
 
+    def seen(self, joint: str) -> Optional[FrictionExperimentService]:
+        """Return the service of a joint of the stream (built under [all]); None: not ours."""
+        if self.selection is None and isinstance(joint, str) and joint:
+            if joint not in self.services:
+                self._discover(joint)
+            return self.services.get(joint)
+        return self.services.get(joint) if self.wants(joint) else None
+
     def wants(self, joint: str) -> bool:
         """Return True when ``joint`` is monitored."""
         return self.selection is None or joint in self.selection

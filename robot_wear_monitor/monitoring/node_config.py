@@ -22,6 +22,7 @@ from robot_wear_monitor.experiment.plan_config import PlanConfig
 from robot_wear_monitor.experiment.segmentation_settings import (ExperimentGrouping,
                                                                  NODE_SCALES, SegmenterConfig)
 from robot_wear_monitor.model.params import packaged_config_file, ParameterError
+from robot_wear_monitor.monitoring.drain_config import DrainConfig
 from robot_wear_monitor.monitoring.runner_config import RunnerConfig
 from robot_wear_monitor.monitoring.wear_update import EstimatorConfig
 from robot_wear_monitor.setting_fields import declared_settings, non_empty, non_negative
@@ -155,6 +156,7 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
                   "the friction_experiment_runner's events (start/end/aborted of each "
                   'experiment): an end event closes the experiment at once; empty: not '
                   'subscribed, experiments end at an idle gap only', _topic),
+    ParameterSpec.of(DrainConfig, 'drain_period_s'),
 )
 
 #: friction_experiment_node parameters that are fields of segmentation.SegmenterConfig.

@@ -12,20 +12,33 @@ reason on ``/diagnostics``, one status per joint (``friction_experiment: <joint>
 inputs are also logged, at most once per 10 s.  The friction_experiment_runner's events
 (``experiment_events_topic``, default ``friction_experiment/events``; empty: not subscribed)
 give the experiments' exact boundaries: an ``end`` event publishes the experiment at once.
+
+/joint_states is drained, not called back per message (``drain_period_s``, default 0.05 s):
+the subscription stays out of the executor's wait set (:mod:`robot_wear_monitor.nodes.drain`)
+and a timer takes every message queued since its last wake, as CDR bytes, decoded and
+segmented in one batch by the replay's decoder and chunk segmenter
+(:class:`~robot_wear_monitor.monitoring.joint_state_batches.JointStateBatches`): the replay's
+friction levels, bit for bit, for a fraction of the executor's per-message cost.  An
+experiment is published at most ``drain_period_s`` plus the batch's processing after the
+sample that completes it; an event first drains the queue, so it comes after the samples
+received before it.  ``drain_period_s: 0.0``: one callback per message (``on_joint_state``).
 """
 
 import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from robot_wear_monitor.monitoring.diagnostics import RejectionLog
 from robot_wear_monitor.monitoring.experiment_service import FrictionExperimentService
+from robot_wear_monitor.monitoring.joint_state_batches import JointStateBatches
 from robot_wear_monitor.monitoring.joints import JointExperiments, rejections_by_joint
 from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                        FRICTION_EXPERIMENT_PARAMETERS,
                                                        validate_parameters)
 from robot_wear_monitor.monitoring.topics import DIAGNOSTICS_TOPIC, FRICTION_LEVELS_TOPIC
+from robot_wear_monitor.nodes.drain import DrainedSubscription
 from robot_wear_monitor.nodes.messages import message_kit
 from robot_wear_monitor.nodes.node_helpers import log_rejection_report, node_time_s
 from robot_wear_monitor.nodes.parameters import declare_joint_parameters, declare_parameters
@@ -69,8 +82,19 @@ class FrictionExperimentNode(Node):
                                                FRICTION_LEVELS_QOS)
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC,
                                                            DIAGNOSTICS_QOS)
-        self.subscription = self.create_subscription(JointState, 'joint_states',
-                                                     self.on_joint_state, JOINT_STATES_QOS)
+        self.drain_period_s = float(self.parameters['drain_period_s'])
+        self.drained = self.batches = self.drain_timer = None
+        if self.drain_period_s > 0:
+            self.drained = DrainedSubscription(self, JointState, 'joint_states',
+                                               JOINT_STATES_QOS)
+            self.subscription = self.drained.subscription
+            self.batches = JointStateBatches(self.joints)
+            # on the steady clock: a paused /clock (use_sim_time) must not stop the drain
+            self.drain_timer = self.create_timer(self.drain_period_s, self.drain_joint_states,
+                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
+        else:
+            self.subscription = self.create_subscription(JointState, 'joint_states',
+                                                         self.on_joint_state, JOINT_STATES_QOS)
         self.events_subscription = None
         if self.parameters['experiment_events_topic']:
             self.events_subscription = self.create_subscription(
@@ -88,7 +112,9 @@ class FrictionExperimentNode(Node):
                             f'{_rounded(s.experiment_speeds_rad_s, 3) or "found in the data"})'
                             for s in self.joints.services.values()))
         self.get_logger().info(
-            f'segmenting {joints} of {self.subscription.topic_name}; publishing on '
+            f'segmenting {joints} of {self.subscription.topic_name} ('
+            + (f'drained every {self.drain_period_s:g} s' if self.drained is not None
+               else 'a callback per message') + '); publishing on '
             f'{self.publisher.topic_name}; '
             + (f'experiment boundaries from {self.events_subscription.topic_name}'
                if self.events_subscription is not None else 'no experiment events'))
@@ -116,6 +142,28 @@ class FrictionExperimentNode(Node):
         self._publish_all(self._guarded(
             self.joints.add_joint_state, stamp_s=stamp_s, name=msg.name,
             position=msg.position, velocity=msg.velocity, effort=msg.effort))
+        self._after_input(refused)
+
+    def drain_joint_states(self):
+        """Take every queued /joint_states message and segment them as batches (the timer)."""
+        if self.drained is None:
+            return
+        while True:
+            raws, receive_ns = self.drained.take_all(JOINT_STATES_QOS.depth)
+            if raws:
+                self.on_joint_states(raws, receive_ns)
+            if len(raws) < JOINT_STATES_QOS.depth:
+                return
+
+    def on_joint_states(self, raws, receive_ns):
+        """Decode and segment one drained batch (CDR bytes, reception times [ns]); publish."""
+        self._last_message_monotonic = time.monotonic()
+        refused = len(self.joints.refused)
+        self._publish_all(self._guarded(self.batches.add, raws, receive_ns))
+        self._after_input(refused)
+
+    def _after_input(self, refused):
+        """Log the joints refused since ``refused`` were (once each) and new rejections."""
         if len(self.joints.refused) > refused:  # said once per joint; the others go on
             for joint, error in list(self.joints.refused.items())[refused:]:
                 self.get_logger().error(f'joint {joint!r} not monitored: {escaped(error)}')
@@ -151,6 +199,7 @@ class FrictionExperimentNode(Node):
 
     def on_experiment_event(self, msg):
         """Apply one friction_experiment_runner event; publish the experiment it ends."""
+        self.drain_joint_states()  # the samples received before the event come first
         services = list(self.joints.services.values())
         open_before = [s.open_experiment_id for s in services]
         aborted_before = [s.rejections['aborted_experiment'] for s in services]
@@ -189,6 +238,7 @@ class FrictionExperimentNode(Node):
         which stop too): the experiment of a robot that stops publishing after it is not held
         back until the next one.
         """
+        self.drain_joint_states()  # what is queued counts as received
         now = time.monotonic()
         blocked = (self._last_tick_monotonic is not None
                    and now - self._last_tick_monotonic > 2.5 * DIAGNOSTICS_PERIOD_S)

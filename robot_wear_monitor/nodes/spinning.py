@@ -43,8 +43,9 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
 
     All nodes share one SingleThreadedExecutor: rclpy's MultiThreadedExecutor costs more per
     callback than it saves here, and lost /joint_states messages at 1 kHz (measured).  An
-    estimate (15-60 ms, after the estimator's warm-up) holds the 1 kHz callbacks back by at
-    most that long, well within the /joint_states queue (1 s).  BLAS runs on one thread
+    estimate (15-60 ms, after the estimator's warm-up) holds the friction node's drain of
+    /joint_states back by at most that long, well within the queue (1000 messages: 1 s at
+    1 kHz, 0.25 s at 4 kHz, with the 0.05 s drain period).  BLAS runs on one thread
     (:mod:`robot_wear_monitor.blas_threads`).
     ``args`` are the process arguments (``--ros-args ...`` included) as for ``rclpy.init``.
     Returns 0 after a normal shutdown (SIGTERM, the context shut down), ``sigint_status``

@@ -253,13 +253,15 @@ TRUTH = {'joint_2': JointTruth(gear_ratio=150.0, load=0.45, temperature_degc=38.
                                gravity=0.3)}
 
 
-def run_session(commands, *, events=True, event_lag_s=0.0, seed=4, idle_gap_s=3.0):
+def run_session(commands, *, events=True, event_lag_s=0.0, seed=4, idle_gap_s=3.0, batch=0):
     """
     Simulate the runner driving the arm; feed a FrictionExperimentService of joint_2.
 
     ``commands``: (time from the session start [s], 'start' | 'abort').  Events are applied
     ``event_lag_s`` later than their stamps (negative: before the samples reach them), or not
-    at all without ``events``.
+    at all without ``events``.  ``batch``: the samples go in batches of this many to
+    ``add_recording``, as the node drains its queue (an event first takes the batch so far,
+    as the node drains before it applies one); 0: one by one to ``add_joint_state``.
     Returns (service, [(sample time when emitted, experiment)], runner, every event).
     """
     runner = make_runner()
@@ -273,9 +275,20 @@ def run_session(commands, *, events=True, event_lag_s=0.0, seed=4, idle_gap_s=3.
     commands = sorted(commands)
     end_s = commands[-1][0] + runner.total_s + 3.0
     pending = []  # (apply at, event)
-    emitted, log = [], []
+    emitted, log, queued = [], [], []
+    column = NAMES.index('joint_2')
+
+    def drain(now):
+        if queued:
+            t, q, v, e = (np.array(values) for values in zip(*queued))
+            emitted.extend((now, e) for e in service.add_recording(
+                time_s=t, position_rad=q, velocity_rad_s=v, effort=e))
+            queued.clear()
+
     for k in range(int(end_s * RATE_HZ)):
         now = t0 + k / RATE_HZ
+        if batch and len(queued) >= batch:
+            drain(now)
         while commands and t0 + commands[0][0] <= now:
             _, command = commands.pop(0)
             if command == 'start':
@@ -292,11 +305,16 @@ def run_session(commands, *, events=True, event_lag_s=0.0, seed=4, idle_gap_s=3.
                 arm.command_points(now + 0.004, action.step.points)  # transport delay
         for at, event in sorted(pending, key=lambda p: p[0]):
             if at <= now and events:
+                drain(now)
                 emitted += [(now, e) for e in service.add_experiment_event(event)]
         pending = [(at, event) for at, event in pending if at > now]
         position, velocity, effort = arm.sample(now)
+        if batch:
+            queued.append((now, position[column], velocity[column], effort[column]))
+            continue
         emitted += [(now, e) for e in service.add_joint_state(
             stamp_s=now, name=NAMES, position=position, velocity=velocity, effort=effort)]
+    drain(math.inf)
     emitted += [(math.inf, e) for e in service.finish()]
     return service, emitted, runner, log
 
@@ -357,6 +375,22 @@ def test_without_events_the_aborted_levels_spoil_the_next_experiment(session):
     assert clean[1][1].levels[0].n_forward == pytest.approx(with_events.levels[0].n_forward,
                                                             abs=2)
     assert clean[1][1].start_time_s == pytest.approx(with_events.start_time_s, abs=0.01)
+
+
+@pytest.mark.parametrize('batch, event_lag_s', [(13, 0.0), (50, 0.0), (50, -2.0), (50, 0.3)])
+def test_drained_batches_give_the_experiments_of_one_sample_at_a_time(session, batch,
+                                                                      event_lag_s):
+    """The node's drain (batches to add_recording, events between them) changes nothing."""
+    reference = session if event_lag_s == 0.0 else run_session(SESSION, event_lag_s=event_lag_s)
+    service, emitted, _, _ = run_session(SESSION, batch=batch, event_lag_s=event_lag_s)
+    assert [e for _, e in emitted] == [e for _, e in reference[1]]  # bit for bit
+    for (when, _), (then, _) in zip(emitted, reference[1]):
+        assert then <= when <= then + (batch + 1) / RATE_HZ  # at most one batch later
+    got, expected = dict(service.current_status().values), dict(
+        reference[0].current_status().values)
+    for key in ('experiments', 'experiments_from_events', 'experiment_events',
+                'rejected_aborted_experiment', 'levels_outside_experiment', 'friction_levels'):
+        assert got[key] == expected[key], key
 
 
 def test_events_ahead_of_the_samples_close_at_the_first_sample_at_the_end_stamp():

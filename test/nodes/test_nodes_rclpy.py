@@ -323,3 +323,19 @@ def test_friction_experiment_node_rejects_bad_joint_states_and_keeps_segmenting(
     assert int(values['rejected_time_gap']) >= 1
     assert values['joint_states'] == str(sent)
     node.destroy_node()
+
+
+def test_the_drain_goes_on_under_sim_time_without_a_clock(ros_context):
+    """The drain timer runs on the steady clock: a paused /clock must not stop the intake."""
+    executor = SingleThreadedExecutor()
+    node = FrictionExperimentNode(parameter_overrides=[Parameter('use_sim_time', value=True)])
+    executor.add_node(node)
+    probe = Probe(executor)
+    assert probe.spin_until(lambda: probe.joint_states_publisher.get_subscription_count() == 1)
+    names = ['joint_1', 'joint_2']
+    for k in range(1, 101):  # no /clock at all: the node's ROS time stays 0
+        probe.joint_states_publisher.publish(_joint_state(100.0 + k * 1e-3, names, [0.0, 0.1],
+                                                          [0.0, 0.0], [0.0, 0.0]))
+    assert probe.spin_until(lambda: node.service.messages == 100, 5.0), node.service.messages
+    assert node.drain_period_s == 0.05 and node.drained is not None
+    node.destroy_node()
