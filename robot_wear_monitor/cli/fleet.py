@@ -65,8 +65,7 @@ def parse_time(text: str, *, option: str = '--now') -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
                                                   fleet_table, fleet_view, plural)
     from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
