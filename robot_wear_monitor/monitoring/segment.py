@@ -13,14 +13,14 @@ normalised torque (effort / torque_scale), times [s].
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 import io
 import os
 from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.levels import against_the_motion, FrictionLevel, with_other_sign
 from robot_wear_monitor.experiment.segmentation import ExperimentAssembler
 from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
 from robot_wear_monitor.recordings.raw_runs import (folder_joint_name, folder_runs, no_level_error,
@@ -135,10 +135,9 @@ def _position_binned(path: Any, *, config: Any, n_bins: int,
                          f'no speed set-point has a bin with 2 samples each way '
                          f'({sum(rejections.values())} set-points without one)')
     notes = []
-    median = sorted(level.friction for level in levels)[len(levels) // 2]
-    if median < 0 and not raw_sign:  # friction opposes the motion: the data decide
-        levels = [replace(lv, friction=-lv.friction, tau_forward=-lv.tau_forward,
-                          tau_backward=-lv.tau_backward) for lv in levels]
+    against, median = against_the_motion([level.friction for level in levels])
+    if against and not raw_sign:  # friction opposes the motion: the data decide
+        levels = [with_other_sign(level) for level in levels]
         notes.append(f'{run_label(path)}: the eq. (3) friction comes out negative in the '
                      f'recorded sign (median {median:.4g}): read with the other sign '
                      '(--raw-sign keeps the recorded sign)')

@@ -44,7 +44,7 @@ from typing import Any, Sequence
 import numpy as np
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.levels import against_the_motion, FrictionLevel, with_other_sign
 from robot_wear_monitor.experiment.segmentation_settings import (RAW_RUN_NOISE_BAND,
                                                                  SegmenterConfig)
 from robot_wear_monitor.input_files import (MAX_LEVEL_TABLE_BYTES, MAX_TABLE_LINE_CHARS,
@@ -545,9 +545,9 @@ def _set_signs(reading: RawRunsReading, *, raw_sign: bool) -> None:
     joints = dict.fromkeys(row.joint for row in reading.levels)
     for name in joints:
         rows = [row for row in reading.levels if row.joint == name]
-        median = float(np.median([row.level.friction for row in rows]))
+        against, median = against_the_motion([row.level.friction for row in rows])
         runs = len({row.experiment for row in rows})
-        if not median < 0:
+        if not against:
             continue
         if raw_sign:
             reading.notes.append(
@@ -555,9 +555,7 @@ def _set_signs(reading: RawRunsReading, *, raw_sign: bool) -> None:
                 f'sign (median {median:.4g}), kept so by --raw-sign')
             continue
         for row in rows:
-            row.level = replace(row.level, friction=-row.level.friction,
-                                tau_forward=-row.level.tau_forward,
-                                tau_backward=-row.level.tau_backward)
+            row.level = with_other_sign(row.level)
         reading.flipped.append(name)
         reading.notes.append(
             f'{name}: the eq. (3) friction of its {runs} run(s) comes out negative in the '
