@@ -30,12 +30,14 @@ def use_single_blas_thread() -> None:
     # read by OpenBLAS when numpy and scipy load it (no effect once loaded); inherited by the
     # worker processes of a batch
     os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
+    # deferred import: load order (numpy after OPENBLAS_NUM_THREADS is set)
     import numpy  # noqa: F401
     if os.environ['OPENBLAS_NUM_THREADS'] != '1':
         # the limit reaches the libraries loaded when it is set, and scipy.linalg brings its
         # own OpenBLAS, which would read the other value if loaded later: load it first.
         # Otherwise skip it: the estimation path does not import scipy (0.14 s)
+        # deferred import: load order (scipy's OpenBLAS before the limit, only when asked)
         import scipy.linalg  # noqa: F401
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (threadpoolctl: entry points only)
     from threadpoolctl import threadpool_limits
     _LIMITER = threadpool_limits(limits=1, user_api='blas')

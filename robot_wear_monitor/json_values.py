@@ -30,6 +30,7 @@ def json_clean(value: Any) -> Any:
     # numpy is imported here, not with the module: the wear history (which the command line's
     # parser reaches for the dashboard's user roles) uses finite_or_none only, and the command
     # line must not load numpy before it has set one OpenBLAS thread (blas_threads.py)
+    # deferred import: start-up time (numpy: the command line's parser reaches this module)
     import numpy as np
     return _clean(value, np)
 

@@ -27,7 +27,7 @@ def share_folders(name: str) -> list[Path]:
     """
     candidates = []
     try:  # pragma: no cover - only on a ROS 2 host
-        # ament_index_python comes with ROS 2 only: imported where it is asked for
+        # deferred import: optional extra 'ros' (ament_index_python)
         from ament_index_python.packages import get_package_share_directory
         candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / name)
     except Exception:  # noqa: BLE001 - ament may be absent or the package not indexed

@@ -102,6 +102,7 @@ def temperature_cost(*, table: AuditTable, residual: np.ndarray, held_out_residu
         without an ``experiment`` column.
 
     """
+    # deferred import: start-up time (the estimator: tables with an experiment column only)
     from robot_wear_monitor.estimation.estimator import estimate_wear
     if 'experiment' not in table.columns:
         return {}

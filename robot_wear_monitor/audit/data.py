@@ -17,8 +17,12 @@ from numpy.typing import NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.errors import InputError, no_such_path_text
+from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
 from robot_wear_monitor.input_files import (csv_file_rows, MAX_LEVEL_TABLE_BYTES,
                                             MAX_TABLE_LINE_CHARS)
+from robot_wear_monitor.recordings.raw_runs import (folder_runs, is_raw_run, no_level_error,
+                                                    read_raw_runs)
+from robot_wear_monitor.recordings.tables import with_standstill_speed
 from robot_wear_monitor.text import escaped, shorten
 
 
@@ -213,11 +217,6 @@ def table_from_raw_runs(paths: Sequence[str | Path], *, flip_sign: bool = True,
     The table's ``levels`` are the segmented levels of its rows (friction with the table's
     sign), labelled by run and joint.
     """
-    from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
-    from robot_wear_monitor.recordings.raw_runs import no_level_error, read_raw_runs
-    from robot_wear_monitor.recordings.tables import (
-                                                      with_standstill_speed)
-
     settings = config if config is not None else raw_run_segmenter_config()
     if standstill_speed_rad_s is not None:  # the user's threshold, also for slow runs
         settings = with_standstill_speed(settings, standstill_speed_rad_s)
@@ -277,6 +276,7 @@ def table_from_bag(path: str | Path, *, joint: str, topic: str = '/joint_states'
     defaults, the packaged robot's gear ratio and torque scale); the table's ``levels`` are
     ``segment``'s rows.
     """
+    # deferred import: start-up time (node configuration, bag segmentation: bags only)
     from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                            SEGMENTER_FIELDS, validate_parameters)
     from robot_wear_monitor.monitoring.segment import segment_bag
@@ -311,6 +311,7 @@ def bag_segmentation_parameters(*, joint: str, config_file: str | os.PathLike | 
     given: the very parameters ``segment --joint JOINT`` and ``replay`` take, so that
     ``audit`` and ``identify`` of a bag find the same levels.
     """
+    # deferred import: start-up time (the node configuration: bags only)
     from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                            load_node_parameters)
     overrides: dict[str, Any] = {'joint': joint}
@@ -372,7 +373,6 @@ def load_audit_data(path: str | os.PathLike, *, model: str = 'speed', joint: str
                            'standstill_speed_rad_s': standstill_speed_rad_s,
                            'speed_tolerance': speed_tolerance, 'joint': joint, 'notes': notes}
     if file.is_dir():
-        from robot_wear_monitor.recordings.raw_runs import folder_runs
         runs = folder_runs(file)
         if not runs:
             raise InputError(f'{file}: no raw runs here and no bag metadata.yaml: a folder of '
@@ -399,6 +399,7 @@ def levels_out_text(tables: Sequence[AuditTable], *,
     :raises InputError: a table was read as levels (a CSV): there are no segmented levels.
 
     """
+    # deferred import: start-up time (monitoring.segment: --levels-out only)
     from robot_wear_monitor.monitoring.segment import levels_csv_text
     rows: list = []
     extra: dict[str, list] = {}
@@ -418,5 +419,4 @@ def levels_out_text(tables: Sequence[AuditTable], *,
 
 def _is_raw_run(file: Path) -> bool:
     """Return True when the first line of ``file`` names a raw run's columns (read bounded)."""
-    from robot_wear_monitor.recordings.raw_runs import is_raw_run
     return is_raw_run(file)  # False when unreadable: read_level_table says what is wrong

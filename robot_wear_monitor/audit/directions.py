@@ -40,6 +40,7 @@ def f_test(rss_common: float, rss_split: float, n: int, extra: int,
     F = ((RSS_common - RSS_split) / extra) / (RSS_split / (n - n_split)); NaN when the split
     model leaves no degree of freedom or fits exactly.
     """
+    # deferred import: start-up time (scipy.stats)
     from scipy import stats
     dof = n - n_split
     if dof <= 0 or extra <= 0 or not rss_split > 0:

@@ -82,6 +82,7 @@ def estimate_changes(table: AuditTable, model: str, before: ParameterSet | None,
         return {'applies': False, 'reason': 'the speed model has no temperature or wear'}
     if 'experiment' not in table.columns:
         return {'applies': False, 'reason': 'no experiment column to group levels'}
+    # deferred import: start-up time (the estimator: tables with an experiment column only)
     from robot_wear_monitor.estimation.estimator import estimate_wear
 
     y = table.numeric['friction']

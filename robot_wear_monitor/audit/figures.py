@@ -23,8 +23,10 @@ _UNITS = {'speed': ' [rad/s]', 'temperature': ' [degC]', 'load': ' [normalised]'
 
 
 def _pyplot():
+    # deferred import: start-up time (matplotlib: only when a figure is drawn)
     import matplotlib
     matplotlib.use('Agg')
+    # deferred import: start-up time (matplotlib: only when a figure is drawn)
     import matplotlib.pyplot as plt
     return plt
 

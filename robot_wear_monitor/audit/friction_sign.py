@@ -15,6 +15,7 @@ from typing import Mapping
 import numpy as np
 from robot_wear_monitor.audit.fitting import AuditTable
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.experiment.levels import against_the_motion
 
 #: A fitted friction within this fraction of the levels' largest |friction| counts as zero.
 ZERO_FRACTION = 1e-6
@@ -46,9 +47,9 @@ def check_speed_fit_friction(values: Mapping[str, float], table: AuditTable) -> 
     if not negative and float(np.max(fitted)) > zero and all(
             math.isfinite(float(x)) for x in fitted):
         return
-    median = float(np.median(friction))
+    against, median = against_the_motion(friction)
     what = 'negative' if negative else 'zero at every measured speed'
-    sign = 'negative' if median < 0 else 'not positive'
+    sign = 'negative' if against else 'not positive'
     raise InputError(
         f'{table.source}: the speed model (4) fitted is {what} '
         f'({float(np.min(fitted)):.4g} to {float(np.max(fitted)):.4g} at speeds '

@@ -54,6 +54,7 @@ from robot_wear_monitor.model.friction import nominal_friction, wear_friction
 from robot_wear_monitor.model.params import (FrictionModel, parameter_set_from_mapping,
                                              ParameterSet)
 from scipy import optimize
+import yaml
 
 
 _MEASURE_MORE = {
@@ -553,7 +554,6 @@ def identify(*, baseline: AuditTable, from_params: ParameterSet, name: str,
                             wear_source=wear_test.source if wear_test is not None else None,
                             extra=extra, provenance=provenance)
     # validate exactly as a loaded file (raises ParameterError, an InputError, naming the field)
-    import yaml
     checked = parameter_set_from_mapping(yaml.safe_load(parameter_set_yaml(result)),
                                          source=f'identified set {name!r}')
     return replace(result, params=checked)

@@ -73,6 +73,7 @@ def load_identify_levels(path: str | os.PathLike, *, role: str, joint: str | Non
         if not is_bag(path):
             raise InputError(f'{role} {path}: --temperature-topic and --load-topic are '
                              f'for bag input')
+        # deferred import: start-up time (rosbags: bag input only)
         from robot_wear_monitor.recordings.bags import read_scalar_topic
         for column, name in topics.items():
             if name:

@@ -155,6 +155,7 @@ def lack_of_fit(*, table: AuditTable, residual: FloatArray, n_parameters: int,
     the in-sample residual sum of squares (the classical F test of a regression with repeated
     points).
     """
+    # deferred import: start-up time (scipy.stats)
     from scipy import stats
     y = table.numeric['friction']
     n = len(y)

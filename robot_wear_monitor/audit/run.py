@@ -44,7 +44,7 @@ from robot_wear_monitor.audit.speed_fit import fit_speed_model
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.json_values import json_clean
 from robot_wear_monitor.model.extensions import Factor
-from robot_wear_monitor.model.params import ParameterSet
+from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 
 
 #: Fewest distinct speeds per group for the five-parameter speed model (4).
@@ -89,7 +89,6 @@ def run_audit(*, table: AuditTable, model: str = 'speed', params: ParameterSet |
     if group is not None and model != 'speed':
         raise InputError('--group applies to the speed model only')
     if params is None and model != 'speed':
-        from robot_wear_monitor.model.params import load_parameter_set
         params = load_parameter_set()
     if params is not None and params.model.extension is not None and model != 'speed':
         params = _without_extension(params)

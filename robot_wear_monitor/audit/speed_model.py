@@ -99,6 +99,7 @@ def identify_speed_model(*, table: AuditTable, group: str | None = None, n_folds
     fewer than six distinct speeds are left out (reported in ``excluded``).  The friction unit
     is the table's (N.m for the KUKA iiwa levels); speeds in the table's unit.
     """
+    # deferred import: start-up time (audit.run: scipy.stats, scipy.ndimage)
     from robot_wear_monitor.audit.run import enough_speeds
 
     table, excluded = enough_speeds(table, group, 'speed')
@@ -195,6 +196,7 @@ def direction_test(table: AuditTable, *, n_folds: int = 5, seed: int = 0) -> Dir
     direction, held out over the audit's folds
     (:func:`~robot_wear_monitor.audit.directions.compare_directions`).
     """
+    # deferred import: start-up time (audit.directions: the direction test only)
     from robot_wear_monitor.audit.directions import (compare_directions, PER_DIRECTION,
                                                      with_direction_groups)
     grouped = with_direction_groups(table, None)

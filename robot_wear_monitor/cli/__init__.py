@@ -15,6 +15,7 @@ import argparse
 import atexit
 import gc
 import importlib
+import os
 import sys
 from types import ModuleType
 from typing import NoReturn, Sequence
@@ -111,8 +112,7 @@ def _parse_and_run(argv: list[str]) -> int:
         parser.error(f'--ros-args is only for {", ".join(_ROS_VERBS[:-1])} and '
                      f'{_ROS_VERBS[-1]}, not {args.command}')
     args.ros_args = ros_args
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (blas_threads: --help and the parse load none of it)
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     freeze_objects_at_exit()
     try:
@@ -142,9 +142,6 @@ def _run_command(args: argparse.Namespace) -> int:
         print(f'{PROG} {args.command}: interrupted', file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): no traceback
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
-        import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as error:  # a write that failed after the checks (disk full, ...)

@@ -50,6 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``audit``: print the summary or the JSON report; write the requested files."""
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.audit.data import load_audit_data, MODELS
     from robot_wear_monitor.audit.run import run_audit
 
@@ -89,6 +90,7 @@ def main(args: argparse.Namespace) -> int:
     if args.model != 'speed' and not args.params:
         report['estimate_changes'] = {'applies': False, 'reason': NO_PARAMS}
     if args.out_params and result.extended_params is not None:
+        # deferred import: start-up time (numpy, scipy: not for --help)
         from robot_wear_monitor.audit.export import write_parameter_set
         write_parameter_set(args.out_params, result.extended_params,
                             header=params_header(args, result))
@@ -96,6 +98,7 @@ def main(args: argparse.Namespace) -> int:
     if levels_out:
         report['levels_out'] = levels_out
     if args.plots:
+        # deferred import: start-up time (numpy, scipy, matplotlib: not for --help)
         from robot_wear_monitor.audit.figures import plot_audit
         report['figures'] = [str(p) for p in plot_audit(result=result, table=table,
                                                         out_dir=args.plots)]

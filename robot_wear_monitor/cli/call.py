@@ -46,8 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def service_candidates(*, action: str, robot: str | None = None, joint: str | None = None,
                        node: str | None = None) -> list[str]:
     """Return the full service names to try for ``action``, most specific first."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.monitoring.joints import output_topic
     default_node, service = ACTIONS[action]
     namespace = '/' + robot.strip('/') if robot and robot.strip('/') else ''
@@ -68,7 +67,7 @@ def main(args: argparse.Namespace) -> int:
     candidates = service_candidates(action=args.action, robot=args.robot, joint=args.joint,
                                     node=args.node)
     require_rclpy()  # one line naming the ros extra, not a traceback
-    # imported when the verb runs: the ros extra (rclpy) may be absent, and --help loads none of it
+    # deferred import: optional extra 'ros' (rclpy), not for --help
     from robot_wear_monitor.nodes.service_client import call_trigger, ServiceNotFound
     try:
         answer = call_trigger(candidates=candidates, timeout_s=args.timeout,

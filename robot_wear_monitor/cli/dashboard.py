@@ -33,6 +33,7 @@ from robot_wear_monitor.cli.options import add_display_timezone, PROG, shown_loc
 from robot_wear_monitor.dashboard.server_limits import ServerSettings
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import is_postgresql_url, open_history
+from robot_wear_monitor.history.account_audit import Actor
 from robot_wear_monitor.history.users import ROLE_TEXTS, ROLES
 from robot_wear_monitor.text import iso_time, shorten
 
@@ -157,9 +158,6 @@ def _users(args: argparse.Namespace) -> int:
             history.remove_user(name=args.name, by=_cli_actor())
             print(f'user {args.name} removed; their sessions and API tokens ended')
         else:
-            # imported when the verb runs: --help and the parse load none of it, and numpy loads
-            # after the one-BLAS-thread setting
-            from robot_wear_monitor.text import iso_time
             found = history.users()
             for user in found:
                 print(f'{user.name}  {user.role}  created {iso_time(user.created_wall_time_s)}')
@@ -196,14 +194,11 @@ def _tokens(args: argparse.Namespace) -> int:
 
 def _cli_actor() -> Any:
     """Return the actor of a change made here: ``cli:<login name>``."""
-    from robot_wear_monitor.history.account_audit import Actor
     return Actor.command_line()
 
 
 def _audit(args: argparse.Namespace) -> int:
     """List the account audit: a table, or ``--json``."""
-    from robot_wear_monitor.history import open_history
-    from robot_wear_monitor.text import iso_time, shorten
     if args.limit is not None and args.limit < 1:
         raise InputError(f'--limit must be >= 1, got {args.limit}')
     with open_history(args.history, init=False) as history:
@@ -230,8 +225,7 @@ def main(args: argparse.Namespace) -> int:
     if args.dashboard_command == 'audit':
         return _audit(args)
     try:
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: optional extra 'dashboard' (fastapi, uvicorn), not for --help
         from robot_wear_monitor.dashboard.app import (create_app, DashboardSettings,
                                                       environment_secret)
         from robot_wear_monitor.dashboard.server import bind_listener, check_listen, serve
@@ -247,8 +241,7 @@ def main(args: argparse.Namespace) -> int:
     _check_workers(args)  # the range by the option's type; SQLite serves one worker
     notifications = None
     if args.notify:
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: start-up time (the notifier: not for --help)
         from robot_wear_monitor.dashboard.notifier import load_config
         notifications = load_config(args.notify)  # a bad file stops the start (exit 2)
     with open_history(args.history, init=False) as history:

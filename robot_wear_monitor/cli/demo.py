@@ -23,8 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``demo``: the report folder ``--out``, its description on stdout."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, rosbags: not for --help)
     from robot_wear_monitor.reporting.demo import describe, run_demo
     if args.experiments < 1:
         raise InputError(f'--experiments must be >= 1, got {args.experiments}')

@@ -29,8 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``design``: print the speeds [rad/s] and the cost of the optimal design."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, scipy: not for --help)
     import numpy as np
     from robot_wear_monitor.estimation.design import best_grid_design, optimal_design
     params = params_from(args)

@@ -24,8 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``estimate``: print T-hat [degC] and w-hat with 95 % intervals and the alarm."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.estimation.plausibility import UNIT_CAUSE
     from robot_wear_monitor.estimation.wear_report import wear_report
     params = params_from(args)

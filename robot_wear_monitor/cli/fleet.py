@@ -70,8 +70,7 @@ def parse_time(text: str, *, option: str = '--now') -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.fleet.fleet_table import DEFAULT_WIDTH, fleet_table
     from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_view, plural
     from robot_wear_monitor.fleet.states import DAY_S, STATES

@@ -152,8 +152,7 @@ def estimate_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> str
 
 def _row(record: Any) -> tuple[Any, float]:
     """Return (record, the std of w-hat the estimate reported: NaN where it reports none)."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.estimation.wear_report import meaningful_std
     return record, meaningful_std(std=record.wear_std, value=record.wear, low=record.wear_low,
                                   high=record.wear_high, open_above=False)
@@ -161,8 +160,7 @@ def _row(record: Any) -> tuple[Any, float]:
 
 def audit_hint(csv: str, records: Any) -> str:
     """Return what to run on the exported levels (audit needs 6 or more distinct speeds)."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.audit.run import MIN_SPEEDS
     speeds = sorted(float(v) for r in records for v in r.speeds_rad_s)
     distinct = sum(1 for i, v in enumerate(speeds) if i == 0 or v > speeds[i - 1] * 1.02)
@@ -199,10 +197,8 @@ def alarm_log_rows(events: Any, *, local: bool = False) -> list[dict[str, Any]]:
 
 def alarm_log_main(args: argparse.Namespace) -> int:
     """Run ``history --alarms``: the fleet's alarm log as a table, ``--csv`` or ``--json``."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (csv_cells: not for --help)
     from robot_wear_monitor.csv_cells import csv_text
-
     if args.csv and (args.json or args.json_out):
         raise InputError('--alarms: give --csv or --json, not both')
     with open_history(args.database, init=False) as history:

@@ -10,9 +10,12 @@ prints the summary or ``--json``.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 import math
+from pathlib import Path
 from typing import Any
 
+from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.cli.level_options import (add_configuration_column, add_friction_unit,
                                                   add_level_source, friction_unit,
                                                   level_source_scales, print_notes,
@@ -100,6 +103,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``identify``: write the parameter set, print the summary or the JSON report."""
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.audit.export import write_identified_parameter_set
     from robot_wear_monitor.audit.identification import identify
     from robot_wear_monitor.audit.identify_inputs import default_set_name, load_identify_levels
@@ -191,8 +195,7 @@ def main(args: argparse.Namespace) -> int:
     configurations = result.extra.get('load_configurations') or []
     per_configuration: list[dict] = []
     if len(configurations) > 1 and args.load_mean is None:
-        from pathlib import Path
-
+        # deferred import: start-up time (numpy, scipy: not for --help)
         from robot_wear_monitor.audit.configurations import for_configuration
         out = Path(args.out)
         for index in range(len(configurations)):
@@ -236,8 +239,7 @@ def _column_sets(result: Any, baseline: Any, column: str) -> tuple[Any, list]:
     what that costs on these levels (the held-out check of
     :func:`~robot_wear_monitor.audit.configurations.temperature_cost`).
     """
-    from dataclasses import replace
-
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.audit.configurations import pooled_header, temperature_cost
     from robot_wear_monitor.audit.configurations import for_configuration
     configurations = result.extra.get('load_configurations') or []
@@ -255,6 +257,7 @@ def _column_sets(result: Any, baseline: Any, column: str) -> tuple[Any, list]:
 def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float | None,
                           torque_scale: float | None) -> bool:
     """Return True when the baseline gives temperature and load (columns, topics) that vary."""
+    # deferred import: start-up time (numpy, scipy: not for --help)
     import numpy as np
     from robot_wear_monitor.audit.data import load_audit_data
     if any((args.temperature_topic, args.load_topic, args.temperature_column,
@@ -271,12 +274,13 @@ def _varies_in_conditions(args: argparse.Namespace, gear_ratio: float | None,
 def _speed_only(args: argparse.Namespace, from_params, gear_ratio: float | None,
                 torque_scale: float | None) -> int:
     """Identify model (4) from levels that vary in speed only; write the speed-only set."""
-    from robot_wear_monitor.atomic_files import write_text_atomic
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.audit.data import load_audit_data
     from robot_wear_monitor.audit.identify_inputs import default_set_name
     from robot_wear_monitor.audit.friction_sign import check_speed_fit_friction
     from robot_wear_monitor.audit.speed_model import speed_only_parameter_set
     notes: list[str] = []  # how raw runs were read, for stderr
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.model.params import load_parameter_set, parameter_set_yaml_text
     if args.wear_test or args.critical_experiment:
         raise InputError(f'{args.baseline}: --speed-only identifies model (4) only; a wear '

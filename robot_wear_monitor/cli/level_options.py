@@ -13,6 +13,7 @@ options`.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 import sys
 from typing import Any, Sequence
 
@@ -22,6 +23,7 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             bounded, PROG, STANDSTILL_SPEED)
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import RAW_RUN_READING, RAW_RUN_SETTINGS
+from robot_wear_monitor.text import escaped
 
 
 def add_level_source(parser: argparse.ArgumentParser, *,
@@ -73,8 +75,7 @@ def friction_unit(args: argparse.Namespace, source: str, torque_scale: float | N
     'normalised'; ``note`` prints on stderr that a level table's unit was not stated (and
     what ``holder`` says).
     """
-    from pathlib import Path
-
+    # deferred import: start-up time (numpy, scipy, yaml: not for --help)
     from robot_wear_monitor.audit.data import is_bag
     from robot_wear_monitor.recordings.raw_runs import is_raw_run
     from robot_wear_monitor.yaml_files import shorten
@@ -88,7 +89,6 @@ def friction_unit(args: argparse.Namespace, source: str, torque_scale: float | N
     raw = not is_bag(path) and (path.is_dir() or is_raw_run(path))
     unit = 'N.m' if raw and torque_scale in (None, 1.0) else 'normalised'
     if not raw and note:  # a level table does not say its unit
-        import sys
         print(f'{PROG} {command}: note: the friction unit of {shorten(str(source))} is not '
               f'stated; {holder} says {unit!r} (give --friction-unit UNIT, e.g. N.m)',
               file=sys.stderr)
@@ -133,7 +133,6 @@ def add_raw_reading(parser: argparse.ArgumentParser) -> None:
 
 def print_notes(notes: Sequence[str]) -> None:
     """Print how raw runs were read (notes, runs used and unused) on stderr, escaped."""
-    from robot_wear_monitor.text import escaped
     for line in notes:
         print(escaped(line), file=sys.stderr)
 
@@ -155,8 +154,7 @@ def write_levels_out(args: argparse.Namespace, tables: Sequence[Any],
     """
     if not getattr(args, 'levels_out', None):
         return None
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.audit.data import levels_out_text
     write_text_atomic(args.levels_out, levels_out_text(tables, roles=roles))
     return str(args.levels_out)

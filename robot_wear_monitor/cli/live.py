@@ -48,8 +48,7 @@ def _renamed(new: str | None, old: str | None, *, spelling: tuple[str, str]) -> 
 
 def main(args: argparse.Namespace) -> int:
     """Run ``live`` until Ctrl-C; a bad parameter file is refused before any node starts."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.monitoring.node_config import (default_node_config_file,
                                                            FRICTION_EXPERIMENT_NODE,
                                                            load_node_parameters,
@@ -72,7 +71,7 @@ def main(args: argparse.Namespace) -> int:
                          overrides={k: v for k, v in overrides if k == 'joint'})
     load_node_parameters(WEAR_ESTIMATOR_NODE, params_file, overrides=dict(overrides))
     require_rclpy()  # one line naming the ros extra, not a traceback
-    # imported when the verb runs: the ros extra (rclpy) may be absent, and --help loads none of it
+    # deferred import: optional extra 'ros' (rclpy), not for --help
     from robot_wear_monitor.nodes.monitoring_graph import ros_arguments, run_monitoring_graph
     print(f'{PROG} live: friction_experiment_node + wear_estimator_node, parameters from '
           f'{params_file}; Ctrl-C stops', file=sys.stderr, flush=True)

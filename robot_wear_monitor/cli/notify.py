@@ -93,8 +93,7 @@ def _log_line(row: dict[str, Any]) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``notify``: one pass (``--once``) or a pass every ``--interval-s`` seconds."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, the channels: not for --help)
     from robot_wear_monitor.cli.fleet import parse_time
     from robot_wear_monitor.fleet.notifications import (load_notification_config,
                                                         notify_forever, notify_once)

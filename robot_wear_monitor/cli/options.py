@@ -49,6 +49,7 @@ from robot_wear_monitor.experiment.segmentation_settings import (NODE_SCALES, RA
                                                                  SegmenterConfig)
 from robot_wear_monitor.history.passwords import location_secrets, redact_location
 from robot_wear_monitor.input_files import check_robot_name
+from robot_wear_monitor.setting_fields import problem_of, setting_of
 from robot_wear_monitor.text import LINE_LIMIT, shorten
 
 if TYPE_CHECKING:  # loads numpy: imported where used, so that the command line starts light
@@ -198,8 +199,7 @@ def add_params(parser: argparse.ArgumentParser) -> None:
 
 def params_from(args: argparse.Namespace) -> ParameterSet:
     """Return the parameter set of ``--params`` (the packaged one when not given)."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, yaml: not for --help)
     from robot_wear_monitor.model.params import load_parameter_set
     return load_parameter_set(getattr(args, 'params', None))
 
@@ -232,7 +232,6 @@ def setting_type(owner: Any, name: str) -> Callable[[str], Any]:
     The range is the one the configuration dataclass and the node parameter check
     (:mod:`robot_wear_monitor.setting_fields`); argparse adds the option's name and exits 2.
     """
-    from robot_wear_monitor.setting_fields import problem_of, setting_of
     declared = setting_of(owner, name)
 
     def parse(text: str) -> Any:
@@ -263,7 +262,6 @@ def add_setting_option(parser: Any, flag: str, owner: Any, name: str, *,
     takes the owner's or the node configuration's value), ``default_text`` what the help says
     the default is (default: the owner's default).  ``parser`` may be an argument group.
     """
-    from robot_wear_monitor.setting_fields import setting_of
     declared = setting_of(owner, name)
     shown = default_text if default_text is not None else f'{declared.default!r}'
     parser.add_argument(flag, type=setting_type(owner, name), default=default,
@@ -459,6 +457,7 @@ def require_rclpy() -> None:
     Asked before any node or client is built, so a plain ``pip install .`` gets one line on
     stderr and exit 2, not the traceback of an import deep inside a node module.
     """
+    # deferred import: start-up time (nodes.spinning, numpy: the ROS verbs only)
     from robot_wear_monitor.nodes.spinning import import_rclpy
     try:
         import_rclpy()
@@ -534,8 +533,7 @@ def secrets_kept_out(args: argparse.Namespace | Sequence[str]) -> Iterator[None]
     try:
         yield
     except Exception:  # a traceback is printed here, through the guard, not after it
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: start-up time (traceback: only when a command fails)
         import traceback
         traceback.print_exc()
         raise SystemExit(1) from None

@@ -20,6 +20,7 @@ import sys
 from robot_wear_monitor.atomic_files import (check_writable, check_writable_file, OutputError,
                                              write_text_atomic)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history.backends import is_postgresql_url
 
 #: Verbs whose ``--out`` is a folder (a bag, a report folder); elsewhere it is a file.
 FOLDER_OUT = ('simulate', 'replay', 'demo')
@@ -62,9 +63,6 @@ def check_outputs(args: argparse.Namespace) -> None:
             check_writable(out, what='--out')
     history = getattr(args, 'history', None)
     if history and command in HISTORY_WRITERS and str(history) != ':memory:':
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
-        from robot_wear_monitor.history.backends import is_postgresql_url
         if not is_postgresql_url(history):
             check_writable_file(history, what='--history')
 

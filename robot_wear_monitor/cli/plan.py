@@ -123,8 +123,7 @@ def _sample_rate(args: argparse.Namespace) -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``plan``: print the plan's durations and write the trajectory of ``--out``."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, rosbags: not for --help)
     from robot_wear_monitor.experiment.planning import (plan_experiment, plan_summary,
                                                         trajectory_points)
     from robot_wear_monitor.recordings import trajectories
@@ -132,8 +131,7 @@ def main(args: argparse.Namespace) -> int:
     if args.speeds is not None:
         speeds = args.speeds
     else:
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: start-up time (numpy, scipy: not for --help)
         from robot_wear_monitor.estimation.design import best_grid_design, optimal_design
         if args.n < 1:
             raise InputError(f'--n: the number of speed levels must be >= 1, got {args.n}')

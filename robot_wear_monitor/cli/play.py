@@ -33,7 +33,7 @@ def main(args: argparse.Namespace) -> int:
     if not args.rate > 0:
         raise InputError(f'--rate must be > 0, got {args.rate}')
     require_rclpy()  # one line naming the ros extra, not a traceback
-    # imported when the verb runs: the ros extra (rclpy) may be absent, and --help loads none of it
+    # deferred import: optional extra 'ros' (rclpy), not for --help
     from robot_wear_monitor.nodes.monitoring_graph import run_player
     return run_player(args.bag, rate=args.rate, topics=args.topics,
                       wait_for_subscribers=args.wait_for_subscribers,

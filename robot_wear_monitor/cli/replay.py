@@ -22,6 +22,7 @@ from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torqu
                                             joint_selection, loading_modules, print_json,
                                             progress_wanted, shown_location, write_json_out)
 from robot_wear_monitor.errors import InputError
+from robot_wear_monitor.history import open_history
 from robot_wear_monitor.input_files import MAX_JSON_BYTES, read_text_file
 from robot_wear_monitor.text import escaped, iso_time, LINE_LIMIT, shorten
 
@@ -71,8 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def is_batch(args: argparse.Namespace) -> bool:
     """Return True when the command names many bags (or asks for workers or Dask)."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (recordings: not for --help)
     from robot_wear_monitor.recordings import is_bag
     return bool(len(args.bag) > 1 or args.manifest or args.workers is not None
                 or args.dask or any(not is_bag(Path(b)) and Path(b).is_dir()
@@ -82,8 +82,7 @@ def is_batch(args: argparse.Namespace) -> bool:
 def main(args: argparse.Namespace) -> int:
     """Run ``replay``: one bag (write OUT_BAG, print the summary) or many (:func:`main_batch`)."""
     with loading_modules():  # rosbags and the monitoring modules
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: start-up time (numpy, rosbags: not for --help)
         from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
         from robot_wear_monitor.monitoring.replay import replay_bag
     if not args.bag and not args.manifest:
@@ -98,8 +97,7 @@ def main(args: argparse.Namespace) -> int:
         raise InputError(f'{args.out}: already exists (use --overwrite to replace it)')
     truth = None
     if args.truth:  # the simulation module is loaded for it only
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: start-up time (numpy: --truth only)
         from robot_wear_monitor.experiment.simulation import read_truth_json
         truth = read_truth_json(args.truth)
     joint, joints = joint_selection(args.joint)
@@ -129,8 +127,7 @@ def main(args: argparse.Namespace) -> int:
     warn_if_emptier(args.json_out, summary)
     write_json_out(args.json_out, summary)
     if args.plot:
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
+        # deferred import: start-up time (matplotlib: --plot only)
         from robot_wear_monitor.reporting.replay_report import plot_replay
         plot_replay(result, args.plot, bag=args.bag,
                     threshold=configuration.alarm_policy().threshold)
@@ -154,8 +151,7 @@ def summary_line(result: Any, summary: dict) -> str:
     run was valid; an invalid estimate says why the wear cannot be judged; a run that found
     only experiments the history already holds reports the state from the history.
     """
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (monitoring.diagnostics: not for --help)
     from robot_wear_monitor.monitoring.diagnostics import is_routine, rejection_text
 
     first = summary['first_alarm']
@@ -248,10 +244,7 @@ def main_batch(args: argparse.Namespace) -> int:
 
     Exit 2 when any bag failed (each is named with its reason on stderr as it fails).
     """
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
-    import sys
-
+    # deferred import: start-up time (the batch, tqdm: many bags only)
     from robot_wear_monitor.fleet.batch import (BagOutcome, collect_bags, ReplaySettings,
                                                 run_batch)
     from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
@@ -280,9 +273,6 @@ def main_batch(args: argparse.Namespace) -> int:
                               overwrite=args.overwrite, recover=not args.strict,
                               configuration=configuration)
     if args.history is not None:  # made (or refused) once, before the workers start
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
-        from robot_wear_monitor.history import open_history
         open_history(args.history, init=True if args.init else None).close()
 
     def report(outcome: BagOutcome) -> None:  # a failure as it happens, above the bar

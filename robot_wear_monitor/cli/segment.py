@@ -8,13 +8,16 @@ CSV (or writes ``--out``) and one report line per joint on stderr.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 import sys
 
+from robot_wear_monitor.atomic_files import write_text_atomic
 from robot_wear_monitor.cli.level_options import add_raw_reading, RAW_STANDSTILL_DEFAULT
 from robot_wear_monitor.cli.options import (add_config, add_gear_ratio_and_torque_scale,
                                             add_joints, add_robot, BAG_SCALE_DEFAULT,
                                             BAG_TORQUE_SCALE_DEFAULT, joint_selection,
                                             parse_float_list, STANDSTILL_SPEED)
+from robot_wear_monitor.cli.outputs import to_terminal
 from robot_wear_monitor.cli.replay import joint_summary_line
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.text import escaped
@@ -57,10 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``segment``: the level CSV on stdout or ``--out``, the report on stderr."""
-    from pathlib import Path
-
-    from robot_wear_monitor.atomic_files import write_text_atomic
-    from robot_wear_monitor.cli.outputs import to_terminal
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.monitoring.diagnostics import rejection_text
     from robot_wear_monitor.monitoring.segment import (levels_csv_text, segment_bag,
                                                        segment_raw_csv)
@@ -89,6 +89,7 @@ def main(args: argparse.Namespace) -> int:
         if args.standstill_speed is not None:
             raise InputError('--standstill-speed is for a raw CSV; a bag takes the node '
                              'parameter standstill_speed_rad_s from --config')
+        # deferred import: start-up time (the replay, rosbags: bags only)
         from robot_wear_monitor.monitoring.replay import replay_parameters
         joint, joints = joint_selection(args.joint)
         experiment, _ = replay_parameters(config_file=args.config, joint=joint, joints=joints,

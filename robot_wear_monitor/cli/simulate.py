@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
+import math
 from pathlib import Path
 from typing import Any, Callable
 
+from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.cli.options import (add_params, check_option, FINITE, params_from,
                                             parse_float_list)
 from robot_wear_monitor.errors import InputError
@@ -56,8 +59,7 @@ MAX_EXPERIMENTS = 100_000
 def _simulate(simulate_scenario: Callable[..., Any], *, config: Any, params: Any,
               args: argparse.Namespace) -> Any:
     """Return the simulated scenario; an error names the option a user changes, not a field."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.experiment.planning import PlanError
     try:
         return simulate_scenario(config=config, model=params.model, seed=args.seed)
@@ -77,8 +79,7 @@ def _simulate(simulate_scenario: Callable[..., Any], *, config: Any, params: Any
 
 def main(args: argparse.Namespace) -> int:
     """Run ``simulate``: write the bag and its truth JSON beside it."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, rosbags: not for --help)
     from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario,
                                                           JointSimConfig, simulate_scenario,
                                                           truth_path_for, write_truth_json)
@@ -101,11 +102,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed, wear_final=args.wear_final, experiment_interval_s=args.interval,
         joint=JointSimConfig(sample_rate_hz=args.sample_rate))
     if args.start_time is not None:
-        # imported when the verb runs: --help and the parse load none of it, and numpy loads after
-        # the one-BLAS-thread setting
-        from dataclasses import replace
-        import math
-
+        # deferred import: start-up time (cli.fleet: not for --help)
         from robot_wear_monitor.cli.fleet import parse_time
         start_s = parse_time(args.start_time, option='--start-time')
         if not math.isfinite(start_s) or not 0.0 <= start_s < 4.1e9:
@@ -129,8 +126,7 @@ def main(args: argparse.Namespace) -> int:
 
 def _plant(args: argparse.Namespace, *, config: Any, params: Any) -> int:
     """Run ``simulate --joints/--start-wear/--continue-from``: several joints, wear continued."""
-    # imported when the verb runs: numpy loads after the one-BLAS-thread setting
-    from robot_wear_monitor.atomic_files import write_json_atomic
+    # deferred import: start-up time (numpy, rosbags: not for --help)
     from robot_wear_monitor.experiment.plant_simulation import (continuation, plant_truth,
                                                                 simulate_joints)
     from robot_wear_monitor.experiment.simulation import truth_path_for

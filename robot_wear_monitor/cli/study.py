@@ -32,8 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``study``: print bias, variance, MSE and CRB of w-hat per true temperature."""
-    # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
-    # one-BLAS-thread setting
+    # deferred import: start-up time (numpy, scipy: not for --help)
     from robot_wear_monitor.estimation.design import optimal_design
     from robot_wear_monitor.estimation.study import plot_study, run_study
     params = params_from(args)

@@ -43,7 +43,7 @@ __all__ = ['create_app', 'DashboardSettings', 'environment_secret', 'HistoryPool
 
 def plotly_js_path() -> Path:
     """Return plotly.min.js of the installed ``plotly`` Python package."""
-    # the optional 'dashboard' extra: imported where used
+    # deferred import: optional extra 'dashboard' (plotly)
     import plotly
     return Path(plotly.__file__).resolve().parent / 'package_data' / 'plotly.min.js'
 
@@ -54,7 +54,7 @@ def swagger_ui_folder() -> Path:
 
     (Swagger UI 5 reads the OpenAPI 3.1 that FastAPI writes; 4.x does not.)
     """
-    # the optional 'dashboard' extra: imported where used
+    # deferred import: optional extra 'dashboard' (fastapi_offline)
     import fastapi_offline
     return Path(fastapi_offline.__file__).resolve().parent / 'static'
 

@@ -20,7 +20,8 @@ arrive at once; the same name from another address is not refused (nobody locks 
 out), a login the history could not check (503) does not count.  :class:`LoginLimiter` is the
 same rule in one process's memory (at most :data:`MAX_LIMITER_KEYS` keys), for a caller
 without a history.  :class:`LoginBodyLimit` refuses a ``/login`` POST that is
-multipart or over :data:`MAX_LOGIN_BODY_BYTES` before its body is read.
+multipart (415) before the form parser reads it (its size is bounded by ``guards.BodyGuard``, as
+every body's).
 
 The JSON API (``/api/``) also takes a per-user API token (``Authorization: Bearer TOKEN``,
 ``history.tokens``): the request acts as the token's user with their role read now; a token
@@ -50,8 +51,6 @@ from starlette.responses import JSONResponse, PlainTextResponse, RedirectRespons
 MAX_FAILURES = 5
 #: How long a session lasts without a new login [s].
 SESSION_MAX_AGE_S = 12 * 3600
-#: The largest body a ``/login`` POST may have [bytes] (a user name, a password, a token).
-MAX_LOGIN_BODY_BYTES = 64 * 1024
 #: The window of the login rate limit [s].
 WINDOW_S = 300.0
 #: The most keys the login rate limit keeps (addresses and name-address pairs).
@@ -382,63 +381,28 @@ def _token_from_pool(request: Request, pool: Any, token: str) -> bool:
 
 class LoginBodyLimit:
     """
-    Refuse a ``/login`` POST before its body is read: multipart (415), or over the limit (413).
+    Refuse a multipart ``/login`` POST (415) without reading its body.
 
     The login form is URL-encoded and small; a multipart body would be spooled to a temporary
-    file by the form parser before any check.  A body without a Content-Length is counted as
-    it arrives and cut off past :data:`MAX_LOGIN_BODY_BYTES`.
+    file by the form parser before any check.  The body's size, its arrival and ambiguous
+    headers are the outer :class:`~robot_wear_monitor.dashboard.guards.BodyGuard`'s (every
+    request body, this one too, bounded before it gets here).
     """
 
-    def __init__(self, app: Any, *, max_bytes: int = MAX_LOGIN_BODY_BYTES) -> None:
+    def __init__(self, app: Any) -> None:
         """Wrap the ASGI ``app``."""
         self.app = app
-        self.max_bytes = max_bytes
 
     async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
-        """Pass the request on, or answer 415/413 for a ``/login`` POST that may not be read."""
-        if scope['type'] != 'http' or scope['method'] != 'POST' or scope['path'] != '/login':
-            await self.app(scope, receive, send)
-            return
-        headers: dict[str, list[str]] = {}
-        for key, value in scope.get('headers', []):
-            headers.setdefault(key.decode('latin-1').lower(), []).append(value.decode('latin-1'))
-        kinds = headers.get('content-type', [])
-        lengths = headers.get('content-length', [])
-        if len(kinds) > 1 or len(lengths) > 1:  # which one a parser takes is anybody's guess
-            await PlainTextResponse('one Content-Type and one Content-Length, please',
-                                    status_code=400)(scope, receive, send)
-            return
-        if any(k.split(';')[0].strip().lower().startswith('multipart/') for k in kinds):
-            await PlainTextResponse('the login form is sent URL-encoded, not multipart',
-                                    status_code=415)(scope, receive, send)
-            return
-        too_large = PlainTextResponse(f'a login body is at most {self.max_bytes} bytes',
-                                      status_code=413)
-        if lengths and (not lengths[0].isdigit() or int(lengths[0]) > self.max_bytes):
-            await too_large(scope, receive, send)
-            return
-        # the body is taken whole here (at most max_bytes: a chunked one is cut off as it
-        # arrives) and handed to the app after
-        body = b''
-        more = True
-        while more:
-            message = await receive()
-            if message['type'] != 'http.request':
-                return  # the client went away
-            body += message.get('body', b'')
-            if len(body) > self.max_bytes:
-                await too_large(scope, receive, send)
+        """Pass the request on, or answer 415 for a multipart ``/login`` POST."""
+        if scope['type'] == 'http' and scope['method'] == 'POST' and scope['path'] == '/login':
+            kinds = [value.decode('latin-1') for key, value in scope.get('headers', [])
+                     if key.decode('latin-1').lower() == 'content-type']
+            if any(k.split(';')[0].strip().lower().startswith('multipart/') for k in kinds):
+                await PlainTextResponse('the login form is sent URL-encoded, not multipart',
+                                        status_code=415)(scope, receive, send)
                 return
-            more = bool(message.get('more_body', False))
-        given = False
-
-        async def replay() -> Any:
-            nonlocal given
-            if not given:
-                given = True
-                return {'type': 'http.request', 'body': body, 'more_body': False}
-            return await receive()
-        await self.app(scope, replay, send)
+        await self.app(scope, receive, send)
 
 
 def safe_next(target: Any) -> str:

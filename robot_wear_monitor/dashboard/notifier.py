@@ -24,7 +24,7 @@ LOGGER = logging.getLogger('robot_wear_monitor.dashboard')
 
 def load_config(path: str) -> Any:
     """Return the notification configuration of ``path`` (NotificationConfigError when bad)."""
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (fleet.notifications: only when notifying)
     from robot_wear_monitor.fleet.notifications import load_notification_config
     return load_notification_config(path)
 
@@ -37,7 +37,7 @@ def notify_pass(*, location: str, config: Any, parameter_sets: Any = None,
     ``parameter_sets``: the dashboard's (``--params``), for the rows without a stored threshold;
     ``zone``: its ``display_timezone``'s, for the texts' times.
     """
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (fleet.notifications: only when notifying)
     from robot_wear_monitor.fleet.notifications import notify_once
     with open_history(location, init=False) as history:
         sent = notify_once(history=history, config=config, now_s=time.time(),

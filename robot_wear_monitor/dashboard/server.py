@@ -102,7 +102,7 @@ def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
     ``limit_concurrency``: connections and requests at once (503 past it);
     ``header_timeout_s``: how long a request's headers may take [s].
     """
-    # the optional 'dashboard' extra: imported where used
+    # deferred import: optional extra 'dashboard' (uvicorn)
     import uvicorn
     config = uvicorn.Config(app, host=host, port=port, ssl_certfile=tls_cert,
                             ssl_keyfile=tls_key, log_level='info', proxy_headers=False,
@@ -114,6 +114,7 @@ def serve(app: Any, *, host: str, port: int, tls_cert: Optional[str] = None,
 
 def header_timeout_protocol(timeout_s: float = HEADER_TIMEOUT_S) -> type:
     """Return uvicorn's h11 protocol with a request-header timer of ``timeout_s`` [s]."""
+    # deferred import: optional extra 'dashboard' (uvicorn's HTTP/1.1 parser)
     import h11  # uvicorn's HTTP/1.1 parser
     from uvicorn.protocols.http.h11_impl import H11Protocol
 

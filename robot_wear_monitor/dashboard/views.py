@@ -585,6 +585,7 @@ def friction_curves(records: Sequence[Any], *, params: ParameterSet) -> list[dic
     The model curve is the friction model (8) at the set's mean load, the experiment's T-hat
     [degC] and w-hat, over the speeds [rad/s, motor side] of the levels.
     """
+    # deferred import: start-up time (model.friction: one page only)
     from robot_wear_monitor.model.friction import friction
     out = []
     for record in records[-FRICTION_EXPERIMENTS:]:

@@ -23,7 +23,7 @@ from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.estimation import intervals as one, profile_likelihood as pl
 from robot_wear_monitor.estimation.batch import _levels_last, whitening_rows
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
-from robot_wear_monitor.estimation.wear_estimates import WearEstimates
+from robot_wear_monitor.estimation.wear_estimates import validate_levels, WearEstimates
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -174,7 +174,7 @@ def wear_intervals_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArra
 
     """
     grid = pl.validate_grid(pl.wear_grid(params.wear_max))
-    checked = [pl.validate_levels(s, v) for s, v in zip(speeds, values)]
+    checked = [validate_levels(s, v) for s, v in zip(speeds, values)]
     speeds = [s for s, _ in checked]
     values = [v for _, v in checked]
     out: list[Optional[one.WearIntervals]] = [None] * len(speeds)
@@ -221,7 +221,7 @@ def _likelihood_rows(speeds: Sequence[FloatArray], values: Sequence[FloatArray],
     rows: list[Optional[FloatArray]] = [None] * len(speeds)
     by_size: dict[int, list[int]] = {}
     for i, (s, v) in enumerate(zip(speeds, values)):
-        s, v = pl.validate_levels(s, v)
+        s, v = validate_levels(s, v)
         if s.size == 1 or v.shape[0] != 1:
             rows[i] = one.profile_log_likelihood(s, v, params=params, wear_grid=grid)
         else:

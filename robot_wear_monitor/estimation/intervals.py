@@ -52,10 +52,11 @@ from robot_wear_monitor.estimation.calibration_store import (
     write_calibration_table)
 from robot_wear_monitor.estimation.estimator import estimate_wear
 from robot_wear_monitor.estimation.profile_likelihood import (cached_profile, cached_single_level,
-                                                              validate_grid, validate_levels,
-                                                              wear_grid, WearLikelihood)
+                                                              validate_grid, wear_grid,
+                                                              WearLikelihood)
 from robot_wear_monitor.estimation.special_functions import chi2_quantile_one_dof
-from robot_wear_monitor.estimation.wear_estimates import validate_speeds, WearEstimates
+from robot_wear_monitor.estimation.wear_estimates import (validate_levels, validate_speeds,
+                                                          WearEstimates)
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import load_parameter_set, ParameterSet
 

@@ -141,7 +141,7 @@ def _best_scale(speeds: np.ndarray, frictions: np.ndarray, params: ParameterSet
 
     Only for N >= 3 (with N <= 2 the two parameters (T, w) fit any scaled levels).
     """
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (the estimator: not every importer needs it)
     from robot_wear_monitor.estimation.estimator import estimate_wear
     lo, hi = friction_range(speeds, params=params)
     scaled = _SCALES[:, None] * frictions[None, :]

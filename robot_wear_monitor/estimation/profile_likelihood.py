@@ -14,7 +14,6 @@ from numpy.typing import ArrayLike, NDArray
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.estimation.single_level import MarginalModel
-from robot_wear_monitor.estimation.wear_estimates import validate_speeds
 from robot_wear_monitor.model import friction as fm
 from robot_wear_monitor.model.params import ParameterSet
 
@@ -57,22 +56,6 @@ def wear_grid(wear_max: float = WEAR_GRID_MAX, *, fine_step: float = FINE_STEP,
 
 
 # --------------------------------------------------------------------------- helpers
-
-def validate_levels(speeds_rad_s: ArrayLike, friction: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    speeds = validate_speeds(speeds_rad_s)
-    try:
-        values = np.asarray(friction, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError('friction: not numbers') from None
-    if values.ndim == 1:
-        values = values[None, :]
-    if values.ndim != 2 or values.shape[1] != speeds.size:
-        raise InputError(f'friction: expected shape ({speeds.size},) or (B, {speeds.size}) to '
-                         f'match {speeds.size} speed(s), got shape {np.shape(friction)}')
-    if not np.all(np.isfinite(values)):
-        raise InputError('friction: contains NaN or infinite values')
-    return speeds, values
-
 
 def validate_grid(grid: ArrayLike) -> FloatArray:
     g = np.asarray(grid, dtype=float)

@@ -143,7 +143,7 @@ def run_study(*, speeds_rad_s: ArrayLike, temperatures_degc: ArrayLike, wear: fl
                                              runs=runs, rng=rng, params=params) for t in temps])
     if progress is None:
         progress = sys.stderr.isatty()
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (tqdm: a study run only)
     from tqdm import tqdm
     wear_hat = np.empty(data.shape[0])
     t_bound = np.empty(data.shape[0], dtype=bool)
@@ -175,10 +175,10 @@ def plot_study(results: Sequence[StudyResult], *, path: str) -> None:
 
     The Cramer-Rao bound of every N is drawn dashed in the variance panel.
     """
-    # matplotlib loads only when a figure is drawn (start-up time)
+    # deferred import: start-up time (matplotlib: only when a figure is drawn)
     import matplotlib
     matplotlib.use('Agg')
-    # matplotlib loads only when a figure is drawn (start-up time)
+    # deferred import: start-up time (matplotlib: only when a figure is drawn)
     import matplotlib.pyplot as plt
 
     fig, (ax_bias, ax_var) = plt.subplots(1, 2, figsize=(10, 4))

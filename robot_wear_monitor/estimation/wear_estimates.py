@@ -2,9 +2,11 @@
 The estimates of (T, w) as the estimator returns them, and the checks of its inputs.
 
 :class:`WearEstimates` is a batch of B estimates at the same N speeds (``estimates[i]`` is a
-:class:`WearEstimate`); :func:`validate_speeds` and :func:`validate_friction` check the inputs
-of :func:`~robot_wear_monitor.estimation.estimator.estimate_wear`; :func:`fit_p_value` is the
-model check's p-value of a fit.
+:class:`WearEstimate`); :func:`validate_speeds`, :func:`validate_friction` and
+:func:`validate_levels` check the inputs of the estimator and the intervals
+(:func:`~robot_wear_monitor.estimation.estimator.estimate_wear`,
+:mod:`~robot_wear_monitor.estimation.intervals`); :func:`fit_p_value` is the model check's
+p-value of a fit.
 """
 
 from __future__ import annotations
@@ -160,6 +162,17 @@ def validate_friction(friction: ArrayLike, n_levels: int) -> FloatArray:
     if not np.all(np.isfinite(values)):
         raise InputError('friction: contains NaN or infinite values')
     return values
+
+
+def validate_levels(speeds_rad_s: ArrayLike,
+                    friction: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """
+    Return the checked speed levels (M,) [rad/s] and friction levels (B, M) of one experiment.
+
+    :func:`validate_speeds` and :func:`validate_friction` with M the number of speeds.
+    """
+    speeds = validate_speeds(speeds_rad_s)
+    return speeds, validate_friction(friction, speeds.size)
 
 
 def fit_p_value(chi2: FloatArray, dof: NDArray[np.int64]) -> FloatArray:

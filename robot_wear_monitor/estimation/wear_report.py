@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import math
 from typing import Any, Sequence, TYPE_CHECKING
 
+import numpy as np
 from robot_wear_monitor.estimation.plausibility import check_levels, Plausibility, VALID
 from robot_wear_monitor.json_values import finite_or_none
 
@@ -109,7 +110,7 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
         gives T-hat with its interval only (``wear_determined`` False).
 
     """
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (estimator, intervals: not every importer needs them)
     from robot_wear_monitor.estimation.estimator import estimate_wear
     from robot_wear_monitor.estimation.intervals import wear_intervals, WearInterval
     from robot_wear_monitor.estimation.wear_estimates import validate_speeds
@@ -117,9 +118,7 @@ def wear_report(*, speeds_rad_s: Sequence[float], frictions: Sequence[float],
     estimates = estimate_wear(speeds_rad_s, frictions, params=params)
     est = estimates[0]
     if not params.estimates_wear:  # no wear model: T-hat and its interval only
-        # imported on use: not every importer of this module needs it (start-up time)
-        import numpy as np
-
+        # deferred import: start-up time (temperature_only: sets without a wear model only)
         from robot_wear_monitor.estimation.temperature_only import estimate_temperature
         speeds = validate_speeds(speeds_rad_s)
         t_only = estimate_temperature(speeds, np.asarray(frictions, dtype=float)[None, :],

@@ -8,9 +8,10 @@ a :class:`FrictionLevel` is one constant-speed friction level from a forward/bac
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 @dataclass(frozen=True)
@@ -70,3 +71,22 @@ class FrictionExperiment:
     def end_time_s(self) -> float:
         """Time of the last sample of the experiment [s]."""
         return max(level.end_time_s for level in self.levels)
+
+
+def against_the_motion(friction: ArrayLike) -> tuple[bool, float]:
+    """
+    Return whether friction levels were recorded against the motion, and their median.
+
+    Friction opposes the motion, so eq. (3)'s (tau+ - tau-)/2 is positive when the torque is
+    recorded positive along the motion: levels whose median (numpy's: the mean of the middle
+    two of an even count) is negative have the torque recorded the other way (the KUKA files).
+    ``friction``: the levels' friction, shape (N,), N >= 1, in any one unit (normalised, N.m).
+    """
+    median = float(np.median(np.asarray(friction, dtype=float)))
+    return median < 0, median
+
+
+def with_other_sign(level: FrictionLevel) -> FrictionLevel:
+    """Return ``level`` read with the other torque sign: friction, tau+ and tau- negated."""
+    return replace(level, friction=-level.friction, tau_forward=-level.tau_forward,
+                   tau_backward=-level.tau_backward)

@@ -93,7 +93,8 @@ class ReplaySettings:
         """Return the nodes' configuration of a task of ``robot`` (its ``robot_id``)."""
         if self.configuration is not None:
             return self.configuration.for_robot(robot)
-        from robot_wear_monitor.monitoring.monitor_config import MonitorConfig  # numpy, late
+        # deferred import: start-up time (numpy: the parent loads it late)
+        from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
         return MonitorConfig.load(config_file=self.config_file, joint=self.joint,
                                   joints=list(self.joints) if self.joints else None,
                                   gear_ratio=self.gear_ratio, torque_scale=self.torque_scale,
@@ -317,14 +318,14 @@ def recording_fingerprint(bag: str | os.PathLike) -> str:
 # --- one task -------------------------------------------------------------------------------
 
 def _peak_rss_mb() -> float:
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (resource: the peak-memory figure only)
     import resource
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def replay_one(task: BagTask, settings: ReplaySettings) -> BagOutcome:
     """Replay one bag into the history; never raise (a failure is the outcome's ``reason``)."""
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (the replay: in the workers only)
     from robot_wear_monitor.blas_threads import use_single_blas_thread
     from robot_wear_monitor.monitoring.replay import replay_bag
     use_single_blas_thread()
@@ -382,7 +383,7 @@ def _chains(tasks: Sequence[BagTask]) -> dict[str, deque[int]]:
 
 
 def _progress_bar(total: int, enabled: bool) -> Any:
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (tqdm: a progress bar only)
     from tqdm import tqdm
     return tqdm(total=total, unit='bag', desc='replay', disable=not enabled, mininterval=0.5)
 
@@ -437,6 +438,7 @@ def _run_pool(tasks: Sequence[BagTask], settings: ReplaySettings,
     chains = _chains(tasks)
     # fork where there is one: the workers start with the replay already imported (numpy,
     # scipy, rosbags: about 1 s a process); the parent holds no history connection
+    # deferred import: load order (the replay before the workers fork)
     import robot_wear_monitor.monitoring.replay  # noqa: F401
     method = 'fork' if 'fork' in multiprocessing.get_all_start_methods() else 'spawn'
     context = multiprocessing.get_context(method)
@@ -470,7 +472,7 @@ def _run_dask(tasks: Sequence[BagTask], settings: ReplaySettings,
               client: Any) -> str:
     """Submit the tasks to Dask: each robot's next bag when its previous one is done."""
     try:
-        # the optional 'dask' extra: imported where used
+        # deferred import: optional extra 'dask'
         from distributed import as_completed, Client
     except ImportError as error:  # pragma: no cover - dask is a dependency
         raise BatchError(f'--dask needs the distributed package: pip install '

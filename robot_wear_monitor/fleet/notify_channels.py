@@ -249,7 +249,7 @@ def post_webhook(hook: WebhookConfig, payload: dict[str, Any], *, retry: RetryPo
     every second would keep a try alive for ever.  The try runs in its own event loop
     (anyio, in a fresh context) and is cancelled at its deadline.
     """
-    # the optional 'dashboard' extra: imported where used
+    # deferred import: optional extra 'dashboard' (httpx)
     import anyio
     import httpx
 

@@ -342,7 +342,7 @@ class PostgresqlBackend:
         """Connect to ``url``; raise :class:`HistoryError` naming it when that fails."""
         self.name = redact_url(url)
         try:
-            # the optional 'postgresql' extra: imported where used
+            # deferred import: optional extra 'postgresql'
             import psycopg
         except ImportError:
             raise HistoryError(f'{self.name}: a PostgreSQL history needs psycopg 3: pip install '

@@ -51,7 +51,7 @@ class User:
 
 def _hasher() -> Any:
     try:
-        # the optional 'dashboard' extra: imported where used
+        # deferred import: optional extra 'dashboard' (argon2)
         from argon2 import PasswordHasher
     except ImportError:
         raise HistoryError('dashboard users need argon2-cffi: pip install '
@@ -237,7 +237,7 @@ def verify_user(backend: HistoryBackend, *, name: str, password: str) -> Optiona
     An unknown or malformed name costs one argon2 verification too (against a dummy hash).
     """
     hasher = _hasher()
-    # the optional 'dashboard' extra: imported where used
+    # deferred import: optional extra 'dashboard' (argon2)
     from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
     rows = []
     if isinstance(name, str) and _NAME.fullmatch(name):

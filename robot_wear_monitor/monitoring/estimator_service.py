@@ -28,6 +28,7 @@ from robot_wear_monitor.estimation.plausibility import check_levels, Plausibilit
 from robot_wear_monitor.estimation.wear_report import meaningful_std
 from robot_wear_monitor.experiment.levels import FrictionExperiment
 from robot_wear_monitor.history import AlarmEvent, HistoryRecord, LatchMoved, WearHistory
+from robot_wear_monitor.model.friction import friction
 from robot_wear_monitor.model.params import ParameterSet
 from robot_wear_monitor.monitoring.diagnostics import (DiagnosticReport, forecast_text,
                                                        interval_text, trend_values)
@@ -61,6 +62,7 @@ def _default_estimate(speeds_rad_s: np.ndarray, frictions: np.ndarray, *,
 
 def _estimate_batch(speeds_rad_s: np.ndarray, frictions: np.ndarray, *,
                     params: ParameterSet) -> WearEstimates:
+    # deferred import: start-up time (estimation: segment loads this module, estimates nothing)
     from robot_wear_monitor.estimation.estimator import estimate_wear
     return estimate_wear(speeds_rad_s, frictions, params=params)
 
@@ -104,11 +106,13 @@ class WearEstimatorService:
         self.prepared = PreparedEstimates()
 
     def _new_trend(self) -> WearTrend:
+        # deferred import: start-up time (estimation: segment loads this module, estimates nothing)
         from robot_wear_monitor.estimation.trend import TrendConfig, WearTrend
         return WearTrend(TrendConfig(threshold=self.config.alarm.threshold))
 
     def _likelihood_rows(self, speeds: np.ndarray, frictions: np.ndarray) -> np.ndarray:
         """Return the profile log-likelihood rows of w on the trend's grid, (B, G)."""
+        # deferred import: start-up time (estimation: segment loads this module, estimates nothing)
         from robot_wear_monitor.estimation.intervals import profile_log_likelihood
         return profile_log_likelihood(speeds, frictions, params=self.config.params,
                                       wear_grid=self.wear_trend.wear_grid)
@@ -172,8 +176,8 @@ class WearEstimatorService:
         start for its configured speeds, not at its first experiment while /joint_states keeps
         arriving.
         """
+        # deferred import: start-up time (estimation: segment loads this module, estimates nothing)
         from robot_wear_monitor.estimation.intervals import calibrate_cutoffs
-        from robot_wear_monitor.model.friction import friction
         configured = self.config.experiment_speeds_rad_s
         speeds = np.asarray(configured or (30.0, 40.0), dtype=float)
         levels = np.asarray(friction(speeds, 0.5, 40.0, 10.0, self.config.params.model),
@@ -341,6 +345,7 @@ class WearEstimatorService:
     def _temperature_interval(self, speeds: np.ndarray, frictions: np.ndarray
                               ) -> Optional[WearInterval]:
         """Return the 95 % interval of T of a set without a wear model (w's ends NaN)."""
+        # deferred import: start-up time (estimation: segment loads this module, estimates nothing)
         from robot_wear_monitor.estimation.intervals import WearInterval
         from robot_wear_monitor.estimation.temperature_only import estimate_temperature
         try:
@@ -376,6 +381,7 @@ class WearEstimatorService:
         made it (the interval needs the ML estimate; it is not computed twice).  ``prepared``:
         the interval and trend row computed ahead (:meth:`prepare`), used where present.
         """
+        # deferred import: start-up time (estimation: segment loads this module, estimates nothing)
         from robot_wear_monitor.estimation.intervals import wear_intervals
         interval = trend = None
         try:

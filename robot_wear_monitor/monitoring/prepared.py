@@ -93,7 +93,7 @@ class PreparedEstimates:
         rows = [item for item in levels if batchable(item, joint=joint)]
         if len(rows) < 2:
             return 0
-        # imported on use: not every importer of this module needs it (start-up time)
+        # deferred import: start-up time (estimation: not every importer needs it)
         from robot_wear_monitor.estimation.batch import estimate_wear_rows
         from robot_wear_monitor.estimation.batch_intervals import wear_intervals_rows
         speeds = [np.asarray(r.speeds_rad_s, dtype=float) for r in rows]

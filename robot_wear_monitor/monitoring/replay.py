@@ -196,7 +196,7 @@ def replay_bag(bag: str | os.PathLike, *, out_bag: str | os.PathLike | None,
     experiments = JointExperiments(configuration.experiment, source='replay parameters')
     bar: Any = nullcontext()  # tqdm is loaded for a progress bar only
     if progress:
-        # imported on use: not every importer of this module needs it (start-up time)
+        # deferred import: start-up time (tqdm: a progress bar only)
         from tqdm import tqdm
         bar = tqdm(unit='msg', unit_scale=True, desc=f'read {Path(bag).name}', mininterval=0.5)
 

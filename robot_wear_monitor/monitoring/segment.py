@@ -16,11 +16,16 @@ import csv
 from dataclasses import dataclass, field
 import io
 import os
+from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence
 
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.levels import against_the_motion, FrictionLevel, with_other_sign
+from robot_wear_monitor.experiment.segmentation import ExperimentAssembler
 from robot_wear_monitor.experiment.segmentation_settings import raw_run_segmenter_config
+from robot_wear_monitor.recordings.raw_runs import (folder_joint_name, folder_runs, no_level_error,
+                                                    read_raw_runs, run_label)
+from robot_wear_monitor.recordings.tables import read_raw_csv, with_standstill_speed
 from robot_wear_monitor.text import escaped
 
 #: Columns of the level CSV, in order.
@@ -78,13 +83,6 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
     :raises InputError: no run gave a level (every run's reason said).
 
     """
-    # imported on use: not every importer of this module needs it (start-up time)
-    from pathlib import Path
-
-    from robot_wear_monitor.experiment.segmentation import ExperimentAssembler
-    from robot_wear_monitor.recordings.raw_runs import (folder_runs, no_level_error,
-                                                        read_raw_runs)
-    from robot_wear_monitor.recordings.tables import with_standstill_speed
     overrides = {k: val for k, val in (('gear_ratio', gear_ratio),
                                        ('torque_scale', torque_scale)) if val is not None}
     config = raw_run_segmenter_config(**overrides)
@@ -126,11 +124,8 @@ def segment_raw_csv(path: str | os.PathLike, *, gear_ratio: Optional[float] = No
 def _position_binned(path: Any, *, config: Any, n_bins: int,
                      speeds_rad_s: Optional[Sequence[float]], raw_sign: bool) -> SegmentedLevels:
     """Return the levels of one low-rate run over position bins, signed from the data."""
-    from dataclasses import replace
-
+    # deferred import: start-up time (position bins: low-rate raw runs only)
     from robot_wear_monitor.experiment.position_bins import position_binned_levels
-    from robot_wear_monitor.recordings.raw_runs import folder_joint_name, run_label
-    from robot_wear_monitor.recordings.tables import read_raw_csv
     t, q, v, e = read_raw_csv(path)
     levels, rejections = position_binned_levels(
         time_s=t, position_rad=q, velocity_rad_s=v, effort=e, config=config,
@@ -140,10 +135,9 @@ def _position_binned(path: Any, *, config: Any, n_bins: int,
                          f'no speed set-point has a bin with 2 samples each way '
                          f'({sum(rejections.values())} set-points without one)')
     notes = []
-    median = sorted(level.friction for level in levels)[len(levels) // 2]
-    if median < 0 and not raw_sign:  # friction opposes the motion: the data decide
-        levels = [replace(lv, friction=-lv.friction, tau_forward=-lv.tau_forward,
-                          tau_backward=-lv.tau_backward) for lv in levels]
+    against, median = against_the_motion([level.friction for level in levels])
+    if against and not raw_sign:  # friction opposes the motion: the data decide
+        levels = [with_other_sign(level) for level in levels]
         notes.append(f'{run_label(path)}: the eq. (3) friction comes out negative in the '
                      f'recorded sign (median {median:.4g}): read with the other sign '
                      '(--raw-sign keeps the recorded sign)')
@@ -162,14 +156,14 @@ def segment_bag(path: str | os.PathLike, *, experiment_parameters: Mapping[str, 
     :func:`~robot_wear_monitor.monitoring.replay.replay_parameters`); ``speeds_rad_s``: keep
     only experiments at these motor speeds [rad/s] (``experiment_speeds_rad_s``).
     """
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (the replay, rosbags: bags only)
     from robot_wear_monitor.monitoring.joints import JointExperiments
     from robot_wear_monitor.monitoring.replay import (explain_recording, joint_summary,
                                                       NoExperimentError)
     from robot_wear_monitor.recordings.bags import iter_joint_chunks
     experiment = dict(experiment_parameters)
     if speeds_rad_s:
-        # imported on use: not every importer of this module needs it (start-up time)
+        # deferred import: start-up time (the node configuration: bags only)
         from robot_wear_monitor.monitoring.node_config import (FRICTION_EXPERIMENT_NODE,
                                                                validate_parameters)
         experiment = validate_parameters(

@@ -27,7 +27,7 @@ def message_kit() -> MessageKit:
     friction_experiment_runner) on first use, so that a node never needs a message package
     it does not publish.
     """
-    # rclpy and its messages come with the optional 'ros' extra: imported where used
+    # deferred import: optional extra 'ros'
     from builtin_interfaces.msg import Time
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from sensor_msgs.msg import JointState, Temperature

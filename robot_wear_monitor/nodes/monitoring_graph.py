@@ -38,7 +38,7 @@ def run_monitoring_graph(*, args: Sequence[str]) -> int:
     interrupted; 0 after SIGTERM (a service manager's stop); 2 when a node refuses its
     parameters.
     """
-    # rclpy-side modules load in the node's process only, when this runs
+    # deferred import: optional extra 'ros' (the nodes import rclpy)
     from robot_wear_monitor.nodes.friction_experiment_node import FrictionExperimentNode
     from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
     return spin_nodes([FrictionExperimentNode, WearEstimatorNode], logger_name=GRAPH_LOGGER,
@@ -53,7 +53,7 @@ def run_player(bag: str | os.PathLike, *, rate: float, topics: Sequence[str] | N
 
     Returns 0 when played, 130 when interrupted; a bad bag raises BagError (exit 2 in the CLI).
     """
-    # rclpy and its messages come with the optional 'ros' extra: imported where used
+    # deferred import: optional extra 'ros'
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from robot_wear_monitor.nodes.bag_player import play_bag

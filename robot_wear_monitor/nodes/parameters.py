@@ -8,9 +8,14 @@ rclpy and its interfaces are imported inside the functions, so that importing
 from __future__ import annotations
 
 from dataclasses import replace
+import sys
 from typing import Any, Mapping, Sequence
+import warnings
 
-from robot_wear_monitor.monitoring.node_config import ParameterSpec
+from robot_wear_monitor.model.params import ParameterError
+from robot_wear_monitor.monitoring.node_config import (DEPRECATED_PARAMETERS, joint_parameters,
+                                                       NODE_PARAMETERS, ParameterSpec,
+                                                       PER_JOINT_PARAMETERS, validate_parameters)
 
 
 def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
@@ -23,10 +28,9 @@ def declare_parameters(node: Any, specs: Sequence[ParameterSpec]) -> dict[str, A
     with the same one-line error as in the replay, instead of an rclpy
     exception with a traceback.
     """
-    # rclpy and its messages come with the optional 'ros' extra: imported where used
+    # deferred import: optional extra 'ros'
     from rcl_interfaces.msg import ParameterDescriptor
     from rclpy.exceptions import ParameterException
-    from robot_wear_monitor.model.params import ParameterError
 
     values = {}
     for spec in specs:
@@ -59,9 +63,8 @@ def declare_deprecated_parameters(node: Any, node_name: str) -> dict[str, Any]:
     :func:`~robot_wear_monitor.monitoring.node_config.validate_parameters`, which renames it
     (see :func:`validated_with_warnings`).
     """
+    # deferred import: optional extra 'ros'
     from rcl_interfaces.msg import ParameterDescriptor
-
-    from robot_wear_monitor.monitoring.node_config import DEPRECATED_PARAMETERS
     values = {}
     for old, new in DEPRECATED_PARAMETERS.get(node_name, {}).items():
         descriptor = ParameterDescriptor(description=f'deprecated name of {new}',
@@ -80,9 +83,6 @@ def validated_with_warnings(node: Any, node_name: str, raw: Mapping[str, Any], *
     :raises ParameterError: as :func:`~robot_wear_monitor.monitoring.node_config.
         validate_parameters`.
     """
-    import warnings
-
-    from robot_wear_monitor.monitoring.node_config import validate_parameters
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter('always', FutureWarning)
         values = validate_parameters(node_name, raw, source=source)
@@ -103,9 +103,6 @@ def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[Paramete
     reaches the joint, also for a joint first seen at run time (``joints: [all]``), and with
     ``joint`` alone as in the replay.
     """
-    # rclpy-side modules load in the node's process only, when this runs
-    from robot_wear_monitor.monitoring.node_config import (joint_parameters,
-                                                           PER_JOINT_PARAMETERS)
     source = f'{node.get_name()} parameters'
     by_name = {spec.name: spec for spec in specs}
     joint_specs = [replace(by_name[name], name=f'{joint}.{name}', default=values[name])
@@ -116,8 +113,6 @@ def declare_joint_parameters(node: Any, node_name: str, specs: Sequence[Paramete
 
 def help_requested(args: Sequence[str] | None) -> bool:
     """Return True when the process arguments before ``--ros-args`` ask for ``-h``/``--help``."""
-    # rclpy-side modules load in the node's process only, when this runs
-    import sys
     argv = list(sys.argv[1:] if args is None else args[1:] if args and not str(
         args[0]).startswith('-') else args)
     if '--ros-args' in argv:
@@ -127,8 +122,6 @@ def help_requested(args: Sequence[str] | None) -> bool:
 
 def node_help(node: str) -> str:
     """Return the ``--help`` text of a node executable: usage and its declared parameters."""
-    # rclpy-side modules load in the node's process only, when this runs
-    from robot_wear_monitor.monitoring.node_config import NODE_PARAMETERS
     lines = [f'usage: {node} [--ros-args --params-file FILE -p NAME:=VALUE ...]', '',
              f'The robot_wear_monitor node {node} (ROS 2 Jazzy).  Parameters (type, default):']
     for spec in NODE_PARAMETERS.get(node, ()):

@@ -41,7 +41,7 @@ def call_trigger(*, candidates: Sequence[str], timeout_s: float,
     :raises TimeoutError: the service did not answer within ``timeout_s``.
 
     """
-    # rclpy and its messages come with the optional 'ros' extra: imported where used
+    # deferred import: optional extra 'ros'
     import rclpy
     from std_srvs.srv import Trigger
 

@@ -22,6 +22,7 @@ def import_rclpy() -> ModuleType:
 
     :raises ImportError: neither the ``ros`` extra nor a sourced ROS 2 setup provides it.
     """
+    # deferred import: optional extra 'ros'
     import rclpy
     return rclpy
 
@@ -62,7 +63,7 @@ def spin_nodes(node_factories: Sequence[Callable[[], Any]], *, logger_name: str,
     if help_requested(args):  # answer --help without starting anything
         print(node_help(logger_name))
         return 0
-    # rclpy and its messages come with the optional 'ros' extra: imported where used
+    # deferred import: optional extra 'ros'
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions

@@ -44,13 +44,13 @@ from typing import Any, Sequence
 import numpy as np
 from robot_wear_monitor.array_types import FloatArray
 from robot_wear_monitor.errors import InputError
-from robot_wear_monitor.experiment.levels import FrictionLevel
+from robot_wear_monitor.experiment.levels import against_the_motion, FrictionLevel, with_other_sign
 from robot_wear_monitor.experiment.segmentation_settings import (RAW_RUN_NOISE_BAND,
                                                                  SegmenterConfig)
 from robot_wear_monitor.input_files import (MAX_LEVEL_TABLE_BYTES, MAX_TABLE_LINE_CHARS,
                                             TextLines)
 from robot_wear_monitor.recordings.tables import (KUKA_COLUMNS, parse_run_name, RawRun,
-                                                  read_raw_csv, RecordingError)
+                                                  read_raw_csv, RecordingError, slow_run_config)
 from robot_wear_monitor.text import shorten
 
 
@@ -155,6 +155,7 @@ def speed_noise(velocity_rad_s: Any, *, gear_ratio: float,
     signal whose values lie on a grid (each distinct value used 10 times on average and the
     steps multiples of the smallest), else 0.
     """
+    # deferred import: start-up time (scipy.ndimage)
     from scipy.ndimage import median_filter
     speed = np.abs(np.asarray(velocity_rad_s, dtype=float)) * gear_ratio
     moving = speed[np.isfinite(speed) & (speed > standstill_speed_rad_s)]
@@ -353,9 +354,9 @@ def read_raw_runs(paths: Sequence[str | os.PathLike], *, config: SegmenterConfig
     :param known_torque: a column subtracted from one-way runs without a partner.
 
     """
+    # deferred import: start-up time (segmentation: not every reader of runs needs it)
     from robot_wear_monitor.experiment.position_bins import low_rate_reason
     from robot_wear_monitor.experiment.segmentation import one_way_passes, segment_batch
-    from robot_wear_monitor.recordings.tables import slow_run_config
     reading = RawRunsReading()
     one_way: list[tuple[str, str, RawRun, Any, SegmenterConfig, Path]] = []
     for path in paths:
@@ -423,6 +424,7 @@ def _pair_across_runs(one_way: list, reading: RawRunsReading) -> list[str]:
     pass each over a common position window give eq. (3) there (gravity cancels); otherwise
     eq. (3) over all their plateau samples (:func:`whole_pass_level`).
     """
+    # deferred import: start-up time (segmentation: not every reader of runs needs it)
     from robot_wear_monitor.experiment.segmentation import pair_passes, Pass
     runs: dict[str, list] = {}
     for row in one_way:
@@ -506,6 +508,7 @@ def whole_pass_level(forward: Any, backward: Any) -> FrictionLevel:
 def known_torque_levels(path: Any, run: RawRun, column: str,
                         settings: SegmenterConfig) -> list[FrictionLevel]:
     """Return one level per pass of a one-way run: direction x (torque - known torque)."""
+    # deferred import: start-up time (segmentation: not every reader of runs needs it)
     from robot_wear_monitor.experiment.segmentation import one_way_passes
     (known,) = read_raw_csv(path, columns=(column,))
     passes = one_way_passes(time_s=run.t_s, position_rad=run.q_rad,
@@ -542,9 +545,9 @@ def _set_signs(reading: RawRunsReading, *, raw_sign: bool) -> None:
     joints = dict.fromkeys(row.joint for row in reading.levels)
     for name in joints:
         rows = [row for row in reading.levels if row.joint == name]
-        median = float(np.median([row.level.friction for row in rows]))
+        against, median = against_the_motion([row.level.friction for row in rows])
         runs = len({row.experiment for row in rows})
-        if not median < 0:
+        if not against:
             continue
         if raw_sign:
             reading.notes.append(
@@ -552,9 +555,7 @@ def _set_signs(reading: RawRunsReading, *, raw_sign: bool) -> None:
                 f'sign (median {median:.4g}), kept so by --raw-sign')
             continue
         for row in rows:
-            row.level = replace(row.level, friction=-row.level.friction,
-                                tau_forward=-row.level.tau_forward,
-                                tau_backward=-row.level.tau_backward)
+            row.level = with_other_sign(row.level)
         reading.flipped.append(name)
         reading.notes.append(
             f'{name}: the eq. (3) friction of its {runs} run(s) comes out negative in the '

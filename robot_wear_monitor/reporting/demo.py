@@ -21,6 +21,7 @@ from robot_wear_monitor.atomic_files import write_json_atomic
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.simulation import (accelerated_wear_scenario, simulate_scenario,
                                                       truth_path_for, write_truth_json)
+from robot_wear_monitor.model.params import load_parameter_set
 from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
 from robot_wear_monitor.monitoring.replay import replay_bag
 from robot_wear_monitor.recordings.bags import write_joint_state_bag
@@ -73,8 +74,6 @@ def run_demo(*, out_dir: str | os.PathLike = 'wear_demo', n_experiments: int = 1
     summary['truth_first_k_at_threshold'] = truth_crossing
     summary['seed'] = seed
     write_json_atomic(folder / 'summary.json', summary)
-    # imported on use: not every importer of this module needs it (start-up time)
-    from robot_wear_monitor.model.params import load_parameter_set
     params = load_parameter_set(configuration.parameter_set_file())
     plot_wear_trend(result, folder / 'wear_trend.png', threshold=threshold,
                     title='Wear estimate vs truth, accelerated wear test (like Fig. 11)')

@@ -24,10 +24,10 @@ from robot_wear_monitor.model.params import ParameterSet
 
 
 def _pyplot():
-    # matplotlib loads only when a figure is drawn (start-up time)
+    # deferred import: start-up time (matplotlib: only when a figure is drawn)
     import matplotlib
     matplotlib.use('Agg')
-    # matplotlib loads only when a figure is drawn (start-up time)
+    # deferred import: start-up time (matplotlib: only when a figure is drawn)
     import matplotlib.pyplot as plt
     return plt
 
@@ -114,7 +114,7 @@ def plot_wear_trend(result: Any, path: str | os.PathLike, *, threshold: float,
 def plot_friction_curves(result: Any, path: str | os.PathLike, *, params: ParameterSet,
                          threshold: float) -> Path:
     """Draw the friction levels of every experiment against speed and the model; save a PNG."""
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (model.friction: the friction plot only)
     from robot_wear_monitor.model.friction import friction
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))

@@ -19,8 +19,8 @@ from fastapi import testclient as fastapi_testclient
 import httpx
 import pytest
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
-from robot_wear_monitor.dashboard.auth import (LoginBodyLimit, MAX_FAILURES,
-                                               MAX_LOGIN_BODY_BYTES, SESSION_MAX_AGE_S)
+from robot_wear_monitor.dashboard.auth import LoginBodyLimit, MAX_FAILURES, SESSION_MAX_AGE_S
+from robot_wear_monitor.dashboard.guards import BodyGuard, MAX_BODY_BYTES
 from robot_wear_monitor.dashboard.pages import joint_url
 from robot_wear_monitor.history import open_history, WearHistory
 from wear_testing.fleet_history import csrf_of, login, make_fleet, PASSWORDS
@@ -133,16 +133,18 @@ def test_login_refuses_multipart_and_large_bodies_before_reading_them(history):
         assert large.status_code == 413
         assert login(client, 'mia').status_code == 303  # an ordinary login still works
 
-    # the ASGI guard answers without calling receive (nothing of the body is read)
+    # the ASGI guards answer without calling receive (nothing of the body is read): the login's
+    # multipart refusal, and the outer guard's size limit of every body
     assert _guard_status([(b'content-type', b'multipart/form-data; boundary=x'),
                           (b'content-length', b'400000000')]) == 415
     assert _guard_status([(b'content-type', b'application/x-www-form-urlencoded'),
-                          (b'content-length', str(MAX_LOGIN_BODY_BYTES + 1).encode())]) == 413
+                          (b'content-length', str(MAX_BODY_BYTES + 1).encode())],
+                         guard=BodyGuard) == 413
 
 
-def _guard_status(headers, body=None):
+def _guard_status(headers, body=None, *, guard=LoginBodyLimit):
     """
-    Return the status :class:`LoginBodyLimit` answers a ``/login`` POST with, app untouched.
+    Return the status ``guard`` answers a ``/login`` POST with, app untouched.
 
     ``body`` None: the body must not be read at all.
     """
@@ -158,7 +160,7 @@ def _guard_status(headers, body=None):
     async def app(scope, receive_, send_):
         raise AssertionError('the request reached the app')
     scope = {'type': 'http', 'method': 'POST', 'path': '/login', 'headers': headers}
-    asyncio.run(LoginBodyLimit(app)(scope, receive, send))
+    asyncio.run(guard(app)(scope, receive, send))
     return sent[0]['status']
 
 
@@ -185,9 +187,11 @@ def test_a_chunked_or_ambiguous_login_body_is_refused_before_the_app_reads_it(hi
 
     # two Content-Types: the guard cannot know which one a parser takes
     assert _guard_status([(b'content-type', b'multipart/form-data; boundary=B'),
-                          (b'content-type', b'application/x-www-form-urlencoded')]) == 400
+                          (b'content-type', b'application/x-www-form-urlencoded')],
+                         guard=BodyGuard) == 400
     assert _guard_status([(b'content-type', b'application/x-www-form-urlencoded'),
-                          (b'content-length', b'10'), (b'content-length', b'99')]) == 400
+                          (b'content-length', b'10'), (b'content-length', b'99')],
+                         guard=BodyGuard) == 400
 
 
 def test_the_last_admin_cannot_be_removed_or_demoted_from_the_page(history):

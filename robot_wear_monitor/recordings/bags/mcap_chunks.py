@@ -129,10 +129,11 @@ def _decompress(data: memoryview, compression: str, size: int) -> bytes | memory
     if compression == '':
         return data
     if compression == 'zstd':
-        # imported on use: not every importer of this module needs it (start-up time)
+        # deferred import: start-up time (zstandard: compressed chunks only)
         import zstandard
         return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
     if compression == 'lz4':
+        # deferred import: start-up time (lz4: compressed chunks only)
         import lz4.frame  # type: ignore[import-untyped]
         return lz4.frame.decompress(data)
     raise InputError(f'unknown MCAP chunk compression {compression[:20]!r}')
@@ -321,7 +322,7 @@ def bulk_source(path: str | os.PathLike, topic: str) -> Optional[BulkSource]:
         files = [bag / name for name in info['relative_file_paths']]
     except (InputError, KeyError, TypeError):
         return None
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (mcap: MCAP bags only)
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
     chunks: list[_Chunk] = []

@@ -62,7 +62,7 @@ def iter_unfinished_mcap(path: Path, files: Sequence[Path], topic: str, state: d
     channel types seen (``types``).  A channel of ``topic`` of another type than JointState
     raises BagError when it appears.
     """
-    # imported on use: not every importer of this module needs it (start-up time)
+    # deferred import: start-up time (mcap: a damaged MCAP only)
     from mcap.exceptions import McapError
     from mcap.records import Channel, Footer, Message, Schema
     from mcap.stream_reader import StreamReader
