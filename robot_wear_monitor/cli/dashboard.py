@@ -267,7 +267,7 @@ def main(args: argparse.Namespace) -> int:
               tls_key=args.tls_key, listener=listener, limit_concurrency=server.limit_concurrency,
               header_timeout_s=server.header_timeout_s)
         return 0
-    # imported when the verb runs (uvicorn's supervisor)
+    # deferred import: start-up time (uvicorn's supervisor: not for --help)
     from dataclasses import replace
     from robot_wear_monitor.dashboard.auth import new_secret_key
     from robot_wear_monitor.dashboard.workers import serve_workers

@@ -44,6 +44,7 @@ import sys
 from typing import Any, Callable, Iterator, Sequence, TYPE_CHECKING
 
 from robot_wear_monitor.atomic_files import write_json_atomic
+from robot_wear_monitor.display_time import DisplayTimeConfig, time_zone
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.experiment.segmentation_settings import (NODE_SCALES, RAW_RUN_SETTINGS,
                                                                  SegmenterConfig)
@@ -332,7 +333,6 @@ def add_local(parser: argparse.ArgumentParser) -> None:
 
 def add_display_timezone(parser: argparse.ArgumentParser) -> None:
     """Add ``--display-timezone ZONE``: the times people read in that IANA zone (not --local)."""
-    from robot_wear_monitor.display_time import DisplayTimeConfig
     add_setting_option(parser, '--display-timezone', DisplayTimeConfig, 'display_timezone',
                        metavar='ZONE')
 
@@ -343,7 +343,6 @@ def display_zone(args: argparse.Namespace) -> Any:
 
     None: UTC (ISO 8601, or the machine's zone with ``--local``).  Both options: an error.
     """
-    from robot_wear_monitor.display_time import time_zone
     name = getattr(args, 'display_timezone', None)
     if name is None:
         return None
