@@ -35,13 +35,18 @@ ros; '' for the monitor's raises and old rows) and ``changes`` (what an edit cha
 otherwise).  Version 10: ``account_audit`` (every change of a dashboard account: when,
 who, from where, what, whom; never a secret).  Version 11: the alarm event kind
 ``reescalated`` (an acknowledged alarm back on top, logged once with its source).
+Version 12 (a fleet page that does not read the fleet): ``joint_summary`` keeps each joint's
+ranking key and the stable parts of its state, with the times the clock is compared with
+(stale, crossing, planned date), indexed; every append and alarm event keeps them, and the
+migration fills them for the existing joints (``fleet_index.py``, run by the store after
+these steps).
 """
 
 from __future__ import annotations
 
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 11
+SCHEMA_VERSION = 12
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
@@ -298,6 +303,37 @@ _POSTGRESQL_V11 = (
     f'{_EVENT_KINDS_V11_CHECK}',
 )
 
+#: Version 12: the ranking keys of each joint in ``joint_summary`` (``fleet_index.KEY_COLUMNS``:
+#: filled by ``fleet_index.rebuild`` after the steps) and their indexes.
+_V12_COLUMNS = (
+    'ALTER TABLE joint_summary ADD COLUMN rank_tier INTEGER NOT NULL DEFAULT 3',
+    'ALTER TABLE joint_summary ADD COLUMN rank_crossing DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN rank_high DOUBLE PRECISION',
+    "ALTER TABLE joint_summary ADD COLUMN state_base TEXT NOT NULL DEFAULT 'judged'",
+    'ALTER TABLE joint_summary ADD COLUMN stale_since_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN usual_interval_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN stale_at_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN crossing_at_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN warn_fixed INTEGER NOT NULL DEFAULT 0',
+    'ALTER TABLE joint_summary ADD COLUMN wear_top DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN warning_level DOUBLE PRECISION',
+    "ALTER TABLE joint_summary ADD COLUMN parameter_set TEXT NOT NULL DEFAULT ''",
+    'ALTER TABLE joint_summary ADD COLUMN ack_then DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN ack_now DOUBLE PRECISION',
+    "ALTER TABLE joint_summary ADD COLUMN planned_date TEXT NOT NULL DEFAULT ''",
+    'CREATE INDEX joint_summary_stale ON joint_summary (stale_at_s)',
+    'CREATE INDEX joint_summary_crossing ON joint_summary (crossing_at_s)',
+    'CREATE INDEX joint_summary_last ON joint_summary (last_id)',
+    'CREATE INDEX joint_summary_assumed ON joint_summary (warning_level, parameter_set)',
+)
+#: The fleet's order (``FleetRow.rank_key``); PostgreSQL orders names by code point as Python.
+_SQLITE_V12 = _V12_COLUMNS + (
+    'CREATE INDEX joint_summary_rank ON joint_summary (rank_tier, rank_crossing, rank_high, '
+    'robot, joint)',)
+_POSTGRESQL_V12 = _V12_COLUMNS + (
+    'CREATE INDEX joint_summary_rank ON joint_summary (rank_tier, rank_crossing, rank_high, '
+    'robot COLLATE "C", joint COLLATE "C")',)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
@@ -306,7 +342,7 @@ SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
                                                       _ACCOUNT_AUDIT[1]),
-                                                 11: _SQLITE_V11}
+                                                 11: _SQLITE_V11, 12: _SQLITE_V12}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -403,4 +439,5 @@ POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),
                                                           _ACCOUNT_AUDIT[1]),
-                                                     11: _POSTGRESQL_V11}
+                                                     11: _POSTGRESQL_V11,
+                                                     12: _POSTGRESQL_V12}

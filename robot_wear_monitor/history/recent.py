@@ -10,18 +10,19 @@ rows found by the (robot, joint, id) index.
 
 from __future__ import annotations
 
-from typing import Optional
-
 from robot_wear_monitor.history.backends import HistoryBackend
 
 #: The intervals the usual interval is the median of (the last ones of the joint, all lives).
 RECENT_INTERVALS = 20
 
 
-def recent_stamps(backend: HistoryBackend, *, robot: Optional[str] = None
+def recent_stamps(backend: HistoryBackend, *, where: str = '', params: tuple = ()
                   ) -> dict[tuple[str, str], tuple[float, ...]]:
-    """Return per (robot, joint) the stamps [s] of its last experiments, oldest first."""
-    where, params = ('WHERE s.robot = ? ', (robot,)) if robot is not None else ('', ())
+    """
+    Return per (robot, joint) the stamps [s] of its last experiments, oldest first.
+
+    ``where``: '' (every joint) or 'WHERE ...' on ``joint_summary s`` with its ``params``.
+    """
     rows = backend.execute(
         'SELECT s.robot, s.joint, e.stamp_s FROM joint_summary s JOIN estimates e ON '
         'e.id IN (SELECT x.id FROM estimates x WHERE x.robot = s.robot AND x.joint = s.joint '
