@@ -315,6 +315,11 @@ class FleetIndex:
 
     # ------------------------------------------------------------------ robots, levels
 
+    def reescalated(self, clock: FleetClock) -> list[tuple[str, str]]:
+        """Return the acknowledged alarms re-escalated at ``clock`` (few; for their log)."""
+        condition, params = self._segments(clock, robot=None, state=None)[1]
+        return [(r[3], r[4]) for r in self._ordered(condition, params)]
+
     def assumed_sets(self) -> list[str]:
         """Return the parameter sets of the rows that store no warning level (older rows)."""
         return [r[0] for r in self._execute(
