@@ -135,7 +135,9 @@ class FleetJson(_Shape):
 
     counts: dict[str, int] = Field(description='joints per state, of the whole fleet')
     joints: int = Field(description='joints of the whole fleet')
-    robots: list[str]
+    robots: list[str] = Field(description='the robots of the rows sent (every robot when every '
+                                          'row is sent; streamed: written after the rows)')
+    robot_count: int = Field(description='robots of the whole fleet')
     robot: Optional[str] = Field(description='the robot filter (null: all)')
     state: Optional[str] = Field(description='the state filter (null: all)')
     rows: list[FleetRowJson] = Field(description='the rows that pass the filters (one page '

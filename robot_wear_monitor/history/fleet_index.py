@@ -313,6 +313,18 @@ class FleetIndex:
             counts[name] = int(count)
         return counts
 
+    def passed(self, clock: FleetClock) -> tuple[int, ...]:
+        """
+        Return how many stored times ``clock`` is past (index ranges; an ETag's part).
+
+        Stale moments, crossing dates (and those within the horizon), planned dates: with the
+        history's rows unchanged, the fleet at two moments is the same while these are.
+        """
+        return tuple(self._count(condition, params) for condition, params in (
+            ('stale_at_s < ?', (clock.now_s,)), ('crossing_at_s < ?', (clock.now_s,)),
+            ('crossing_at_s <= ?', (clock.now_s + clock.horizon_s,)),
+            ("planned_date <> '' AND planned_date < ?", (clock.today,))))
+
     # ------------------------------------------------------------------ robots, levels
 
     def reescalated(self, clock: FleetClock) -> list[tuple[str, str]]:
