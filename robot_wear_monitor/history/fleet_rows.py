@@ -26,24 +26,13 @@ def _nan_if_none(value: Optional[float]) -> float:
     return math.nan if value is None else float(value)
 
 
-def joints_filter(column_prefix: str, *, robot: Optional[str] = None, joint: Optional[str] = None,
-                  keys: Optional[Sequence[tuple[str, str]]] = None) -> tuple[str, tuple]:
-    """
-    Return an SQL condition (without AND/WHERE) and its values keeping the chosen joints.
-
-    ``robot``: one robot's joints; with ``joint``: that joint; ``keys``: these (robot, joint)
-    pairs; none of them: '' (every joint).  ``column_prefix``: 's.' or ''.
-    """
-    p = column_prefix
-    if keys is not None:
-        pairs = list(keys) or [('', '')]
-        return (f'({p}robot, {p}joint) IN (VALUES ' + ', '.join('(?, ?)' for _ in pairs) + ')',
-                tuple(v for pair in pairs for v in pair))
-    if robot is not None and joint is not None:
-        return f'{p}robot = ? AND {p}joint = ?', (robot, joint)
-    if robot is not None:
-        return f'{p}robot = ?', (robot,)
-    return '', ()
+def _last_event(kind_sql: str, *, keyed: bool, event_where: str) -> str:
+    """Return the join of each joint's last alarm event of a kind (``a.id = l.last_id``)."""
+    if keyed:  # per listed joint: an index lookup of its own events
+        return ('(SELECT (SELECT MAX(x.id) FROM alarm_events x WHERE x.robot = k.robot AND '
+                f'x.joint = k.joint AND x.{kind_sql}) AS last_id FROM k) l ON a.id = l.last_id')
+    return (f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {kind_sql} {event_where}'
+            'GROUP BY robot, joint) l ON a.id = l.last_id')
 
 
 def read_fleet(backend: HistoryBackend, *, robot: Optional[str] = None,
@@ -53,45 +42,53 @@ def read_fleet(backend: HistoryBackend, *, robot: Optional[str] = None,
     Return the latest state of the chosen joints, worst first (:meth:`FleetRow.rank_key`).
 
     ``robot`` keeps one robot's joints (all robots when None), with ``joint`` one joint;
-    ``keys`` keeps those (robot, joint) pairs (a page).  Six queries whatever their number.
+    ``keys`` keeps those (robot, joint) pairs (a page: each read by the indexes, whatever the
+    fleet's size).  Six queries whatever their number.
     """
-    cond, params = joints_filter('', robot=robot, joint=joint, keys=keys)
-    s_cond, _ = joints_filter('s.', robot=robot, joint=joint, keys=keys)
-    where = f'WHERE {s_cond} ' if s_cond else ''
-    event_where = 'AND ' + cond + ' ' if cond else ''
-    last_latch = (f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {LATCH_EVENTS} '
-                  + event_where + 'GROUP BY robot, joint) l ON a.id = l.last_id')
+    with_sql, source, where, event_where = '', 'joint_summary s', '', ''
+    params: tuple = ()
+    if keys is not None:
+        pairs = list(keys) or [('', '')]
+        with_sql = ('WITH k(robot, joint) AS (VALUES '
+                    + ', '.join('(?, ?)' for _ in pairs) + ') ')
+        source = 'k JOIN joint_summary s ON s.robot = k.robot AND s.joint = k.joint'
+        params = tuple(v for pair in pairs for v in pair)
+    elif robot is not None:
+        where, event_where, params = 'WHERE s.robot = ? ', 'AND robot = ? ', (robot,)
+        if joint is not None:
+            where += 'AND s.joint = ? '
+            event_where += 'AND joint = ? '
+            params += (joint,)
+    keyed = keys is not None
+    last_latch = _last_event(LATCH_EVENTS, keyed=keyed, event_where=event_where)
     latest = backend.execute(
-        'SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
+        f'{with_sql}SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
         'e.wall_time_s, e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, '
         'e.trend_low, e.trend_high, e.crossing_experiments, e.crossing_time_s, '
         'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason, e.id, '
         'e.threshold, e.warning_level '
-        'FROM joint_summary s JOIN estimates e ON e.id = s.last_id ' + where, params)
+        f'FROM {source} JOIN estimates e ON e.id = s.last_id ' + where, params)
     latches = backend.execute(
-        'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id, a.estimate_id, '
+        f'{with_sql}SELECT a.robot, a.joint, a.event, a.stamp_s, a.id, a.estimate_id, '
         'a.user_name, a.note, a.wall_time_s FROM alarm_events a JOIN ' + last_latch, params)
     acknowledgements = backend.execute(
-        'SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
+        f'{with_sql}SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
         'a.planned_maintenance, a.wear, t.trend_wear, a.event FROM alarm_events a JOIN '
-        '(SELECT MAX(id) AS last_id '
-        f'FROM alarm_events WHERE {ACKNOWLEDGEMENT_SQL} ' + event_where
-        + 'GROUP BY robot, joint) l ON a.id = l.last_id '
-        'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
+        + _last_event(ACKNOWLEDGEMENT_SQL, keyed=keyed, event_where=event_where)
+        + ' LEFT JOIN estimates t ON t.id = a.estimate_id', params)
     # the acknowledgement itself (not an edit): the baseline of the re-escalation
     baselines = backend.execute(
-        'SELECT a.robot, a.joint, a.id, a.wall_time_s, a.wear, t.trend_wear, '
-        'a.user_name FROM alarm_events a JOIN (SELECT MAX(id) AS last_id '
-        'FROM alarm_events '
-        "WHERE event = 'acknowledged' " + event_where
-        + 'GROUP BY robot, joint) l ON a.id = l.last_id '
-        'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
+        f'{with_sql}SELECT a.robot, a.joint, a.id, a.wall_time_s, a.wear, t.trend_wear, '
+        'a.user_name FROM alarm_events a JOIN '
+        + _last_event("event = 'acknowledged'", keyed=keyed, event_where=event_where)
+        + ' LEFT JOIN estimates t ON t.id = a.estimate_id', params)
     lives = backend.execute(
-        'SELECT a.robot, a.joint, COUNT(e.id) FROM alarm_events a JOIN ' + last_latch
-        + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
+        f'{with_sql}SELECT a.robot, a.joint, COUNT(e.id) FROM alarm_events a JOIN '
+        + last_latch + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
         "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
         'GROUP BY a.robot, a.joint', params)
-    stamps = recent.recent_stamps(backend, where=where, params=params)
+    stamps = recent.recent_stamps(backend, where=where, params=params, source=source,
+                                  with_sql=with_sql)
     last_event = {(r[0], r[1]): r[2:] for r in latches}
     last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
     baseline = {(r[0], r[1]): r[2:] for r in baselines}

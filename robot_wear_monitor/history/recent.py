@@ -16,15 +16,18 @@ from robot_wear_monitor.history.backends import HistoryBackend
 RECENT_INTERVALS = 20
 
 
-def recent_stamps(backend: HistoryBackend, *, where: str = '', params: tuple = ()
+def recent_stamps(backend: HistoryBackend, *, where: str = '', params: tuple = (),
+                  source: str = 'joint_summary s', with_sql: str = ''
                   ) -> dict[tuple[str, str], tuple[float, ...]]:
     """
     Return per (robot, joint) the stamps [s] of its last experiments, oldest first.
 
-    ``where``: '' (every joint) or 'WHERE ...' on ``joint_summary s`` with its ``params``.
+    ``where``: '' (every joint) or 'WHERE ...' on ``joint_summary s`` with its ``params``;
+    ``source``: the joints read (``joint_summary s``, or a list ``k`` joined to it, given by
+    ``with_sql``: ``WITH k(robot, joint) AS (VALUES ...)``).
     """
     rows = backend.execute(
-        'SELECT s.robot, s.joint, e.stamp_s FROM joint_summary s JOIN estimates e ON '
+        f'{with_sql} SELECT s.robot, s.joint, e.stamp_s FROM {source} JOIN estimates e ON '
         'e.id IN (SELECT x.id FROM estimates x WHERE x.robot = s.robot AND x.joint = s.joint '
         f'ORDER BY x.id DESC LIMIT {RECENT_INTERVALS + 1}) ' + where, params)
     found: dict[tuple[str, str], list[float]] = {}
