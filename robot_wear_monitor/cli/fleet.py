@@ -11,11 +11,14 @@ import argparse
 import csv
 import datetime
 import io
+import json
 import math
+import sys
 import time
+from typing import Any, Iterable
 
 from robot_wear_monitor.cli.options import (add_history, add_json, add_local, add_robot,
-                                            emit_json, shown_location)
+                                            shown_location, write_json_out)
 from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
@@ -63,12 +66,28 @@ def parse_time(text: str, *, option: str = '--now') -> float:
     return moment.timestamp()
 
 
+def print_rows_json(rows: Iterable[dict[str, Any]]) -> int:
+    """
+    Print ``rows`` as one indented JSON list on stdout, each row written as it comes.
+
+    The text of :func:`~robot_wear_monitor.cli.options.print_json` of the list (no NaN or
+    inf), without holding the rows: return how many were written.
+    """
+    count = 0
+    for row in rows:
+        text = json.dumps(row, indent=2, allow_nan=False).replace('\n', '\n  ')
+        sys.stdout.write(('[\n  ' if not count else ',\n  ') + text)
+        count += 1
+    sys.stdout.write('\n]\n' if count else '[]\n')
+    return count
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     # imported when the verb runs: --help and the parse load none of it, and numpy loads after the
     # one-BLAS-thread setting
     from robot_wear_monitor.fleet.ranking import (DEFAULT_REESCALATION_MARGIN, fleet_csv_rows,
-                                                  fleet_table, fleet_view, plural)
+                                                  fleet_table, plural)
     from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
     now_s = parse_time(args.now) if args.now else time.time()
     margin = (DEFAULT_REESCALATION_MARGIN if args.reescalation_margin is None
@@ -79,13 +98,22 @@ def main(args: argparse.Namespace) -> int:
                else args.forecast_horizon_days)
     if not (math.isfinite(horizon) and horizon >= 0):
         raise InputError(f'--forecast-horizon-days must be >= 0, got {horizon:.6g}')
+    from robot_wear_monitor.fleet.indexed import fleet_clock, stream_views
     with open_history(args.history, init=False) as history:
-        rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s,
-                          reescalation_margin=margin, forecast_horizon_s=horizon * DAY_S)
-    if args.robot and not rows:
-        raise InputError(f'{shown_location(args.history)}: no estimates of robot '
-                         f'{args.robot!r}')
-    if emit_json(args, [row.as_json() for row in rows]):
+        index = history.fleet_index()
+        if args.robot and not index.has_robot(args.robot):
+            raise InputError(f'{shown_location(args.history)}: no estimates of robot '
+                             f'{args.robot!r}')
+        clock = fleet_clock(index, now_s=now_s, reescalation_margin=margin,
+                            forecast_horizon_s=horizon * DAY_S)
+        views = stream_views(index, clock, robot=args.robot)  # read a chunk at a time
+        if args.json and not args.json_out:  # streamed: one JSON list, row by row
+            print_rows_json(row.as_json() for row in views)
+            return 0
+        rows = list(views)
+    write_json_out(args.json_out, [row.as_json() for row in rows] if args.json_out else None)
+    if args.json:
+        print_rows_json(row.as_json() for row in rows)
         return 0
     if args.csv:
         buffer = io.StringIO()

@@ -206,3 +206,27 @@ def test_the_robot_search_finds_by_prefix_first(history):
     assert index.robots(search='%') == [] and index.robots(search='_e') == ['arm_cell_e']
     assert index.robot_count() == 5 and index.has_robot('cell_c')
     assert not index.has_robot('cell')
+
+
+@pytest.mark.parametrize('robot', [None, 'cell_c'])
+def test_fleet_json_is_streamed_unchanged(history, history_location, capsys, robot):
+    """``fleet --json`` prints the full ranking's list, byte for byte as one document did."""
+    import json
+    from robot_wear_monitor.cli import main
+    now_s = MOMENTS[1]
+    rows = [v.as_json() for v in fleet_view(history.fleet(robot=robot), now_s=now_s)]
+    capsys.readouterr()
+    more = ['--robot', robot] if robot else []
+    assert main(['fleet', '--history', history_location, '--now', str(now_s), *more,
+                 '--json']) == 0
+    out = capsys.readouterr().out
+    assert out == json.dumps(rows, indent=2, allow_nan=False) + '\n'
+    assert len(json.loads(out)) == (16 if robot is None else 4)
+
+
+def test_an_empty_fleet_prints_an_empty_json_list(history_location, capsys):
+    from robot_wear_monitor.cli import main
+    WearHistory(history_location).close()
+    capsys.readouterr()
+    assert main(['fleet', '--history', history_location, '--json']) == 0
+    assert capsys.readouterr().out == '[]\n'
