@@ -28,27 +28,32 @@ def load_config(path: str) -> Any:
     return load_notification_config(path)
 
 
-def notify_pass(*, location: str, config: Any, parameter_sets: Any = None) -> int:
+def notify_pass(*, location: str, config: Any, parameter_sets: Any = None,
+                marks: Any = None) -> int:
     """
     Run one notification pass on the history at ``location``; return the notices sent.
 
-    ``parameter_sets``: the dashboard's (``--params``), for the rows without a stored threshold.
+    ``parameter_sets``: the dashboard's (``--params``), for the rows without a stored threshold;
+    ``marks``: the loop's :class:`~robot_wear_monitor.fleet.notify_marks.PassMarks` (a pass
+    reads what changed since the last one; None: every joint).
     """
     # imported on use: not every importer of this module needs it (start-up time)
     from robot_wear_monitor.fleet.notifications import notify_once
     with open_history(location, init=False) as history:
         sent = notify_once(history=history, config=config, now_s=time.time(),
-                           parameter_sets=parameter_sets)
+                           parameter_sets=parameter_sets, marks=marks)
     return len(sent)
 
 
 async def notification_loop(*, location: str, config: Any, interval_s: float,
                             parameter_sets: Any = None) -> None:
-    """Run a notification pass every ``interval_s`` [s] until cancelled."""
+    """Run a notification pass every ``interval_s`` [s] until cancelled (reading changes)."""
+    from robot_wear_monitor.fleet.notify_marks import PassMarks
+    marks = PassMarks()  # the first pass reads every joint, the next what changed since
     while True:
         try:
             count = await asyncio.to_thread(notify_pass, location=location, config=config,
-                                            parameter_sets=parameter_sets)
+                                            parameter_sets=parameter_sets, marks=marks)
             if count:
                 LOGGER.info('notifications: %d sent', count)
         except asyncio.CancelledError:

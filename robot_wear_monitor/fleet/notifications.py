@@ -71,6 +71,7 @@ from robot_wear_monitor.fleet.notify_channels import (
 from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
+from robot_wear_monitor.fleet.notify_marks import advance, joints_to_read, PassMarks
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR, threshold_text
 from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
 from robot_wear_monitor.fleet.thresholds import ParameterSets
@@ -183,7 +184,8 @@ def _where(robot: str, joint: str) -> str:
 
 def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float,
                parameter_sets: Optional[ParameterSets] = None,
-               sent: Optional[dict[str, str]] = None) -> list[DueEvent]:
+               sent: Optional[dict[str, str]] = None,
+               joints: Optional[set[tuple[str, str]]] = None) -> list[DueEvent]:
     """
     Return the events due at ``now_s`` [s since the epoch] that the configuration names.
 
@@ -193,12 +195,15 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
     its parameter set's (None: the packaged sets; see :func:`fleet_view`).  ``sent``: the keys
     of the firing events sent before (key -> kind, from the history's log): each whose cause
     has ended (its key no longer active) is due as its ``resolved`` event (``RESOLVES``).
+    ``joints``: read only these (robot, joint) (:mod:`~robot_wear_monitor.fleet.notify_marks`;
+    the alerts of the others are left as they are); None: every joint.
     """
     events: list[DueEvent] = []
     #: keys whose cause holds now, sent or not, notified now or held back by an acknowledgement
     active: set[str] = set()
     views_by_joint: dict[tuple[str, str], FleetView] = {}
-    views = fleet_view(history.fleet(), now_s=now_s,
+    rows = history.fleet() if joints is None else history.fleet_index().rows(sorted(joints))
+    views = fleet_view(rows, now_s=now_s,
                        reescalation_margin=config.reescalation_margin,
                        parameter_sets=parameter_sets,
                        forecast_horizon_s=config.forecast_horizon_s)
@@ -340,7 +345,8 @@ def _send(event: DueEvent, channel: str, config: NotificationConfig,
 
 def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: float,
                 sleep: Callable[[float], None] = time.sleep,
-                parameter_sets: Optional[ParameterSets] = None) -> list[SentNotification]:
+                parameter_sets: Optional[ParameterSets] = None,
+                marks: Optional[PassMarks] = None) -> list[SentNotification]:
     """
     Send what is due at ``now_s`` [s since the epoch], once per event and channel.
 
@@ -349,15 +355,21 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     and tried again on later passes (see the module's text).  Raises
     :class:`~robot_wear_monitor.history.HistoryError` when the history cannot be
     read or written; a channel that fails never raises.  ``parameter_sets``: see
-    :func:`due_events`.
+    :func:`due_events`.  ``marks``: a notifier's marks of its last pass (kept across its
+    passes): this pass reads only the joints that changed or that the clock moved since
+    (:mod:`~robot_wear_monitor.fleet.notify_marks`); None: every joint.
     """
     rows = history.notifications()
     log = {str(row['event_key']) for row in rows}
     fired = {_base_key(key): str(row['kind']) for row in rows
              if '@' in (key := str(row['event_key']))}
+    joints, after = (None, (0, 0)) if marks is None else joints_to_read(
+        history, marks, now_s=now_s, horizon_s=config.forecast_horizon_s, log_rows=rows)
     events = due_events(history=history, config=config, now_s=now_s,
-                        parameter_sets=parameter_sets, sent=fired)
+                        parameter_sets=parameter_sets, sent=fired, joints=joints)
     if not events:
+        if marks is not None:
+            advance(marks, after, now_s=now_s)
         return []
     failed_channels: set[str] = set()
     sent: list[SentNotification] = []
@@ -401,6 +413,8 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
                 joint=event.joint, channel=channel, summary=event.summary,
                 delivered=result.delivered, attempts=result.attempts, pass_number=number,
                 error=result.error, passes=config.retry.passes))
+    if marks is not None:  # the pass went through: the next reads what changed after it
+        advance(marks, after, now_s=now_s)
     return sent
 
 
@@ -484,11 +498,12 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
 
     def wait(seconds: float) -> None:
         stop.wait(seconds)
+    marks = PassMarks()  # the first pass reads every joint, the next what changed since
     while not stop.is_set():
         try:
             with open_history(location, init=False) as history:
                 report(notify_once(history=history, config=config, now_s=clock(),
-                                   sleep=wait))
+                                   sleep=wait, marks=marks))
         except HistoryError as error:
             on_error(error)
         stop.wait(interval_s)

@@ -405,13 +405,14 @@ class FleetIndex:
             return datetime.datetime.fromtimestamp(stamp, tz=datetime.timezone.utc).date(
             ).isoformat()
 
-        rows = self._execute('SELECT robot, joint FROM joint_summary WHERE stale_at_s > ? AND '
-                             'stale_at_s <= ?', (since_s - 1.0, now_s + 1.0))
-        rows += self._execute('SELECT robot, joint FROM joint_summary WHERE crossing_at_s > ? '
-                              'AND crossing_at_s <= ?', (since_s - 1.0, now_s + horizon_s + 1.0))
-        rows += self._execute('SELECT robot, joint FROM joint_summary WHERE crossing_at_s > ? '
-                              'AND crossing_at_s <= ?', (since_s - 1.0, now_s + 1.0))
+        slack = 1.0  # [s]: the query's own comparisons are exact; these only choose the joints
+        ranges = (('stale_at_s', since_s, now_s), ('crossing_at_s', since_s, now_s),
+                  ('crossing_at_s', since_s + horizon_s, now_s + horizon_s))
+        rows = []
+        for column, begin, end in ranges:
+            rows += self._execute(f'SELECT robot, joint FROM joint_summary WHERE {column} > ? '
+                                  f'AND {column} <= ?', (begin - slack, end + slack))
         rows += self._execute("SELECT robot, joint FROM joint_summary WHERE planned_date <> '' "
                               'AND planned_date >= ? AND planned_date < ?',
-                              (day(since_s - 86400.0), day(now_s)))
+                              (day(since_s), day(now_s)))
         return {(r[0], r[1]) for r in rows}
