@@ -209,7 +209,7 @@ class FleetIndex:
                   ) -> list[tuple[str, tuple]]:
         """Return the conditions of the order's segments (the first two merged), worst first."""
         reescalated, rp = clock.reescalated_sql()
-        where, params = '', ()
+        where, params = '', ()  # type: tuple[str, tuple[Any, ...]]
         if robot is not None:
             where, params = ' AND robot = ?', (robot,)
         if state is not None:
@@ -296,7 +296,7 @@ class FleetIndex:
     def total(self, clock: FleetClock, *, robot: Optional[str] = None,
               state: Optional[str] = None) -> int:
         """Return how many rows pass the filters (one query)."""
-        where, params = ['1 = 1'], ()
+        where, params = ['1 = 1'], ()  # type: list[str], tuple[Any, ...]
         if robot is not None:
             where, params = where + ['robot = ?'], (robot,)
         if state is not None:
