@@ -38,7 +38,8 @@ from robot_wear_monitor.dashboard.fleet_page import (fleet_etag, fleet_json, ROB
 from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
                                                   EditRequest, FleetJson, JointJson, MeJson,
-                                                  ResetRequest, WithdrawRequest)
+                                                  ResetRequest, RobotChoicesJson,
+                                                  WithdrawRequest)
 from robot_wear_monitor.dashboard.views import (alarm_log, event_json, forecast_horizon_s,
                                                 joint_json, PAGE_ROWS, reescalation_margin)
 from robot_wear_monitor.fleet.states import STATES
@@ -101,7 +102,8 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
         raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
     if page is None and limit is None:
         tag = fleet_etag(history, now_s=time.time(), query=str(request.query_params),
-                         reescalation_margin=margin, forecast_horizon_s=horizon)
+                         parameter_sets=parameter_sets, reescalation_margin=margin,
+                         forecast_horizon_s=horizon, source='api')
         if request.headers.get('if-none-match') == tag:
             return Response(status_code=304, headers={'ETag': tag})
         pool = request.app.state.pool
@@ -111,8 +113,7 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
                 yield from stream_json(fleet_json(
                     own, now_s=time.time(), parameter_sets=parameter_sets,
                     robot=robot or None, state=state, cache=cache,
-                    reescalation_margin=margin, forecast_horizon_s=horizon, source='api',
-                    stream=True))
+                    reescalation_margin=margin, forecast_horizon_s=horizon, stream=True))
 
         return StreamingResponse(every_row(), media_type='application/json',
                                  headers={'ETag': tag})
@@ -123,7 +124,8 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
     return json_with_etag(request, payload)
 
 
-@router.get('/robots', summary='The robots whose name holds a text (the robot search)')
+@router.get('/robots', summary='The robots whose name holds a text (the robot search)',
+            response_model=RobotChoicesJson)
 def api_robots(history: HistoryDep,
                search: str = Query('', max_length=200, description='a part of the name '
                                    '(case-insensitive; the names that start with it first)'),

@@ -54,9 +54,7 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     clock = fleet_clock(index, now_s=now_s, reescalation_margin=reescalation_margin,
                         forecast_horizon_s=forecast_horizon_s, parameter_sets=parameter_sets)
     if source:  # the audit trail: a re-escalation this request is the first to see, once
-        found = reescalated_views(index, clock, parameter_sets=parameter_sets)
-        if found:
-            try_log_reescalations(history, found, source=source)
+        log_reescalations(history, clock, parameter_sets=parameter_sets, source=source)
     make = cache.row_json if cache is not None else fleet_row_json
     counts = index.counts(clock)
     joints = sum(counts.values())
@@ -93,6 +91,14 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
             'limit': limit, 'first': first + 1 if total and (rows or stream) else 0}
 
 
+def log_reescalations(history: Any, clock: Any, *, parameter_sets: Optional[ParameterSets],
+                      source: str) -> None:
+    """Log each re-escalated acknowledged alarm at ``clock`` not yet logged (few; index read)."""
+    found = reescalated_views(history.fleet_index(), clock, parameter_sets=parameter_sets)
+    if found:
+        try_log_reescalations(history, found, source=source)
+
+
 def _dumps(value: Any) -> str:
     return json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(',', ':'))
 
@@ -111,18 +117,23 @@ def stream_json(payload: dict[str, Any]) -> Iterator[bytes]:
 
 
 def fleet_etag(history: Any, *, now_s: float, query: str,
+               parameter_sets: Optional[ParameterSets] = None,
                reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
-               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S) -> str:
+               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
+               source: str = '') -> str:
     """
     Return an ETag of the fleet at ``now_s`` without reading its rows (index reads only).
 
     The history's newest ids (a new row changes them) and how many stored times the clock
     has passed (stale, crossing dates, planned dates: they only ever pass), with the query and
-    the settings: equal tags, equal documents.
+    the settings: equal tags, equal documents.  ``source``: log the re-escalations first (see
+    :func:`fleet_json`).
     """
     index = history.fleet_index()
     clock = fleet_clock(index, now_s=now_s, reescalation_margin=reescalation_margin,
-                        forecast_horizon_s=forecast_horizon_s)
+                        forecast_horizon_s=forecast_horizon_s, parameter_sets=parameter_sets)
+    if source:  # logged first: the tag is that of the history the rows are read from
+        log_reescalations(history, clock, parameter_sets=parameter_sets, source=source)
     text = repr((history.path, index.marks(), index.passed(clock), query,
                  reescalation_margin, forecast_horizon_s))
     return f'"{hashlib.sha256(text.encode()).hexdigest()[:32]}"'

@@ -150,6 +150,14 @@ class FleetJson(_Shape):
                                    'rows, from 1 (0: none sent)')
 
 
+class RobotChoicesJson(_Shape):
+    """The robot search: the robots whose name holds a text, those that start with it first."""
+
+    search: str = Field(description='the text searched (case-insensitive)')
+    robots: list[str] = Field(description='the robots found, at most the limit')
+    more: bool = Field(description='more robots hold the text than were sent')
+
+
 class AlarmEventJson(_Shape):
     """One alarm event: raised (by an experiment), acknowledged or reset (by a person)."""
 
