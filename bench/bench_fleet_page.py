@@ -7,10 +7,11 @@ The fleet page of a 6,000-joint fleet: paged on the server, median and p95 of ea
 Writes a history of ``--joints`` joints (``--robots`` robots, ``--experiments`` estimates each,
 alarms raised past w = 35, some acknowledged: the rows of ``bench_dashboard.fill``, written in
 batches of ``executemany``, then ``joint_summary`` and its ranking keys made at once as the
-migration makes them) into SQLite and into a throw-away PostgreSQL server (``initdb``/``pg_ctl`` from Debian's ``postgresql``, started as the
-tests start it; skipped with ``--no-postgresql`` or when absent).  The fleet query reads one
-row per joint (``joint_summary``), so the number of experiments per joint does not change its
-cost.  Then, with FastAPI's TestClient (in process, no network), ``--repeats`` requests of:
+migration makes them) into SQLite and into a throw-away PostgreSQL server
+(``initdb``/``pg_ctl`` from Debian's ``postgresql``, started as the tests start it; skipped
+with ``--no-postgresql`` or when absent).  A page reads the index of the ranking keys and its
+own rows only (schema version 12), so neither the joints nor the experiments per joint make
+it read more.  Then, with FastAPI's TestClient (in process, no network), ``--repeats`` requests of:
 the fleet page (``/``, its first 100 rows) with nothing cached (the fleet read from the
 history, the page's rows made anew), after one new experiment and with the history unchanged
 (the polling case); a deep page, a robot's page and a state's page; ``/api/fleet`` paged and
@@ -40,13 +41,16 @@ from robot_wear_monitor.history.migrations import JOINT_SUMMARY_REBUILD
 TARGETS_MS = {'fleet page': 300.0}
 
 
+#: The levels every estimate stores (schema 8 on; those of the packaged set the rows name) [w].
+THRESHOLD, WARNING_LEVEL = 35.0, 28.0
 #: Rows per ``executemany`` batch of the fill.
 BATCH_ROWS = 20000
 _ESTIMATE_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'wall_time_s', 'speeds_rad_s',
                      'frictions', 'temperature_degc', 'temperature_std_degc', 'wear',
                      'wear_std', 'chi2', 'dof', 'p_value', 'temperature_at_bound',
                      'wear_at_bound', 'alarm_active', 'alarm_evidence', 'status_level',
-                     'parameter_set', *INTERVAL_COLUMNS, 'invalid_reason')
+                     'parameter_set', *INTERVAL_COLUMNS, 'invalid_reason', 'threshold',
+                     'warning_level')
 _EVENT_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'wall_time_s', 'event', 'wear',
                   'estimate_id', 'note', 'user_name', 'owner')
 
@@ -59,8 +63,9 @@ def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int
     """
     Write the fleet of ``bench_dashboard.fill`` in ``executemany`` batches; return the seconds.
 
-    The same rows (estimates, raises, 30 % of the alarms acknowledged) with explicit ids;
-    then ``joint_summary`` and its ranking keys made at once (what appends keep, as the
+    The same rows (estimates, raises, 30 % of the alarms acknowledged) with explicit ids,
+    each estimate with the threshold and warning level it was judged by (as the estimator
+    stores them since schema version 8: 35 and 28, the packaged set's); then ``joint_summary`` and its ranking keys made at once (what appends keep, as the
     migration makes them).
     """
     rng = random.Random(seed)
@@ -106,7 +111,8 @@ def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int
                     rec.temperature_degc, rec.temperature_std_degc, rec.wear, rec.wear_std,
                     rec.chi2, rec.dof, rec.p_value, 0, 0, int(rec.alarm_active),
                     rec.alarm_evidence, rec.status_level, rec.parameter_set,
-                    *(_none_if_nan(getattr(rec, c)) for c in INTERVAL_COLUMNS), ''))
+                    *(_none_if_nan(getattr(rec, c)) for c in INTERVAL_COLUMNS), '',
+                    THRESHOLD, WARNING_LEVEL))
                 if wear >= 35.0 and not raised:
                     raised = True
                     ids['event'] += 1

@@ -108,6 +108,13 @@ def stored_keys(row: FleetRow) -> tuple[Any, ...]:
             then, now, _planned_date(row.planned_maintenance) if row.acknowledged else '')
 
 
+def _guess(base: str, warn_fixed: int) -> str:
+    """Return a joint's state as its stable parts tell it (the clock and settings aside)."""
+    if base == 'judged':
+        return 'warning' if warn_fixed else 'ok'
+    return base
+
+
 def _within_tier(row: tuple[Any, ...]) -> tuple[Any, ...]:
     """Return the order of a row of :meth:`FleetIndex._ordered` within its tier."""
     return row[1:]
@@ -122,12 +129,16 @@ def refresh(backend: HistoryBackend, *, robot: str, joint: str) -> None:
     rows = read_fleet(backend, robot=robot, joint=joint)
     if rows:
         backend.execute(_UPDATE, (*stored_keys(rows[0]), robot, joint))
+        backend.execute('INSERT INTO fleet_robots (robot) VALUES (?) ON CONFLICT (robot) '
+                        'DO NOTHING', (robot,))
 
 
 def rebuild(backend: HistoryBackend) -> int:
     """Store the ranking keys of every joint (the migration, a bulk load); return how many."""
     rows = read_fleet(backend)
     backend.executemany(_UPDATE, [(*stored_keys(r), r.robot, r.joint) for r in rows])
+    backend.execute('DELETE FROM fleet_robots')
+    backend.execute('INSERT INTO fleet_robots (robot) SELECT DISTINCT robot FROM joint_summary')
     return len(rows)
 
 
@@ -305,12 +316,37 @@ class FleetIndex:
         return self._count(' AND '.join(where), params)
 
     def counts(self, clock: FleetClock) -> dict[str, int]:
-        """Return the joints per state at ``clock`` (every state, 0 when none)."""
-        state_sql, params = clock.state_sql()
+        """
+        Return the joints per state at ``clock`` (every state, 0 when none).
+
+        The stable guess of every joint counted from the index ``(state_base, warn_fixed)``,
+        then the joints the clock or the settings may move (an acknowledged alarm, a stale
+        candidate, a crossing near, an older row's assumed level: disjoint index ranges)
+        judged exactly and moved from their guess to their state.
+        """
         counts = dict.fromkeys(STATE_WORDS, 0)
-        for name, count in self._execute(
-                f'SELECT {state_sql} AS s, COUNT(*) FROM joint_summary GROUP BY s', params):
-            counts[name] = int(count)
+        for base, fixed, count in self._execute(
+                'SELECT state_base, warn_fixed, COUNT(*) FROM joint_summary '
+                'GROUP BY state_base, warn_fixed'):
+            counts[_guess(base, fixed)] += int(count)
+        state_sql, sp = clock.state_sql()
+        guess = ("CASE WHEN state_base = 'judged' THEN CASE WHEN warn_fixed = 1 THEN 'warning' "
+                 "ELSE 'ok' END ELSE state_base END")
+        soon = clock.now_s + 1.0  # [s] a candidate's bound; its state is judged exactly
+        calm = "state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR " \
+               'stale_at_s >= ?)'
+        terms: list[tuple[str, tuple[Any, ...]]] = [
+            ("state_base = 'acknowledged'", ()),
+            ("state_base IN ('judged', 'new life') AND stale_at_s < ?", (soon,)),
+            (f'{calm} AND crossing_at_s <= ?', (soon, soon + clock.horizon_s)),
+            (f'{calm} AND (crossing_at_s IS NULL OR crossing_at_s > ?) AND '
+             'warning_level IS NULL', (soon, soon + clock.horizon_s))]
+        for condition, params in terms:
+            for was, now, count in self._execute(
+                    f'SELECT {guess} AS g, {state_sql} AS s, COUNT(*) FROM joint_summary '
+                    f'WHERE {condition} GROUP BY g, s', (*sp, *params)):
+                counts[was] -= int(count)
+                counts[now] += int(count)
         return counts
 
     def passed(self, clock: FleetClock) -> tuple[int, ...]:
@@ -348,18 +384,17 @@ class FleetIndex:
         limit_value = _NO_LIMIT if limit is None else int(limit)
         if not text:
             return [r[0] for r in self._execute(
-                'SELECT DISTINCT robot FROM joint_summary ORDER BY robot LIMIT ?',
-                (limit_value,))]
+                'SELECT robot FROM fleet_robots ORDER BY robot LIMIT ?', (limit_value,))]
         pattern = text.replace('\\', '\\\\').replace('%', '\\%').replace('_', '\\_')
         found = [r[0] for r in self._execute(
-            "SELECT DISTINCT robot FROM joint_summary WHERE LOWER(robot) LIKE ? ESCAPE '\\' "
+            "SELECT robot FROM fleet_robots WHERE LOWER(robot) LIKE ? ESCAPE '\\' "
             'ORDER BY robot', (f'%{pattern}%',))]
         found.sort(key=lambda name: (not name.lower().startswith(text), name))
         return found[:limit_value]
 
     def robot_count(self) -> int:
         """Return how many robots the fleet holds."""
-        return int(self._execute('SELECT COUNT(DISTINCT robot) FROM joint_summary')[0][0])
+        return int(self._execute('SELECT COUNT(*) FROM fleet_robots')[0][0])
 
     def has_robot(self, robot: str) -> bool:
         """Return whether the history holds estimates of ``robot`` (the primary key)."""

@@ -39,7 +39,7 @@ Version 12 (a fleet page that does not read the fleet): ``joint_summary`` keeps 
 ranking key and the stable parts of its state, with the times the clock is compared with
 (stale, crossing, planned date), indexed; every append and alarm event keeps them, and the
 migration fills them for the existing joints (``fleet_index.py``, run by the store after
-these steps).
+these steps); ``fleet_robots`` lists the robots (the robot search and count).
 """
 
 from __future__ import annotations
@@ -51,7 +51,8 @@ SCHEMA_VERSION = 12
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
-          'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit')
+          'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit',
+          'fleet_robots')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -325,6 +326,8 @@ _V12_COLUMNS = (
     'CREATE INDEX joint_summary_crossing ON joint_summary (crossing_at_s)',
     'CREATE INDEX joint_summary_last ON joint_summary (last_id)',
     'CREATE INDEX joint_summary_assumed ON joint_summary (warning_level, parameter_set)',
+    'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed)',
+    'CREATE TABLE fleet_robots (robot TEXT PRIMARY KEY)',
 )
 #: The fleet's order (``FleetRow.rank_key``); PostgreSQL orders names by code point as Python.
 _SQLITE_V12 = _V12_COLUMNS + (
