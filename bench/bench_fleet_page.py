@@ -21,20 +21,19 @@ page < 300 ms.
 """
 
 import argparse
+import json
 import os
+import random
 import statistics
 import sys
 import time
-
-import json
-import random
 
 from bench_dashboard import _new_experiment, _record, HOUR_S, PASSWORD
 from fastapi.testclient import TestClient
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.views import FleetCache
-from robot_wear_monitor.history import INTERVAL_COLUMNS, open_history
 from robot_wear_monitor.history import fleet_index
+from robot_wear_monitor.history import INTERVAL_COLUMNS, open_history
 from robot_wear_monitor.history.migrations import JOINT_SUMMARY_REBUILD
 
 #: The targets [ms] of the median and the 95th percentile.
@@ -65,8 +64,9 @@ def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int
 
     The same rows (estimates, raises, 30 % of the alarms acknowledged) with explicit ids,
     each estimate with the threshold and warning level it was judged by (as the estimator
-    stores them since schema version 8: 35 and 28, the packaged set's); then ``joint_summary`` and its ranking keys made at once (what appends keep, as the
-    migration makes them).
+    stores them since schema version 8: 35 and 28, the packaged set's); then
+    ``joint_summary`` and its ranking keys made at once (what appends keep, as the migration
+    makes them).
     """
     rng = random.Random(seed)
     started = time.monotonic()
@@ -156,8 +156,9 @@ def measure(location: str, *, repeats: int) -> dict[str, dict[str, float]]:
         first = client.get('/api/fleet', params={'limit': 1}).json()
         other = first['rows'][0]
         # a robot in the middle of the fleet, found by the robot search
-        robot = client.get('/api/robots', params={'search': f'robot_{first["robot_count"] // 2}',
-                                                   'limit': 1}).json()['robots'][0]
+        middle = f'robot_{first["robot_count"] // 2}'
+        robot = client.get('/api/robots', params={'search': middle,
+                                                  'limit': 1}).json()['robots'][0]
         client.get('/')  # the templates compiled
         routes = {
             'fleet page': ('/', 'cold'),
