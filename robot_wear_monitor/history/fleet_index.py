@@ -52,7 +52,8 @@ STATE_WORDS = ('alarm', 'acknowledged', 'cannot judge', 'stale', 'warning', 'new
 #: The key columns of ``joint_summary`` (schema version 12), in the order of :func:`stored_keys`.
 KEY_COLUMNS = ('rank_tier', 'rank_crossing', 'rank_high', 'state_base', 'stale_since_s',
                'usual_interval_s', 'stale_at_s', 'crossing_at_s', 'warn_fixed', 'wear_top',
-               'warning_level', 'parameter_set', 'ack_then', 'ack_now', 'planned_date')
+               'warning_level', 'parameter_set', 'ack_then', 'ack_now', 'planned_date',
+               'ack_rise')
 
 #: Rows read per query when every row is streamed.
 CHUNK_ROWS = 1000
@@ -105,7 +106,8 @@ def stored_keys(row: FleetRow) -> tuple[Any, ...]:
             interval if known else None,
             since + STALE_FACTOR * interval if known else None, crossing_at, int(warn_fixed),
             max(tops) if tops else None, _finite(row.warning_level), row.parameter_set,
-            then, now, _planned_date(row.planned_maintenance) if row.acknowledged else '')
+            then, now, _planned_date(row.planned_maintenance) if row.acknowledged else '',
+            None if then is None or now is None else now - then)
 
 
 def _guess(base: str, warn_fixed: int) -> str:
@@ -226,10 +228,27 @@ class FleetIndex:
         if state is not None:
             state_sql, sp = clock.state_sql()
             where, params = where + f' AND ({state_sql}) = ?', (*params, *sp, state)
-        return [(f'rank_tier = 0{where}', params),
-                (f'rank_tier = 1 AND {reescalated}{where}', (*rp, *params)),
+        return [(f'rank_tier = 0{where}', params), (where, params),
                 (f'rank_tier = 1 AND NOT {reescalated}{where}', (*rp, *params)),
                 (f'rank_tier >= 2{where}', params)]
+
+    def _reescalated_rows(self, clock: FleetClock, where: str,
+                          params: tuple) -> list[tuple[Any, ...]]:
+        """
+        Return the re-escalated acknowledged alarms (that pass ``where``), in order.
+
+        Found by the indexes of the wear's rise since the acknowledgement (``ack_rise``, a
+        margin a hair lower: the exact test follows) and of the planned dates.
+        """
+        reescalated, rp = clock.reescalated_sql()
+        margin = float(clock.margin)
+        select = ('SELECT rank_tier, rank_crossing, rank_high, robot, joint FROM joint_summary '
+                  'WHERE ')
+        rows = self._execute(
+            f'{select}ack_rise >= ? AND {reescalated}{where} UNION '
+            f"{select}planned_date > '' AND planned_date < ? AND {reescalated}{where}",
+            (margin - 1e-9 * max(1.0, abs(margin)), *rp, *params, clock.today, *rp, *params))
+        return sorted(rows, key=_within_tier)
 
     def _ordered(self, condition: str, params: tuple, *, offset: int = 0,
                  limit: Optional[int] = None,
@@ -261,7 +280,7 @@ class FleetIndex:
         out: list[tuple[str, str]] = []
         # the unacknowledged alarms merged with the re-escalated acknowledged ones (few)
         top = self._ordered(*segments[0], limit=offset + wanted)
-        back = self._ordered(*segments[1])
+        back = self._reescalated_rows(clock, *segments[1])
         merged = list(heapq.merge(top, back, key=_within_tier))[offset:offset + wanted]
         out += [(r[3], r[4]) for r in merged]
         skip = max(0, offset - len(top) - len(back))
@@ -296,7 +315,8 @@ class FleetIndex:
                 after = rows[-1]
 
         ordered = itertools.chain(
-            heapq.merge(stream(*segments[0]), self._ordered(*segments[1]), key=_within_tier),
+            heapq.merge(stream(*segments[0]), self._reescalated_rows(clock, *segments[1]),
+                        key=_within_tier),
             stream(*segments[2]), stream(*segments[3]))
         while True:
             keys = [(r[3], r[4]) for r in itertools.islice(ordered, chunk)]
@@ -320,9 +340,9 @@ class FleetIndex:
         Return the joints per state at ``clock`` (every state, 0 when none).
 
         The stable guess of every joint counted from the index ``(state_base, warn_fixed)``,
-        then the joints the clock or the settings may move (an acknowledged alarm, a stale
-        candidate, a crossing near, an older row's assumed level: disjoint index ranges)
-        judged exactly and moved from their guess to their state.
+        then the joints the clock or the settings may move (a re-escalated acknowledged alarm,
+        a stale candidate, a crossing near, an older row's assumed level: disjoint index
+        ranges) judged exactly and moved from their guess to their state.
         """
         counts = dict.fromkeys(STATE_WORDS, 0)
         for base, fixed, count in self._execute(
@@ -335,8 +355,10 @@ class FleetIndex:
         soon = clock.now_s + 1.0  # [s] a candidate's bound; its state is judged exactly
         calm = "state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR " \
                'stale_at_s >= ?)'
+        moved = len(self._reescalated_rows(clock, '', ()))
+        counts['acknowledged'] -= moved
+        counts['alarm'] += moved
         terms: list[tuple[str, tuple[Any, ...]]] = [
-            ("state_base = 'acknowledged'", ()),
             ("state_base IN ('judged', 'new life') AND stale_at_s < ?", (soon,)),
             (f'{calm} AND crossing_at_s <= ?', (soon, soon + clock.horizon_s)),
             (f'{calm} AND (crossing_at_s IS NULL OR crossing_at_s > ?) AND '
@@ -365,8 +387,7 @@ class FleetIndex:
 
     def reescalated(self, clock: FleetClock) -> list[tuple[str, str]]:
         """Return the acknowledged alarms re-escalated at ``clock`` (few; for their log)."""
-        condition, params = self._segments(clock, robot=None, state=None)[1]
-        return [(r[3], r[4]) for r in self._ordered(condition, params)]
+        return [(r[3], r[4]) for r in self._reescalated_rows(clock, '', ())]
 
     def assumed_sets(self) -> list[str]:
         """Return the parameter sets of the rows that store no warning level (older rows)."""

@@ -322,11 +322,14 @@ _V12_COLUMNS = (
     'ALTER TABLE joint_summary ADD COLUMN ack_then DOUBLE PRECISION',
     'ALTER TABLE joint_summary ADD COLUMN ack_now DOUBLE PRECISION',
     "ALTER TABLE joint_summary ADD COLUMN planned_date TEXT NOT NULL DEFAULT ''",
+    'ALTER TABLE joint_summary ADD COLUMN ack_rise DOUBLE PRECISION',
     'CREATE INDEX joint_summary_stale ON joint_summary (stale_at_s)',
     'CREATE INDEX joint_summary_crossing ON joint_summary (crossing_at_s)',
     'CREATE INDEX joint_summary_last ON joint_summary (last_id)',
     'CREATE INDEX joint_summary_assumed ON joint_summary (warning_level, parameter_set)',
     'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed)',
+    'CREATE INDEX joint_summary_rise ON joint_summary (ack_rise)',
+    'CREATE INDEX joint_summary_planned ON joint_summary (planned_date)',
     'CREATE TABLE fleet_robots (robot TEXT PRIMARY KEY)',
 )
 #: The fleet's order (``FleetRow.rank_key``); PostgreSQL orders names by code point as Python.

@@ -11,11 +11,11 @@ pass of every joint finds for them.
 import math
 
 import pytest
-import yaml
 from robot_wear_monitor.fleet.notifications import due_events, load_notification_config
 from robot_wear_monitor.fleet.notify_marks import advance, joints_to_read, PassMarks
 from robot_wear_monitor.history import WearHistory
 from wear_testing.fleet_states import _fill, _record, DAY_S, HOUR_S, LAST_S, MOMENTS
+import yaml
 
 
 @pytest.fixture
