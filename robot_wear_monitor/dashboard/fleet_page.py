@@ -58,8 +58,8 @@ def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
     make = cache.row_json if cache is not None else fleet_row_json
     counts = index.counts(clock)
     joints = sum(counts.values())
-    total = joints if robot is None and state is None else index.total(clock, robot=robot,
-                                                                       state=state)
+    total = (joints if robot is None and state is None else counts[state] if robot is None
+             else index.total(clock, robot=robot, state=state))
     pages, first = 1, 0
     robots: list[str] = []
     rows: Any

@@ -110,6 +110,17 @@ def stored_keys(row: FleetRow) -> tuple[Any, ...]:
             None if then is None or now is None else now - then)
 
 
+#: What a state asks of a row's stable parts beyond the alarms (the index ``joint_summary_state``
+#: serves it in the fleet's order); the stale bound is ``now`` + 1 s.
+_STABLE_PARTS = {
+    'cannot judge': (" AND state_base = 'cannot judge'", ()),
+    'stale': (' AND stale_at_s < ?', ()),
+    'warning': (" AND state_base = 'judged'", ()),
+    'new life': (" AND state_base = 'new life'", ()),
+    'ok': (" AND state_base = 'judged' AND warn_fixed = 0", ()),
+}
+
+
 def _guess(base: str, warn_fixed: int) -> str:
     """Return a joint's state as its stable parts tell it (the clock and settings aside)."""
     if base == 'judged':
@@ -220,17 +231,29 @@ class FleetIndex:
 
     def _segments(self, clock: FleetClock, *, robot: Optional[str], state: Optional[str]
                   ) -> list[tuple[str, tuple]]:
-        """Return the conditions of the order's segments (the first two merged), worst first."""
+        """
+        Return the conditions of the order's segments (the first two merged), worst first.
+
+        With a ``state``, the segments that cannot hold it read nothing (``1 = 0``) and the
+        rest first keeps the rows whose stable parts allow it (an index's prefix).
+        """
         reescalated, rp = clock.reescalated_sql()
         where, params = '', ()  # type: tuple[str, tuple[Any, ...]]
         if robot is not None:
             where, params = ' AND robot = ?', (robot,)
+        rest, rest_params = '', ()  # type: tuple[str, tuple[Any, ...]]
         if state is not None:
             state_sql, sp = clock.state_sql()
             where, params = where + f' AND ({state_sql}) = ?', (*params, *sp, state)
-        return [(f'rank_tier = 0{where}', params), (where, params),
-                (f'rank_tier = 1 AND NOT {reescalated}{where}', (*rp, *params)),
-                (f'rank_tier >= 2{where}', params)]
+            rest, rest_params = _STABLE_PARTS.get(state, ('', ()))
+            if rest == ' AND stale_at_s < ?':
+                rest_params = (clock.now_s + 1.0,)
+        top = '' if state in (None, 'alarm') else ' AND 1 = 0'
+        middle = '' if state in (None, 'acknowledged') else ' AND 1 = 0'
+        last = ' AND 1 = 0' if state in ('alarm', 'acknowledged') else rest
+        return [(f'rank_tier = 0{top}{where}', params), (f'{top}{where}', params),
+                (f'rank_tier = 1{middle} AND NOT {reescalated}{where}', (*rp, *params)),
+                (f'rank_tier >= 2{last}{where}', (*rest_params, *params))]
 
     def _reescalated_rows(self, clock: FleetClock, where: str,
                           params: tuple) -> list[tuple[Any, ...]]:

@@ -327,7 +327,6 @@ _V12_COLUMNS = (
     'CREATE INDEX joint_summary_crossing ON joint_summary (crossing_at_s)',
     'CREATE INDEX joint_summary_last ON joint_summary (last_id)',
     'CREATE INDEX joint_summary_assumed ON joint_summary (warning_level, parameter_set)',
-    'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed)',
     'CREATE INDEX joint_summary_rise ON joint_summary (ack_rise)',
     'CREATE INDEX joint_summary_planned ON joint_summary (planned_date)',
     'CREATE TABLE fleet_robots (robot TEXT PRIMARY KEY)',
@@ -335,10 +334,14 @@ _V12_COLUMNS = (
 #: The fleet's order (``FleetRow.rank_key``); PostgreSQL orders names by code point as Python.
 _SQLITE_V12 = _V12_COLUMNS + (
     'CREATE INDEX joint_summary_rank ON joint_summary (rank_tier, rank_crossing, rank_high, '
-    'robot, joint)',)
+    'robot, joint)',
+    'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed, rank_tier, '
+    'rank_crossing, rank_high, robot, joint)')
 _POSTGRESQL_V12 = _V12_COLUMNS + (
     'CREATE INDEX joint_summary_rank ON joint_summary (rank_tier, rank_crossing, rank_high, '
-    'robot COLLATE "C", joint COLLATE "C")',)
+    'robot COLLATE "C", joint COLLATE "C")',
+    'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed, rank_tier, '
+    'rank_crossing, rank_high, robot COLLATE "C", joint COLLATE "C")')
 
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
