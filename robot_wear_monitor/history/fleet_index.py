@@ -183,26 +183,31 @@ class FleetClock:
         return ("(ack_now >= ack_then + ? OR (planned_date <> '' AND planned_date < ?))",
                 (float(self.margin), self.today))
 
-    def state_sql(self) -> tuple[str, tuple]:
-        """Return the SQL of a row's ``state`` at ``now_s`` (one of the states), its values."""
-        reescalated, reescalated_params = self.reescalated_sql()
+    def warning_sql(self) -> tuple[str, tuple]:
+        """Return the SQL of a judged row's warning at ``now_s`` (stale aside), its values."""
         levels = [(name, level) for name, level in sorted(self.assumed_warning.items())
                   if math.isfinite(level)]
         level_sql = ' '.join('WHEN ? THEN ?' for _ in levels)
         assumed = (f'CASE parameter_set {level_sql} ELSE ? END' if levels else '?')
         default = self.default_warning if math.isfinite(self.default_warning) else None
+        return (f'(warn_fixed = 1 OR (warning_level IS NULL AND wear_top >= {assumed}) OR '
+                'crossing_at_s - ? <= ?)',
+                (*(v for pair in levels for v in pair), default, float(self.now_s),
+                 float(self.horizon_s)))
+
+    def state_sql(self) -> tuple[str, tuple]:
+        """Return the SQL of a row's ``state`` at ``now_s`` (one of the states), its values."""
+        reescalated, reescalated_params = self.reescalated_sql()
+        warning, warning_params = self.warning_sql()
         sql = ("CASE WHEN state_base = 'alarm' THEN 'alarm' "
                f"WHEN state_base = 'acknowledged' THEN CASE WHEN {reescalated} THEN 'alarm' "
                "ELSE 'acknowledged' END "
                "WHEN state_base = 'cannot judge' THEN 'cannot judge' "
                'WHEN usual_interval_s > 0 AND ? - stale_since_s > ? * usual_interval_s '
                "THEN 'stale' "
-               "WHEN state_base = 'judged' AND (warn_fixed = 1 OR (warning_level IS NULL AND "
-               f"wear_top >= {assumed}) OR crossing_at_s - ? <= ?) THEN 'warning' "
+               f"WHEN state_base = 'judged' AND {warning} THEN 'warning' "
                "WHEN state_base = 'new life' THEN 'new life' ELSE 'ok' END")
-        params = (*reescalated_params, float(self.now_s), STALE_FACTOR,
-                  *(v for pair in levels for v in pair), default, float(self.now_s),
-                  float(self.horizon_s))
+        params = (*reescalated_params, float(self.now_s), STALE_FACTOR, *warning_params)
         return sql, params
 
 
@@ -376,22 +381,29 @@ class FleetIndex:
         guess = ("CASE WHEN state_base = 'judged' THEN CASE WHEN warn_fixed = 1 THEN 'warning' "
                  "ELSE 'ok' END ELSE state_base END")
         soon = clock.now_s + 1.0  # [s] a candidate's bound; its state is judged exactly
-        calm = "state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR " \
-               'stale_at_s >= ?)'
         moved = len(self._reescalated_rows(clock, '', ()))
         counts['acknowledged'] -= moved
         counts['alarm'] += moved
-        terms: list[tuple[str, tuple[Any, ...]]] = [
-            ("state_base IN ('judged', 'new life') AND stale_at_s < ?", (soon,)),
-            (f'{calm} AND crossing_at_s <= ?', (soon, soon + clock.horizon_s)),
-            (f'{calm} AND (crossing_at_s IS NULL OR crossing_at_s > ?) AND '
-             'warning_level IS NULL', (soon, soon + clock.horizon_s))]
-        for condition, params in terms:
-            for was, now, count in self._execute(
-                    f'SELECT {guess} AS g, {state_sql} AS s, COUNT(*) FROM joint_summary '
-                    f'WHERE {condition} GROUP BY g, s', (*sp, *params)):
-                counts[was] -= int(count)
-                counts[now] += int(count)
+        # the stale candidates (by the index of their moment), judged exactly
+        for was, now, count in self._execute(
+                f'SELECT {guess} AS g, {state_sql} AS s, COUNT(*) FROM joint_summary WHERE '
+                "stale_at_s < ? AND state_base || '' IN ('judged', 'new life') GROUP BY g, s",
+                (*sp, soon)):
+            counts[was] -= int(count)
+            counts[now] += int(count)
+        # the judged rows not stale and not warned by their stored parts: a crossing near or
+        # an older row's assumed level (the covering index joint_summary_near)
+        warning, wp = clock.warning_sql()
+        calm = ("state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR "
+                'stale_at_s >= ?)')
+        near = soon + clock.horizon_s
+        for condition, params in ((f'{calm} AND crossing_at_s <= ?', (soon, near)),
+                                  (f'{calm} AND (crossing_at_s IS NULL OR crossing_at_s > ?) '
+                                   'AND warning_level IS NULL', (soon, near))):
+            rows = self._execute(f'SELECT COUNT(*) FROM joint_summary WHERE {condition} AND '
+                                 f'{warning}', (*params, *wp))
+            counts['ok'] -= int(rows[0][0])
+            counts['warning'] += int(rows[0][0])
         return counts
 
     def passed(self, clock: FleetClock) -> tuple[int, ...]:

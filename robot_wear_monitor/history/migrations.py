@@ -328,6 +328,8 @@ _V12_COLUMNS = (
     'CREATE INDEX joint_summary_last ON joint_summary (last_id)',
     'CREATE INDEX joint_summary_assumed ON joint_summary (warning_level, parameter_set)',
     'CREATE INDEX joint_summary_rise ON joint_summary (ack_rise)',
+    'CREATE INDEX joint_summary_near ON joint_summary (state_base, warn_fixed, crossing_at_s, '
+    'stale_at_s, warning_level, wear_top, parameter_set)',
     'CREATE INDEX joint_summary_planned ON joint_summary (planned_date)',
     'CREATE TABLE fleet_robots (robot TEXT PRIMARY KEY)',
 )

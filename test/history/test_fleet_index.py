@@ -98,7 +98,7 @@ def _downgrade_to_11(location):
     statements = [f'DROP INDEX IF EXISTS {name}' for name in (
         'joint_summary_rank', 'joint_summary_stale', 'joint_summary_crossing',
         'joint_summary_last', 'joint_summary_assumed', 'joint_summary_state',
-        'joint_summary_rise', 'joint_summary_planned')]
+        'joint_summary_rise', 'joint_summary_planned', 'joint_summary_near')]
     statements += ['DROP TABLE fleet_robots']
     statements += [f'ALTER TABLE joint_summary DROP COLUMN {c}' for c in KEY_COLUMNS]
     statements += ['UPDATE schema_version SET version = 11']
