@@ -27,6 +27,8 @@ from robot_wear_monitor.fleet.thresholds import ParameterSets
 
 #: The most robots the robot search suggests.
 ROBOT_CHOICES = 20
+#: About how many characters of rows a streamed answer writes at once.
+STREAM_PART_CHARS = 256 * 1024
 
 
 def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
@@ -107,13 +109,20 @@ def stream_json(payload: dict[str, Any]) -> Iterator[bytes]:
     """
     Yield ``payload`` (of :func:`fleet_json` with ``stream``) as one JSON document, row by row.
 
-    Its keys in order, ``rows`` written as they are read, ``robots`` (filled meanwhile) last.
+    Its keys in order, ``rows`` written as they are read (in parts of about
+    :data:`STREAM_PART_CHARS`), ``robots`` (filled meanwhile) last.
     """
     head = {k: v for k, v in payload.items() if k not in ('rows', 'robots')}
-    yield (_dumps(head)[:-1] + ',"rows":[').encode()
+    parts = [_dumps(head)[:-1] + ',"rows":[']
+    size = 0
     for number, row in enumerate(payload['rows']):
-        yield ((',' if number else '') + _dumps(row)).encode()
-    yield ('],"robots":' + _dumps(payload['robots']) + '}').encode()
+        parts.append((',' if number else '') + _dumps(row))
+        size += len(parts[-1])
+        if size >= STREAM_PART_CHARS:  # one write per part, not per row
+            yield ''.join(parts).encode()
+            parts, size = [], 0
+    parts.append('],"robots":' + _dumps(payload['robots']) + '}')
+    yield ''.join(parts).encode()
 
 
 def fleet_etag(history: Any, *, now_s: float, query: str,
