@@ -26,10 +26,17 @@ def recent_stamps(backend: HistoryBackend, *, where: str = '', params: tuple = (
     ``source``: the joints read (``joint_summary s``, or a list ``k`` joined to it, given by
     ``with_sql``: ``WITH k(robot, joint) AS (VALUES ...)``).
     """
-    rows = backend.execute(
-        f'{with_sql} SELECT s.robot, s.joint, e.stamp_s FROM {source} JOIN estimates e ON '
-        'e.id IN (SELECT x.id FROM estimates x WHERE x.robot = s.robot AND x.joint = s.joint '
-        f'ORDER BY x.id DESC LIMIT {RECENT_INTERVALS + 1}) ' + where, params)
+    if backend.kind == 'postgresql':  # each joint's last rows by the index (a lateral join)
+        rows = backend.execute(
+            f'{with_sql} SELECT s.robot, s.joint, e.stamp_s FROM {source} CROSS JOIN LATERAL '
+            '(SELECT x.stamp_s FROM estimates x WHERE x.robot = s.robot AND x.joint = s.joint '
+            f'ORDER BY x.id DESC LIMIT {RECENT_INTERVALS + 1}) e ' + where, params)
+    else:
+        rows = backend.execute(
+            f'{with_sql} SELECT s.robot, s.joint, e.stamp_s FROM {source} JOIN estimates e ON '
+            'e.id IN (SELECT x.id FROM estimates x WHERE x.robot = s.robot AND '
+            f'x.joint = s.joint ORDER BY x.id DESC LIMIT {RECENT_INTERVALS + 1}) ' + where,
+            params)
     found: dict[tuple[str, str], list[float]] = {}
     for r in rows:
         found.setdefault((r[0], r[1]), []).append(float(r[2]))
