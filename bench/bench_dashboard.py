@@ -168,18 +168,20 @@ def run_on_sqlite_and_postgresql(*, description: str, name: str, defaults: dict,
     for option in ('joints', 'experiments', 'robots', 'repeats'):
         parser.add_argument(f'--{option}', type=int, default=defaults[option])
     parser.add_argument('--no-postgresql', action='store_true')
+    parser.add_argument('--no-sqlite', action='store_true', help='measure PostgreSQL only')
     parser.add_argument('--keep', type=Path, help='keep the SQLite history here')
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as scratch:
-        folder = args.keep or Path(scratch)
-        folder.mkdir(parents=True, exist_ok=True)
-        location = str(folder / f'{name}.sqlite3')
-        if Path(location).exists():
-            fill_s = 0.0  # a kept history: measured again as it is
-        else:
-            fill_s = fill(location, joints=args.joints, experiments=args.experiments,
-                          robots=args.robots)
-        report('SQLite', measure(location, repeats=args.repeats), fill_s, args)
+    if not args.no_sqlite:
+        with tempfile.TemporaryDirectory() as scratch:
+            folder = args.keep or Path(scratch)
+            folder.mkdir(parents=True, exist_ok=True)
+            location = str(folder / f'{name}.sqlite3')
+            if Path(location).exists():
+                fill_s = 0.0  # a kept history: measured again as it is
+            else:
+                fill_s = fill(location, joints=args.joints, experiments=args.experiments,
+                              robots=args.robots)
+            report('SQLite', measure(location, repeats=args.repeats), fill_s, args)
     if args.no_postgresql:
         return 0
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))

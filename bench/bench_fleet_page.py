@@ -5,11 +5,13 @@ The fleet page of a 6,000-joint fleet: paged on the server, median and p95 of ea
                                       [--repeats 21] [--no-postgresql] [--keep DIR]
 
 Writes a history of ``--joints`` joints (``--robots`` robots, ``--experiments`` estimates each,
-alarms raised past w = 35, some acknowledged: ``bench_dashboard.fill``) into SQLite and into a
-throw-away PostgreSQL server (``initdb``/``pg_ctl`` from Debian's ``postgresql``, started as the
-tests start it; skipped with ``--no-postgresql`` or when absent).  The fleet query reads one
-row per joint (``joint_summary``), so the number of experiments per joint does not change its
-cost.  Then, with FastAPI's TestClient (in process, no network), ``--repeats`` requests of:
+alarms raised past w = 35, some acknowledged: the rows of ``bench_dashboard.fill``, written in
+batches of ``executemany``, then ``joint_summary`` and its ranking keys made at once as the
+migration makes them) into SQLite and into a throw-away PostgreSQL server
+(``initdb``/``pg_ctl`` from Debian's ``postgresql``, started as the tests start it; skipped
+with ``--no-postgresql`` or when absent).  A page reads the index of the ranking keys and its
+own rows only (schema version 12), so neither the joints nor the experiments per joint make
+it read more.  Then, with FastAPI's TestClient (in process, no network), ``--repeats`` requests of:
 the fleet page (``/``, its first 100 rows) with nothing cached (the fleet read from the
 history, the page's rows made anew), after one new experiment and with the history unchanged
 (the polling case); a deep page, a robot's page and a state's page; ``/api/fleet`` paged and
@@ -19,18 +21,122 @@ page < 300 ms.
 """
 
 import argparse
+import json
 import os
+import random
 import statistics
 import sys
 import time
 
-from bench_dashboard import _new_experiment, fill, PASSWORD
+from bench_dashboard import _new_experiment, _record, HOUR_S, PASSWORD
 from fastapi.testclient import TestClient
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.views import FleetCache
+from robot_wear_monitor.history import fleet_index
+from robot_wear_monitor.history import INTERVAL_COLUMNS, open_history
+from robot_wear_monitor.history.migrations import JOINT_SUMMARY_REBUILD
 
 #: The targets [ms] of the median and the 95th percentile.
 TARGETS_MS = {'fleet page': 300.0}
+
+
+#: The levels every estimate stores (schema 8 on; those of the packaged set the rows name) [w].
+THRESHOLD, WARNING_LEVEL = 35.0, 28.0
+#: Rows per ``executemany`` batch of the fill.
+BATCH_ROWS = 20000
+_ESTIMATE_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'wall_time_s', 'speeds_rad_s',
+                     'frictions', 'temperature_degc', 'temperature_std_degc', 'wear',
+                     'wear_std', 'chi2', 'dof', 'p_value', 'temperature_at_bound',
+                     'wear_at_bound', 'alarm_active', 'alarm_evidence', 'status_level',
+                     'parameter_set', *INTERVAL_COLUMNS, 'invalid_reason', 'threshold',
+                     'warning_level')
+_EVENT_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'wall_time_s', 'event', 'wear',
+                  'estimate_id', 'note', 'user_name', 'owner')
+
+
+def _none_if_nan(value: float):
+    return None if value != value else value
+
+
+def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int = 0) -> float:
+    """
+    Write the fleet of ``bench_dashboard.fill`` in ``executemany`` batches; return the seconds.
+
+    The same rows (estimates, raises, 30 % of the alarms acknowledged) with explicit ids,
+    each estimate with the threshold and warning level it was judged by (as the estimator
+    stores them since schema version 8: 35 and 28, the packaged set's); then
+    ``joint_summary`` and its ranking keys made at once (what appends keep, as the migration
+    makes them).
+    """
+    rng = random.Random(seed)
+    started = time.monotonic()
+    now = time.time()
+    with open_history(location) as history:
+        backend = history._backend
+        if history.backend == 'sqlite':  # a bench file: no fsync per batch
+            backend.conn.execute('PRAGMA synchronous=OFF')
+        history.add_user(name='bench', role='maintainer', password=PASSWORD)
+        overriding = 'OVERRIDING SYSTEM VALUE ' if history.backend == 'postgresql' else ''
+        insert_estimates = (f'INSERT INTO estimates ({", ".join(_ESTIMATE_COLUMNS)}) '
+                            f'{overriding}VALUES ({", ".join("?" * len(_ESTIMATE_COLUMNS))})')
+        insert_events = (f'INSERT INTO alarm_events ({", ".join(_EVENT_COLUMNS)}) '
+                         f'{overriding}VALUES ({", ".join("?" * len(_EVENT_COLUMNS))})')
+        estimates: list[tuple] = []
+        events: list[tuple] = []
+        ids = {'estimate': 0, 'event': 0}
+
+        def flush() -> None:
+            with backend.transaction():
+                backend.executemany(insert_estimates, estimates)
+                backend.executemany(insert_events, events)
+            estimates.clear()
+            events.clear()
+
+        for index in range(joints):
+            robot, joint = f'robot_{index % robots:03d}', f'joint_{index // robots}'
+            final = rng.uniform(0.0, 60.0)
+            last_s = now - (0.0 if rng.random() > 0.05 else 24 * HOUR_S)  # 5 % stale
+            raised = False
+            for k in range(experiments):
+                wear = final * (k + 1) / experiments + rng.gauss(0.0, 3.0)
+                last = k == experiments - 1
+                crossing = (max(0.0, (35.0 - wear) / (final / experiments)) if last and
+                            final > 20.0 else float('nan'))
+                rec = _record(robot, joint, k, wear=wear, last_s=last_s,
+                              experiments=experiments, crossing=crossing)
+                ids['estimate'] += 1
+                estimates.append((
+                    ids['estimate'], robot, joint, rec.stamp_s, now,
+                    json.dumps(list(rec.speeds_rad_s)), json.dumps(list(rec.frictions)),
+                    rec.temperature_degc, rec.temperature_std_degc, rec.wear, rec.wear_std,
+                    rec.chi2, rec.dof, rec.p_value, 0, 0, int(rec.alarm_active),
+                    rec.alarm_evidence, rec.status_level, rec.parameter_set,
+                    *(_none_if_nan(getattr(rec, c)) for c in INTERVAL_COLUMNS), '',
+                    THRESHOLD, WARNING_LEVEL))
+                if wear >= 35.0 and not raised:
+                    raised = True
+                    ids['event'] += 1
+                    events.append((ids['event'], robot, joint, rec.stamp_s, now, 'raised',
+                                   wear, ids['estimate'], 'w-hat >= 35', '', ''))
+            if raised and rng.random() < 0.3:
+                ids['event'] += 1
+                events.append((ids['event'], robot, joint, now, now, 'acknowledged',
+                               estimates[-1][9], ids['estimate'], 'ordered', 'bench',
+                               'team A'))
+            if len(estimates) >= BATCH_ROWS:
+                flush()
+        flush()
+        with backend.transaction():
+            for step in JOINT_SUMMARY_REBUILD:  # what appends keep, made at once
+                backend.execute(step)
+            fleet_index.rebuild(backend)
+            if history.backend == 'postgresql':
+                for table in ('estimates', 'alarm_events'):
+                    backend.execute(f"SELECT setval(pg_get_serial_sequence('{table}', 'id'), "
+                                    f'(SELECT MAX(id) FROM {table}))')
+        if history.backend == 'postgresql':
+            backend.execute('ANALYZE')
+    return time.monotonic() - started
 
 
 def _p95(values: list[float]) -> float:
@@ -49,7 +155,10 @@ def measure(location: str, *, repeats: int) -> dict[str, dict[str, float]]:
                                     'csrf_token': token})
         first = client.get('/api/fleet', params={'limit': 1}).json()
         other = first['rows'][0]
-        robot = first['robots'][len(first['robots']) // 2]
+        # a robot in the middle of the fleet, found by the robot search
+        middle = f'robot_{first["robot_count"] // 2}'
+        robot = client.get('/api/robots', params={'search': middle,
+                                                  'limit': 1}).json()['robots'][0]
         client.get('/')  # the templates compiled
         routes = {
             'fleet page': ('/', 'cold'),

@@ -13,14 +13,17 @@ import argparse
 import csv
 import datetime
 import io
+import json
 import math
 import shutil
+import sys
 import time
+from typing import Any, Iterable
 
 from robot_wear_monitor.cli.fleet_options import add_declared_options
 from robot_wear_monitor.cli.options import (add_display_timezone, add_history, add_json,
-                                            add_local, add_robot, display_zone, emit_json,
-                                            shown_location)
+                                            add_local, add_robot, display_zone, shown_location,
+                                            write_json_out)
 from robot_wear_monitor.cli.outputs import to_terminal, write_text_output
 from robot_wear_monitor.errors import InputError
 from robot_wear_monitor.history import open_history
@@ -68,28 +71,52 @@ def parse_time(text: str, *, option: str = '--now') -> float:
     return moment.timestamp()
 
 
+def print_rows_json(rows: Iterable[dict[str, Any]]) -> int:
+    """
+    Print ``rows`` as one indented JSON list on stdout, each row written as it comes.
+
+    The text of :func:`~robot_wear_monitor.cli.options.print_json` of the list (no NaN or
+    inf), without holding the rows: return how many were written.
+    """
+    count = 0
+    for row in rows:
+        text = json.dumps(row, indent=2, allow_nan=False).replace('\n', '\n  ')
+        sys.stdout.write(('[\n  ' if not count else ',\n  ') + text)
+        count += 1
+    sys.stdout.write('\n]\n' if count else '[]\n')
+    return count
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``fleet``: the ranked rows as a table, ``--json`` or ``--csv``."""
     # deferred import: start-up time (numpy: not for --help)
     from robot_wear_monitor.fleet.fleet_table import DEFAULT_WIDTH, fleet_table
-    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, fleet_view, plural
+    from robot_wear_monitor.fleet.indexed import fleet_clock, stream_views
+    from robot_wear_monitor.fleet.ranking import fleet_csv_rows, plural
     from robot_wear_monitor.fleet.states import DAY_S, STATES
     now_s = parse_time(args.now) if args.now else time.time()
     zone = display_zone(args)
     # checked by the options' types: the notification configuration's declared ranges
     with open_history(args.history, init=False) as history:
-        rows = fleet_view(history.fleet(robot=args.robot), now_s=now_s,
-                          reescalation_margin=args.reescalation_margin,
-                          forecast_horizon_s=args.forecast_horizon_days * DAY_S)
+        index = history.fleet_index()
+        if args.robot and not index.has_robot(args.robot):
+            raise InputError(f'{shown_location(args.history)}: no estimates of robot '
+                             f'{args.robot!r}')
+        clock = fleet_clock(index, now_s=now_s, reescalation_margin=args.reescalation_margin,
+                            forecast_horizon_s=args.forecast_horizon_days * DAY_S)
+        views = stream_views(index, clock, robot=args.robot)  # read a chunk at a time
+        if args.json and not args.json_out:  # streamed: one JSON list, row by row
+            print_rows_json(row.as_json() for row in views)
+            return 0
+        rows = list(views)
         # the owner, comment and work order of each acknowledgement (the table's detail lines)
         acknowledgements = {} if args.json or args.json_out or args.csv else {
             (row.state.robot, row.state.joint): history.acknowledgement(
                 joint=row.state.joint, robot=row.state.robot)
             for row in rows if row.state.acknowledged}
-    if args.robot and not rows:
-        raise InputError(f'{shown_location(args.history)}: no estimates of robot '
-                         f'{args.robot!r}')
-    if emit_json(args, [row.as_json() for row in rows]):
+    write_json_out(args.json_out, [row.as_json() for row in rows] if args.json_out else None)
+    if args.json:
+        print_rows_json(row.as_json() for row in rows)
         return 0
     if args.csv:
         buffer = io.StringIO()

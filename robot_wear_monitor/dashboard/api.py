@@ -26,7 +26,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Iterator, Optional
 
 from fastapi import APIRouter, Depends, HTTPException, Query, Request
 from robot_wear_monitor.dashboard.api_checks import BEARER, reject_unknown_query
@@ -34,16 +34,19 @@ from robot_wear_monitor.dashboard.auth import csrf_token, is_token_request
 from robot_wear_monitor.dashboard.deps import (check_api_csrf, CurrentUser, FleetCacheDep,
                                                get_display_zone, HistoryDep, MaintainerUser,
                                                ParameterSetsDep)
+from robot_wear_monitor.dashboard.fleet_page import (fleet_etag, fleet_json, ROBOT_CHOICES,
+                                                     robot_choices, stream_json)
 from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.schemas import (AcknowledgeRequest, AlarmEventJson,
                                                   EditRequest, FleetJson, JointJson, MeJson,
-                                                  ResetRequest, WithdrawRequest)
-from robot_wear_monitor.dashboard.views import (alarm_log, event_json, fleet_json,
-                                                forecast_horizon_s, joint_json, PAGE_ROWS,
-                                                reescalation_margin, STATES)
+                                                  ResetRequest, RobotChoicesJson,
+                                                  WithdrawRequest)
+from robot_wear_monitor.dashboard.views import (alarm_log, event_json, forecast_horizon_s,
+                                                joint_json, PAGE_ROWS, reescalation_margin)
+from robot_wear_monitor.fleet.states import STATES
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.alarms import AlarmStateError, UnknownJointError
-from starlette.responses import Response
+from starlette.responses import Response, StreamingResponse
 
 router = APIRouter(prefix='/api', tags=['api'],
                    dependencies=[Depends(reject_unknown_query), Depends(BEARER)])
@@ -91,16 +94,48 @@ def api_fleet(request: Request, history: HistoryDep, parameter_sets: ParameterSe
 
     Each row adds ``state``, ``arrow``, ``threshold``, the acknowledgement, the bar's
     positions and the texts the page shows.  Every row unless ``page`` or ``limit`` asks for
-    one page; ``total`` and ``pages`` say how many there are.
+    one page; ``total`` and ``pages`` say how many there are.  Every row is streamed (read a
+    chunk at a time from the history's index, written as read; ``robots`` comes last).
     """
-    payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
-                         robot=robot or None, state=_state(state), cache=cache, page=page,
-                         limit=limit, reescalation_margin=reescalation_margin(request),
-                         forecast_horizon_s=forecast_horizon_s(request), source='api',
-                         zone=get_display_zone(request))
-    if robot and robot not in payload['robots']:
+    margin, horizon = reescalation_margin(request), forecast_horizon_s(request)
+    state = _state(state)
+    if robot and not history.fleet_index().has_robot(robot):
         raise HTTPException(status_code=404, detail=f'no robot {robot[:80]!r} in the history')
+    zone = get_display_zone(request)
+    if page is None and limit is None:
+        tag = fleet_etag(history, now_s=time.time(), query=str(request.query_params),
+                         parameter_sets=parameter_sets, reescalation_margin=margin,
+                         forecast_horizon_s=horizon, source='api')
+        if request.headers.get('if-none-match') == tag:
+            return Response(status_code=304, headers={'ETag': tag})
+        pool = request.app.state.pool
+
+        def every_row() -> Iterator[bytes]:
+            with pool.borrow() as own:  # the request's history is given back before this runs
+                yield from stream_json(fleet_json(
+                    own, now_s=time.time(), parameter_sets=parameter_sets,
+                    robot=robot or None, state=state, cache=cache,
+                    reescalation_margin=margin, forecast_horizon_s=horizon, stream=True,
+                    zone=zone))
+
+        return StreamingResponse(every_row(), media_type='application/json',
+                                 headers={'ETag': tag})
+    payload = fleet_json(history, now_s=time.time(), parameter_sets=parameter_sets,
+                         robot=robot or None, state=state, cache=cache, page=page,
+                         limit=limit, reescalation_margin=margin, forecast_horizon_s=horizon,
+                         source='api', zone=zone)
     return json_with_etag(request, payload)
+
+
+@router.get('/robots', summary='The robots whose name holds a text (the robot search)',
+            response_model=RobotChoicesJson)
+def api_robots(history: HistoryDep,
+               search: str = Query('', max_length=200, description='a part of the name '
+                                   '(case-insensitive; the names that start with it first)'),
+               limit: int = Query(ROBOT_CHOICES, ge=1, le=1000, description='at most so many')
+               ) -> dict[str, Any]:
+    """Return ``robots`` (sorted, prefix matches first) and ``more`` (some were left out)."""
+    return robot_choices(history, search=search, limit=limit)
 
 
 @router.get('/robots/{robot}/joints/{joint}', summary="One joint's wear story",

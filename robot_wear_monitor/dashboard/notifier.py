@@ -30,28 +30,34 @@ def load_config(path: str) -> Any:
 
 
 def notify_pass(*, location: str, config: Any, parameter_sets: Any = None,
-                zone: Any = None) -> int:
+                zone: Any = None, marks: Any = None) -> int:
     """
     Run one notification pass on the history at ``location``; return the notices sent.
 
     ``parameter_sets``: the dashboard's (``--params``), for the rows without a stored threshold;
     ``zone``: its ``display_timezone``'s, for the texts' times.
+    ``marks``: the loop's :class:`~robot_wear_monitor.fleet.notify_marks.PassMarks` (a pass
+    reads what changed since the last one; None: every joint).
     """
     # deferred import: start-up time (fleet.notifications: only when notifying)
     from robot_wear_monitor.fleet.notifications import notify_once
     with open_history(location, init=False) as history:
         sent = notify_once(history=history, config=config, now_s=time.time(),
-                           parameter_sets=parameter_sets, zone=zone)
+                           parameter_sets=parameter_sets, zone=zone, marks=marks)
     return len(sent)
 
 
 async def notification_loop(*, location: str, config: Any, interval_s: float,
                             parameter_sets: Any = None, zone: Any = None) -> None:
-    """Run a notification pass every ``interval_s`` [s] until cancelled."""
+    """Run a notification pass every ``interval_s`` [s] until cancelled (reading changes)."""
+    # deferred import: start-up time (fleet.notify_marks: only when notifying)
+    from robot_wear_monitor.fleet.notify_marks import PassMarks
+    marks = PassMarks()  # the first pass reads every joint, the next what changed since
     while True:
         try:
             count = await asyncio.to_thread(notify_pass, location=location, config=config,
-                                            parameter_sets=parameter_sets, zone=zone)
+                                            parameter_sets=parameter_sets, zone=zone,
+                                            marks=marks)
             if count:
                 LOGGER.info('notifications: %d sent', count)
         except asyncio.CancelledError:

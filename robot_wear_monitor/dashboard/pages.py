@@ -27,14 +27,15 @@ from robot_wear_monitor.dashboard.auth import (client_address, csrf_token, curre
 from robot_wear_monitor.dashboard.deps import (check_csrf, FleetCacheDep, get_display_zone,
                                                get_settings, get_templates, HistoryDep,
                                                LimiterDep, MaintainerUser, ParameterSetsDep)
+from robot_wear_monitor.dashboard.fleet_page import fleet_json, page_links
 from robot_wear_monitor.dashboard.guards import public_message
 from robot_wear_monitor.dashboard.planned_dates import checked_date
 from robot_wear_monitor.dashboard.views import (ALARM_CSV_COLUMNS, alarm_log, event_json,
-                                                fleet_json, fleet_row_html, forecast_horizon_s,
-                                                joint_json, joint_url, MAX_PAGE_ROWS,
-                                                page_links, PAGE_ROWS, reescalation_margin,
-                                                STATES)
+                                                fleet_row_html, forecast_horizon_s, joint_json,
+                                                joint_url, MAX_PAGE_ROWS, PAGE_ROWS,
+                                                reescalation_margin)
 from robot_wear_monitor.display_time import time_zone
+from robot_wear_monitor.fleet.states import STATES
 from robot_wear_monitor.history import HistoryError
 from robot_wear_monitor.history.users import ACTING_ROLES
 from starlette.responses import HTMLResponse, RedirectResponse, Response

@@ -137,7 +137,9 @@ class FleetJson(_Shape):
 
     counts: dict[str, int] = Field(description='joints per state, of the whole fleet')
     joints: int = Field(description='joints of the whole fleet')
-    robots: list[str]
+    robots: list[str] = Field(description='the robots of the rows sent (every robot when every '
+                                          'row is sent; streamed: written after the rows)')
+    robot_count: int = Field(description='robots of the whole fleet')
     robot: Optional[str] = Field(description='the robot filter (null: all)')
     state: Optional[str] = Field(description='the state filter (null: all)')
     rows: list[FleetRowJson] = Field(description='the rows that pass the filters (one page '
@@ -148,6 +150,14 @@ class FleetJson(_Shape):
     limit: Optional[int] = Field(description='rows per page (null: not paged, every row)')
     first: int = Field(description='the position of the first row sent among the filtered '
                                    'rows, from 1 (0: none sent)')
+
+
+class RobotChoicesJson(_Shape):
+    """The robot search: the robots whose name holds a text, those that start with it first."""
+
+    search: str = Field(description='the text searched (case-insensitive)')
+    robots: list[str] = Field(description='the robots found, at most the limit')
+    more: bool = Field(description='more robots hold the text than were sent')
 
 
 class AlarmEventJson(_Shape):

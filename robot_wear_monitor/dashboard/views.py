@@ -17,15 +17,14 @@ import re
 import threading
 import time
 from typing import Any, Optional, Sequence
-from urllib.parse import quote, urlencode
+from urllib.parse import quote
 
 from markupsafe import escape, Markup
 import numpy as np
 from robot_wear_monitor.display_time import Zone
 from robot_wear_monitor.fleet.ranking import (crossing_text, DEFAULT_REESCALATION_MARGIN,
                                               fleet_view, FleetView, plural, threshold_text)
-from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
-from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
+from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS
 from robot_wear_monitor.fleet.thresholds import ParameterSets, threshold_words
 from robot_wear_monitor.history.alarms import event_time_s, note_text
 from robot_wear_monitor.json_values import finite_or_none
@@ -382,83 +381,6 @@ def fleet_row_json(view: FleetView, *, zone: Zone = None) -> dict[str, Any]:
     return row
 
 
-def fleet_json(history: Any, *, now_s: float, parameter_sets: ParameterSets,
-               robot: Optional[str] = None, state: Optional[str] = None,
-               cache: Optional[FleetCache] = None, page: Optional[int] = None,
-               limit: Optional[int] = None,
-               reescalation_margin: float = DEFAULT_REESCALATION_MARGIN,
-               forecast_horizon_s: float = DEFAULT_FORECAST_HORIZON_DAYS * DAY_S,
-               source: str = '', zone: Zone = None) -> dict[str, Any]:
-    """
-    Return the fleet worst first, the counts per state and the robots, as one dict.
-
-    ``robot`` and ``state`` filter the rows (the counts are those of the whole fleet);
-    ``cache``: the fleet rows of an unchanged history are not read again.  ``page`` (from 1)
-    and ``limit`` (rows per page) give one page of the filtered rows (a page past the last is
-    the last); without both, every row.  ``total`` counts the filtered rows, ``pages`` their
-    pages.  Only the rows sent are made into JSON.  ``reescalation_margin``: see
-    :func:`~robot_wear_monitor.fleet.ranking.fleet_view`.  ``source`` ('web', 'api'): log
-    each re-escalation not yet in the alarm log, with it (:mod:`~robot_wear_monitor.fleet.
-    reescalation_log`); '' logs nothing.  ``zone``: of the rows' texts (None: UTC).
-    """
-    views = fleet_view(cache.rows(history) if cache is not None else history.fleet(),
-                       now_s=now_s, reescalation_margin=reescalation_margin,
-                       forecast_horizon_s=forecast_horizon_s,
-                       parameter_sets=parameter_sets)
-    if source:  # the audit trail: a re-escalation this request is the first to see, once
-        try_log_reescalations(history, views, source=source)
-    make = cache.row_json if cache is not None else fleet_row_json
-    states = [row_state(v) for v in views]
-    counts = dict.fromkeys(STATES, 0)
-    for name in states:
-        counts[name] += 1
-    robots = sorted({v.state.robot for v in views})
-    chosen = [v for v, name in zip(views, states) if (robot is None or v.state.robot == robot)
-              and (state is None or name == state)]
-    total = len(chosen)
-    pages, first = 1, 0
-    if page is not None or limit is not None:
-        limit = max(1, limit if limit is not None else PAGE_ROWS)
-        pages = max(1, -(-total // limit))
-        page = min(max(1, page if page is not None else 1), pages)
-        first = (page - 1) * limit
-        chosen = chosen[first:first + limit]
-    rows = [make(v, zone=zone) for v in chosen]
-    return {'counts': counts, 'joints': len(views), 'robots': robots,
-            'robot': robot, 'state': state, 'rows': rows, 'total': total,
-            'page': page if limit is not None else 1, 'pages': pages, 'limit': limit,
-            'first': first + 1 if rows else 0}
-
-
-def fleet_page_url(fleet: dict[str, Any], page: int) -> str:
-    """Return the fleet page's address of ``page``, with the fleet's filters and page size."""
-    query = {'robot': fleet['robot'], 'state': fleet['state'], 'page': page,
-             'limit': fleet['limit'] if fleet['limit'] != PAGE_ROWS else None}
-    return '/?' + urlencode({k: v for k, v in query.items() if v is not None})
-
-
-def page_links(fleet: dict[str, Any]) -> list[dict[str, Any]]:
-    """
-    Return the links of the fleet page's pager: previous, the pages near, first, last, next.
-
-    Each: ``text``, ``url`` (None: not a link, the page shown or a gap), ``rel``.
-    """
-    page, pages = fleet['page'], fleet['pages']
-    if pages <= 1:
-        return []
-    near = sorted({1, pages, *range(max(1, page - 2), min(pages, page + 2) + 1)})
-    links = [{'text': '\u2039 previous', 'url': fleet_page_url(fleet, page - 1)
-              if page > 1 else None, 'rel': 'prev'}]
-    for index, number in enumerate(near):
-        if index and number > near[index - 1] + 1:
-            links.append({'text': '\u2026', 'url': None, 'rel': 'gap'})
-        links.append({'text': str(number), 'rel': 'current' if number == page else 'page',
-                      'url': None if number == page else fleet_page_url(fleet, number)})
-    links.append({'text': 'next \u203a', 'url': fleet_page_url(fleet, page + 1)
-                  if page < pages else None, 'rel': 'next'})
-    return links
-
-
 def event_json(event: Any, *, zone: Zone = None) -> dict[str, Any]:
     """
     Return one alarm event (raised, reset, an acknowledgement, its edit or withdrawal).
@@ -622,7 +544,9 @@ def joint_json(history: Any, *, robot: str, joint: str, now_s: float,
     if not records:
         return None
     params, note = parameter_sets.resolve(records[-1].parameter_set)
-    state = next((v for v in fleet_view(history.fleet(robot=robot), now_s=now_s,
+    rows = (history.fleet_index().rows([(robot, joint)]) if hasattr(history, 'fleet_index')
+            else history.fleet(robot=robot))
+    state = next((v for v in fleet_view(rows, now_s=now_s,
                                         reescalation_margin=reescalation_margin,
                                         forecast_horizon_s=forecast_horizon_s,
                                         parameter_sets=parameter_sets)

@@ -77,6 +77,7 @@ from robot_wear_monitor.fleet.notify_channels import (
 from robot_wear_monitor.fleet.notify_config import (
     EmailConfig, EVENTS, load_notification_config, NotificationConfig,
     NotificationConfigError, RetryPolicy, WebhookConfig)
+from robot_wear_monitor.fleet.notify_marks import advance, joints_to_read, PassMarks
 from robot_wear_monitor.fleet.ranking import fleet_view, FleetView, STALE_FACTOR, threshold_text
 from robot_wear_monitor.fleet.reescalation_log import try_log_reescalations
 from robot_wear_monitor.fleet.thresholds import ParameterSets
@@ -189,7 +190,8 @@ def _where(robot: str, joint: str) -> str:
 
 def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float,
                parameter_sets: Optional[ParameterSets] = None,
-               sent: Optional[dict[str, str]] = None, zone: Zone = None) -> list[DueEvent]:
+               sent: Optional[dict[str, str]] = None, zone: Zone = None,
+               joints: Optional[set[tuple[str, str]]] = None) -> list[DueEvent]:
     """
     Return the events due at ``now_s`` [s since the epoch] that the configuration names.
 
@@ -200,12 +202,15 @@ def due_events(*, history: WearHistory, config: NotificationConfig, now_s: float
     of the firing events sent before (key -> kind, from the history's log): each whose cause
     has ended (its key no longer active) is due as its ``resolved`` event (``RESOLVES``).
     ``zone``: the texts' times in the plant's ``display_timezone`` (None: UTC; keys stay UTC).
+    ``joints``: read only these (robot, joint) (:mod:`~robot_wear_monitor.fleet.notify_marks`;
+    the alerts of the others are left as they are); None: every joint.
     """
     events: list[DueEvent] = []
     #: keys whose cause holds now, sent or not, notified now or held back by an acknowledgement
     active: set[str] = set()
     views_by_joint: dict[tuple[str, str], FleetView] = {}
-    views = fleet_view(history.fleet(), now_s=now_s,
+    rows = history.fleet() if joints is None else history.fleet_index().rows(sorted(joints))
+    views = fleet_view(rows, now_s=now_s,
                        reescalation_margin=config.reescalation_margin,
                        parameter_sets=parameter_sets,
                        forecast_horizon_s=config.forecast_horizon_s)
@@ -367,7 +372,8 @@ def _send(event: DueEvent, channel: str, config: NotificationConfig,
 def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: float,
                 sleep: Callable[[float], None] = time.sleep,
                 parameter_sets: Optional[ParameterSets] = None,
-                zone: Zone = None) -> list[SentNotification]:
+                zone: Zone = None,
+                marks: Optional[PassMarks] = None) -> list[SentNotification]:
     """
     Send what is due at ``now_s`` [s since the epoch], once per event and channel.
 
@@ -376,15 +382,22 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
     and tried again on later passes (see the module's text).  Raises
     :class:`~robot_wear_monitor.history.HistoryError` when the history cannot be
     read or written; a channel that fails never raises.  ``parameter_sets``, ``zone``: see
-    :func:`due_events`.
+    :func:`due_events`.  ``marks``: a notifier's marks of its last pass (kept across its
+    passes): this pass reads only the joints that changed or that the clock moved since
+    (:mod:`~robot_wear_monitor.fleet.notify_marks`); None: every joint.
     """
     rows = history.notifications()
     log = _settled_log(rows, wall_s=time.time())
     fired = {_base_key(key): str(row['kind']) for row in rows
              if '@' in (key := str(row['event_key']))}
+    joints, after = (None, (0, 0)) if marks is None else joints_to_read(
+        history, marks, now_s=now_s, horizon_s=config.forecast_horizon_s, log_rows=rows)
     events = due_events(history=history, config=config, now_s=now_s,
-                        parameter_sets=parameter_sets, sent=fired, zone=zone)
+                        parameter_sets=parameter_sets, sent=fired, zone=zone,
+                        joints=joints)
     if not events:
+        if marks is not None:
+            advance(marks, after, now_s=now_s)
         return []
     failed_channels: set[str] = set()
     sent: list[SentNotification] = []
@@ -430,6 +443,8 @@ def notify_once(*, history: WearHistory, config: NotificationConfig, now_s: floa
                 joint=event.joint, channel=channel, summary=event.summary,
                 delivered=result.delivered, attempts=result.attempts, pass_number=number,
                 error=result.error, passes=config.retry.passes))
+    if marks is not None:  # the pass went through: the next reads what changed after it
+        advance(marks, after, now_s=now_s)
     return sent
 
 
@@ -517,11 +532,12 @@ def notify_forever(*, location: str, config: NotificationConfig, interval_s: flo
 
     def wait(seconds: float) -> None:
         stop.wait(seconds)
+    marks = PassMarks()  # the first pass reads every joint, the next what changed since
     while not stop.is_set():
         try:
             with open_history(location, init=False) as history:
                 report(notify_once(history=history, config=config, now_s=clock(),
-                                   sleep=wait, zone=zone))
+                                   sleep=wait, zone=zone, marks=marks))
         except HistoryError as error:
             on_error(error)
         stop.wait(interval_s)

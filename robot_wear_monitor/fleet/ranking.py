@@ -35,12 +35,11 @@ from robot_wear_monitor.fleet.states import (crossing_overdue, DAY_S,
                                              DEFAULT_FORECAST_HORIZON_DAYS, joint_state)
 from robot_wear_monitor.fleet.thresholds import judged_levels, ParameterSets, threshold_words
 from robot_wear_monitor.history import FleetRow
+from robot_wear_monitor.history.fleet_index import STALE_FACTOR  # noqa: F401 - its name here
 from robot_wear_monitor.history.recent import RECENT_INTERVALS
 from robot_wear_monitor.json_values import finite_or_none
 from robot_wear_monitor.text import iso_time, shown_time
 
-#: A joint is stale after this many of its usual experiment intervals without an experiment.
-STALE_FACTOR = 3.0
 #: An acknowledged alarm is re-escalated when its wear rises this much past its value at the
 #: acknowledgement [wear units, w 0..100]: the notification configuration's declared default.
 DEFAULT_REESCALATION_MARGIN = NOTIFY_REESCALATION_MARGIN

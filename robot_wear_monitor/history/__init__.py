@@ -21,9 +21,10 @@ them).
 
 Modules: ``records`` (the row types), ``migrations`` (the layout per version and backend),
 ``backends`` (SQLite and PostgreSQL connections), ``store`` (:class:`WearHistory`),
-``alarms`` (acknowledge, reset, the fleet's alarm log), ``users`` (dashboard users, argon2
-hashes), ``sessions`` (the dashboard's sessions), ``tokens`` (API tokens), ``account_audit`` (the
-changes of accounts),
+``alarms`` (acknowledge, reset, the fleet's alarm log), ``fleet_rows`` (the fleet's rows
+read), ``fleet_index`` (the ranking keys kept per joint, version 12: a page of the fleet by
+index), ``users`` (dashboard users, argon2 hashes), ``sessions`` (the dashboard's
+sessions), ``tokens`` (API tokens), ``account_audit`` (the changes of accounts),
 ``notifications_store`` (each notification event once), ``login_failures`` (the login rate
 limit's counts), ``levels_csv`` (export for ``audit``).
 """

@@ -28,18 +28,16 @@ import re
 import time
 from typing import Any, Optional, Sequence
 
+from robot_wear_monitor.history import fleet_index
 from robot_wear_monitor.history.backends import HistoryBackend, lock_key
-from robot_wear_monitor.history.records import (
-    ACKNOWLEDGEMENT_EVENTS, ALARM_EVENT_KINDS, AlarmEvent, EVENT_SOURCES, HistoryError)
+from robot_wear_monitor.history.records import (  # noqa: F401 - the SQL handed on
+    ACKNOWLEDGEMENT_SQL, ALARM_EVENT_KINDS, AlarmEvent, EVENT_SOURCES, HistoryError,
+    LATCH_EVENTS)
 from robot_wear_monitor.json_values import finite_or_none
 
 #: The columns of an alarm event, in the order of :func:`event_from_row`.
 EVENT_COLUMNS = ('id, robot, joint, stamp_s, wall_time_s, event, wear, note, estimate_id, '
                  'user_name, owner, planned_maintenance, work_order, source, changes')
-#: The events of a person on an acknowledgement, as SQL.
-ACKNOWLEDGEMENT_SQL = 'event IN (' + ', '.join(f"'{e}'" for e in ACKNOWLEDGEMENT_EVENTS) + ')'
-#: The events that set the latch (acknowledgements do not).
-LATCH_EVENTS = "event IN ('raised', 'reset')"
 #: Longest note (a reason, a comment) [characters].
 MAX_NOTE_CHARS = 2000
 #: Longest user or owner name [characters].
@@ -70,9 +68,14 @@ def event_from_row(row: Sequence[Any]) -> AlarmEvent:
 
 
 def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, joint: str,
-                 estimate_id: Optional[int], wall_time_s: Optional[float] = None
-                 ) -> AlarmEvent:
-    """Store ``event`` of (robot, joint) in the open transaction; return it as stored."""
+                 estimate_id: Optional[int], wall_time_s: Optional[float] = None,
+                 refresh: bool = True) -> AlarmEvent:
+    """
+    Store ``event`` of (robot, joint) in the open transaction; return it as stored.
+
+    ``refresh``: store the joint's new ranking keys too (:func:`fleet_index.refresh`; False:
+    the caller does, once for an estimate and its events).
+    """
     if event.event not in ALARM_EVENT_KINDS:
         raise HistoryError(f'{backend.name}: alarm event must be one of '
                            f'{", ".join(ALARM_EVENT_KINDS)}, got {str(event.event)[:80]!r}')
@@ -87,6 +90,8 @@ def insert_event(backend: HistoryBackend, event: AlarmEvent, *, robot: str, join
         'INSERT INTO alarm_events (robot, joint, stamp_s, wall_time_s, event, wear, '
         'estimate_id, note, user_name, owner, planned_maintenance, work_order, source, '
         'changes) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id', values)
+    if refresh:
+        fleet_index.refresh(backend, robot=robot, joint=joint)
     return AlarmEvent(id=int(rows[0][0]), robot=robot, joint=joint, stamp_s=values[2],
                       wall_time_s=now, event=event.event, wear=values[5], note=values[7],
                       estimate_id=estimate_id, user=values[8], owner=values[9],

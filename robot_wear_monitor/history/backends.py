@@ -79,6 +79,9 @@ class HistoryBackend(Protocol):
     def execute(self, sql: str, params: SqlParams = ()) -> list[tuple[Any, ...]]:
         """Run one statement (``?`` placeholders); return its rows (empty when none)."""
 
+    def executemany(self, sql: str, rows: Sequence[SqlParams]) -> None:
+        """Run one statement once per row of values (a batch)."""
+
     def transaction(self) -> AbstractContextManager[None]:
         """Return a context that runs its block as one write transaction."""
 
@@ -266,6 +269,10 @@ class SqliteBackend:
         """Run one statement; return its rows (empty for statements without rows)."""
         return self.conn.execute(sql, params).fetchall()
 
+    def executemany(self, sql: str, rows: Sequence[SqlParams]) -> None:
+        """Run one statement once per row of values (a batch)."""
+        self.conn.executemany(sql, rows)
+
     @contextmanager
     def transaction(self) -> Iterator[None]:
         """Run the block as one write transaction, begun IMMEDIATE."""
@@ -368,6 +375,11 @@ class PostgresqlBackend:
         """Run one statement (``?`` placeholders); return its rows."""
         cursor = self.conn.execute(sql.replace('?', '%s'), params or None)
         return cursor.fetchall() if cursor.description is not None else []
+
+    def executemany(self, sql: str, rows: Sequence[SqlParams]) -> None:
+        """Run one statement once per row of values (a batch, pipelined)."""
+        with self.conn.cursor() as cursor:
+            cursor.executemany(sql.replace('?', '%s'), rows)
 
     @contextmanager
     def transaction(self) -> Iterator[None]:

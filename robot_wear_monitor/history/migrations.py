@@ -35,7 +35,11 @@ ros; '' for the monitor's raises and old rows) and ``changes`` (what an edit cha
 otherwise).  Version 10: ``account_audit`` (every change of a dashboard account: when,
 who, from where, what, whom; never a secret).  Version 11: the alarm event kind
 ``reescalated`` (an acknowledged alarm back on top, logged once with its source).
-Version 12: (issue 46's fleet ranking keys; an empty step on this branch).  Version 13
+Version 12 (a fleet page that does not read the fleet): ``joint_summary`` keeps each joint's
+ranking key and the stable parts of its state, with the times the clock is compared with
+(stale, crossing, planned date), indexed; every append and alarm event keeps them, and the
+migration fills them for the existing joints (``fleet_index.py``, run by the store after
+these steps); ``fleet_robots`` lists the robots (the robot search and count).  Version 13
 (the dashboard on several workers): ``login_failures`` (the login rate limit's counted
 attempts, per client address and per user name from an address, shared by every worker);
 ``notifications.pending_until_s`` (the lease of a claimed send until it is settled: NULL once
@@ -52,7 +56,7 @@ SCHEMA_VERSION = 13
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
           'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit',
-          'login_failures')
+          'login_failures', 'fleet_robots')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -318,6 +322,46 @@ _LOGIN_FAILURES = (
     'CREATE INDEX login_failures_time ON login_failures (time_s)',
     'ALTER TABLE notifications ADD COLUMN pending_until_s DOUBLE PRECISION',
 )
+#: Version 12: the ranking keys of each joint in ``joint_summary`` (``fleet_index.KEY_COLUMNS``:
+#: filled by ``fleet_index.rebuild`` after the steps) and their indexes.
+_V12_COLUMNS = (
+    'ALTER TABLE joint_summary ADD COLUMN rank_tier INTEGER NOT NULL DEFAULT 3',
+    'ALTER TABLE joint_summary ADD COLUMN rank_crossing DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN rank_high DOUBLE PRECISION',
+    "ALTER TABLE joint_summary ADD COLUMN state_base TEXT NOT NULL DEFAULT 'judged'",
+    'ALTER TABLE joint_summary ADD COLUMN stale_since_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN usual_interval_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN stale_at_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN crossing_at_s DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN warn_fixed INTEGER NOT NULL DEFAULT 0',
+    'ALTER TABLE joint_summary ADD COLUMN wear_top DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN warning_level DOUBLE PRECISION',
+    "ALTER TABLE joint_summary ADD COLUMN parameter_set TEXT NOT NULL DEFAULT ''",
+    'ALTER TABLE joint_summary ADD COLUMN ack_then DOUBLE PRECISION',
+    'ALTER TABLE joint_summary ADD COLUMN ack_now DOUBLE PRECISION',
+    "ALTER TABLE joint_summary ADD COLUMN planned_date TEXT NOT NULL DEFAULT ''",
+    'ALTER TABLE joint_summary ADD COLUMN ack_rise DOUBLE PRECISION',
+    'CREATE INDEX joint_summary_stale ON joint_summary (stale_at_s)',
+    'CREATE INDEX joint_summary_crossing ON joint_summary (crossing_at_s)',
+    'CREATE INDEX joint_summary_last ON joint_summary (last_id)',
+    'CREATE INDEX joint_summary_assumed ON joint_summary (warning_level, parameter_set)',
+    'CREATE INDEX joint_summary_rise ON joint_summary (ack_rise)',
+    'CREATE INDEX joint_summary_near ON joint_summary (state_base, warn_fixed, crossing_at_s, '
+    'stale_at_s, warning_level, wear_top, parameter_set)',
+    'CREATE INDEX joint_summary_planned ON joint_summary (planned_date)',
+    'CREATE TABLE fleet_robots (robot TEXT PRIMARY KEY)',
+)
+#: The fleet's order (``FleetRow.rank_key``); PostgreSQL orders names by code point as Python.
+_SQLITE_V12 = _V12_COLUMNS + (
+    'CREATE INDEX joint_summary_rank ON joint_summary (rank_tier, rank_crossing, rank_high, '
+    'robot, joint)',
+    'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed, rank_tier, '
+    'rank_crossing, rank_high, robot, joint)')
+_POSTGRESQL_V12 = _V12_COLUMNS + (
+    'CREATE INDEX joint_summary_rank ON joint_summary (rank_tier, rank_crossing, rank_high, '
+    'robot COLLATE "C", joint COLLATE "C")',
+    'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed, rank_tier, '
+    'rank_crossing, rank_high, robot COLLATE "C", joint COLLATE "C")')
 
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
@@ -327,7 +371,7 @@ SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
                                                       _ACCOUNT_AUDIT[1]),
-                                                 11: _SQLITE_V11, 12: (),
+                                                 11: _SQLITE_V11, 12: _SQLITE_V12,
                                                  13: (_LOGIN_FAILURES[0].format(
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
@@ -428,7 +472,7 @@ POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),
                                                           _ACCOUNT_AUDIT[1]),
-                                                     11: _POSTGRESQL_V11, 12: (),
+                                                     11: _POSTGRESQL_V11, 12: _POSTGRESQL_V12,
                                                      13: (_LOGIN_FAILURES[0].format(
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),

@@ -89,6 +89,10 @@ ACKNOWLEDGEMENT_EVENTS = ('acknowledged', 'acknowledgement_edited', 'acknowledge
 #: The kinds of alarm events: the latch is the last 'raised' or 'reset' (the
 #: :data:`ACKNOWLEDGEMENT_EVENTS` are remarks on a raised alarm: they never unlatch it).
 ALARM_EVENT_KINDS = ('raised', 'reset', *ACKNOWLEDGEMENT_EVENTS, 'reescalated')
+#: The events of a person on an acknowledgement, as SQL.
+ACKNOWLEDGEMENT_SQL = 'event IN (' + ', '.join(f"'{e}'" for e in ACKNOWLEDGEMENT_EVENTS) + ')'
+#: The events that set the latch (acknowledgements do not), as SQL.
+LATCH_EVENTS = "event IN ('raised', 'reset')"
 #: Schema version 11: an acknowledged alarm back on top (its wear rose past the margin, or its
 #: planned date passed), logged once per acknowledgement and reason by whoever saw it first;
 #: a remark like the acknowledgement's: it never unlatches nor acknowledges the alarm.

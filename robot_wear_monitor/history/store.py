@@ -13,14 +13,13 @@ history, leaving it untouched.
 from __future__ import annotations
 
 from contextlib import contextmanager
-from dataclasses import replace
 import json
 import math
 import os
 import time
 from typing import Any, Iterator, Optional, Sequence
 
-from robot_wear_monitor.history import alarms, notifications_store, recent
+from robot_wear_monitor.history import alarms, fleet_index, fleet_rows, notifications_store
 from robot_wear_monitor.history import sessions as dashboard_sessions
 from robot_wear_monitor.history import tokens as api_tokens
 from robot_wear_monitor.history import users as user_accounts
@@ -29,12 +28,13 @@ from robot_wear_monitor.history.alarms import EVENT_COLUMNS, event_from_row
 from robot_wear_monitor.history.backends import (
     HistoryBackend, is_postgresql_url, lock_key, not_ours_message, PostgresqlBackend,
     SqliteBackend)
+from robot_wear_monitor.history.fleet_index import FleetIndex
 from robot_wear_monitor.history.login_failures import LoginFailures
 from robot_wear_monitor.history.migrations import (
     JOINT_SUMMARY_ADD, SCHEMA_VERSION, TABLES)
 from robot_wear_monitor.history.records import (
     AlarmEvent, DEFAULT_ROBOT, FleetRow, HistoryError, HistoryRecord, INTERVAL_COLUMNS,
-    LatchMoved, RestoredState)
+    LATCH_EVENTS, LatchMoved, RestoredState)
 from robot_wear_monitor.json_values import finite_or_none
 
 _RECORD_COLUMNS = ('id', 'robot', 'joint', 'stamp_s', 'speeds_rad_s', 'frictions',
@@ -154,6 +154,8 @@ class WearHistory:
                             'schema_version' in tables:
                         continue  # a new SQLite file comes with it (see backends.py)
                     backend.execute(step, {'robot': self.robot} if ':robot' in step else ())
+            if version < 12:  # the ranking keys of the existing joints (schema version 12)
+                fleet_index.rebuild(backend)
             if backend.execute('SELECT version FROM schema_version'):
                 backend.execute('UPDATE schema_version SET version = ?', (SCHEMA_VERSION,))
             else:
@@ -171,6 +173,8 @@ class WearHistory:
             return 0  # a new history, or the start of one another process makes
         # a history of the first releases, whose writer died before it stored its version
         columns = self._backend.columns('estimates')
+        if 'rank_tier' in self._backend.columns('joint_summary'):
+            return 12
         if 'account_audit' in tables:
             return 10
         if 'source' in self._backend.columns('alarm_events'):
@@ -240,7 +244,7 @@ class WearHistory:
                 self._backend.lock_in_transaction(alarms.action_lock(robot, joint))
                 stored = self._backend.execute(
                     'SELECT MAX(id) FROM alarm_events WHERE robot = ? AND joint = ? AND '
-                    f'{alarms.LATCH_EVENTS}', (robot, joint))
+                    f'{LATCH_EVENTS}', (robot, joint))
                 if (stored[0][0] if stored else None) != latch_id:
                     raise LatchMoved(f'{self.path}: the latch of robot {robot[:80]!r} joint '
                                      f'{joint[:80]!r} changed (a reset stored meanwhile)')
@@ -256,7 +260,8 @@ class WearHistory:
             self._backend.execute(JOINT_SUMMARY_ADD, (robot, joint, estimate_id,
                                                       float(record.stamp_s)))
             for event in events:
-                self._insert_event(event, estimate_id)
+                self._insert_event(event, estimate_id, refresh=False)
+            fleet_index.refresh(self._backend, robot=robot, joint=joint)
         return estimate_id
 
     def record_event(self, event: AlarmEvent) -> AlarmEvent:
@@ -269,10 +274,11 @@ class WearHistory:
         with self._guard('cannot store the alarm event'), self._backend.transaction():
             return self._insert_event(event, event.estimate_id)
 
-    def _insert_event(self, event: AlarmEvent, estimate_id: Optional[int]) -> AlarmEvent:
+    def _insert_event(self, event: AlarmEvent, estimate_id: Optional[int], *,
+                      refresh: bool = True) -> AlarmEvent:
         return alarms.insert_event(self._backend, event, robot=self._robot(event.robot),
                                    joint=_check_name('joint', event.joint),
-                                   estimate_id=estimate_id)
+                                   estimate_id=estimate_id, refresh=refresh)
 
     def acknowledge_alarm(self, *, joint: str, robot: Optional[str] = None, user: str,
                           owner: str, comment: str, planned_maintenance: str = '',
@@ -663,114 +669,16 @@ class WearHistory:
         """
         Return the latest state of every robot's joint, worst first (:meth:`FleetRow.rank_key`).
 
-        ``robot`` keeps one robot's joints (all robots when None).  Four queries whatever the
-        fleet's size: the latest estimate and the count per (robot, joint) (``joint_summary``:
-        one row per joint, not a scan of the estimates), the last raise or reset per (robot,
-        joint) (the latch), the last acknowledgement per (robot, joint) and, for the joints
-        whose latch is a reset, the estimates of the new life (those after the estimate the
-        reset is tied to, :func:`~robot_wear_monitor.history.alarms.reset_alarm`): a joint reset
-        after maintenance shows its new life only (see :class:`FleetRow`).
+        ``robot`` keeps one robot's joints (all robots when None); see
+        :func:`~robot_wear_monitor.history.fleet_rows.read_fleet`.
         """
-        where, params = ('WHERE robot = ? ', (_check_name('robot', robot),)) \
-            if robot is not None else ('', ())
-        event_where = 'AND robot = ? ' if robot is not None else ''
-        last_latch = (f'(SELECT MAX(id) AS last_id FROM alarm_events WHERE {alarms.LATCH_EVENTS} '
-                      + event_where + 'GROUP BY robot, joint) l ON a.id = l.last_id')
         with self._guard('cannot read the wear history'):
-            latest = self._backend.execute(
-                'SELECT e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, '
-                'e.wall_time_s, e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, '
-                'e.trend_low, e.trend_high, e.crossing_experiments, e.crossing_time_s, '
-                'e.alarm_evidence, e.status_level, e.parameter_set, e.invalid_reason, e.id, '
-                'e.threshold, e.warning_level '
-                'FROM joint_summary s JOIN estimates e ON e.id = s.last_id '
-                + where.replace('robot', 's.robot'), params)
-            latches = self._backend.execute(
-                'SELECT a.robot, a.joint, a.event, a.stamp_s, a.id, a.estimate_id, '
-                'a.user_name, a.note, a.wall_time_s FROM alarm_events a JOIN ' + last_latch,
-                params)
-            acknowledgements = self._backend.execute(
-                'SELECT a.robot, a.joint, a.id, a.user_name, a.wall_time_s, '
-                'a.planned_maintenance, a.wear, t.trend_wear, a.event FROM alarm_events a JOIN '
-                '(SELECT MAX(id) AS last_id '
-                f'FROM alarm_events WHERE {alarms.ACKNOWLEDGEMENT_SQL} ' + event_where
-                + 'GROUP BY robot, joint) l ON a.id = l.last_id '
-                'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
-            # the acknowledgement itself (not an edit): the baseline of the re-escalation
-            baselines = self._backend.execute(
-                'SELECT a.robot, a.joint, a.id, a.wall_time_s, a.wear, t.trend_wear, '
-                'a.user_name FROM alarm_events a JOIN (SELECT MAX(id) AS last_id '
-                'FROM alarm_events '
-                "WHERE event = 'acknowledged' " + event_where
-                + 'GROUP BY robot, joint) l ON a.id = l.last_id '
-                'LEFT JOIN estimates t ON t.id = a.estimate_id', params)
-            lives = self._backend.execute(
-                'SELECT a.robot, a.joint, COUNT(e.id) FROM alarm_events a JOIN ' + last_latch
-                + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
-                "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
-                'GROUP BY a.robot, a.joint', params)
-            stamps = recent.recent_stamps(self._backend, robot=params[0] if params else None)
-        last_event = {(r[0], r[1]): r[2:] for r in latches}
-        last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
-        baseline = {(r[0], r[1]): r[2:] for r in baselines}
-        life_experiments = {(r[0], r[1]): int(r[2]) for r in lives}
-        rows = [replace(_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
-                                   life_experiments.get((r[0], r[1]), 0),
-                                   baseline.get((r[0], r[1]))),
-                        recent_stamps=stamps.get((r[0], r[1]), ())) for r in latest]
-        return sorted(rows, key=FleetRow.rank_key)
+            return fleet_rows.read_fleet(
+                self._backend, robot=None if robot is None else _check_name('robot', robot))
 
-
-def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[Sequence[Any]],
-               life_experiments: int, baseline: Optional[Sequence[Any]] = None) -> FleetRow:
-    """
-    Return the :class:`FleetRow` of a joint's latest estimate, latch and acknowledgement.
-
-    Who acknowledged, the planned date and the work order are the latest acknowledgement's or
-    edit's; the time, the wear and the trend at acknowledgement (the re-escalation's baseline)
-    are the acknowledgement's own (``baseline``): an edit does not move them.
-    """
-    event = latch[0] if latch is not None else ''
-    raised = event == 'raised'
-    # the last acknowledgement (or its edit) after the raise, unless it was withdrawn
-    acknowledged = raised and latch is not None and ack is not None and \
-        int(ack[0]) > latch[2] and ack[6] != 'acknowledgement_withdrawn'
-    if acknowledged and ack is not None and baseline is not None and latch is not None and \
-            int(ack[0]) >= int(baseline[0]) > latch[2]:
-        # who acknowledged first and when; the last editor apart (``edited_by``)
-        edited_by = ack[1] if ack[6] == 'acknowledgement_edited' else ''
-        ack = (ack[0], baseline[4], baseline[1], ack[3], baseline[2], baseline[3], ack[6],
-               edited_by)
-    row = FleetRow(
-        robot=r[0], joint=r[1], experiments=int(r[2]), first_stamp_s=float(r[3]),
-        last_stamp_s=float(r[4]), last_wall_time_s=float(r[5]), wear=float(r[6]),
-        wear_std=_nan_if_none(r[7]), wear_low=_nan_if_none(r[8]),
-        wear_high=_nan_if_none(r[9]), trend_wear=_nan_if_none(r[10]),
-        trend_low=_nan_if_none(r[11]), trend_high=_nan_if_none(r[12]),
-        crossing_experiments=_nan_if_none(r[13]), crossing_time_s=_nan_if_none(r[14]),
-        alarm=raised, alarm_since_stamp_s=float(latch[1]) if raised and latch else math.nan,
-        alarm_evidence=float(r[15]), status_level=int(r[16]), parameter_set=r[17],
-        invalid_reason=r[18] or '', acknowledged=acknowledged,
-        acknowledged_by=ack[1] if acknowledged and ack else '',
-        acknowledged_wall_time_s=float(ack[2]) if acknowledged and ack else math.nan,
-        planned_maintenance=ack[3] if acknowledged and ack else '',
-        acknowledged_wear=_nan_if_none(ack[4]) if acknowledged and ack else math.nan,
-        acknowledged_trend_wear=_nan_if_none(ack[5]) if acknowledged and ack else math.nan,
-        edited_by=ack[7] if acknowledged and ack and len(ack) > 7 else '',
-        threshold=_nan_if_none(r[20]), warning_level=_nan_if_none(r[21]))
-    if event != 'reset' or latch is None:
-        return row
-    # a reset: the joint's new life, from the estimate after the one the reset is tied to
-    row = replace(row, life_started_s=float(latch[1]), reset_by=latch[4] or '',
-                  reset_reason=latch[5] or '', total_experiments=int(r[2]),
-                  experiments=life_experiments)
-    if latch[3] is not None and int(r[19]) <= int(latch[3]):  # no experiment since the reset
-        row = replace(row, wear=math.nan, wear_std=math.nan, wear_low=math.nan,
-                      wear_high=math.nan, trend_wear=math.nan, trend_low=math.nan,
-                      trend_high=math.nan, crossing_experiments=math.nan,
-                      crossing_time_s=math.nan, alarm_evidence=0.0, status_level=0,
-                      invalid_reason='', experiments=0)
-    return row
+    def fleet_index(self) -> FleetIndex:
+        """Return the fleet's index (the stored ranking keys): pages, counts, robots, changes."""
+        return FleetIndex(self._backend, self._guard)
 
 
 def open_history(location: str | os.PathLike, *, robot: Optional[str] = None,

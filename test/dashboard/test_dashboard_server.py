@@ -169,7 +169,9 @@ def test_fleet_page_filters_by_robot_and_by_state(client, history):
         # only that robot's rows, all of them, in the order of the whole fleet
         assert rows == [row for row in everything if row[0] == robot], robot
         assert rows and _counts(html) == whole, robot  # the counts are the whole fleet's
-        assert f'<option value="{html_escape(robot)}" selected>' in html, robot
+        # the robot filter is a search box holding the robot (escaped), not a list of robots
+        assert f'list="robot-choices" value="{html_escape(robot)}"' in html, robot
+        assert '<option' not in html.split('id="robot-choices"')[1].split('</datalist>')[0]
     for state, count in whole.items():
         html = client.get('/', params={'state': state}).text
         rows = _fleet_rows(html)

@@ -81,7 +81,7 @@ function showFleet(fleet) {
   for (const node of document.querySelectorAll('#counts .count')) {
     setText(node, String(fleet.counts[node.dataset.state]));
   }
-  setText(document.getElementById('fleet-summary'), fleet.robots.length + ' robots, ' +
+  setText(document.getElementById('fleet-summary'), fleet.robot_count + ' robots, ' +
     fleet.joints + ' joints, worst first');
   const body = document.getElementById('fleet-rows');
   const old = new Map();
@@ -119,4 +119,37 @@ function showFleet(fleet) {
   }
   const url = config.api + (query.toString() ? '?' + query.toString() : '');
   poll(url, config.poll_ms, showFleet);
+})();
+
+// the robot filter is a search: the server suggests at most a few robots whose name holds
+// the text typed (GET /api/robots?search=), never the list of every robot
+(function () {
+  const input = document.getElementById('robot-filter');
+  const choices = document.getElementById('robot-choices');
+  if (!input || !choices) { return; }
+  let asked = '';
+  let timer = null;
+  function suggest() {
+    const text = input.value.trim();
+    if (text === asked) { return; }
+    asked = text;
+    fetch('/api/robots?' + new URLSearchParams({search: text}).toString(),
+      {credentials: 'same-origin', headers: {'Accept': 'application/json'}})
+      .then(function (response) { return response.ok ? response.json() : null; })
+      .then(function (found) {
+        if (!found || asked !== text) { return; }
+        choices.replaceChildren();
+        for (const name of found.robots) {
+          const option = document.createElement('option');
+          option.value = name;
+          choices.appendChild(option);
+        }
+      })
+      .catch(function () { /* no suggestions: the filter still takes the text */ });
+  }
+  input.addEventListener('input', function () {
+    clearTimeout(timer);
+    timer = setTimeout(suggest, 200);
+  });
+  input.addEventListener('focus', suggest);
 })();
