@@ -109,17 +109,24 @@ def friction_with_gradients(speed: ArrayLike, load: ArrayLike, temperature: Arra
     decay_t, power_t = _stribeck(v, stribeck_speed, model.alpha)
     amplitude_t = model.f_s0 + model.f_s_temp * t
     viscous_decay = np.exp(-t / model.t_v0)
-    d_temperature = (model.f_s_temp * decay_t
-                     + amplitude_t * decay_t * model.alpha * power_t
-                     * model.phi_s_temp / stribeck_speed
-                     - model.f_v_temp / model.t_v0 * viscous_decay * v)
+    # exp(-y) y -> 0 as y -> inf: where |v/phi|^a overflowed (a tiny Stribeck speed), the
+    # products below are inf x 0 and are 0 (the order of the operations kept, bit for bit)
+    with np.errstate(invalid='ignore', over='ignore'):
+        d_temperature = (model.f_s_temp * decay_t
+                         + amplitude_t * decay_t * model.alpha * power_t
+                         * model.phi_s_temp / stribeck_speed
+                         - model.f_v_temp / model.t_v0 * viscous_decay * v)
+    d_temperature = np.where(np.isinf(power_t), model.f_s_temp * decay_t - model.f_v_temp
+                             / model.t_v0 * viscous_decay * v, d_temperature)
 
     decay_w, power_w = _stribeck(v, model.phi_s_wear * w, model.alpha)
     positive = w > 0
     decay_w = np.where(positive, decay_w, 0.0)
     # d/dw [w exp(-|v/(phi w)|^a)] = exp(-x^a) (1 + a x^a); the limit at w -> 0+ is 0.
-    growth = np.where(positive, decay_w * (1.0 + model.alpha * np.where(positive, power_w, 0.0)),
-                      0.0)
+    with np.errstate(invalid='ignore', over='ignore'):
+        growth = np.where(positive, decay_w * (1.0 + model.alpha * np.where(positive, power_w,
+                                                                            0.0)), 0.0)
+    growth = np.where(np.isinf(power_w) & positive, 0.0, growth)
     d_wear = model.f_s_wear * growth + model.f_v_wear * v
 
     value = (model.f_c0 + tl * m + amplitude_t * decay_t

@@ -182,7 +182,7 @@ def test_a_history_error_is_503_without_the_location(fleet, monkeypatch):
         raise HistoryError(f'{self.path}: cannot read the fleet: lost the connection')
     with _client(fleet) as client:
         assert login(client, 'vic').status_code == 303
-        monkeypatch.setattr(WearHistory, 'fleet', fails)
+        monkeypatch.setattr(WearHistory, 'fleet_index', fails)  # what /api/fleet reads
         response = client.get('/api/fleet')
         assert response.status_code == 503, response.text
         assert 'lost the connection' in response.text

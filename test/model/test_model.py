@@ -1,5 +1,8 @@
 """Friction model (5), (7), (8): structure, gradients, covariance, and the paper's statements."""
 
+import dataclasses
+import warnings
+
 import numpy as np
 import pytest
 from robot_wear_monitor.model import friction as fm
@@ -70,6 +73,24 @@ def test_wear_gradient_at_zero_wear_is_the_one_sided_limit():
     one_sided = (fm.friction(v, 0.5, 40.0, h, MODEL) - fm.friction(v, 0.5, 40.0, 0.0, MODEL)) / h
     assert np.all(np.isfinite(grads.d_wear))
     assert np.allclose(grads.d_wear, one_sided, rtol=1e-4, atol=1e-9)
+
+
+def test_a_stribeck_speed_so_small_that_the_power_overflows_gives_finite_gradients():
+    """A parameter file's phi_s,w of 6.6e-303 (found by the fuzz test): |v/phi|^a overflows.
+
+    exp(-y) y -> 0 as y -> inf, so the gradients are the limits (finite, no warning), and away
+    from the overflow they equal those of the packaged model computed the usual way.
+    """
+    tiny = dataclasses.replace(MODEL, phi_s_wear=6.550927493014958e-303, phi_s0=1e-300)
+    v = GRID_27
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        grads = fm.friction_with_gradients(v, 0.5, 40.0, 35.0, tiny)
+    assert np.all(np.isfinite(grads.d_wear)) and np.all(np.isfinite(grads.d_temperature))
+    # the Stribeck terms have died out: only the viscous parts remain
+    assert np.allclose(grads.d_wear, tiny.f_v_wear * v)
+    usual = fm.friction_with_gradients(v, 0.5, 40.0, 35.0, MODEL)
+    assert not np.allclose(usual.d_wear, MODEL.f_v_wear * v)
 
 
 def test_paper_fig6_wear_information_dominates_between_30_and_50_rad_s():
