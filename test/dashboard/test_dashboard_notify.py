@@ -6,9 +6,7 @@ known fleet while the app runs; a second app on the same history sends nothing a
 history keeps what was sent).  The command line refuses a bad configuration before serving.
 """
 
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import json
-import threading
 import time
 
 from fastapi.testclient import TestClient
@@ -17,30 +15,14 @@ from robot_wear_monitor.cli import main as cli_main
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.notifier import load_config
 from wear_testing.fleet_history import make_fleet
+from wear_testing.webhook_receiver import webhook_receiver
 
 
 @pytest.fixture()
 def receiver():
     """Yield (URL, list of received JSON bodies) of a webhook receiver on 127.0.0.1."""
-    received: list = []
-
-    class Hook(BaseHTTPRequestHandler):
-
-        def do_POST(self):  # noqa: N802 - http.server's name
-            length = int(self.headers.get('Content-Length', '0'))
-            received.append(json.loads(self.rfile.read(length)))
-            self.send_response(200)
-            self.end_headers()
-
-        def log_message(self, *args):
-            pass
-
-    server = ThreadingHTTPServer(('127.0.0.1', 0), Hook)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    yield f'http://127.0.0.1:{server.server_address[1]}/hook', received
-    server.shutdown()
-    server.server_close()
+    with webhook_receiver() as hook:
+        yield hook
 
 
 def _config(tmp_path, url: str):

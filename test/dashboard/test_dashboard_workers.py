@@ -14,14 +14,11 @@ the limit at the configured count (5), and both refuse after it.  An SQLite hist
 refused for more than one worker, with one line.
 """
 
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-import json
 import os
 from pathlib import Path
 import socket
 import subprocess
 import sys
-import threading
 import time
 
 import httpx
@@ -31,6 +28,7 @@ from robot_wear_monitor.dashboard.auth import MAX_FAILURES
 from robot_wear_monitor.dashboard.workers import WORKER_PID_ENV, WORKER_PID_HEADER
 from robot_wear_monitor.history import open_history
 from wear_testing.fleet_history import csrf_of, make_fleet, PASSWORDS
+from wear_testing.webhook_receiver import webhook_receiver
 
 REPO = Path(__file__).resolve().parents[2]
 ALARMED = '/api/robots/press_line/joints/joint_2'
@@ -41,25 +39,8 @@ BOTH_WITHIN_S = 120.0
 @pytest.fixture()
 def receiver():
     """Yield (URL, list of received JSON bodies) of a webhook receiver on 127.0.0.1."""
-    received: list = []
-
-    class Hook(BaseHTTPRequestHandler):
-
-        def do_POST(self):  # noqa: N802 - http.server's name
-            length = int(self.headers.get('Content-Length', '0'))
-            received.append(json.loads(self.rfile.read(length)))
-            self.send_response(200)
-            self.end_headers()
-
-        def log_message(self, *args):
-            pass
-
-    server = ThreadingHTTPServer(('127.0.0.1', 0), Hook)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    yield f'http://127.0.0.1:{server.server_address[1]}/hook', received
-    server.shutdown()
-    server.server_close()
+    with webhook_receiver() as hook:
+        yield hook
 
 
 class Workers:

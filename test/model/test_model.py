@@ -76,7 +76,8 @@ def test_wear_gradient_at_zero_wear_is_the_one_sided_limit():
 
 
 def test_a_stribeck_speed_so_small_that_the_power_overflows_gives_finite_gradients():
-    """A parameter file's phi_s,w of 6.6e-303 (found by the fuzz test): |v/phi|^a overflows.
+    """
+    A parameter file's phi_s,w of 6.6e-303 (found by the fuzz test): |v/phi|^a overflows.
 
     exp(-y) y -> 0 as y -> inf, so the gradients are the limits (finite, no warning), and away
     from the overflow they equal those of the packaged model computed the usual way.
