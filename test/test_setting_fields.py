@@ -24,6 +24,7 @@ from robot_wear_monitor.monitoring.runner_config import RunnerConfig
 from robot_wear_monitor.monitoring.wear_update import EstimatorConfig
 from robot_wear_monitor.setting_fields import (check_settings, declared_settings, problem_of,
                                                setting_of)
+from wear_testing.docs_settings import table as docs_table
 
 DOCS = Path(__file__).resolve().parents[1] / 'docs'
 OWNERS = (SegmenterConfig, ExperimentGrouping, PlanConfig, RunnerConfig, AlarmPolicy,
@@ -37,22 +38,6 @@ NODE_OF_TABLE = {'friction_experiment': (node_config.FRICTION_EXPERIMENT_NODE,),
 
 def _specs(node):
     return {spec.name: spec for spec in node_config.NODE_PARAMETERS[node]}
-
-
-def _cells(line):
-    return [cell.strip() for cell in line.strip().strip('|').split(' | ')]
-
-
-def _table(path, header):
-    """Return the rows (lists of cells) of the markdown table whose header starts so."""
-    lines = path.read_text().splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith(header))
-    rows = []
-    for line in lines[start + 2:]:
-        if not line.startswith('|'):
-            break
-        rows.append(_cells(line))
-    return rows
 
 
 def _names(cell):
@@ -163,7 +148,7 @@ def test_an_option_made_from_a_setting_says_its_unit_and_default():
 
 
 def test_the_nodes_table_of_docs_names_every_parameter_with_its_default():
-    rows = _table(DOCS / 'nodes.md', '| node | parameter | default | meaning |')
+    rows = docs_table(DOCS / 'nodes.md', '| node | parameter | default | meaning |')
     seen = {node: set() for node in node_config.NODE_PARAMETERS}
     compared = 0
     for row in rows:
@@ -183,7 +168,7 @@ def test_the_nodes_table_of_docs_names_every_parameter_with_its_default():
 
 
 def test_the_runner_table_of_docs_has_each_parameter_type_default_and_unit():
-    rows = _table(DOCS / 'runner.md', '| parameter | type | default | meaning |')
+    rows = docs_table(DOCS / 'runner.md', '| parameter | type | default | meaning |')
     specs = _specs(node_config.FRICTION_EXPERIMENT_RUNNER_NODE)
     ros_type = {'double': 'double', 'integer': 'integer', 'string': 'string',
                 'double[]': 'double_array', 'string[]': 'string_array'}
