@@ -40,6 +40,7 @@ import itertools
 import math
 from typing import Any, Callable, Iterator, Optional, Sequence
 
+from robot_wear_monitor.history import fleet_counts
 from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.fleet_rows import read_fleet
 from robot_wear_monitor.history.records import FleetRow
@@ -149,9 +150,13 @@ def refresh(backend: HistoryBackend, *, robot: str, joint: str) -> None:
 def rebuild(backend: HistoryBackend) -> int:
     """Store the ranking keys of every joint (the migration, a bulk load); return how many."""
     rows = read_fleet(backend)
+    fleet_counts.pause(backend)  # counted at once below, not row by row
     backend.executemany(_UPDATE, [(*stored_keys(r), r.robot, r.joint) for r in rows])
     backend.execute('DELETE FROM fleet_robots')
     backend.execute('INSERT INTO fleet_robots (robot) SELECT DISTINCT robot FROM joint_summary')
+    if 'fleet_state_counts' in backend.tables():  # schema version 14
+        fleet_counts.recount(backend)
+    fleet_counts.pause(backend, paused=False)
     return len(rows)
 
 
@@ -239,26 +244,30 @@ class FleetIndex:
         """
         Return the conditions of the order's segments (the first two merged), worst first.
 
-        With a ``state``, the segments that cannot hold it read nothing (``1 = 0``) and the
-        rest first keeps the rows whose stable parts allow it (an index's prefix).
+        With a ``state``, the segments that cannot hold it read nothing (``1 = 0``); the
+        alarms' segments hold only their own state (an unacknowledged or a re-escalated alarm
+        is 'alarm', an acknowledged one not re-escalated 'acknowledged'), so only the rest is
+        judged by the query's ``state``, after keeping the rows whose stable parts allow it
+        (an index's prefix).
         """
         reescalated, rp = clock.reescalated_sql()
         where, params = '', ()  # type: tuple[str, tuple[Any, ...]]
         if robot is not None:
             where, params = ' AND robot = ?', (robot,)
-        rest, rest_params = '', ()  # type: tuple[str, tuple[Any, ...]]
+        rest, rest_params = where, params
         if state is not None:
             state_sql, sp = clock.state_sql()
-            where, params = where + f' AND ({state_sql}) = ?', (*params, *sp, state)
-            rest, rest_params = _STABLE_PARTS.get(state, ('', ()))
-            if rest == ' AND stale_at_s < ?':
-                rest_params = (clock.now_s + 1.0,)
+            stable, stable_params = _STABLE_PARTS.get(state, ('', ()))
+            if stable == ' AND stale_at_s < ?':
+                stable_params = (clock.now_s + 1.0,)
+            rest = f'{stable}{where} AND ({state_sql}) = ?'
+            rest_params = (*stable_params, *params, *sp, state)
         top = '' if state in (None, 'alarm') else ' AND 1 = 0'
         middle = '' if state in (None, 'acknowledged') else ' AND 1 = 0'
-        last = ' AND 1 = 0' if state in ('alarm', 'acknowledged') else rest
+        last = ' AND 1 = 0' if state in ('alarm', 'acknowledged') else ''
         return [(f'rank_tier = 0{top}{where}', params), (f'{top}{where}', params),
                 (f'rank_tier = 1{middle} AND NOT {reescalated}{where}', (*rp, *params)),
-                (f'rank_tier >= 2{last}{where}', (*rest_params, *params))]
+                (f'rank_tier >= 2{last}{rest}', rest_params)]
 
     def _reescalated_rows(self, clock: FleetClock, where: str,
                           params: tuple) -> list[tuple[Any, ...]]:
@@ -318,7 +327,9 @@ class FleetIndex:
                     break
                 rows = self._ordered(condition, params, offset=skip, limit=wanted - len(out))
                 out += [(r[3], r[4]) for r in rows]
-                if skip:
+                if rows:  # the skipped rows were this segment's
+                    skip = 0
+                elif skip:  # all of this segment skipped: its rows counted (a deep page)
                     skip = max(0, skip - self._count(condition, params))
         return out
 
@@ -367,56 +378,71 @@ class FleetIndex:
         """
         Return the joints per state at ``clock`` (every state, 0 when none).
 
-        The stable guess of every joint counted from the index ``(state_base, warn_fixed)``,
-        then the joints the clock or the settings may move (a re-escalated acknowledged alarm,
-        a stale candidate, a crossing near, an older row's assumed level: disjoint index
-        ranges) judged exactly and moved from their guess to their state.
+        The stable guess of every joint read from the counts kept on write
+        (``fleet_state_counts``, :mod:`~robot_wear_monitor.history.fleet_counts`), then the
+        joints the clock or the settings move, by index ranges: the re-escalated acknowledged
+        alarms; the stale joints (counted per stable state where the moment is more than a
+        second past, judged exactly within a second of ``now``); the calm judged joints
+        warned by a forecast crossing within the horizon (counted likewise, judged exactly
+        within a second of the horizon's end) or by an older row's assumed level (judged
+        exactly).  The ranges the exact judgments read are disjoint, and none holds a joint
+        counted by the others.
         """
         counts = dict.fromkeys(STATE_WORDS, 0)
-        for base, fixed, count in self._execute(
-                'SELECT state_base, warn_fixed, COUNT(*) FROM joint_summary '
-                'GROUP BY state_base, warn_fixed'):
-            counts[_guess(base, fixed)] += int(count)
-        state_sql, sp = clock.state_sql()
-        guess = ("CASE WHEN state_base = 'judged' THEN CASE WHEN warn_fixed = 1 THEN 'warning' "
-                 "ELSE 'ok' END ELSE state_base END")
-        soon = clock.now_s + 1.0  # [s] a candidate's bound; its state is judged exactly
+        for base, fixed, count in fleet_counts.stable_counts(self._backend):
+            counts[_guess(base, fixed)] += count
         moved = len(self._reescalated_rows(clock, '', ()))
         counts['acknowledged'] -= moved
         counts['alarm'] += moved
-        # the stale candidates (by the index of their moment), judged exactly
-        for was, now, count in self._execute(
-                f'SELECT {guess} AS g, {state_sql} AS s, COUNT(*) FROM joint_summary WHERE '
-                "stale_at_s < ? AND state_base || '' IN ('judged', 'new life') GROUP BY g, s",
-                (*sp, soon)):
-            counts[was] -= int(count)
-            counts[now] += int(count)
-        # the judged rows not stale and not warned by their stored parts: a crossing near or
-        # an older row's assumed level (the covering index joint_summary_near)
-        warning, wp = clock.warning_sql()
-        calm = ("state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR "
-                'stale_at_s >= ?)')
-        near = soon + clock.horizon_s
-        for condition, params in ((f'{calm} AND crossing_at_s <= ?', (soon, near)),
-                                  (f'{calm} AND (crossing_at_s IS NULL OR crossing_at_s > ?) '
-                                   'AND warning_level IS NULL', (soon, near))):
-            rows = self._execute(f'SELECT COUNT(*) FROM joint_summary WHERE {condition} AND '
-                                 f'{warning}', (*params, *wp))
-            counts['ok'] -= int(rows[0][0])
-            counts['warning'] += int(rows[0][0])
+        past, soon = clock.now_s - 1.0, clock.now_s + 1.0  # [s] surely past; surely not yet
+        near_in, near_out = past + clock.horizon_s, soon + clock.horizon_s
+        # surely stale: a count per stable state (the index joint_summary_stale_state)
+        for base, fixed in (('judged', 0), ('judged', 1), ('new life', 0), ('new life', 1)):
+            count = self._count('state_base = ? AND warn_fixed = ? AND stale_at_s < ?',
+                                (base, fixed, past))
+            counts[_guess(base, fixed)] -= count
+            counts['stale'] += count
+        # surely warned by a crossing within the horizon, surely not stale
+        calm = "state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR " \
+               'stale_at_s >= ?)'
+        count = self._count(f'{calm} AND crossing_at_s < ?', (soon, near_in))
+        counts['ok'] -= count
+        counts['warning'] += count
+        # judged exactly: near the stale moment; near the horizon's end; an assumed level
+        state_sql, sp = clock.state_sql()
+        guess = ("CASE WHEN state_base = 'judged' THEN CASE WHEN warn_fixed = 1 THEN 'warning' "
+                 "ELSE 'ok' END ELSE state_base END")
+        unsure = (("state_base || '' IN ('judged', 'new life') AND stale_at_s >= ? AND "
+                   'stale_at_s < ?', (past, soon)),
+                  (f'{calm} AND crossing_at_s >= ? AND crossing_at_s <= ?',
+                   (soon, near_in, near_out)),
+                  (f'{calm} AND (crossing_at_s IS NULL OR crossing_at_s > ?) AND '
+                   'warning_level IS NULL', (soon, near_out)))
+        for condition, params in unsure:
+            for was, now, count in self._execute(
+                    f'SELECT {guess} AS g, {state_sql} AS s, COUNT(*) FROM joint_summary '
+                    f'WHERE {condition} GROUP BY g, s', (*sp, *params)):
+                counts[was] -= int(count)
+                counts[now] += int(count)
         return counts
 
-    def passed(self, clock: FleetClock) -> tuple[int, ...]:
+    def passed(self, clock: FleetClock) -> tuple[Any, ...]:
         """
-        Return how many stored times ``clock`` is past (index ranges; an ETag's part).
+        Return the next stored times ``clock`` will pass (index lookups; an ETag's part).
 
-        Stale moments, crossing dates (and those within the horizon), planned dates: with the
-        history's rows unchanged, the fleet at two moments is the same while these are.
+        The first stale moment, crossing date (and crossing date past the horizon) and
+        planned date not yet passed: with the history's rows unchanged, the fleet at two
+        moments is the same while these are (none lies between them).
         """
-        return tuple(self._count(condition, params) for condition, params in (
-            ('stale_at_s < ?', (clock.now_s,)), ('crossing_at_s < ?', (clock.now_s,)),
-            ('crossing_at_s <= ?', (clock.now_s + clock.horizon_s,)),
-            ("planned_date <> '' AND planned_date < ?", (clock.today,))))
+        out: list[Any] = []
+        for column, condition, bound in (
+                ('stale_at_s', 'stale_at_s >= ?', clock.now_s),
+                ('crossing_at_s', 'crossing_at_s >= ?', clock.now_s),
+                ('crossing_at_s', 'crossing_at_s > ?', clock.now_s + clock.horizon_s),
+                ('planned_date', 'planned_date >= ?', clock.today)):
+            out.append(self._execute(f'SELECT MIN({column}) FROM joint_summary WHERE '
+                                     f'{condition}', (bound,))[0][0])
+        return tuple(out)
 
     # ------------------------------------------------------------------ robots, levels
 

@@ -43,20 +43,24 @@ these steps); ``fleet_robots`` lists the robots (the robot search and count).  V
 (the dashboard on several workers): ``login_failures`` (the login rate limit's counted
 attempts, per client address and per user name from an address, shared by every worker);
 ``notifications.pending_until_s`` (the lease of a claimed send until it is settled: NULL once
-settled and in older rows; a claim whose notifier died is taken over after it).
+settled and in older rows; a claim whose notifier died is taken over after it).  Version 14
+(the fleet's counts kept on write): ``fleet_state_counts`` (the joints per stable state,
+kept by triggers on ``joint_summary``: ``fleet_counts.py``) and the index of the stale
+moments per stable state (the clock's share of the counts).
 """
 
 from __future__ import annotations
 
+from robot_wear_monitor.history import fleet_counts
 from robot_wear_monitor.history.records import INTERVAL_COLUMNS
 
-SCHEMA_VERSION = 13
+SCHEMA_VERSION = 14
 
 #: The tables of a wear history (a database holding some of them without ``schema_version``
 #: is not ours).
 TABLES = ('schema_version', 'estimates', 'alarm_events', 'recordings', 'users',
           'notifications', 'joint_summary', 'sessions', 'api_tokens', 'account_audit',
-          'login_failures', 'fleet_robots')
+          'login_failures', 'fleet_robots', 'fleet_state_counts')
 
 #: Fill ``joint_summary`` from the estimates (the migration; a bulk load runs it too).
 JOINT_SUMMARY_REBUILD = (
@@ -363,6 +367,11 @@ _POSTGRESQL_V12 = _V12_COLUMNS + (
     'CREATE INDEX joint_summary_state ON joint_summary (state_base, warn_fixed, rank_tier, '
     'rank_crossing, rank_high, robot COLLATE "C", joint COLLATE "C")')
 
+#: Version 14: the joints per stable state kept on write (``fleet_counts``), and the index
+#: of the stale moments per stable state.
+_V14_INDEX = ('CREATE INDEX joint_summary_stale_state ON joint_summary (state_base, warn_fixed, '
+              'stale_at_s, crossing_at_s)',)
+
 #: SQLite: version -> its steps, oldest first.
 SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3: _SQLITE_V3,
                                                  4: _V4, 5: _SQLITE_V5, 6: _V6, 7: _SQLITE_V7,
@@ -375,7 +384,8 @@ SQLITE_MIGRATIONS: dict[int, tuple[str, ...]] = {1: _SQLITE_V1, 2: _SQLITE_V2, 3
                                                  13: (_LOGIN_FAILURES[0].format(
                                                      id_column='INTEGER PRIMARY KEY '
                                                                'AUTOINCREMENT'),
-                                                      *_LOGIN_FAILURES[1:])}
+                                                      *_LOGIN_FAILURES[1:]),
+                                                 14: _V14_INDEX + fleet_counts.SQLITE_STEPS}
 
 _POSTGRESQL_V3 = (
     'CREATE TABLE schema_version (version INTEGER NOT NULL)',
@@ -476,4 +486,6 @@ POSTGRESQL_MIGRATIONS: dict[int, tuple[str, ...]] = {3: _POSTGRESQL_V3, 4: _V4,
                                                      13: (_LOGIN_FAILURES[0].format(
                                                          id_column='BIGINT GENERATED ALWAYS '
                                                                    'AS IDENTITY PRIMARY KEY'),
-                                                          *_LOGIN_FAILURES[1:])}
+                                                          *_LOGIN_FAILURES[1:]),
+                                                     14: _V14_INDEX
+                                                     + fleet_counts.POSTGRESQL_STEPS}

@@ -95,8 +95,15 @@ def test_a_write_moves_the_joint_in_the_index(history):
 
 def _downgrade_to_11(location):
     """Make the history a schema-11 one: ``joint_summary`` without the keys, version 11."""
-    # version 13's additions first (the login failures, the notifications' lease)
-    statements = ['DROP TABLE login_failures',
+    # version 14's additions first (the counts kept on write), then 13's (the login
+    # failures, the notifications' lease)
+    postgresql = is_postgresql_url(location)
+    statements = ['DROP TABLE fleet_state_counts', 'DROP INDEX joint_summary_stale_state']
+    statements += [f'DROP TRIGGER IF EXISTS {name}' + (' ON joint_summary' if postgresql else '')
+                   for name in ('joint_summary_count_insert', 'joint_summary_count_delete',
+                                'joint_summary_count_update', 'joint_summary_count_rows')]
+    statements += ['DROP FUNCTION wear_fleet_state_count'] if postgresql else []
+    statements += ['DROP TABLE login_failures',
                   'ALTER TABLE notifications DROP COLUMN pending_until_s']
     statements += [f'DROP INDEX IF EXISTS {name}' for name in (
         'joint_summary_rank', 'joint_summary_stale', 'joint_summary_crossing',
