@@ -22,6 +22,10 @@ from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.records import ACKNOWLEDGEMENT_SQL, FleetRow, LATCH_EVENTS
 
 
+#: Joints per query of the new lives' experiments (three values each, under SQLite's limit).
+_RESETS_PER_QUERY = 1000
+
+
 def _nan_if_none(value: Optional[float]) -> float:
     return math.nan if value is None else float(value)
 
@@ -82,11 +86,18 @@ def read_fleet(backend: HistoryBackend, *, robot: Optional[str] = None,
         'a.user_name FROM alarm_events a JOIN '
         + _last_event("event = 'acknowledged'", keyed=keyed, event_where=event_where)
         + ' LEFT JOIN estimates t ON t.id = a.estimate_id', params)
-    lives = backend.execute(
-        f'{with_sql}SELECT a.robot, a.joint, COUNT(e.id) FROM alarm_events a JOIN '
-        + last_latch + ' JOIN estimates e ON e.robot = a.robot AND e.joint = a.joint AND '
-        "e.id > COALESCE(a.estimate_id, 0) WHERE a.event = 'reset' "
-        'GROUP BY a.robot, a.joint', params)
+    # the experiments of each new life: only the joints whose latch is a reset (few), each
+    # counted by the index from the estimate its reset is tied to
+    resets = [(r[0], r[1], int(r[5] or 0)) for r in latches if r[2] == 'reset']
+    lives = []
+    for first in range(0, len(resets), _RESETS_PER_QUERY):
+        part = resets[first:first + _RESETS_PER_QUERY]
+        lives += backend.execute(
+            'WITH r(robot, joint, after_id) AS (VALUES '
+            + ', '.join('(?, ?, CAST(? AS BIGINT))' for _ in part) + ') '
+            'SELECT r.robot, r.joint, COUNT(e.id) FROM r JOIN estimates e ON '
+            'e.robot = r.robot AND e.joint = r.joint AND e.id > r.after_id '
+            'GROUP BY r.robot, r.joint', tuple(v for reset in part for v in reset))
     stamps = recent.recent_stamps(backend, where=where, params=params, source=source,
                                   with_sql=with_sql)
     last_event = {(r[0], r[1]): r[2:] for r in latches}

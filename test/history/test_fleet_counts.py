@@ -15,7 +15,7 @@ import pytest
 from robot_wear_monitor.fleet.indexed import fleet_clock
 from robot_wear_monitor.fleet.ranking import fleet_view
 from robot_wear_monitor.fleet.states import DAY_S, DEFAULT_FORECAST_HORIZON_DAYS, STATES
-from robot_wear_monitor.history import is_postgresql_url, WearHistory
+from robot_wear_monitor.history import WearHistory
 from robot_wear_monitor.history.fleet_counts import stable_counts
 from wear_testing.fleet_states import _fill, _record, HOUR_S, LAST_S
 
@@ -93,9 +93,9 @@ def test_the_etags_next_times_change_when_the_clock_passes_a_stored_time(history
     assert passed(edge - 1.0) != passed(edge + 1.0)
 
 
-def test_writers_at_once_keep_the_counts(history_location):
-    if not is_postgresql_url(history_location):
-        pytest.skip('the stripes of concurrent writers are PostgreSQL\'s (SQLite has one writer)')
+def test_writers_at_once_keep_the_counts(postgresql_url):
+    """PostgreSQL's writers at once (SQLite has one writer at a time)."""
+    history_location = postgresql_url
     with WearHistory(history_location) as history:
         _fill(history)
     errors = []
