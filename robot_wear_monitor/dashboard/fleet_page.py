@@ -134,9 +134,9 @@ def fleet_etag(history: Any, *, now_s: float, query: str,
     """
     Return an ETag of the fleet at ``now_s`` without reading its rows (index reads only).
 
-    The history's newest ids (a new row changes them) and how many stored times the clock
-    has passed (stale, crossing dates, planned dates: they only ever pass), with the query and
-    the settings: equal tags, equal documents.  ``source``: log the re-escalations first (see
+    The history's newest ids (a new row changes them) and the next stored time of each kind
+    the clock will pass (stale moments, crossing dates, planned dates: a tag changes when one
+    passes), with the query and the settings: equal tags, equal documents.  ``source``: log the re-escalations first (see
     :func:`fleet_json`).
     """
     index = history.fleet_index()
@@ -144,7 +144,7 @@ def fleet_etag(history: Any, *, now_s: float, query: str,
                         forecast_horizon_s=forecast_horizon_s, parameter_sets=parameter_sets)
     if source:  # logged first: the tag is that of the history the rows are read from
         log_reescalations(history, clock, parameter_sets=parameter_sets, source=source)
-    text = repr((history.path, index.marks(), index.passed(clock), query,
+    text = repr((history.path, index.marks(), index.next_times(clock), query,
                  reescalation_margin, forecast_horizon_s))
     return f'"{hashlib.sha256(text.encode()).hexdigest()[:32]}"'
 

@@ -426,7 +426,7 @@ class FleetIndex:
                 counts[now] += int(count)
         return counts
 
-    def passed(self, clock: FleetClock) -> tuple[Any, ...]:
+    def next_times(self, clock: FleetClock) -> tuple[Any, ...]:
         """
         Return the next stored times ``clock`` will pass (index lookups; an ETag's part).
 

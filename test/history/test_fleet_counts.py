@@ -78,7 +78,7 @@ def test_the_etags_next_times_change_when_the_clock_passes_a_stored_time(history
     index = history.fleet_index()
 
     def passed(now_s):
-        return index.passed(fleet_clock(index, now_s=now_s))
+        return index.next_times(fleet_clock(index, now_s=now_s))
 
     stale_at = _times(history, 'stale_at_s')['stale']
     assert passed(stale_at - 2.0) == passed(stale_at - 1.0)
