@@ -136,8 +136,8 @@ def fleet_etag(history: Any, *, now_s: float, query: str,
 
     The history's newest ids (a new row changes them) and the next stored time of each kind
     the clock will pass (stale moments, crossing dates, planned dates: a tag changes when one
-    passes), with the query and the settings: equal tags, equal documents.  ``source``: log the re-escalations first (see
-    :func:`fleet_json`).
+    passes), with the query and the settings: equal tags, equal documents.  ``source``: log
+    the re-escalations first (see :func:`fleet_json`).
     """
     index = history.fleet_index()
     clock = fleet_clock(index, now_s=now_s, reescalation_margin=reescalation_margin,

@@ -26,10 +26,13 @@ from typing import Any, Protocol, Sequence
 class CountingBackend(Protocol):
     """What this module asks of a history backend (``backends.py``, which imports this one)."""
 
-    kind: str
+    @property
+    def kind(self) -> str:
+        """Return 'sqlite' or 'postgresql'."""
 
     def execute(self, sql: str, params: Sequence[Any] = ()) -> list[tuple[Any, ...]]:
         """Run one statement (``?`` placeholders); return its rows."""
+
 
 #: PostgreSQL: counter rows per (state_base, warn_fixed), one per writer process modulo this.
 STRIPES = 16

@@ -257,7 +257,7 @@ class FleetIndex:
         rest, rest_params = where, params
         if state is not None:
             state_sql, sp = clock.state_sql()
-            stable, stable_params = _STABLE_PARTS.get(state, ('', ()))
+            stable, stable_params = _STABLE_PARTS.get(state, ('', ()))  # type: str, tuple
             if stable == ' AND stale_at_s < ?':
                 stable_params = (clock.now_s + 1.0,)
             rest = f'{stable}{where} AND ({state_sql}) = ?'

@@ -55,7 +55,7 @@ def test_the_stored_counts_follow_every_kind_of_write(history):
     history.append(_record('cell_d', 'ok_0', LAST_S + HOUR_S, wear=40.0, crossing=0.0))
     history.append(_record('cell_f', 'brand_new', LAST_S + HOUR_S, wear=3.0))
     assert _stored(history) == _recounted(history)
-    before = dict(((b, f), c) for b, f, c in _stored(history))
+    before = {(b, f): c for b, f, c in _stored(history)}
     assert before[('acknowledged', 1)] >= 1 and before[('new life', 0)] >= 1
 
 
@@ -94,7 +94,7 @@ def test_the_etags_next_times_change_when_the_clock_passes_a_stored_time(history
 
 
 def test_writers_at_once_keep_the_counts(postgresql_url):
-    """PostgreSQL's writers at once (SQLite has one writer at a time)."""
+    """Check PostgreSQL's writers at once (SQLite has one writer at a time)."""
     history_location = postgresql_url
     with WearHistory(history_location) as history:
         _fill(history)

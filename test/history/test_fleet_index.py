@@ -99,7 +99,8 @@ def _downgrade_to_11(location):
     # failures, the notifications' lease)
     postgresql = is_postgresql_url(location)
     statements = ['DROP TABLE fleet_state_counts', 'DROP INDEX joint_summary_stale_state']
-    statements += [f'DROP TRIGGER IF EXISTS {name}' + (' ON joint_summary' if postgresql else '')
+    on_table = ' ON joint_summary' if postgresql else ''
+    statements += [f'DROP TRIGGER IF EXISTS {name}{on_table}'
                    for name in ('joint_summary_count_insert', 'joint_summary_count_delete',
                                 'joint_summary_count_update', 'joint_summary_count_rows')]
     statements += ['DROP FUNCTION wear_fleet_state_count'] if postgresql else []
