@@ -105,7 +105,7 @@ def _downgrade_to_11(location):
                                 'joint_summary_count_update', 'joint_summary_count_rows')]
     statements += ['DROP FUNCTION wear_fleet_state_count'] if postgresql else []
     statements += ['DROP TABLE login_failures',
-                  'ALTER TABLE notifications DROP COLUMN pending_until_s']
+                   'ALTER TABLE notifications DROP COLUMN pending_until_s']
     statements += [f'DROP INDEX IF EXISTS {name}' for name in (
         'joint_summary_rank', 'joint_summary_stale', 'joint_summary_crossing',
         'joint_summary_last', 'joint_summary_assumed', 'joint_summary_state',
