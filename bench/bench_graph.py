@@ -68,6 +68,7 @@ import os
 from pathlib import Path
 import pstats
 import queue
+import resource
 import signal
 import subprocess
 import sys
@@ -94,6 +95,15 @@ TARGET_RATIO = 0.5
 BATCH_PERIOD_S = 0.02        # -batch variants: the node parses its queued messages at 50 Hz
 #: Subscriber processes of a run: the node, its shell (callback = counter), the do-nothing one.
 ROLES = ('node', 'shell', 'nothing')
+#: ``--stall``: (messages received before the stall, seconds the executor is held).
+STALL = {'after': 0, 's': 0.0, 'done': False}
+
+
+def _maybe_stall(count):
+    """Hold the executor once for ``STALL['s']`` after ``STALL['after']`` messages."""
+    if STALL['s'] > 0 and not STALL['done'] and count >= STALL['after']:
+        STALL['done'] = True
+        time.sleep(STALL['s'])
 
 
 # --------------------------------------------------------------------------- the stream
@@ -299,7 +309,7 @@ def _make_executor(name):
     return SingleThreadedExecutor()
 
 
-def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
+def _counting_node(raw, work=True, cdr=False, batch=False, drained=True, depth=None):
     """
     Return the package's FrictionExperimentNode with a message counter (raw: bytes in).
 
@@ -323,15 +333,33 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
 
         count = 0
         timer_calls = 0
+        wakes = 0
+        max_wake_gap_s = 0.0
+        max_wake_messages = 0
+        _last_wake = None
 
         def on_joint_state(self, msg):
             """Count, then run the node's own callback."""
             self.count += 1
+            _maybe_stall(self.count)
             super().on_joint_state(msg)
+
+        def drain_joint_states(self):
+            """Time the wakes that took messages (longest gap, most messages), then drain."""
+            before = self.count
+            now = time.monotonic()
+            super().drain_joint_states()
+            if self.count > before:
+                if self._last_wake is not None:
+                    self.max_wake_gap_s = max(self.max_wake_gap_s, now - self._last_wake)
+                self._last_wake = now
+                self.wakes += 1
+                self.max_wake_messages = max(self.max_wake_messages, self.count - before)
 
         def on_joint_states(self, raws, receive_ns):
             """Count a drained batch, then segment it as the node does."""
             self.count += len(raws)
+            _maybe_stall(self.count)
             super().on_joint_states(raws, receive_ns)
 
         def publish_diagnostics(self):
@@ -373,7 +401,10 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
             rejections = self.service.all_rejections()
             return {'count': self.count, 'levels': len(self.service.levels),
                     'experiments': getattr(self.service, 'experiments', None),
-                    'timer_calls': self.timer_calls,
+                    'timer_calls': self.timer_calls, 'wakes': self.wakes,
+                    'max_wake_gap_s': round(self.max_wake_gap_s, 4),
+                    'max_wake_messages': self.max_wake_messages,
+                    'depth': self.joint_states_qos.depth,
                     'rejections': {k: v for k, v in rejections.items() if v}}
 
     class ShellNode(CountingNode):
@@ -382,10 +413,12 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
         def on_joint_state(self, msg):
             """Count only."""
             self.count += 1
+            _maybe_stall(self.count)
 
         def on_joint_states(self, raws, receive_ns):
             """Count the drained batch only."""
             self.count += len(raws)
+            _maybe_stall(self.count)
 
         def on_cdr(self, data):
             """Count only."""
@@ -396,6 +429,8 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
             self.count += 1
 
     overrides = [] if drained and not raw else [Parameter('drain_period_s', value=0.0)]
+    if depth is not None:
+        overrides.append(Parameter('joint_states_depth', value=depth))
     node = (CountingNode if work else ShellNode)(parameter_overrides=overrides)
     node.joint_cdr = node.service.joint
     node.queue = []
@@ -428,6 +463,7 @@ def _do_nothing_node(raw):
         def on_message(self, msg):
             """Count."""
             self.count += 1
+            _maybe_stall(self.count)
 
         def result(self):
             """Return the figures printed at exit."""
@@ -505,6 +541,7 @@ def role_subscriber(args):
     from rclpy.executors import ExternalShutdownException
 
     rclpy.init()
+    STALL.update(after=args.stall_after, s=args.stall)
     batch = args.variant.endswith('-batch')
     cdr = batch or args.variant.endswith('-cdr')
     raw = cdr or args.variant.endswith('-raw')
@@ -512,7 +549,7 @@ def role_subscriber(args):
         node = _do_nothing_node(raw)
     else:
         node = _counting_node(raw, work=args.role == 'node', cdr=cdr, batch=batch,
-                              drained='-' not in args.variant)
+                              drained='-' not in args.variant, depth=args.depth)
     executor = _make_executor(args.variant.split('-')[0])
     executor.add_node(node)
     _emit('READY')
@@ -525,6 +562,7 @@ def role_subscriber(args):
         pass
     result = node.result()
     result['process_time_s'] = time.process_time()
+    result['max_rss_kib'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     result['gc_collections'] = [generation['collections'] for generation in gc.get_stats()]
     result['gc_objects'] = len(gc.get_objects())
     _emit('RESULT ' + json.dumps(result))
@@ -883,7 +921,7 @@ def _load_average():
 
 
 def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False,
-                expected=None):
+                expected=None, extra=()):
     """
     Run the publisher and one subscriber process per role once; return the figures.
 
@@ -891,11 +929,13 @@ def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False
     conditions for every subscriber instead of the scheduler's placement).  ``expected``
     (:func:`replay_expectation`): also run the estimator and its probe (a process of its
     own, not pinned) and wait, after the stream and the CPU figures, until it has every
-    expected wear (at most 15 s); its outputs are the run's ``estimator``.
+    expected wear (at most 15 s); its outputs are the run's ``estimator``.  ``extra``: more
+    arguments of the subscriber processes (``--stall``, ``--depth``).
     """
     env = _child_env(domain, log_dir)
     tag = f'{int(rate)}Hz_{variant}'
-    subs = {role: Child(f'{tag}_{role}', ['--role', role, '--variant', variant], env, log_dir)
+    subs = {role: Child(f'{tag}_{role}', ['--role', role, '--variant', variant, *extra], env,
+                        log_dir)
             for role in roles}
     children = list(subs.values())
     estimator = None
@@ -1018,6 +1058,11 @@ def print_table(runs):
             if role == 'node':
                 notes.append(f'levels {res["levels"]}, experiments {res["experiments"]}, '
                              f'{res["timer_calls"]} diagnostics timer calls')
+                if res.get('wakes'):
+                    notes.append(f'depth {res["depth"]}, {res["wakes"]} wakes took messages: '
+                                 f'longest gap {1e3 * res["max_wake_gap_s"]:.0f} ms, most '
+                                 f'{res["max_wake_messages"]} messages; max RSS '
+                                 f'{res["max_rss_kib"] / 1024:.0f} MiB')
                 if res['rejections']:
                     notes.append(f'rejected {res["rejections"]}')
             elif role == 'nothing':
@@ -1349,6 +1394,13 @@ def main(argv=None):
     parser.add_argument('--no-estimator', action='store_true',
                         help='no wear_estimator_node process (nor its comparison with the '
                              'replay) in the runs')
+    parser.add_argument('--stall', type=float, default=0.0, metavar='S',
+                        help="hold every subscriber's executor once for S seconds half-way "
+                             'through the stream (a wake held back: what the /joint_states '
+                             'queue must bridge; default 0: none)')
+    parser.add_argument('--depth', type=int, default=None, metavar='N',
+                        help="the node's joint_states_depth (default: the node's default)")
+    parser.add_argument('--stall-after', type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument('--role', choices=('pub', 'check', 'estimator') + ROLES,
                         help=argparse.SUPPRESS)
     parser.add_argument('--check', default='features',
@@ -1373,7 +1425,9 @@ def main(argv=None):
     print(f'{os.cpu_count()} cores, load average {_load_average():.2f}; '
           f'{", ".join(f"{r:g}" for r in args.rates)} Hz x {args.duration:g} s, variants '
           f'{", ".join(args.variants)}; /joint_states {qos.reliability.name.lower()} depth '
-          f'{qos.depth}; localhost discovery, one ROS_DOMAIN_ID per run')
+          f'{qos.depth}; localhost discovery, one ROS_DOMAIN_ID per run'
+          + (f"; the node's depth {args.depth}" if args.depth is not None else '')
+          + (f'; every subscriber held {args.stall:g} s once half-way' if args.stall else ''))
     start = time.monotonic()
     if not args.no_events_check:
         executor_check(log_dir, args.check_executors)
@@ -1390,8 +1444,12 @@ def main(argv=None):
         domain = 1 + (os.getpid() + index) % 100
         index += 1
         try:
+            extra = [] if args.depth is None else ['--depth', str(args.depth)]
+            if args.stall > 0:
+                extra += ['--stall', str(args.stall), '--stall-after',
+                          str(int(rate * args.duration / 2))]
             run = run_variant(rate, variant, args.duration, domain, log_dir, roles, args.pin,
-                              expected=expectations.get(rate))
+                              expected=expectations.get(rate), extra=extra)
         except RuntimeError as error:
             print(f'{rate:g} Hz {variant}: FAILED: {error}')
             continue
