@@ -1426,7 +1426,7 @@ def main(argv=None):
           f'{", ".join(f"{r:g}" for r in args.rates)} Hz x {args.duration:g} s, variants '
           f'{", ".join(args.variants)}; /joint_states {qos.reliability.name.lower()} depth '
           f'{qos.depth}; localhost discovery, one ROS_DOMAIN_ID per run'
-          + (f"; the node's depth {args.depth}" if args.depth is not None else '')
+          + f"; the node's queue {args.depth or _node_default('joint_states_depth')}"
           + (f'; every subscriber held {args.stall:g} s once half-way' if args.stall else ''))
     start = time.monotonic()
     if not args.no_events_check:

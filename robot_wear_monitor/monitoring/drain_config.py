@@ -16,8 +16,8 @@ stall of 1 s: a wake may come up to 0.95 s late at 4 kHz (3.95 s at 1 kHz) witho
 stall of 0.5 s at 4 kHz lost 1,018 of 40,000 messages at the former depth, 1000, and none at
 4000; on a machine at load 15, a drained node at 4 kHz lost 1,649 in one run (a stall of at
 least 0.66 s) (docs/benchmarks.md).  The memory is the middleware's, for the messages
-queued: 260 bytes a 6-joint message (1 MiB for 4000); the node's RSS without a stall is the
-same at either depth (87 MiB).
+queued: 260 bytes a 6-joint message (1 MiB for 4000); without a stall the node's peak RSS
+is the same at either depth (165 and 166 MiB at 4 kHz in the bench).
 
 The period is bounded: at 4 kHz the longest period, 0.2 s, is 800 messages, the default 0.05 s
 is 200, so that even a 1000-message queue holds a period with room for a late wake.
