@@ -3,20 +3,29 @@ Cost on the graph: friction_experiment_node against a do-nothing subscriber (pri
 
     python3 bench/bench_graph.py [--rates 250,1000] [--duration 10] [--repeat 1]
         [--variants single,single-callback,events] [--profile 20000]
-        [--no-shell] [--pin]
+        [--no-shell] [--no-estimator] [--pin]
 
 A 6-joint sensor_msgs/JointState stream (joint_1..joint_6, the node's /joint_states QoS from
 ``robot_wear_monitor.nodes.qos``) is published at each rate for ``--duration`` seconds by a
 publisher process, paced with ``time.perf_counter``.  ``joint_2`` moves back and forth at
 constant speeds (a triangle wave in position cycling through the node's default experiment
 speeds, 0.5 s per pass; effort = friction + gravity + noise) so the node really segments,
-completes experiments and publishes ``friction_levels``; header stamps are the simulated times.
+completes experiments (one every 4 s) and publishes ``friction_levels``; it stands still for the
+last 0.5 s; header stamps are the simulated times.
 
 One run per rate and variant, each with its own ROS_DOMAIN_ID and localhost-only discovery, and
 these processes: the publisher (it starts once it has matched every subscriber), the node (the
 package's ``FrictionExperimentNode``, default parameters, plus a message counter), its shell
 (the same node with the callback replaced by the counter: imports, entities and executor
-without the work) and a do-nothing rclpy subscriber of the same topic and QoS that only counts.
+without the work) and a do-nothing rclpy subscriber of the same topic and QoS that only counts;
+and (unless ``--no-estimator``) the package's ``WearEstimatorNode`` (default parameters but an
+in-memory history) with a probe of its ``wear`` and ``temperature`` and of ``friction_levels``,
+in a process of its own.  After the stream (and after the CPU figures are taken) the bench
+waits until the estimator has published every experiment's wear (the node closes the last
+one when /joint_states has been silent for ``idle_gap_s``) and compares, per run, the
+published friction levels, w-hat and T-hat with what the package's replay
+(``replay_bag``) makes of a bag of the same CDR payloads: ``equal`` only if every value is
+the same float (no tolerance).
 All subscribers of a run use the same executor (the variant's first word); the do-nothing
 subscriber is always a plain callback per message (typed; raw with ``-raw``, ``-cdr``,
 ``-batch``):
@@ -59,6 +68,7 @@ import os
 from pathlib import Path
 import pstats
 import queue
+import resource
 import signal
 import subprocess
 import sys
@@ -73,6 +83,9 @@ JOINTS = tuple(f'joint_{i}' for i in range(1, 7))
 PASS_S = 0.5                 # duration of one constant-speed pass [s]
 SIM_EPOCH_S = 1000.0         # simulated time of the first sample [s]
 SETTLE_S = 0.5               # wait after matching before publishing [s]
+#: The stream's last seconds: joint_2 stands still (a robot stops; its joint_state_broadcaster
+#: goes on), so the move in progress ends in the stream, not at its cut [s].
+STOP_S = 0.5
 TICK_S = 1.0 / os.sysconf('SC_CLK_TCK')
 VARIANTS = ('single', 'single-callback', 'events', 'events-callback', 'single-raw',
             'events-raw', 'single-cdr', 'events-cdr', 'single-batch', 'events-batch')
@@ -82,6 +95,15 @@ TARGET_RATIO = 0.5
 BATCH_PERIOD_S = 0.02        # -batch variants: the node parses its queued messages at 50 Hz
 #: Subscriber processes of a run: the node, its shell (callback = counter), the do-nothing one.
 ROLES = ('node', 'shell', 'nothing')
+#: ``--stall``: (messages received before the stall, seconds the executor is held).
+STALL = {'after': 0, 's': 0.0, 'done': False}
+
+
+def _maybe_stall(count):
+    """Hold the executor once for ``STALL['s']`` after ``STALL['after']`` messages."""
+    if STALL['s'] > 0 and not STALL['done'] and count >= STALL['after']:
+        STALL['done'] = True
+        time.sleep(STALL['s'])
 
 
 # --------------------------------------------------------------------------- the stream
@@ -96,8 +118,8 @@ def joint_state_samples(rate, duration, seed=0):
     Return (stamps [s], positions, velocities, efforts) of the stream, arrays (n, 6).
 
     joint_2 (the node's default joint) does forward/backward passes of ``PASS_S`` at each of the
-    node's default experiment speeds in turn (motor side, divided by the default gear ratio);
-    the other joints stand still with sensor noise.
+    node's default experiment speeds in turn (motor side, divided by the default gear ratio)
+    and stands still for the last ``STOP_S``; the other joints stand still with sensor noise.
     """
     import numpy as np
 
@@ -115,10 +137,11 @@ def joint_state_samples(rate, duration, seed=0):
     pass_index = (t // PASS_S).astype(int)
     motor = motor_speeds[(pass_index // 2) % motor_speeds.size]
     direction = np.where(pass_index % 2 == 0, 1.0, -1.0)
-    velocity_2 = direction * motor / gear
+    moving = t < n * dt - STOP_S
+    velocity_2 = np.where(moving, direction * motor / gear, 0.0)
     position_2 = 0.3 + np.concatenate(([0.0], np.cumsum(velocity_2[:-1]) * dt))
-    friction = 0.05 + 4e-4 * motor
-    effort_2 = scale * (direction * friction + 0.4 * np.sin(position_2 + 0.5))
+    friction = np.where(moving, direction * (0.05 + 4e-4 * motor), 0.0)
+    effort_2 = scale * (friction + 0.4 * np.sin(position_2 + 0.5))
     position = np.tile(np.linspace(-0.5, 0.5, 6), (n, 1)) + rng.normal(0.0, 1e-5, (n, 6))
     velocity = rng.normal(0.0, 1e-4, (n, 6))
     effort = rng.normal(0.0, 0.02 * scale, (n, 6))
@@ -145,6 +168,52 @@ def joint_state_messages(rate, duration):
         msg.effort = effort[i].tolist()
         messages.append(msg)
     return messages
+
+
+def replay_expectation(rate, duration, folder):
+    """
+    Return what the replay makes of the stream: the friction levels and estimates.
+
+    The publisher's exact CDR payloads are written to a bag in ``folder`` and replayed by the
+    package's :func:`~robot_wear_monitor.monitoring.replay.replay_bag` (default parameters of
+    both nodes, like the bench's nodes, and an in-memory history).  The replay closes the
+    experiment in progress at the end of the bag (``finish``); the live node closes it once
+    /joint_states has been silent for ``idle_gap_s`` (3 s).  ``by_stream``: how many of them
+    the stream itself completes (the payloads fed in drained batches to
+    :class:`~robot_wear_monitor.monitoring.joint_state_batches.JointStateBatches`, what the
+    node runs).  Returns a dict: ``levels`` [(end stamp [s], speeds [rad/s], frictions)],
+    ``wear`` [w-hat], ``temperature`` [T-hat, degC] per experiment, and ``by_stream``.
+    """
+    import numpy as np
+    from rclpy.serialization import serialize_message
+    from robot_wear_monitor.monitoring.joint_state_batches import JointStateBatches
+    from robot_wear_monitor.monitoring.joints import JointExperiments
+    from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
+    from robot_wear_monitor.monitoring.replay import replay_bag
+    from robot_wear_monitor.recordings.bags.writer import atomic_bag_writer
+
+    messages = joint_state_messages(rate, duration)
+    payloads = [serialize_message(msg) for msg in messages]
+    stamps_ns = [msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+                 for msg in messages]
+    bag = Path(folder) / f'stream_{int(rate)}Hz'
+    with atomic_bag_writer(bag, overwrite=True) as writer:
+        writer.add_topic(TOPIC, 'sensor_msgs/msg/JointState')
+        writer.write_raw_many(TOPIC, payloads, stamps_ns)
+    configuration = MonitorConfig.load()
+    result = replay_bag(bag, out_bag=None, configuration=configuration)
+    batches = JointStateBatches(JointExperiments(configuration.experiment, source='bench'))
+    step = max(1, int(round(rate * _node_default('drain_period_s'))))
+    live_ends = set()
+    for start in range(0, len(payloads), step):
+        chunk = payloads[start:start + step]
+        live_ends.update(experiment.end_time_s for _, experiment
+                         in batches.add(chunk, np.zeros(len(chunk), dtype=np.int64)))
+    updates = result.updates
+    return {'levels': [(u.stamp_s, list(u.speeds_rad_s), list(u.frictions)) for u in updates],
+            'wear': [u.wear for u in updates],
+            'temperature': [u.temperature_degc for u in updates],
+            'by_stream': sum(u.stamp_s in live_ends for u in updates)}
 
 
 # --------------------------------------------------------------------------- child roles
@@ -240,7 +309,7 @@ def _make_executor(name):
     return SingleThreadedExecutor()
 
 
-def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
+def _counting_node(raw, work=True, cdr=False, batch=False, drained=True, depth=None):
     """
     Return the package's FrictionExperimentNode with a message counter (raw: bytes in).
 
@@ -264,15 +333,33 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
 
         count = 0
         timer_calls = 0
+        wakes = 0
+        max_wake_gap_s = 0.0
+        max_wake_messages = 0
+        _last_wake = None
 
         def on_joint_state(self, msg):
             """Count, then run the node's own callback."""
             self.count += 1
+            _maybe_stall(self.count)
             super().on_joint_state(msg)
+
+        def drain_joint_states(self):
+            """Time the wakes that took messages (longest gap, most messages), then drain."""
+            before = self.count
+            now = time.monotonic()
+            super().drain_joint_states()
+            if self.count > before:
+                if self._last_wake is not None:
+                    self.max_wake_gap_s = max(self.max_wake_gap_s, now - self._last_wake)
+                self._last_wake = now
+                self.wakes += 1
+                self.max_wake_messages = max(self.max_wake_messages, self.count - before)
 
         def on_joint_states(self, raws, receive_ns):
             """Count a drained batch, then segment it as the node does."""
             self.count += len(raws)
+            _maybe_stall(self.count)
             super().on_joint_states(raws, receive_ns)
 
         def publish_diagnostics(self):
@@ -314,7 +401,10 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
             rejections = self.service.all_rejections()
             return {'count': self.count, 'levels': len(self.service.levels),
                     'experiments': getattr(self.service, 'experiments', None),
-                    'timer_calls': self.timer_calls,
+                    'timer_calls': self.timer_calls, 'wakes': self.wakes,
+                    'max_wake_gap_s': round(self.max_wake_gap_s, 4),
+                    'max_wake_messages': self.max_wake_messages,
+                    'depth': self.joint_states_qos.depth,
                     'rejections': {k: v for k, v in rejections.items() if v}}
 
     class ShellNode(CountingNode):
@@ -323,10 +413,12 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
         def on_joint_state(self, msg):
             """Count only."""
             self.count += 1
+            _maybe_stall(self.count)
 
         def on_joint_states(self, raws, receive_ns):
             """Count the drained batch only."""
             self.count += len(raws)
+            _maybe_stall(self.count)
 
         def on_cdr(self, data):
             """Count only."""
@@ -337,6 +429,8 @@ def _counting_node(raw, work=True, cdr=False, batch=False, drained=True):
             self.count += 1
 
     overrides = [] if drained and not raw else [Parameter('drain_period_s', value=0.0)]
+    if depth is not None:
+        overrides.append(Parameter('joint_states_depth', value=depth))
     node = (CountingNode if work else ShellNode)(parameter_overrides=overrides)
     node.joint_cdr = node.service.joint
     node.queue = []
@@ -369,6 +463,7 @@ def _do_nothing_node(raw):
         def on_message(self, msg):
             """Count."""
             self.count += 1
+            _maybe_stall(self.count)
 
         def result(self):
             """Return the figures printed at exit."""
@@ -377,12 +472,76 @@ def _do_nothing_node(raw):
     return DoNothing()
 
 
+def role_estimator(args):
+    """
+    Spin the package's WearEstimatorNode and a probe of its outputs until SIGINT.
+
+    The estimator has its default parameters but ``history_file: ':memory:'`` (the replay's
+    history: a fresh trend, not the user's).  The probe subscribes to ``friction_levels``
+    (the friction node's), ``wear`` and ``temperature`` (the estimator's) with the nodes' QoS;
+    READY comes once it is matched with the three publishers; a ``WEAR`` line is printed per
+    wear received, RESULT (JSON, floats exact) at exit.
+    """
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from robot_wear_monitor.nodes.qos import ESTIMATE_QOS, FRICTION_LEVELS_QOS
+    from robot_wear_monitor.nodes.wear_estimator_node import WearEstimatorNode
+    from robot_wear_monitor.recordings.messages import stamp_to_seconds
+    from sensor_msgs.msg import JointState, Temperature
+    from std_msgs.msg import Float64
+
+    rclpy.init()
+    estimator = WearEstimatorNode(parameter_overrides=[Parameter('history_file',
+                                                                 value=':memory:')])
+    probe = rclpy.create_node('bench_estimator_probe')
+    seen = {'levels': [], 'wear': [], 'temperature': []}
+
+    def on_levels(msg):
+        seen['levels'].append([stamp_to_seconds(msg.header.stamp), list(msg.velocity),
+                               list(msg.effort)])
+
+    def on_wear(msg):
+        seen['wear'].append(msg.data)
+        _emit(f'WEAR {len(seen["wear"])}')
+
+    subscriptions = [
+        probe.create_subscription(JointState, 'friction_levels', on_levels,
+                                  FRICTION_LEVELS_QOS),
+        probe.create_subscription(Float64, 'wear', on_wear, ESTIMATE_QOS),
+        probe.create_subscription(Temperature, 'temperature',
+                                  lambda m: seen['temperature'].append(m.temperature),
+                                  ESTIMATE_QOS)]
+    executor = SingleThreadedExecutor()
+    executor.add_node(estimator)
+    executor.add_node(probe)
+    deadline = time.monotonic() + 60.0
+    while not all(s.get_publisher_count() for s in subscriptions[1:]):
+        executor.spin_once(timeout_sec=0.05)
+        if time.monotonic() > deadline:
+            _emit("ERROR the probe did not match the estimator's wear and temperature")
+            return 3
+    _emit('READY')
+    try:
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=3600.0)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    _emit('RESULT ' + json.dumps(seen))
+    executor.shutdown()
+    probe.destroy_node()
+    estimator.destroy_node()
+    rclpy.try_shutdown()
+    return 0
+
+
 def role_subscriber(args):
     """Spin the node or the do-nothing subscriber until SIGINT; print RESULT as JSON."""
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
     rclpy.init()
+    STALL.update(after=args.stall_after, s=args.stall)
     batch = args.variant.endswith('-batch')
     cdr = batch or args.variant.endswith('-cdr')
     raw = cdr or args.variant.endswith('-raw')
@@ -390,7 +549,7 @@ def role_subscriber(args):
         node = _do_nothing_node(raw)
     else:
         node = _counting_node(raw, work=args.role == 'node', cdr=cdr, batch=batch,
-                              drained='-' not in args.variant)
+                              drained='-' not in args.variant, depth=args.depth)
     executor = _make_executor(args.variant.split('-')[0])
     executor.add_node(node)
     _emit('READY')
@@ -403,6 +562,7 @@ def role_subscriber(args):
         pass
     result = node.result()
     result['process_time_s'] = time.process_time()
+    result['max_rss_kib'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     result['gc_collections'] = [generation['collections'] for generation in gc.get_stats()]
     result['gc_objects'] = len(gc.get_objects())
     _emit('RESULT ' + json.dumps(result))
@@ -760,25 +920,38 @@ def _load_average():
     return float(Path('/proc/loadavg').read_text().split()[0])
 
 
-def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False):
+def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False,
+                expected=None, extra=()):
     """
     Run the publisher and one subscriber process per role once; return the figures.
 
     ``pin``: the subscribers share the last CPU, the publisher gets the others (the same
-    conditions for every subscriber instead of the scheduler's placement).
+    conditions for every subscriber instead of the scheduler's placement).  ``expected``
+    (:func:`replay_expectation`): also run the estimator and its probe (a process of its
+    own, not pinned) and wait, after the stream and the CPU figures, until it has every
+    expected wear (at most 15 s); its outputs are the run's ``estimator``.  ``extra``: more
+    arguments of the subscriber processes (``--stall``, ``--depth``).
     """
     env = _child_env(domain, log_dir)
     tag = f'{int(rate)}Hz_{variant}'
-    subs = {role: Child(f'{tag}_{role}', ['--role', role, '--variant', variant], env, log_dir)
+    subs = {role: Child(f'{tag}_{role}', ['--role', role, '--variant', variant, *extra], env,
+                        log_dir)
             for role in roles}
     children = list(subs.values())
+    estimator = None
+    if expected is not None:
+        estimator = Child(f'{tag}_estimator', ['--role', 'estimator'], env, log_dir)
     cpus = sorted(os.sched_getaffinity(0))
     publisher = None
+    estimates = None
     try:
         for child in children:
             child.expect('READY', 60)
             if pin and len(cpus) > 1:
                 _pin(child.proc.pid, cpus[-1:])
+        if estimator is not None:
+            estimator.expect('READY', 60)
+            estimator_cpu0 = estimator.cpu_s()
         publisher = Child(f'{tag}_pub', ['--role', 'pub', '--rate', str(rate), '--duration',
                                          str(duration), '--subs', str(len(roles))],
                           env, log_dir)
@@ -793,6 +966,8 @@ def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False
         acked = publisher.expect('ACKED', 30) == 'True'
         idle = _wait_idle(children)
         cpu = {c.label: c.cpu_s() - cpu0[c.label] for c in children}
+        if estimator is not None:  # the node closes the last experiment after idle_gap_s
+            estimates = _estimator_outputs(estimator, len(expected['wear']), estimator_cpu0)
         results = {}
         for role, child in subs.items():
             clean = child.stop()
@@ -800,13 +975,71 @@ def run_variant(rate, variant, duration, domain, log_dir, roles=ROLES, pin=False
             results[role]['cpu_s'] = cpu[child.label]
             results[role]['clean_exit'] = clean
     finally:
-        for child in children + ([publisher] if publisher else []):
+        for child in children + [c for c in (publisher, estimator) if c is not None]:
             if child.proc.poll() is None:
                 child.stop()
     wall = float(elapsed)
     return {'rate': rate, 'variant': variant, 'sent': int(sent), 'wall_s': wall,
             'late': int(late), 'acked': acked, 'drained': idle, 'pub_cpu_share': pub_cpu / wall,
-            'load': (load0, load1), 'results': results}
+            'load': (load0, load1), 'results': results, 'estimator': estimates,
+            'expected': expected}
+
+
+def _estimator_outputs(estimator, n_expected, cpu0, timeout=15.0):
+    """Wait for ``n_expected`` WEAR lines (at most ``timeout`` s), then 0.5 s; return RESULT."""
+    received = 0
+    deadline = time.monotonic() + timeout
+    while received < n_expected and time.monotonic() < deadline:
+        try:
+            line = estimator.lines.get(timeout=0.05)
+        except queue.Empty:
+            continue
+        if line is None:
+            break
+        if line.startswith('WEAR '):
+            received = int(line.split()[1])
+    time.sleep(0.5)  # the same update's other outputs (temperature) may come after its wear
+    try:
+        cpu_s = estimator.cpu_s() - cpu0
+        clean = estimator.stop()
+        outputs = json.loads(estimator.expect('RESULT', 5))
+    except RuntimeError as error:
+        return {'error': str(error)}
+    outputs.update(cpu_s=cpu_s, clean_exit=clean)
+    return outputs
+
+
+def compare_with_replay(run):
+    """
+    Return the estimator's outputs of a run against the replay's (None without estimator).
+
+    A dict: ``published`` (wear messages) and ``expected`` (experiments the stream completes),
+    ``dw`` and ``dT`` (max |live - replay| of w-hat and T-hat [degC] over the pairs, in
+    order; nan without pairs), ``levels_equal`` (every friction_levels the friction node
+    published equals the replay's, stamp [s], speeds and frictions, float for float) and
+    ``equal``: the same count and every w-hat, T-hat and level bit-equal.
+    """
+    live, replay = run.get('estimator'), run.get('expected')
+    if live is None or replay is None:
+        return None
+    if 'error' in live:
+        return {'error': live['error'], 'equal': False}
+    pairs_w = list(zip(live['wear'], replay['wear']))
+    pairs_t = list(zip(live['temperature'], replay['temperature']))
+
+    def worst(pairs):
+        return max((abs(a - b) for a, b in pairs), default=float('nan'))
+
+    levels = [(stamp, list(speeds), list(frictions)) for stamp, speeds, frictions
+              in live['levels']]
+    levels_equal = [tuple(level) for level in levels] == [tuple(level) for level
+                                                          in replay['levels']]
+    equal = (len(live['wear']) == len(replay['wear']) == len(live['temperature'])
+             and all(a == b for a, b in pairs_w + pairs_t) and levels_equal)
+    return {'published': len(live['wear']), 'expected': len(replay['wear']),
+            'levels': len(live['levels']),
+            'dw': worst(pairs_w), 'dT': worst(pairs_t), 'levels_equal': levels_equal,
+            'equal': equal, 'cpu_s': live.get('cpu_s'), 'clean_exit': live.get('clean_exit')}
 
 
 def print_table(runs):
@@ -825,6 +1058,11 @@ def print_table(runs):
             if role == 'node':
                 notes.append(f'levels {res["levels"]}, experiments {res["experiments"]}, '
                              f'{res["timer_calls"]} diagnostics timer calls')
+                if res.get('wakes'):
+                    notes.append(f'depth {res["depth"]}, {res["wakes"]} wakes took messages: '
+                                 f'longest gap {1e3 * res["max_wake_gap_s"]:.0f} ms, most '
+                                 f'{res["max_wake_messages"]} messages; max RSS '
+                                 f'{res["max_rss_kib"] / 1024:.0f} MiB')
                 if res['rejections']:
                     notes.append(f'rejected {res["rejections"]}')
             elif role == 'nothing':
@@ -845,6 +1083,17 @@ def print_table(runs):
                   f'{per_msg:>7.1f} {ratio}  {"; ".join(notes)}')
 
 
+def estimator_line(estimates):
+    """Return the line of :func:`compare_with_replay`'s figures."""
+    if 'error' in estimates:
+        return f'estimator: FAILED {estimates["error"]}'
+    return (f'estimator: wear published {estimates["published"]}/{estimates["expected"]} '
+            f'experiments of the replay, max |w_live - w_replay| {estimates["dw"]:.3g}, max '
+            f'|T_live - T_replay| {estimates["dT"]:.3g} degC, friction_levels '
+            f'{estimates["levels"]} {"= the replay" if estimates["levels_equal"] else "DIFFER"}'
+            f': {"equal" if estimates["equal"] else "NOT EQUAL"}')
+
+
 def print_summary(runs):
     """Print the targets: no loss at the top rate, node within 0.5 x the do-nothing floor."""
     print()
@@ -860,6 +1109,12 @@ def print_summary(runs):
         verdict.append(f'node <= {TARGET_RATIO:g} x do-nothing (same executor) '
                        f'{"met" if ratio <= TARGET_RATIO else "MISSED"} ({ratio:.2f} x)')
         print(f'{run["rate"]:>6g} Hz {run["variant"]:<15} ' + ', '.join(verdict))
+        estimates = compare_with_replay(run)
+        if estimates is not None:
+            print(f'{run["rate"]:>6g} Hz {run["variant"]:<15} {estimator_line(estimates)}')
+            print(f'{run["rate"]:>6g} Hz {run["variant"]:<15} issue 46 in this one run '
+                  f'(node <= {TARGET_RATIO:g} x do-nothing and every wear = the replay): '
+                  f'{"met" if ratio <= TARGET_RATIO and estimates["equal"] else "MISSED"}')
     repeated = {}
     for run in runs:
         results = run['results']
@@ -1136,7 +1391,17 @@ def main(argv=None):
                         help="print every subscriber's result (counts, gc statistics)")
     parser.add_argument('--keep-logs', action='store_true',
                         help="keep the children's stderr and ROS logs (path printed)")
-    parser.add_argument('--role', choices=('pub', 'check') + ROLES,
+    parser.add_argument('--no-estimator', action='store_true',
+                        help='no wear_estimator_node process (nor its comparison with the '
+                             'replay) in the runs')
+    parser.add_argument('--stall', type=float, default=0.0, metavar='S',
+                        help="hold every subscriber's executor once for S seconds half-way "
+                             'through the stream (a wake held back: what the /joint_states '
+                             'queue must bridge; default 0: none)')
+    parser.add_argument('--depth', type=int, default=None, metavar='N',
+                        help="the node's joint_states_depth (default: the node's default)")
+    parser.add_argument('--stall-after', type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument('--role', choices=('pub', 'check', 'estimator') + ROLES,
                         help=argparse.SUPPRESS)
     parser.add_argument('--check', default='features',
                         choices=('features',) + tuple(BLOCKING_CALLS), help=argparse.SUPPRESS)
@@ -1148,6 +1413,8 @@ def main(argv=None):
         return role_publisher(args)
     if args.role in ROLES:
         return role_subscriber(args)
+    if args.role == 'estimator':
+        return role_estimator(args)
     if args.role == 'check':
         return role_check(args)
 
@@ -1158,17 +1425,31 @@ def main(argv=None):
     print(f'{os.cpu_count()} cores, load average {_load_average():.2f}; '
           f'{", ".join(f"{r:g}" for r in args.rates)} Hz x {args.duration:g} s, variants '
           f'{", ".join(args.variants)}; /joint_states {qos.reliability.name.lower()} depth '
-          f'{qos.depth}; localhost discovery, one ROS_DOMAIN_ID per run')
+          f'{qos.depth}; localhost discovery, one ROS_DOMAIN_ID per run'
+          + f"; the node's queue {args.depth or _node_default('joint_states_depth')}"
+          + (f'; every subscriber held {args.stall:g} s once half-way' if args.stall else ''))
     start = time.monotonic()
     if not args.no_events_check:
         executor_check(log_dir, args.check_executors)
+    expectations = {}
+    if not args.no_estimator:
+        for rate in args.rates:
+            expected = expectations[rate] = replay_expectation(rate, args.duration, log_dir)
+            print(f'replay of the {rate:g} Hz stream: {len(expected["wear"])} experiments '
+                  f'({expected["by_stream"]} completed by the stream, the last closed at its '
+                  f'end), w-hat {", ".join(f"{w:.4f}" for w in expected["wear"])}', flush=True)
     runs = []
     index = 0
     for rate, variant in [(r, v) for r in args.rates for v in args.variants] * args.repeat:
         domain = 1 + (os.getpid() + index) % 100
         index += 1
         try:
-            run = run_variant(rate, variant, args.duration, domain, log_dir, roles, args.pin)
+            extra = [] if args.depth is None else ['--depth', str(args.depth)]
+            if args.stall > 0:
+                extra += ['--stall', str(args.stall), '--stall-after',
+                          str(int(rate * args.duration / 2))]
+            run = run_variant(rate, variant, args.duration, domain, log_dir, roles, args.pin,
+                              expected=expectations.get(rate), extra=extra)
         except RuntimeError as error:
             print(f'{rate:g} Hz {variant}: FAILED: {error}')
             continue
@@ -1177,9 +1458,19 @@ def main(argv=None):
                            for role, res in run['results'].items())
         print(f'  {rate:g} Hz {variant:<15} domain {domain:>3}: received '
               f'{run["results"]["node"]["count"]}/{run["sent"]}; CPU {shares}', flush=True)
+        estimates = compare_with_replay(run)
+        if estimates is not None:
+            cpu = estimates.get('cpu_s')
+            print(f'    {estimator_line(estimates)}'
+                  + (f'; estimator process {100 * cpu / run["wall_s"]:.1f} % CPU'
+                     if cpu is not None else ''), flush=True)
         if args.verbose:
             for role, res in run['results'].items():
                 print(f'    {role}: {json.dumps(res)}')
+            if run['estimator'] is not None:
+                for key in ('levels', 'wear', 'temperature'):
+                    print(f'    {key} live:   {json.dumps(run["estimator"].get(key))}')
+                    print(f'    {key} replay: {json.dumps(run["expected"][key])}')
     if runs:
         print_table(runs)
         print_summary(runs)

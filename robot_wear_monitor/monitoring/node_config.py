@@ -157,6 +157,7 @@ FRICTION_EXPERIMENT_PARAMETERS: tuple[ParameterSpec, ...] = (
                   'experiment): an end event closes the experiment at once; empty: not '
                   'subscribed, experiments end at an idle gap only', _topic),
     ParameterSpec.of(DrainConfig, 'drain_period_s'),
+    ParameterSpec.of(DrainConfig, 'joint_states_depth'),
 )
 
 #: friction_experiment_node parameters that are fields of segmentation.SegmenterConfig.

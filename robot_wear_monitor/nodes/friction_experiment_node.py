@@ -43,7 +43,7 @@ from robot_wear_monitor.nodes.messages import message_kit
 from robot_wear_monitor.nodes.node_helpers import log_rejection_report, node_time_s
 from robot_wear_monitor.nodes.parameters import declare_joint_parameters, declare_parameters
 from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, EXPERIMENT_EVENTS_QOS,
-                                          FRICTION_LEVELS_QOS, JOINT_STATES_QOS)
+                                          FRICTION_LEVELS_QOS, joint_states_qos)
 from robot_wear_monitor.nodes.spinning import spin_node
 from robot_wear_monitor.recordings.messages import stamp_to_seconds
 from robot_wear_monitor.text import escaped
@@ -83,10 +83,11 @@ class FrictionExperimentNode(Node):
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC,
                                                            DIAGNOSTICS_QOS)
         self.drain_period_s = float(self.parameters['drain_period_s'])
+        self.joint_states_qos = joint_states_qos(int(self.parameters['joint_states_depth']))
         self.drained = self.batches = self.drain_timer = None
         if self.drain_period_s > 0:
             self.drained = DrainedSubscription(self, JointState, 'joint_states',
-                                               JOINT_STATES_QOS)
+                                               self.joint_states_qos)
             self.subscription = self.drained.subscription
             self.batches = JointStateBatches(self.joints)
             # on the steady clock: a paused /clock (use_sim_time) must not stop the drain
@@ -94,7 +95,8 @@ class FrictionExperimentNode(Node):
                                                  clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
             self.subscription = self.create_subscription(JointState, 'joint_states',
-                                                         self.on_joint_state, JOINT_STATES_QOS)
+                                                         self.on_joint_state,
+                                                         self.joint_states_qos)
         self.events_subscription = None
         if self.parameters['experiment_events_topic']:
             self.events_subscription = self.create_subscription(
@@ -114,7 +116,8 @@ class FrictionExperimentNode(Node):
         self.get_logger().info(
             f'segmenting {joints} of {self.subscription.topic_name} ('
             + (f'drained every {self.drain_period_s:g} s' if self.drained is not None
-               else 'a callback per message') + '); publishing on '
+               else 'a callback per message')
+            + f', queue depth {self.joint_states_qos.depth}); publishing on '
             f'{self.publisher.topic_name}; '
             + (f'experiment boundaries from {self.events_subscription.topic_name}'
                if self.events_subscription is not None else 'no experiment events'))
@@ -148,11 +151,12 @@ class FrictionExperimentNode(Node):
         """Take every queued /joint_states message and segment them as batches (the timer)."""
         if self.drained is None:
             return
+        limit = self.joint_states_qos.depth
         while True:
-            raws, receive_ns = self.drained.take_all(JOINT_STATES_QOS.depth)
+            raws, receive_ns = self.drained.take_all(limit)
             if raws:
                 self.on_joint_states(raws, receive_ns)
-            if len(raws) < JOINT_STATES_QOS.depth:
+            if len(raws) < limit:
                 return
 
     def on_joint_states(self, raws, receive_ns):

@@ -12,6 +12,13 @@ def _reliable(depth: int, durability: DurabilityPolicy = DurabilityPolicy.VOLATI
 #: /joint_states: reliable like joint_state_broadcaster, deep enough for one second at 1 kHz
 #: (a slow callback elsewhere in the process must not drop samples of a friction pass).
 JOINT_STATES_QOS = _reliable(1000)
+
+
+def joint_states_qos(depth: int) -> QoSProfile:
+    """Return :data:`JOINT_STATES_QOS` with another depth (the friction node's parameter)."""
+    return _reliable(depth)
+
+
 #: friction_levels: every experiment matters and they are rare.
 FRICTION_LEVELS_QOS = _reliable(10)
 #: temperature, wear: one message per estimate.

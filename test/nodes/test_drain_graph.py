@@ -12,18 +12,27 @@ equals, float for float, what ``replay`` makes of the same messages, and the lat
 experiment arrives within ``drain_period_s`` plus a loose allowance for the processing and a
 busy machine after the publication of the sample that completes it (found by feeding the
 samples one by one to the per-message path).
+
+In-process, a wake held back: the node's executor is not spun while 0.95 s of a 4 kHz stream
+(3,800 messages) is published; its default queue (``joint_states_depth``, 4000) keeps them
+all, the former depth of 1000 keeps 1000 and loses the rest.
 """
 
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 import pytest
+from rclpy.duration import Duration
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from robot_wear_monitor.monitoring.drain_config import DrainConfig
 from robot_wear_monitor.monitoring.joints import JointExperiments
 from robot_wear_monitor.monitoring.monitor_config import MonitorConfig
 from robot_wear_monitor.monitoring.replay import replay_bag
-from robot_wear_monitor.nodes.qos import DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS, JOINT_STATES_QOS
+from robot_wear_monitor.nodes.friction_experiment_node import FrictionExperimentNode
+from robot_wear_monitor.nodes.qos import (DIAGNOSTICS_QOS, FRICTION_LEVELS_QOS,
+                                          JOINT_STATES_QOS, joint_states_qos)
 from robot_wear_monitor.recordings.messages import diagnostics_from_msg
 from sensor_msgs.msg import JointState
 from wear_testing import independent_robot as robot
@@ -151,3 +160,46 @@ def test_the_drained_node_loses_nothing_and_publishes_the_replays_levels_in_time
             assert achieved_hz > 1500.0, achieved_hz
     finally:
         graph.close()
+
+
+#: A wake held back by 0.95 s at 4 kHz: the longest the default queue bridges (0.05 s spare).
+HELD_MESSAGES = 3800
+
+
+@pytest.mark.parametrize('depth', [None, 1000])
+def test_the_default_queue_bridges_a_wake_held_back_for_095_s_of_4_khz(ros_context, depth):
+    overrides = [] if depth is None else [Parameter('joint_states_depth', value=depth)]
+    node = FrictionExperimentNode(parameter_overrides=overrides)
+    assert node.joint_states_qos.depth == (depth or DrainConfig().joint_states_depth)
+    probe = ros_context.create_node('held_wake_probe')
+    # the publisher keeps everything it sends until acknowledged: only the node's queue counts
+    publisher = probe.create_publisher(JointState, 'joint_states',
+                                       joint_states_qos(2 * HELD_MESSAGES))
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    executor.add_node(probe)
+    try:
+        deadline = time.monotonic() + 10.0
+        while publisher.get_subscription_count() < 1 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        assert publisher.get_subscription_count() == 1
+        names = [f'joint_{i}' for i in range(1, 7)]
+        for k in range(HELD_MESSAGES):  # the node's executor is not spun meanwhile
+            msg = JointState()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = 100, k * 250_000
+            msg.name = names
+            msg.position, msg.velocity, msg.effort = [0.1] * 6, [0.0] * 6, [0.0] * 6
+            publisher.publish(msg)
+        assert publisher.wait_for_all_acked(Duration(seconds=5))
+        time.sleep(0.2)
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:  # every wake takes what is queued
+            executor.spin_once(timeout_sec=0.05)
+        if depth is None:
+            assert node.batches.messages == HELD_MESSAGES
+        else:  # the queue keeps the newest ``depth`` messages
+            assert node.batches.messages == depth
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        probe.destroy_node()
