@@ -1,0 +1,104 @@
+"""
+One joint's state as its fleet ranking keys need it, read cheaply inside a write's transaction.
+
+Every estimate (:meth:`WearHistory.append`) and every alarm event stores the joint's ranking
+keys anew (:func:`~robot_wear_monitor.history.fleet_index.refresh`).  The generic
+:func:`~robot_wear_monitor.history.fleet_rows.read_fleet` reads them in seven queries (six and
+the recent stamps); a write needs one joint only, so :func:`read_joint` reads it in two, each
+by the primary keys and the ``(robot, joint, id)`` indexes:
+
+1. the joint's ``joint_summary`` row (its count, first stamp, the keys stored now), its latest
+   estimate, and its last latch (raise or reset), last acknowledgement or edit or withdrawal,
+   and last acknowledgement itself (the re-escalation's baseline), with the trend of the
+   estimates those are tied to;
+2. the stamps of its last experiments (the usual interval, :mod:`recent`).
+
+The row is made by the same function as ``read_fleet``'s (:func:`fleet_rows._fleet_row`), so
+the keys are those a rebuild stores.  One thing is not read: the count of experiments of a
+new life (a range count over the life's estimates); the keys only ask whether the life has an
+experiment yet, which the latest estimate's id against the reset's tells, so the row's
+``experiments`` is that count only when it is 0 and 1 for any other count (the row stays in
+this module and its caller).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+import functools
+from typing import Any, Optional, Sequence
+
+from robot_wear_monitor.history.backends import HistoryBackend
+from robot_wear_monitor.history.fleet_rows import _fleet_row
+from robot_wear_monitor.history.recent import RECENT_INTERVALS
+from robot_wear_monitor.history.records import ACKNOWLEDGEMENT_EVENTS, FleetRow
+
+#: The latest estimate's columns, in the order :func:`fleet_rows._fleet_row` reads them.
+_LATEST = ('e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, e.wall_time_s, '
+           'e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, e.trend_low, '
+           'e.trend_high, e.crossing_experiments, e.crossing_time_s, e.alarm_evidence, '
+           'e.status_level, e.parameter_set, e.invalid_reason, e.id, e.threshold, '
+           'e.warning_level')
+_LATEST_WIDTH = 22
+#: The joint's last stamps, newest first (``recent.recent_stamps`` of one joint).
+_STAMPS_SQL = ('SELECT stamp_s FROM estimates WHERE robot = ? AND joint = ? ORDER BY id DESC '
+               f'LIMIT {RECENT_INTERVALS + 1}')
+#: the latch, the last acknowledgement (or its edit or withdrawal), the acknowledgement itself
+_EVENTS = (', l.event, l.stamp_s, l.id, l.estimate_id, l.user_name, l.note, l.wall_time_s'
+           ', k.id, k.user_name, k.wall_time_s, k.planned_maintenance, k.wear, kt.trend_wear, '
+           'k.event, b.id, b.wall_time_s, b.wear, bt.trend_wear, b.user_name')
+
+
+def _last(alias: str, kinds: Sequence[str]) -> str:
+    """Return the join of the joint's last alarm event of ``kinds`` (by the joint's index)."""
+    listed = ', '.join(f"'{k}'" for k in kinds)
+    return (f' LEFT JOIN alarm_events {alias} ON {alias}.id = (SELECT MAX(x.id) FROM '
+            'alarm_events x WHERE x.robot = s.robot AND x.joint = s.joint AND '
+            f'x.event IN ({listed}))')
+
+
+@functools.lru_cache(maxsize=8)
+def _state_sql(stored_columns: tuple[str, ...]) -> str:
+    """Return the query of a joint's state (made once: a write runs it every time)."""
+    stored_sql = ''.join(f', s.{c}' for c in stored_columns)
+    return (f'SELECT {_LATEST}{_EVENTS}{stored_sql} FROM joint_summary s '
+            'JOIN estimates e ON e.id = s.last_id'
+            + _last('l', ('raised', 'reset')) + _last('k', ACKNOWLEDGEMENT_EVENTS)
+            + ' LEFT JOIN estimates kt ON kt.id = k.estimate_id'
+            + _last('b', ('acknowledged',))
+            + ' LEFT JOIN estimates bt ON bt.id = b.estimate_id'
+            ' WHERE s.robot = ? AND s.joint = ?')
+
+
+@dataclass(frozen=True)
+class JointState:
+    """
+    One joint's fleet row (as far as its keys need it) and the keys stored with it now.
+
+    ``stored``: the values of the asked ``joint_summary`` columns, in their order;
+    ``experiments``: the joint's stored estimates, all lives (``joint_summary.experiments``).
+    """
+
+    row: FleetRow
+    stored: tuple[Any, ...]
+    experiments: int
+
+
+def read_joint(backend: HistoryBackend, *, robot: str, joint: str,
+               stored_columns: Sequence[str] = ()) -> Optional[JointState]:
+    """
+    Return the state of (robot, joint) in two queries; None when it has no estimate.
+
+    ``stored_columns``: the columns of its ``joint_summary`` row to return as they are now.
+    """
+    rows = backend.execute(_state_sql(tuple(stored_columns)), (robot, joint))
+    if not rows:
+        return None
+    r = rows[0]
+    latest = r[:_LATEST_WIDTH]
+    latch, ack, baseline = r[22:29], r[29:36], r[36:41]
+    stamps = backend.execute(_STAMPS_SQL, (robot, joint))
+    row = _fleet_row(latest, latch if latch[2] is not None else None,
+                     ack if ack[0] is not None else None, 1,
+                     baseline if baseline[0] is not None else None)
+    row = replace(row, recent_stamps=tuple(sorted(float(s[0]) for s in stamps)))
+    return JointState(row=row, stored=tuple(r[41:]), experiments=int(latest[2]))
