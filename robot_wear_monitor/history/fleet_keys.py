@@ -42,31 +42,62 @@ _LATEST_WIDTH = 22
 #: The joint's last stamps, newest first (``recent.recent_stamps`` of one joint).
 _STAMPS_SQL = ('SELECT stamp_s FROM estimates WHERE robot = ? AND joint = ? ORDER BY id DESC '
                f'LIMIT {RECENT_INTERVALS + 1}')
-#: the latch, the last acknowledgement (or its edit or withdrawal), the acknowledgement itself
-_EVENTS = (', l.event, l.stamp_s, l.id, l.estimate_id, l.user_name, l.note, l.wall_time_s'
-           ', k.id, k.user_name, k.wall_time_s, k.planned_maintenance, k.wear, kt.trend_wear, '
-           'k.event, b.id, b.wall_time_s, b.wear, bt.trend_wear, b.user_name')
+#: The events read: the latch (the last raise or reset), the last acknowledgement (or its edit
+#: or withdrawal), the last acknowledgement itself (the re-escalation's baseline); of each,
+#: the columns :func:`fleet_rows._fleet_row` reads, ``t.trend_wear`` that of its estimate.
+_EVENT_READS = (
+    ('l', ('raised', 'reset'), 'a.event, a.stamp_s, a.id, a.estimate_id, a.user_name, a.note, '
+     'a.wall_time_s'),
+    ('k', ACKNOWLEDGEMENT_EVENTS, 'a.id, a.user_name, a.wall_time_s, a.planned_maintenance, '
+     'a.wear, t.trend_wear, a.event'),
+    ('b', ('acknowledged',), 'a.id, a.wall_time_s, a.wear, t.trend_wear, a.user_name'))
 
 
-def _last(alias: str, kinds: Sequence[str]) -> str:
-    """Return the join of the joint's last alarm event of ``kinds`` (by the joint's index)."""
-    listed = ', '.join(f"'{k}'" for k in kinds)
-    return (f' LEFT JOIN alarm_events {alias} ON {alias}.id = (SELECT MAX(x.id) FROM '
-            'alarm_events x WHERE x.robot = s.robot AND x.joint = s.joint AND '
-            f'x.event IN ({listed}))')
+def _kinds(kinds: Sequence[str]) -> str:
+    return ', '.join(f"'{k}'" for k in kinds)
+
+
+def _lateral_events() -> tuple[str, str]:
+    """
+    Return PostgreSQL's select list and joins of the events (a lateral join each).
+
+    Each is the joint's first row by the index ``(robot, joint, id)`` read backwards.
+    """
+    joins = ''.join(
+        f' LEFT JOIN LATERAL (SELECT {columns} FROM alarm_events a LEFT JOIN estimates t ON '
+        't.id = a.estimate_id WHERE a.robot = s.robot AND a.joint = s.joint AND '
+        f'a.event IN ({_kinds(kinds)}) ORDER BY a.id DESC LIMIT 1) {alias} ON TRUE'
+        for alias, kinds, columns in _EVENT_READS)
+    return ''.join(f', {alias}.*' for alias, _, _ in _EVENT_READS), joins
+
+
+def _max_id_events() -> tuple[str, str]:
+    """Return SQLite's select list and joins of the events (each the joint's largest id)."""
+    select, joins = '', ''
+    for alias, kinds, columns in _EVENT_READS:
+        select += ', ' + columns.replace('a.', f'{alias}.').replace('t.', f'{alias}t.')
+        joins += (f' LEFT JOIN alarm_events {alias} ON {alias}.id = (SELECT MAX(x.id) FROM '
+                  'alarm_events x WHERE x.robot = s.robot AND x.joint = s.joint AND '
+                  f'x.event IN ({_kinds(kinds)})) LEFT JOIN estimates {alias}t ON '
+                  f'{alias}t.id = {alias}.estimate_id')
+    return select, joins
 
 
 @functools.lru_cache(maxsize=8)
-def _state_sql(stored_columns: tuple[str, ...]) -> str:
-    """Return the query of a joint's state (made once: a write runs it every time)."""
+def _state_sql(kind: str, stored_columns: tuple[str, ...]) -> str:
+    """
+    Return the query of a joint's state (made once: a write runs it every time).
+
+    On PostgreSQL the last stamps come with it as an array (one round trip to the server);
+    SQLite reads them apart (:data:`_STAMPS_SQL`, in-process).
+    """
+    select, joins = _lateral_events() if kind == 'postgresql' else _max_id_events()
+    if kind == 'postgresql':
+        select += (', ARRAY(SELECT x.stamp_s FROM estimates x WHERE x.robot = s.robot AND '
+                   f'x.joint = s.joint ORDER BY x.id DESC LIMIT {RECENT_INTERVALS + 1})')
     stored_sql = ''.join(f', s.{c}' for c in stored_columns)
-    return (f'SELECT {_LATEST}{_EVENTS}{stored_sql} FROM joint_summary s '
-            'JOIN estimates e ON e.id = s.last_id'
-            + _last('l', ('raised', 'reset')) + _last('k', ACKNOWLEDGEMENT_EVENTS)
-            + ' LEFT JOIN estimates kt ON kt.id = k.estimate_id'
-            + _last('b', ('acknowledged',))
-            + ' LEFT JOIN estimates bt ON bt.id = b.estimate_id'
-            ' WHERE s.robot = ? AND s.joint = ?')
+    return (f'SELECT {_LATEST}{select}{stored_sql} FROM joint_summary s '
+            f'JOIN estimates e ON e.id = s.last_id{joins} WHERE s.robot = ? AND s.joint = ?')
 
 
 @dataclass(frozen=True)
@@ -86,19 +117,22 @@ class JointState:
 def read_joint(backend: HistoryBackend, *, robot: str, joint: str,
                stored_columns: Sequence[str] = ()) -> Optional[JointState]:
     """
-    Return the state of (robot, joint) in two queries; None when it has no estimate.
+    Return the state of (robot, joint) in one query (two on SQLite); None when it has no estimate.
 
     ``stored_columns``: the columns of its ``joint_summary`` row to return as they are now.
     """
-    rows = backend.execute(_state_sql(tuple(stored_columns)), (robot, joint))
+    rows = backend.execute(_state_sql(backend.kind, tuple(stored_columns)), (robot, joint))
     if not rows:
         return None
     r = rows[0]
     latest = r[:_LATEST_WIDTH]
     latch, ack, baseline = r[22:29], r[29:36], r[36:41]
-    stamps = backend.execute(_STAMPS_SQL, (robot, joint))
+    if backend.kind == 'postgresql':
+        stamps, stored = r[41], r[42:]
+    else:
+        stamps, stored = [s[0] for s in backend.execute(_STAMPS_SQL, (robot, joint))], r[41:]
     row = _fleet_row(latest, latch if latch[2] is not None else None,
                      ack if ack[0] is not None else None, 1,
                      baseline if baseline[0] is not None else None)
-    row = replace(row, recent_stamps=tuple(sorted(float(s[0]) for s in stamps)))
-    return JointState(row=row, stored=tuple(r[41:]), experiments=int(latest[2]))
+    row = replace(row, recent_stamps=tuple(sorted(float(s) for s in stamps)))
+    return JointState(row=row, stored=tuple(stored), experiments=int(latest[2]))
