@@ -142,17 +142,17 @@ def refresh(backend: HistoryBackend, *, robot: str, joint: str) -> None:
     """
     Store the ranking keys of (robot, joint) anew (in the caller's open transaction).
 
-    The joint is read in two queries (:func:`fleet_keys.read_joint`); the row is written only
-    when a key changed, and the robot listed only with the joint's first estimate (estimates
-    are never deleted, so a joint with more was listed by an earlier one or the migration).
+    The joint is read in one query, two on SQLite (:func:`fleet_keys.read_joint`); only the
+    keys that changed are written (:func:`fleet_keys.store_changed`), and the robot is listed
+    only with the joint's first estimate (estimates are never deleted, so a joint with more
+    was listed by an earlier one or by the migration).
     """
     state = fleet_keys.read_joint(backend, robot=robot, joint=joint,
                                   stored_columns=KEY_COLUMNS)
     if state is None:
         return
-    keys = stored_keys(state.row)
-    if keys != state.stored:
-        backend.execute(_UPDATE, (*keys, robot, joint))
+    fleet_keys.store_changed(backend, robot=robot, joint=joint, columns=KEY_COLUMNS,
+                             values=stored_keys(state.row), stored=state.stored)
     if state.experiments <= 1:
         backend.execute('INSERT INTO fleet_robots (robot) VALUES (?) ON CONFLICT (robot) '
                         'DO NOTHING', (robot,))

@@ -136,3 +136,22 @@ def read_joint(backend: HistoryBackend, *, robot: str, joint: str,
                      baseline if baseline[0] is not None else None)
     row = replace(row, recent_stamps=tuple(sorted(float(s) for s in stamps)))
     return JointState(row=row, stored=tuple(stored), experiments=int(latest[2]))
+
+
+def store_changed(backend: HistoryBackend, *, robot: str, joint: str,
+                  columns: Sequence[str], values: Sequence[Any],
+                  stored: Sequence[Any]) -> int:
+    """
+    Set those of the joint's ``joint_summary`` ``columns`` that changed; return how many.
+
+    ``values`` the new, ``stored`` the present ones, in the order of ``columns``.  Only the
+    indexes of the changed columns are written (SQLite skips an index none of whose columns
+    is set): an estimate of a joint in a steady state moves its stale time and top wear, not
+    its rank.
+    """
+    changed = [(c, v) for c, v, old in zip(columns, values, stored) if v != old]
+    if changed:
+        backend.execute('UPDATE joint_summary SET ' + ', '.join(f'{c} = ?' for c, _ in changed)
+                        + ' WHERE robot = ? AND joint = ?',
+                        (*(v for _, v in changed), robot, joint))
+    return len(changed)
