@@ -2,7 +2,7 @@
 Fleet re-analysis and history writes: workers, Dask against the pool, inserts per second.
 
     python3 bench/bench_fleet.py [--robots 4] [--bags-per-robot 4] [--experiments 20]
-                                 [--writers 8] [--rows 200] [--no-postgresql]
+                                 [--writers 8] [--rows 200] [--no-postgresql] [--writes-only]
 
 Simulates ``--robots`` x ``--bags-per-robot`` bags (consecutive recordings per robot, one joint,
 ``--experiments`` experiments each, 250 Hz), then, in one run:
@@ -14,6 +14,8 @@ Simulates ``--robots`` x ``--bags-per-robot`` bags (consecutive recordings per r
   robot, ``--rows`` estimates each (one transaction per estimate, as the monitor writes them),
   into SQLite and into a throw-away PostgreSQL server (``initdb``/``pg_ctl`` from Debian's
   ``postgresql``; skipped with ``--no-postgresql`` or when absent).
+
+``--writes-only`` measures the insert rates alone (no bags, no replay), ``--repeats`` times.
 
 The per-bag replay time printed here is what ``docs/fleet.md`` plans a fleet with.
 """
@@ -130,6 +132,23 @@ def postgresql_rate(*, writers: int, rows: int) -> float | None:
         server.stop()
 
 
+def writes(args: argparse.Namespace) -> None:
+    """Print the insert rates alone, ``args.repeats`` times, with the load average."""
+    for _ in range(args.repeats):
+        with tempfile.TemporaryDirectory(prefix='bench_fleet_') as folder:
+            load = os.getloadavg()[0]
+            rate = insert_rate(str(Path(folder) / 'writes.sqlite3'), writers=args.writers,
+                               rows=args.rows)
+            print(f'  SQLite: {rate:7.0f} estimates/s with {args.writers} writers at once '
+                  f'(load {load:.2f})', flush=True)
+        if not args.no_postgresql:
+            load = os.getloadavg()[0]
+            pg = postgresql_rate(writers=args.writers, rows=args.rows)
+            print('  PostgreSQL: ' + ('no server (install postgresql)' if pg is None else
+                                      f'{pg:7.0f} estimates/s with {args.writers} writers '
+                                      f'at once (load {load:.2f})'), flush=True)
+
+
 def main() -> None:
     """Run the benchmark and print its figures."""
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
@@ -139,7 +158,12 @@ def main() -> None:
     parser.add_argument('--writers', type=int, default=8)
     parser.add_argument('--rows', type=int, default=200)
     parser.add_argument('--no-postgresql', action='store_true')
+    parser.add_argument('--writes-only', action='store_true')
+    parser.add_argument('--repeats', type=int, default=1)
     args = parser.parse_args()
+    if args.writes_only:
+        writes(args)
+        return
     with tempfile.TemporaryDirectory(prefix='bench_fleet_') as folder:
         root = Path(folder)
         manifest = make_fleet(root / 'bags', robots=args.robots, bags=args.bags_per_robot,
