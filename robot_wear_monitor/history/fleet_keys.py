@@ -4,14 +4,19 @@ One joint's state as its fleet ranking keys need it, read cheaply inside a write
 Every estimate (:meth:`WearHistory.append`) and every alarm event stores the joint's ranking
 keys anew (:func:`~robot_wear_monitor.history.fleet_index.refresh`).  The generic
 :func:`~robot_wear_monitor.history.fleet_rows.read_fleet` reads them in seven queries (six and
-the recent stamps); a write needs one joint only, so :func:`read_joint` reads it in two, each
-by the primary keys and the ``(robot, joint, id)`` indexes:
+the recent stamps); a write needs one joint only, so :func:`read_joint` reads it in one query
+on PostgreSQL (two on SQLite, where a query costs no round trip), by the primary keys and the
+joint's indexes:
 
 1. the joint's ``joint_summary`` row (its count, first stamp, the keys stored now), its latest
    estimate, and its last latch (raise or reset), last acknowledgement or edit or withdrawal,
    and last acknowledgement itself (the re-escalation's baseline), with the trend of the
-   estimates those are tied to;
-2. the stamps of its last experiments (the usual interval, :mod:`recent`).
+   estimates those are tied to (PostgreSQL: lateral joins, each the joint's first row of the
+   kinds read backwards);
+2. the stamps of its last experiments (the usual interval, :mod:`recent`; on PostgreSQL an
+   array in the same query).
+
+:func:`store_changed` then writes only the keys that changed.
 
 The row is made by the same function as ``read_fleet``'s (:func:`fleet_rows._fleet_row`), so
 the keys are those a rebuild stores.  One thing is not read: the count of experiments of a
