@@ -4,7 +4,8 @@ The keys a write stores (``fleet_keys.read_joint``) are those of the full read, 
 After every step of a random sequence of writes to a robot's joints (estimates, valid and
 invalid, with and without a forecast crossing, near and far in time; raises, on their own and
 with their estimate; acknowledgements with and without a planned date, their edits and
-withdrawals; re-escalations logged; resets), each joint's stored ranking keys equal
+withdrawals; re-escalations logged; resets; an estimate older than the joint's first), each
+joint's stored ranking keys (and its count: latest id, number, first stamp) equal
 :func:`~robot_wear_monitor.history.fleet_index.stored_keys` of the joint's row read by
 :func:`~robot_wear_monitor.history.fleet_rows.read_fleet` (what a rebuild stores), and the
 robot is listed in ``fleet_robots``.  Refused writes (acknowledging an alarm that is not
@@ -29,7 +30,7 @@ _WEAR = st.floats(min_value=0.0, max_value=45.0, allow_nan=False).map(lambda w: 
 _ESTIMATE = st.tuples(st.just('estimate'), st.sampled_from(JOINTS), _WEAR,
                       st.sampled_from([math.nan, 0.0, 3.0, 400.0]),  # crossing [experiments]
                       st.sampled_from(['', '', '', 'the fit did not converge']),
-                      st.sampled_from([0.5, 1.0, 1.0, 1.0, 9.0]),  # hours since the last
+                      st.sampled_from([0.5, 1.0, 1.0, 1.0, 9.0, -40.0]),  # hours since the last
                       st.booleans())  # a raise stored with the estimate
 _EVENT = st.tuples(st.sampled_from(['raise', 'acknowledge', 'edit', 'withdraw', 'reset',
                                     'reescalated']),
@@ -53,6 +54,12 @@ def _check(history, robot):
             assert _stored(history, robot, joint) is None
             continue
         assert _stored(history, robot, joint) == stored_keys(full[0]), joint
+        # the count the same update wrote: the latest id, the number and the first stamp
+        assert backend.execute(
+            'SELECT last_id, experiments, first_stamp_s FROM joint_summary WHERE robot = ? AND '
+            'joint = ?', (robot, joint)) == backend.execute(
+            'SELECT MAX(id), COUNT(*), MIN(stamp_s) FROM estimates WHERE robot = ? AND '
+            'joint = ?', (robot, joint))
         state = read_joint(backend, robot=robot, joint=joint)
         assert state is not None and stored_keys(state.row) == stored_keys(full[0])
         assert backend.execute('SELECT robot FROM fleet_robots WHERE robot = ?', (robot,))
@@ -114,7 +121,8 @@ def test_a_rebuild_changes_no_stored_key(history):
 
     Among them the cases a random sequence seldom meets: an acknowledgement edited after a
     new estimate (the re-escalation's baseline stays the acknowledgement's trend), and more
-    experiments than the usual interval reads, their rhythm changed (the last ones count).
+    experiments than the usual interval reads, their rhythm changed (the last ones count); an
+    estimate older than the joint's first (a late replay: the first stamp moves).
     """
     clock: dict[str, float] = {}
     steps = [('estimate', 'joint_1', 20.0, math.nan, '', 1.0, False),
@@ -124,6 +132,7 @@ def test_a_rebuild_changes_no_stored_key(history):
              ('edit', 'joint_1', '2099-12-31'),
              ('estimate', 'joint_2', 10.0, 400.0, '', 1.0, False),
              ('estimate', 'joint_2', 12.0, 0.0, 'the fit did not converge', 9.0, False),
+             ('estimate', 'joint_2', 11.0, 400.0, '', -200.0, False),  # older than the first
              ('raise', 'joint_2', ''), ('acknowledge', 'joint_2', ''),
              ('withdraw', 'joint_2', '')]
     steps += [('estimate', 'joint_2', 12.0 + 0.1 * k, 300.0, '', 9.0 if k < 15 else 1.0,
