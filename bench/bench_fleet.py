@@ -2,7 +2,7 @@
 Fleet re-analysis and history writes: workers, Dask against the pool, inserts per second.
 
     python3 bench/bench_fleet.py [--robots 4] [--bags-per-robot 4] [--experiments 20]
-                                 [--writers 8] [--rows 200] [--no-postgresql]
+                                 [--writers 8] [--rows 200] [--no-postgresql] [--writes-only]
 
 Simulates ``--robots`` x ``--bags-per-robot`` bags (consecutive recordings per robot, one joint,
 ``--experiments`` experiments each, 250 Hz), then, in one run:
@@ -14,6 +14,10 @@ Simulates ``--robots`` x ``--bags-per-robot`` bags (consecutive recordings per r
   robot, ``--rows`` estimates each (one transaction per estimate, as the monitor writes them),
   into SQLite and into a throw-away PostgreSQL server (``initdb``/``pg_ctl`` from Debian's
   ``postgresql``; skipped with ``--no-postgresql`` or when absent).
+
+``--writes-only`` measures the insert rates alone (no bags, no replay), ``--repeats`` times,
+and the time of one estimate's transaction with one writer (the least over batches of 100: a
+figure a busy machine disturbs less than the rate of 8 writers on 2 cores).
 
 The per-bag replay time printed here is what ``docs/fleet.md`` plans a fleet with.
 """
@@ -115,8 +119,28 @@ def insert_rate(location: str, *, writers: int, rows: int) -> float:
     return stored / elapsed
 
 
-def postgresql_rate(*, writers: int, rows: int) -> float | None:
-    """Return the insert rate into a throw-away PostgreSQL server, or None without one."""
+def append_time(location: str, *, batches: int = 7, rows: int = 100) -> float:
+    """Return the least time [us] of one estimate's transaction over ``batches`` of ``rows``."""
+    with WearHistory(location) as history:
+        k = 0
+        for k in range(30):  # the statements prepared, the joint with its recent stamps
+            history.append(_record('robot_0', k))
+        best = math.inf
+        for _ in range(batches):
+            began = time.perf_counter()
+            for _ in range(rows):
+                k += 1
+                history.append(_record('robot_0', k))
+            best = min(best, (time.perf_counter() - began) / rows)
+    return best * 1e6
+
+
+def postgresql_rate(*, writers: int, rows: int, single: bool = False) -> float | None:
+    """
+    Return the insert rate into a throw-away PostgreSQL server, or None without one.
+
+    ``single``: return :func:`append_time` [us] instead.
+    """
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
     from wear_testing.postgres_server import find_postgresql_binaries, PostgresServer
     binaries = find_postgresql_binaries()
@@ -125,9 +149,33 @@ def postgresql_rate(*, writers: int, rows: int) -> float | None:
     server = PostgresServer(binaries)
     server.start()
     try:
+        if single:
+            return append_time(server.create_database('bench'))
         return insert_rate(server.create_database('bench'), writers=writers, rows=rows)
     finally:
         server.stop()
+
+
+def writes(args: argparse.Namespace) -> None:
+    """Print the insert rates alone, ``args.repeats`` times, with the load average."""
+    for _ in range(args.repeats):
+        with tempfile.TemporaryDirectory(prefix='bench_fleet_') as folder:
+            load = os.getloadavg()[0]
+            rate = insert_rate(str(Path(folder) / 'writes.sqlite3'), writers=args.writers,
+                               rows=args.rows)
+            print(f'  SQLite: {rate:7.0f} estimates/s with {args.writers} writers at once '
+                  f'(load {load:.2f})', flush=True)
+            single = append_time(str(Path(folder) / 'single.sqlite3'))
+            print(f'  SQLite: {single:5.0f} us an estimate, one writer', flush=True)
+        if not args.no_postgresql:
+            load = os.getloadavg()[0]
+            pg = postgresql_rate(writers=args.writers, rows=args.rows)
+            print('  PostgreSQL: ' + ('no server (install postgresql)' if pg is None else
+                                      f'{pg:7.0f} estimates/s with {args.writers} writers '
+                                      f'at once (load {load:.2f})'), flush=True)
+            single_pg = postgresql_rate(writers=1, rows=1, single=True)
+            if single_pg is not None:
+                print(f'  PostgreSQL: {single_pg:5.0f} us an estimate, one writer', flush=True)
 
 
 def main() -> None:
@@ -139,7 +187,12 @@ def main() -> None:
     parser.add_argument('--writers', type=int, default=8)
     parser.add_argument('--rows', type=int, default=200)
     parser.add_argument('--no-postgresql', action='store_true')
+    parser.add_argument('--writes-only', action='store_true')
+    parser.add_argument('--repeats', type=int, default=1)
     args = parser.parse_args()
+    if args.writes_only:
+        writes(args)
+        return
     with tempfile.TemporaryDirectory(prefix='bench_fleet_') as folder:
         root = Path(folder)
         manifest = make_fleet(root / 'bags', robots=args.robots, bags=args.bags_per_robot,

@@ -40,7 +40,7 @@ import itertools
 import math
 from typing import Any, Callable, Iterator, Optional, Sequence
 
-from robot_wear_monitor.history import fleet_counts
+from robot_wear_monitor.history import fleet_counts, fleet_keys
 from robot_wear_monitor.history.backends import HistoryBackend
 from robot_wear_monitor.history.fleet_rows import read_fleet
 from robot_wear_monitor.history.records import FleetRow
@@ -139,10 +139,21 @@ _UPDATE = ('UPDATE joint_summary SET ' + ', '.join(f'{c} = ?' for c in KEY_COLUM
 
 
 def refresh(backend: HistoryBackend, *, robot: str, joint: str) -> None:
-    """Store the ranking keys of (robot, joint) anew (in the caller's open transaction)."""
-    rows = read_fleet(backend, robot=robot, joint=joint)
-    if rows:
-        backend.execute(_UPDATE, (*stored_keys(rows[0]), robot, joint))
+    """
+    Store the ranking keys of (robot, joint) anew (in the caller's open transaction).
+
+    The joint is read in one query, two on SQLite (:func:`fleet_keys.read_joint`); only the
+    keys that changed are written (:func:`fleet_keys.store_changed`), and the robot is listed
+    only with the joint's first estimate (estimates are never deleted, so a joint with more
+    was listed by an earlier one or by the migration).
+    """
+    state = fleet_keys.read_joint(backend, robot=robot, joint=joint,
+                                  stored_columns=KEY_COLUMNS)
+    if state is None:
+        return
+    fleet_keys.store_changed(backend, robot=robot, joint=joint, columns=KEY_COLUMNS,
+                             values=stored_keys(state.row), stored=state.stored)
+    if state.experiments <= 1:
         backend.execute('INSERT INTO fleet_robots (robot) VALUES (?) ON CONFLICT (robot) '
                         'DO NOTHING', (robot,))
 
