@@ -8,7 +8,8 @@ withdrawals; re-escalations logged; resets; an estimate older than the joint's f
 joint's stored ranking keys (and its count: latest id, number, first stamp) equal
 :func:`~robot_wear_monitor.history.fleet_index.stored_keys` of the joint's row read by
 :func:`~robot_wear_monitor.history.fleet_rows.read_fleet` (what a rebuild stores), and the
-robot is listed in ``fleet_robots``.  Refused writes (acknowledging an alarm that is not
+robot is listed in ``fleet_robots``; the joints per stable state kept on write (schema 14)
+equal a count of the rows.  Refused writes (acknowledging an alarm that is not
 latched, resetting twice) store nothing and leave the keys right.
 """
 
@@ -18,6 +19,7 @@ import math
 from hypothesis import given, HealthCheck, settings, strategies as st
 import pytest
 from robot_wear_monitor.history import AlarmEvent, HistoryError, WearHistory
+from robot_wear_monitor.history.fleet_counts import stable_counts
 from robot_wear_monitor.history.fleet_index import KEY_COLUMNS, rebuild, stored_keys
 from robot_wear_monitor.history.fleet_keys import read_joint
 from robot_wear_monitor.history.fleet_rows import read_fleet
@@ -63,6 +65,11 @@ def _check(history, robot):
         state = read_joint(backend, robot=robot, joint=joint)
         assert state is not None and stored_keys(state.row) == stored_keys(full[0])
         assert backend.execute('SELECT robot FROM fleet_robots WHERE robot = ?', (robot,))
+    # the joints per stable state kept by the triggers (schema 14) equal a count of the rows
+    assert sorted(stable_counts(backend)) == sorted(
+        (r[0], int(r[1]), int(r[2])) for r in backend.execute(
+            'SELECT state_base, warn_fixed, COUNT(*) FROM joint_summary '
+            'GROUP BY state_base, warn_fixed'))
 
 
 def _step(history, robot, step, clock):
