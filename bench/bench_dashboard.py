@@ -29,6 +29,7 @@ import statistics
 import sys
 import tempfile
 import time
+from typing import Iterator, Optional
 
 from fastapi.testclient import TestClient
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
@@ -53,36 +54,55 @@ def _record(robot: str, joint: str, k: int, *, wear: float, last_s: float,
         crossing_experiments=crossing)
 
 
+def fleet_joints(*, joints: int, experiments: int, robots: int, now_s: float,
+                 seed: int = 0) -> Iterator[tuple[list[HistoryRecord], Optional[int], bool]]:
+    """
+    Yield each joint of the bench's fleet: its estimates (oldest first), raise, acknowledgement.
+
+    Per joint: the estimates of ``experiments`` experiments an hour apart, the last at
+    ``now_s`` [s] (5 % a day earlier: stale), the wear rising to a random final value with
+    noise; the index of the estimate that raises its alarm (the first at w >= 35; None when
+    none) and whether the alarm is acknowledged (30 % of them).  Seeded: the same fleet each
+    time.
+    """
+    rng = random.Random(seed)
+    for index in range(joints):
+        robot, joint = f'robot_{index % robots:03d}', f'joint_{index // robots}'
+        final = rng.uniform(0.0, 60.0)
+        last_s = now_s - (0.0 if rng.random() > 0.05 else 24 * HOUR_S)  # 5 % stale
+        records: list[HistoryRecord] = []
+        raise_at: Optional[int] = None
+        for k in range(experiments):
+            wear = final * (k + 1) / experiments + rng.gauss(0.0, 3.0)
+            last = k == experiments - 1
+            crossing = (max(0.0, (35.0 - wear) / (final / experiments)) if last and
+                        final > 20.0 else float('nan'))
+            records.append(_record(robot, joint, k, wear=wear, last_s=last_s,
+                                   experiments=experiments, crossing=crossing))
+            if wear >= 35.0 and raise_at is None:
+                raise_at = k
+        yield records, raise_at, raise_at is not None and rng.random() < 0.3
+
+
 def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int = 0) -> float:
     """Write the fleet into the history at ``location``; return the seconds it took."""
-    rng = random.Random(seed)
     started = time.monotonic()
-    now = time.time()
     with open_history(location) as history:
         if history.backend == 'sqlite':  # a bench file: no fsync per estimate
             history._backend.conn.execute('PRAGMA synchronous=OFF')
         history.add_user(name='bench', role='maintainer', password=PASSWORD)
-        for index in range(joints):
-            robot, joint = f'robot_{index % robots:03d}', f'joint_{index // robots}'
-            final = rng.uniform(0.0, 60.0)
-            last_s = now - (0.0 if rng.random() > 0.05 else 24 * HOUR_S)  # 5 % stale
-            raised = False
-            for k in range(experiments):
-                wear = final * (k + 1) / experiments + rng.gauss(0.0, 3.0)
-                last = k == experiments - 1
-                crossing = (max(0.0, (35.0 - wear) / (final / experiments)) if last and
-                            final > 20.0 else float('nan'))
-                rec = _record(robot, joint, k, wear=wear, last_s=last_s,
-                              experiments=experiments, crossing=crossing)
+        for records, raise_at, acknowledged in fleet_joints(
+                joints=joints, experiments=experiments, robots=robots, now_s=time.time(),
+                seed=seed):
+            for k, rec in enumerate(records):
                 events = ()
-                if wear >= 35.0 and not raised:
-                    raised = True
-                    events = (AlarmEvent(joint=joint, robot=robot, stamp_s=rec.stamp_s,
-                                         event='raised', wear=wear, note='w-hat >= 35'),)
+                if k == raise_at:
+                    events = (AlarmEvent(joint=rec.joint, robot=rec.robot, stamp_s=rec.stamp_s,
+                                         event='raised', wear=rec.wear, note='w-hat >= 35'),)
                 history.append(rec, events=events)
-            if raised and rng.random() < 0.3:
-                history.acknowledge_alarm(joint=joint, robot=robot, user='bench',
-                                          owner='team A', comment='ordered')
+            if acknowledged:
+                history.acknowledge_alarm(joint=records[-1].joint, robot=records[-1].robot,
+                                          user='bench', owner='team A', comment='ordered')
     return time.monotonic() - started
 
 

@@ -23,12 +23,11 @@ page < 300 ms.
 import argparse
 import json
 import os
-import random
 import statistics
 import sys
 import time
 
-from bench_dashboard import _new_experiment, _record, HOUR_S, PASSWORD
+from bench_dashboard import _new_experiment, fleet_joints, PASSWORD
 from fastapi.testclient import TestClient
 from robot_wear_monitor.dashboard.app import create_app, DashboardSettings
 from robot_wear_monitor.dashboard.views import FleetCache
@@ -68,7 +67,6 @@ def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int
     ``joint_summary`` and its ranking keys made at once (what appends keep, as the migration
     makes them).
     """
-    rng = random.Random(seed)
     started = time.monotonic()
     now = time.time()
     with open_history(location) as history:
@@ -92,18 +90,10 @@ def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int
             estimates.clear()
             events.clear()
 
-        for index in range(joints):
-            robot, joint = f'robot_{index % robots:03d}', f'joint_{index // robots}'
-            final = rng.uniform(0.0, 60.0)
-            last_s = now - (0.0 if rng.random() > 0.05 else 24 * HOUR_S)  # 5 % stale
-            raised = False
-            for k in range(experiments):
-                wear = final * (k + 1) / experiments + rng.gauss(0.0, 3.0)
-                last = k == experiments - 1
-                crossing = (max(0.0, (35.0 - wear) / (final / experiments)) if last and
-                            final > 20.0 else float('nan'))
-                rec = _record(robot, joint, k, wear=wear, last_s=last_s,
-                              experiments=experiments, crossing=crossing)
+        for records, raise_at, acknowledged in fleet_joints(
+                joints=joints, experiments=experiments, robots=robots, now_s=now, seed=seed):
+            robot, joint = records[-1].robot, records[-1].joint
+            for k, rec in enumerate(records):
                 ids['estimate'] += 1
                 estimates.append((
                     ids['estimate'], robot, joint, rec.stamp_s, now,
@@ -113,12 +103,11 @@ def fill(location: str, *, joints: int, experiments: int, robots: int, seed: int
                     rec.alarm_evidence, rec.status_level, rec.parameter_set,
                     *(_none_if_nan(getattr(rec, c)) for c in INTERVAL_COLUMNS), '',
                     THRESHOLD, WARNING_LEVEL))
-                if wear >= 35.0 and not raised:
-                    raised = True
+                if k == raise_at:
                     ids['event'] += 1
                     events.append((ids['event'], robot, joint, rec.stamp_s, now, 'raised',
-                                   wear, ids['estimate'], 'w-hat >= 35', '', ''))
-            if raised and rng.random() < 0.3:
+                                   rec.wear, ids['estimate'], 'w-hat >= 35', '', ''))
+            if acknowledged:
                 ids['event'] += 1
                 events.append((ids['event'], robot, joint, now, now, 'acknowledged',
                                estimates[-1][9], ids['estimate'], 'ordered', 'bench',

@@ -165,8 +165,7 @@ def rebuild(backend: HistoryBackend) -> int:
     backend.executemany(_UPDATE, [(*stored_keys(r), r.robot, r.joint) for r in rows])
     backend.execute('DELETE FROM fleet_robots')
     backend.execute('INSERT INTO fleet_robots (robot) SELECT DISTINCT robot FROM joint_summary')
-    if 'fleet_state_counts' in backend.tables():  # schema version 14
-        fleet_counts.recount(backend)
+    fleet_counts.recount(backend)  # the migration's steps come first: the table exists
     fleet_counts.pause(backend, paused=False)
     return len(rows)
 
@@ -407,12 +406,16 @@ class FleetIndex:
         counts['alarm'] += moved
         past, soon = clock.now_s - 1.0, clock.now_s + 1.0  # [s] surely past; surely not yet
         near_in, near_out = past + clock.horizon_s, soon + clock.horizon_s
-        # surely stale: a count per stable state (the index joint_summary_stale_state)
-        for base, fixed in (('judged', 0), ('judged', 1), ('new life', 0), ('new life', 1)):
-            count = self._count('state_base = ? AND warn_fixed = ? AND stale_at_s < ?',
-                                (base, fixed, past))
-            counts[_guess(base, fixed)] -= count
-            counts['stale'] += count
+        # surely stale: a count per stable state (the index joint_summary_stale_state), in
+        # one statement of an index range each
+        groups = (('judged', 0), ('judged', 1), ('new life', 0), ('new life', 1))
+        stale = self._execute(' UNION ALL '.join(
+            f'SELECT {number}, COUNT(*) FROM joint_summary WHERE state_base = ? AND '
+            'warn_fixed = ? AND stale_at_s < ?' for number in range(len(groups))),
+            tuple(v for base, fixed in groups for v in (base, fixed, past)))
+        for number, count in stale:
+            counts[_guess(*groups[int(number)])] -= int(count)
+            counts['stale'] += int(count)
         # surely warned by a crossing within the horizon, surely not stale
         calm = "state_base = 'judged' AND warn_fixed = 0 AND (stale_at_s IS NULL OR " \
                'stale_at_s >= ?)'

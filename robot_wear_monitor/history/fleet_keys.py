@@ -18,7 +18,7 @@ joint's indexes:
 
 :func:`store_changed` then writes only the keys that changed.
 
-The row is made by the same function as ``read_fleet``'s (:func:`fleet_rows._fleet_row`), so
+The row is made by the same function as ``read_fleet``'s (:func:`fleet_rows.fleet_row`), so
 the keys are those a rebuild stores.  One thing is not read: the count of experiments of a
 new life (a range count over the life's estimates); the keys only ask whether the life has an
 experiment yet, which the latest estimate's id against the reset's tells, so the row's
@@ -33,11 +33,11 @@ import functools
 from typing import Any, Optional, Sequence
 
 from robot_wear_monitor.history.backends import HistoryBackend
-from robot_wear_monitor.history.fleet_rows import _fleet_row
+from robot_wear_monitor.history.fleet_rows import fleet_row
 from robot_wear_monitor.history.recent import RECENT_INTERVALS
 from robot_wear_monitor.history.records import ACKNOWLEDGEMENT_EVENTS, FleetRow
 
-#: The latest estimate's columns, in the order :func:`fleet_rows._fleet_row` reads them.
+#: The latest estimate's columns, in the order :func:`fleet_rows.fleet_row` reads them.
 _LATEST = ('e.robot, e.joint, s.experiments, s.first_stamp_s, e.stamp_s, e.wall_time_s, '
            'e.wear, e.wear_std, e.wear_low, e.wear_high, e.trend_wear, e.trend_low, '
            'e.trend_high, e.crossing_experiments, e.crossing_time_s, e.alarm_evidence, '
@@ -49,7 +49,7 @@ _STAMPS_SQL = ('SELECT stamp_s FROM estimates WHERE robot = ? AND joint = ? ORDE
                f'LIMIT {RECENT_INTERVALS + 1}')
 #: The events read: the latch (the last raise or reset), the last acknowledgement (or its edit
 #: or withdrawal), the last acknowledgement itself (the re-escalation's baseline); of each,
-#: the columns :func:`fleet_rows._fleet_row` reads, ``t.trend_wear`` that of its estimate.
+#: the columns :func:`fleet_rows.fleet_row` reads, ``t.trend_wear`` that of its estimate.
 _EVENT_READS = (
     ('l', ('raised', 'reset'), 'a.event, a.stamp_s, a.id, a.estimate_id, a.user_name, a.note, '
      'a.wall_time_s'),
@@ -136,9 +136,9 @@ def read_joint(backend: HistoryBackend, *, robot: str, joint: str,
         stamps, stored = r[41], r[42:]
     else:
         stamps, stored = [s[0] for s in backend.execute(_STAMPS_SQL, (robot, joint))], r[41:]
-    row = _fleet_row(latest, latch if latch[2] is not None else None,
-                     ack if ack[0] is not None else None, 1,
-                     baseline if baseline[0] is not None else None)
+    row = fleet_row(latest, latch if latch[2] is not None else None,
+                    ack if ack[0] is not None else None, 1,
+                    baseline if baseline[0] is not None else None)
     row = replace(row, recent_stamps=tuple(sorted(float(s) for s in stamps)))
     return JointState(row=row, stored=tuple(stored), experiments=int(latest[2]))
 

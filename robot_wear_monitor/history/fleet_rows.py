@@ -104,15 +104,15 @@ def read_fleet(backend: HistoryBackend, *, robot: Optional[str] = None,
     last_ack = {(r[0], r[1]): r[2:] for r in acknowledgements}
     baseline = {(r[0], r[1]): r[2:] for r in baselines}
     life_experiments = {(r[0], r[1]): int(r[2]) for r in lives}
-    rows = [replace(_fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
-                               life_experiments.get((r[0], r[1]), 0),
-                               baseline.get((r[0], r[1]))),
+    rows = [replace(fleet_row(r, last_event.get((r[0], r[1])), last_ack.get((r[0], r[1])),
+                              life_experiments.get((r[0], r[1]), 0),
+                              baseline.get((r[0], r[1]))),
                     recent_stamps=stamps.get((r[0], r[1]), ())) for r in latest]
     return sorted(rows, key=FleetRow.rank_key)
 
 
-def _fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[Sequence[Any]],
-               life_experiments: int, baseline: Optional[Sequence[Any]] = None) -> FleetRow:
+def fleet_row(r: Sequence[Any], latch: Optional[Sequence[Any]], ack: Optional[Sequence[Any]],
+              life_experiments: int, baseline: Optional[Sequence[Any]] = None) -> FleetRow:
     """
     Return the :class:`FleetRow` of a joint's latest estimate, latch and acknowledgement.
 
