@@ -146,7 +146,7 @@ def measure(location: str, *, repeats: int) -> dict[str, dict[str, float]]:
         first = client.get('/api/fleet', params={'limit': 1}).json()
         other = first['rows'][0]
         # a robot in the middle of the fleet, found by the robot search
-        middle = f'robot_{first["robot_count"] // 2}'
+        middle = f'robot_{first["robot_count"] // 2:03d}'  # named as fleet_joints names them
         robot = client.get('/api/robots', params={'search': middle,
                                                   'limit': 1}).json()['robots'][0]
         client.get('/')  # the templates compiled
